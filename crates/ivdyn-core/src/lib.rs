@@ -1,0 +1,72 @@
+//! `ivdyn-core`: robot-arm rigid-body dynamics for identification and control,
+//! `#![no_std]` and allocation-free, with fixed sizes.
+//!
+//! # Conventions
+//! - A serial chain of `N` one-degree-of-freedom joints (revolute or prismatic) on a
+//!   fixed base. `N` is a const generic; every buffer lives in [`Data`], allocated once
+//!   by the caller (Pinocchio's and MuJoCo's Model/Data split).
+//! - Link `i`'s frame is the frame of joint `i`: its placement in link `i-1`'s frame is
+//!   `x_tree[i] * Motion(axis_i, q_i)` (URDF convention: the joint axis passes through
+//!   the link origin and is a constant unit vector in link coordinates). Standard DH
+//!   tables are converted to this form by [`dh`].
+//! - Vectors of link `i` (angular velocity `w`, angular acceleration `wd`, linear
+//!   acceleration of the origin `acc`, force `f` and moment `n` exerted on link `i` by
+//!   link `i-1`) are expressed in link `i`'s frame, as in the paper's eqs (2)-(8).
+//! - Gravity is a vector in the base frame; it enters as the base acceleration `-g`.
+//! - Inertial parameters per link ([`LinkInertia`]): `[m, m*cx, m*cy, m*cz, Ixx, Ixy, Iyy,
+//!   Ixz, Iyz, Izz]` about the link origin in link coordinates (Pinocchio's order).
+//!   Drive parameters per joint ([`DriveParams`]): `[fc, fv, ia, tau0]` (Coulomb,
+//!   viscous, armature, offset). The full vector `theta` is the `N` link blocks followed by
+//!   the `N` drive blocks, `P = 14 N` entries (see [`params`]).
+//! - Units: SI (m, kg, s, rad, N, N m).
+//!
+//! # References
+//! - \[KN\] H. Kawasaki, K. Nishimura, "Terminal-link parameter estimation and trajectory
+//!   control of robotic manipulators" (the paper in `shared/paper`; equation numbers
+//!   cite it, with the corrections of `NOTES.md`).
+//! - \[RBDA\] R. Featherstone, *Rigid Body Dynamics Algorithms*, Springer 2008.
+//! - \[Atkeson86\] C. Atkeson, C. An, J. Hollerbach, "Estimation of inertial parameters of
+//!   manipulator loads and links", IJRR 5(3), 1986 (the inertial-parameter regressor).
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod crba;
+pub mod data;
+pub mod dh;
+pub mod energy;
+pub mod error;
+pub mod fd;
+pub mod inertia;
+pub mod kinematics;
+pub mod model;
+pub mod paper;
+pub mod params;
+pub mod regressor;
+pub mod rnea;
+pub mod spatial;
+
+pub use crba::mass_matrix;
+pub use data::Data;
+pub use error::Error;
+pub use fd::forward_dynamics;
+pub use inertia::LinkInertia;
+pub use model::{Joint, JointKind, JointLimits, Model};
+pub use params::{DriveParams, DRIVE_PARAMS, LINK_PARAMS};
+pub use regressor::{gravity_regressor, regressor, Regressor};
+pub use rnea::{gravity, rnea};
+pub use spatial::Transform;
+
+/// Re-export of the linear-algebra crate, so users get the matching version.
+pub use nalgebra;
+
+/// Scalar type used everywhere.
+pub type Real = f64;
+/// 3-vector.
+pub type Vec3 = nalgebra::Vector3<f64>;
+/// 3x3 matrix.
+pub type Mat3 = nalgebra::Matrix3<f64>;
+/// Joint-space vector of a chain with `N` joints.
+pub type VecN<const N: usize> = nalgebra::SVector<f64, N>;
+/// Joint-space matrix of a chain with `N` joints.
+pub type MatN<const N: usize> = nalgebra::SMatrix<f64, N, N>;

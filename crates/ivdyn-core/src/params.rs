@@ -1,0 +1,113 @@
+//! Parameter layout and the drive parameters.
+//!
+//! The full parameter vector `theta` of an `N`-joint chain has `P = 14 N` entries:
+//! `[link_1 (10), ..., link_N (10), drive_1 (4), ..., drive_N (4)]`. The first `10 N`
+//! entries are the standard inertial parameters in Pinocchio's order (so a Pinocchio
+//! regressor is the first `10 N` columns of ours), the drive blocks are
+//! `[fc, fv, ia, tau0]`.
+
+/// Inertial parameters per link.
+pub const LINK_PARAMS: usize = 10;
+/// Drive parameters per joint.
+pub const DRIVE_PARAMS: usize = 4;
+/// Parameters per joint (link + drive).
+pub const PARAMS_PER_JOINT: usize = LINK_PARAMS + DRIVE_PARAMS;
+
+/// Index of `m` in a link block.
+pub const M: usize = 0;
+/// Index of `m*cx` (first of three) in a link block.
+pub const MC: usize = 1;
+/// Index of `Ixx` in a link block.
+pub const IXX: usize = 4;
+/// Index of `Ixy` in a link block.
+pub const IXY: usize = 5;
+/// Index of `Iyy` in a link block.
+pub const IYY: usize = 6;
+/// Index of `Ixz` in a link block.
+pub const IXZ: usize = 7;
+/// Index of `Iyz` in a link block.
+pub const IYZ: usize = 8;
+/// Index of `Izz` in a link block.
+pub const IZZ: usize = 9;
+
+/// Index of `fc` (Coulomb) in a drive block.
+pub const FC: usize = 0;
+/// Index of `fv` (viscous) in a drive block.
+pub const FV: usize = 1;
+/// Index of `ia` (armature, rotor inertia reflected to the joint) in a drive block.
+pub const IA: usize = 2;
+/// Index of `tau0` (torque offset) in a drive block.
+pub const TAU0: usize = 3;
+
+/// Names of the link-block entries, for readable parameter names.
+pub const LINK_PARAM_NAMES: [&str; LINK_PARAMS] =
+    ["m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz"];
+/// Names of the drive-block entries.
+pub const DRIVE_PARAM_NAMES: [&str; DRIVE_PARAMS] = ["fc", "fv", "ia", "tau0"];
+
+/// Total parameter count for `n` joints.
+pub const fn param_count(n: usize) -> usize {
+    PARAMS_PER_JOINT * n
+}
+
+/// Column of link `link`'s entry `k` in `theta`.
+pub const fn link_col(link: usize, k: usize) -> usize {
+    LINK_PARAMS * link + k
+}
+
+/// Column of joint `joint`'s drive entry `k` in `theta` (for `n` joints).
+pub const fn drive_col(n: usize, joint: usize, k: usize) -> usize {
+    LINK_PARAMS * n + DRIVE_PARAMS * joint + k
+}
+
+/// Joint drive parameters: `tau_drive = fc sign(qd) + fv qd + ia qdd + tau0`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct DriveParams {
+    /// Coulomb friction (N m, or N for prismatic).
+    pub fc: f64,
+    /// Viscous friction (N m s/rad).
+    pub fv: f64,
+    /// Armature: rotor inertia reflected through the gear (kg m^2).
+    pub ia: f64,
+    /// Constant torque offset (N m).
+    pub tau0: f64,
+}
+
+impl DriveParams {
+    /// All zero.
+    pub const ZERO: DriveParams = DriveParams { fc: 0.0, fv: 0.0, ia: 0.0, tau0: 0.0 };
+
+    /// From `[fc, fv, ia, tau0]`.
+    pub fn from_array(a: [f64; DRIVE_PARAMS]) -> Self {
+        Self { fc: a[FC], fv: a[FV], ia: a[IA], tau0: a[TAU0] }
+    }
+
+    /// As `[fc, fv, ia, tau0]`.
+    pub fn to_array(&self) -> [f64; DRIVE_PARAMS] {
+        [self.fc, self.fv, self.ia, self.tau0]
+    }
+
+    /// The drive torque (paper eq 8's friction terms, plus armature and offset).
+    #[inline]
+    pub fn torque(&self, qd: f64, qdd: f64) -> f64 {
+        self.fc * sign(qd) + self.fv * qd + self.ia * qdd + self.tau0
+    }
+
+    /// The drive regressor row `[sign(qd), qd, qdd, 1]`.
+    #[inline]
+    pub fn regressor(qd: f64, qdd: f64) -> [f64; DRIVE_PARAMS] {
+        [sign(qd), qd, qdd, 1.0]
+    }
+}
+
+/// `sign(x)` with `sign(0) = 0` (the Coulomb model's convention).
+#[inline]
+pub fn sign(x: f64) -> f64 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}

@@ -1,0 +1,84 @@
+//! Random chains for property tests (deterministic from a seed).
+#![allow(dead_code)]
+
+use ivdyn_core::{
+    spatial::axis_angle, DriveParams, Joint, LinkInertia, Mat3, Model, Transform, Vec3, VecN,
+};
+
+/// SplitMix64: tiny deterministic generator, so property tests need no extra crate.
+pub struct Rng(pub u64);
+impl Rng {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [lo, hi).
+    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
+    }
+    pub fn unit(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(self.uniform(-1.0, 1.0), self.uniform(-1.0, 1.0), self.uniform(-1.0, 1.0));
+            let n = v.norm();
+            if n > 0.2 && n < 1.0 {
+                return v / n;
+            }
+        }
+    }
+    pub fn vecn<const N: usize>(&mut self, lo: f64, hi: f64) -> VecN<N> {
+        VecN::<N>::from_fn(|_, _| self.uniform(lo, hi))
+    }
+    pub fn rotation(&mut self) -> Mat3 {
+        let a = self.unit();
+        axis_angle(&a, self.uniform(-3.0, 3.0))
+    }
+    /// A physically valid body: mass, COM, principal moments obeying the triangle
+    /// inequality, rotated.
+    pub fn inertia(&mut self) -> LinkInertia {
+        let m = self.uniform(0.2, 5.0);
+        let c = Vec3::new(self.uniform(-0.2, 0.2), self.uniform(-0.2, 0.2), self.uniform(-0.2, 0.2));
+        let (a, b) = (self.uniform(0.01, 0.1), self.uniform(0.01, 0.1));
+        let d = Vec3::new(a, b, self.uniform((a - b).abs() + 1e-3, a + b));
+        LinkInertia::from_mass_com_inertia(m, &c, &self.rotation(), &Mat3::from_diagonal(&d))
+    }
+}
+
+/// Random chain: random joint placements, random axes, every third joint prismatic
+/// (when `prismatic`), random inertias and drive parameters.
+pub fn random_model<const N: usize>(seed: u64, prismatic: bool) -> Model<N> {
+    let mut rng = Rng(seed);
+    let mut joints = [Joint::revolute_z(); N];
+    let mut x_tree = [Transform::IDENTITY; N];
+    for i in 0..N {
+        let axis = rng.unit();
+        joints[i] = if prismatic && i % 3 == 1 { Joint::prismatic(axis) } else { Joint::revolute(axis) };
+        x_tree[i] = Transform::new(
+            rng.rotation(),
+            Vec3::new(rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3)),
+        );
+    }
+    let mut model = Model::new(joints, x_tree).unwrap();
+    for i in 0..N {
+        model.inertia[i] = rng.inertia();
+        model.drive[i] = DriveParams {
+            fc: rng.uniform(0.0, 2.0),
+            fv: rng.uniform(0.0, 0.5),
+            ia: rng.uniform(0.0, 0.1),
+            tau0: rng.uniform(-0.5, 0.5),
+        };
+    }
+    model.gravity = Vec3::new(rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0), -9.81);
+    model
+}
+
+/// |a - b| <= atol + rtol * max(|a|, |b|) entrywise, with a helpful message.
+pub fn assert_close(a: &[f64], b: &[f64], rtol: f64, atol: f64, what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}: length");
+    for (k, (x, y)) in a.iter().zip(b).enumerate() {
+        let tol = atol + rtol * x.abs().max(y.abs());
+        assert!((x - y).abs() <= tol, "{what}[{k}]: {x} vs {y} (diff {:e}, tol {tol:e})", (x - y).abs());
+    }
+}
