@@ -66,12 +66,19 @@ impl LinkInertia {
     /// in the parent: `h' = R h + m p`,
     /// `I' = R I R^T - [p]x [R h]x - [R h]x [p]x - m [p]x [p]x`.
     pub fn transformed(&self, x: &Transform) -> Self {
+        // with [a]x [b]x = b a^T - (a.b) 1:
+        // I' = R I R^T + 2 (p.Rh) 1 - (Rh p^T + p Rh^T) + m (|p|^2 1 - p p^T)
         let m = self.mass();
         let rh = x.rot * self.first_moment();
-        let px = skew(&x.trans);
-        let rhx = skew(&rh);
-        let i_o = x.rot * self.inertia_origin() * x.rot.transpose() - px * rhx - rhx * px - m * px * px;
-        Self::from_parts(m, &(rh + m * x.trans), &i_o)
+        let p = &x.trans;
+        let i_r = x.rot * self.inertia_origin() * x.rot.transpose();
+        let d = 2.0 * p.dot(&rh) + m * p.dot(p);
+        let e = |a: usize, b: usize| -> f64 {
+            let diag = if a == b { d } else { 0.0 };
+            i_r[(a, b)] + diag - rh[a] * p[b] - p[a] * rh[b] - m * p[a] * p[b]
+        };
+        let h = rh + m * p;
+        LinkInertia([m, h.x, h.y, h.z, e(0, 0), e(0, 1), e(1, 1), e(0, 2), e(1, 2), e(2, 2)])
     }
 
     /// Sum of two bodies described in the same frame.

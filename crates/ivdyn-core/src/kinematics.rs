@@ -2,7 +2,10 @@
 
 use crate::data::Data;
 use crate::model::{JointKind, Model};
-use crate::spatial::axis_angle;
+use crate::spatial::axis_angle_sc;
+use crate::Mat3;
+#[allow(unused_imports)] // needed without std (libm-backed trig), unused when std is unified in
+use nalgebra::ComplexField;
 use crate::{Vec3, VecN};
 
 /// Joint placements at `q`: `data.rot[i]`, `data.pos[i]` (link `i` in link `i-1`).
@@ -13,7 +16,7 @@ pub fn joint_transforms<const N: usize>(model: &Model<N>, data: &mut Data<N>, q:
         let j = &model.joints[i];
         match j.kind {
             JointKind::Revolute => {
-                data.rot[i] = x.rot * axis_angle(&j.axis, q[i]);
+                data.rot[i] = rotate_about(&x.rot, &j.axis, q[i]);
                 data.pos[i] = x.trans;
             }
             JointKind::Prismatic => {
@@ -22,6 +25,34 @@ pub fn joint_transforms<const N: usize>(model: &Model<N>, data: &mut Data<N>, q:
             }
         }
     }
+}
+
+/// `e * Rot(axis, angle)`, with a cheap path for the common axes `+-x, +-y, +-z`
+/// (only two columns of `e` mix), as Pinocchio's RX/RY/RZ joints do.
+#[inline]
+pub fn rotate_about(e: &Mat3, axis: &Vec3, angle: f64) -> Mat3 {
+    let (s, c) = angle.sin_cos();
+    // Rot(+-k, q) = Rot(k, +-q): fold the axis sign into the sine
+    let (k, s) = if axis.x == 0.0 && axis.y == 0.0 {
+        (2, s * axis.z.signum())
+    } else if axis.x == 0.0 && axis.z == 0.0 {
+        (1, s * axis.y.signum())
+    } else if axis.y == 0.0 && axis.z == 0.0 {
+        (0, s * axis.x.signum())
+    } else {
+        return e * axis_angle_sc(axis, s, c);
+    };
+    // columns (a, b) rotate in their plane: Rot(z) = [[c, -s], [s, c]] on (x, y), etc.
+    let (a, b) = match k {
+        0 => (1, 2),
+        1 => (2, 0),
+        _ => (0, 1),
+    };
+    let mut r = *e;
+    let (ca, cb) = (e.column(a).into_owned(), e.column(b).into_owned());
+    r.set_column(a, &(ca * c + cb * s));
+    r.set_column(b, &(cb * c - ca * s));
+    r
 }
 
 /// Forward recursion of the Newton-Euler method, paper eqs (2)-(4) generalised to any

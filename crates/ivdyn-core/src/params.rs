@@ -41,7 +41,7 @@ pub const TAU0: usize = 3;
 
 /// Names of the link-block entries, for readable parameter names.
 pub const LINK_PARAM_NAMES: [&str; LINK_PARAMS] =
-    ["m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz"];
+    ["m", "m*cx", "m*cy", "m*cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz"];
 /// Names of the drive-block entries.
 pub const DRIVE_PARAM_NAMES: [&str; DRIVE_PARAMS] = ["fc", "fv", "ia", "tau0"];
 

@@ -1,1 +1,19 @@
-//! ivdyn (std)
+//! `ivdyn`: robot-arm dynamics identification on the desktop. The std side of the
+//! project: URDF loading, runtime-sized robots (dispatching to the const-generic
+//! `ivdyn-core`), and (as they land) log I/O, batch identification and diagnosis.
+//!
+//! ```no_run
+//! let robot = ivdyn::Robot::from_urdf("ur5.urdf", None, Some("tool0")).unwrap();
+//! let n = robot.dof();
+//! let tau = robot.rnea(&vec![0.1; n], &vec![0.0; n], &vec![0.0; n]).unwrap();
+//! println!("{:?} -> {tau:?}", robot.joint_names);
+//! ```
+#![warn(missing_docs)]
+
+pub mod error;
+pub mod robot;
+pub mod urdf;
+
+pub use error::Error;
+pub use ivdyn_core as core;
+pub use robot::{DynModel, Robot, MAX_DOF};

@@ -53,7 +53,14 @@ pub fn random_model<const N: usize>(seed: u64, prismatic: bool) -> Model<N> {
     let mut joints = [Joint::revolute_z(); N];
     let mut x_tree = [Transform::IDENTITY; N];
     for i in 0..N {
-        let axis = rng.unit();
+        // every other joint on a signed coordinate axis (the fast rotation path)
+        let axis = if i % 2 == 0 {
+            let mut a = Vec3::zeros();
+            a[(rng.next_u64() % 3) as usize] = if rng.next_u64() % 2 == 0 { 1.0 } else { -1.0 };
+            a
+        } else {
+            rng.unit()
+        };
         joints[i] = if prismatic && i % 3 == 1 { Joint::prismatic(axis) } else { Joint::revolute(axis) };
         x_tree[i] = Transform::new(
             rng.rotation(),

@@ -1,0 +1,105 @@
+//! Errors of the std crate: each names what it is about (file, joint, link, index).
+
+use std::path::PathBuf;
+
+/// Anything that can go wrong in `ivdyn`.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A URDF file could not be read or parsed.
+    #[error("{file}: cannot parse URDF: {msg}")]
+    UrdfParse {
+        /// The file.
+        file: PathBuf,
+        /// The parser's message.
+        msg: String,
+    },
+    /// A joint of a kind the chain model cannot represent.
+    #[error("{file}: joint '{joint}' has unsupported type '{kind}' (supported: revolute, continuous, prismatic, fixed)")]
+    UnsupportedJoint {
+        /// The file.
+        file: PathBuf,
+        /// Joint name.
+        joint: String,
+        /// Its type.
+        kind: String,
+    },
+    /// A mimic joint on the chain (mimic joints couple two coordinates; not supported).
+    #[error("{file}: joint '{joint}' is a <mimic> joint on the chain; mimic joints are not supported (choose a tip before it, or lock it)")]
+    MimicJoint {
+        /// The file.
+        file: PathBuf,
+        /// Joint name.
+        joint: String,
+    },
+    /// A link name that the URDF does not contain.
+    #[error("{file}: no link named '{link}' (links: {available})")]
+    UnknownLink {
+        /// The file.
+        file: PathBuf,
+        /// The requested link.
+        link: String,
+        /// Names that exist.
+        available: String,
+    },
+    /// The chain branches and no tip was chosen.
+    #[error("{file}: the tree branches at link '{link}' into movable joints {branches}; choose a tip link")]
+    Branching {
+        /// The file.
+        file: PathBuf,
+        /// Where it branches.
+        link: String,
+        /// First joints of each branch.
+        branches: String,
+    },
+    /// The structure of the URDF is unusable (several roots, loops, tip not below base...).
+    #[error("{file}: {msg}")]
+    UrdfStructure {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong.
+        msg: String,
+    },
+    /// A joint axis of zero length or a non-finite number in the file.
+    #[error("{file}: joint '{joint}': {msg}")]
+    BadJoint {
+        /// The file.
+        file: PathBuf,
+        /// Joint name.
+        joint: String,
+        /// What is wrong.
+        msg: String,
+    },
+    /// The chain has more joints than the runtime dispatch supports.
+    #[error("chain has {dof} movable joints; ivdyn supports 1..={max}")]
+    TooManyJoints {
+        /// Joints in the chain.
+        dof: usize,
+        /// Supported maximum.
+        max: usize,
+    },
+    /// An array argument has the wrong length.
+    #[error("{what}: expected length {expected}, got {got}")]
+    Dimension {
+        /// Argument name.
+        what: String,
+        /// Expected length.
+        expected: usize,
+        /// Given length.
+        got: usize,
+    },
+    /// An error of the dynamics core.
+    #[error(transparent)]
+    Core(#[from] ivdyn_core::Error),
+    /// I/O error with the file it concerns.
+    #[error("{file}: {source}")]
+    Io {
+        /// The file.
+        file: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+}
+
+/// Result alias.
+pub type Result<T> = std::result::Result<T, Error>;

@@ -1,0 +1,343 @@
+//! URDF loading (urdf-rs) into a fixed-base serial chain.
+//!
+//! - The chain is the path from the base link to the tip link. Without a base, the URDF
+//!   root is used; without a tip, the only branch that contains movable joints is
+//!   followed (an error names the joints where two such branches split).
+//! - Revolute and continuous joints become revolute, prismatic stays prismatic; fixed
+//!   joints are fused (child inertia moved into the parent link's frame, origins composed
+//!   into the next joint's placement). Floating, planar and spherical joints on the chain,
+//!   and mimic joints on the chain, are errors naming the joint.
+//! - Links hanging off the chain (and everything beyond the tip) are fused into their
+//!   chain ancestor with their movable joints locked at q = 0, as Pinocchio's
+//!   `buildReducedModel` does; the locked joints are listed in the result.
+//! - Links above the base and links fused into the base carry no dynamics. Gravity is
+//!   `(0, 0, -9.81)` in the root frame, rotated into the base frame when the base sits
+//!   below the root on fixed joints.
+//! - `<dynamics damping friction>` become the viscous and Coulomb drive parameters.
+
+use crate::error::{Error, Result};
+use crate::robot::{Chain, DynModel, Robot};
+use ivdyn_core::model::GRAVITY_Z;
+use ivdyn_core::{DriveParams, Joint, JointLimits, LinkInertia, Mat3, Transform, Vec3};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use urdf_rs::JointType;
+
+/// Loads `path`; see the module documentation for the rules.
+pub fn load(path: &Path, base: Option<&str>, tip: Option<&str>) -> Result<Robot> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })?;
+    load_str(&text, path, base, tip)
+}
+
+/// Loads URDF text; `file` is only used in error messages.
+pub fn load_str(text: &str, file: &Path, base: Option<&str>, tip: Option<&str>) -> Result<Robot> {
+    let urdf = urdf_rs::read_from_string(text)
+        .map_err(|e| Error::UrdfParse { file: file.to_path_buf(), msg: e.to_string() })?;
+    Builder::new(&urdf, file)?.build(base, tip)
+}
+
+struct Builder<'a> {
+    urdf: &'a urdf_rs::Robot,
+    file: PathBuf,
+    link_index: HashMap<&'a str, usize>,
+    /// joint index whose child is this link
+    parent_joint: Vec<Option<usize>>,
+    /// joints whose parent is this link
+    child_joints: Vec<Vec<usize>>,
+}
+
+fn is_movable(t: &JointType) -> bool {
+    !matches!(t, JointType::Fixed)
+}
+
+fn type_name(t: &JointType) -> &'static str {
+    match t {
+        JointType::Revolute => "revolute",
+        JointType::Continuous => "continuous",
+        JointType::Prismatic => "prismatic",
+        JointType::Fixed => "fixed",
+        JointType::Floating => "floating",
+        JointType::Planar => "planar",
+        JointType::Spherical => "spherical",
+    }
+}
+
+fn pose(p: &urdf_rs::Pose) -> Transform {
+    Transform::from_xyz_rpy(*p.xyz, *p.rpy)
+}
+
+impl<'a> Builder<'a> {
+    fn new(urdf: &'a urdf_rs::Robot, file: &Path) -> Result<Self> {
+        let file = file.to_path_buf();
+        let link_index: HashMap<&str, usize> =
+            urdf.links.iter().enumerate().map(|(i, l)| (l.name.as_str(), i)).collect();
+        let mut parent_joint = vec![None; urdf.links.len()];
+        let mut child_joints = vec![Vec::new(); urdf.links.len()];
+        for (ji, j) in urdf.joints.iter().enumerate() {
+            let unknown = |l: &str| Error::UrdfStructure {
+                file: file.clone(),
+                msg: format!("joint '{}' refers to unknown link '{l}'", j.name),
+            };
+            let p = *link_index.get(j.parent.link.as_str()).ok_or_else(|| unknown(&j.parent.link))?;
+            let c = *link_index.get(j.child.link.as_str()).ok_or_else(|| unknown(&j.child.link))?;
+            if parent_joint[c].is_some() {
+                return Err(Error::UrdfStructure {
+                    file: file.clone(),
+                    msg: format!("link '{}' is the child of more than one joint", j.child.link),
+                });
+            }
+            parent_joint[c] = Some(ji);
+            child_joints[p].push(ji);
+        }
+        Ok(Self { urdf, file, link_index, parent_joint, child_joints })
+    }
+
+    fn link(&self, name: &str) -> Result<usize> {
+        self.link_index.get(name).copied().ok_or_else(|| Error::UnknownLink {
+            file: self.file.clone(),
+            link: name.to_string(),
+            available: self.urdf.links.iter().map(|l| l.name.as_str()).collect::<Vec<_>>().join(", "),
+        })
+    }
+
+    fn root(&self) -> Result<usize> {
+        let roots: Vec<usize> = (0..self.urdf.links.len()).filter(|&l| self.parent_joint[l].is_none()).collect();
+        match roots.as_slice() {
+            [r] => Ok(*r),
+            [] => Err(self.structure("the kinematic graph has no root link (a loop?)".into())),
+            rs => Err(self.structure(format!(
+                "several root links: {}",
+                rs.iter().map(|&l| self.urdf.links[l].name.as_str()).collect::<Vec<_>>().join(", ")
+            ))),
+        }
+    }
+
+    fn structure(&self, msg: String) -> Error {
+        Error::UrdfStructure { file: self.file.clone(), msg }
+    }
+
+    /// Does the subtree below `link` contain a movable joint?
+    fn has_movable_below(&self, link: usize) -> bool {
+        self.child_joints[link].iter().any(|&j| {
+            let joint = &self.urdf.joints[j];
+            is_movable(&joint.joint_type) || self.has_movable_below(self.link(&joint.child.link).unwrap_or(0))
+        })
+    }
+
+    /// Default tip: follow the only branch with movable joints until none is left.
+    fn default_tip(&self, base: usize) -> Result<usize> {
+        let mut link = base;
+        loop {
+            let branches: Vec<usize> = self.child_joints[link]
+                .iter()
+                .copied()
+                .filter(|&j| {
+                    let joint = &self.urdf.joints[j];
+                    is_movable(&joint.joint_type)
+                        || self.has_movable_below(self.link_index[joint.child.link.as_str()])
+                })
+                .collect();
+            match branches.as_slice() {
+                [] => return Ok(link),
+                [j] => link = self.link_index[self.urdf.joints[*j].child.link.as_str()],
+                js => {
+                    return Err(Error::Branching {
+                        file: self.file.clone(),
+                        link: self.urdf.links[link].name.clone(),
+                        branches: js.iter().map(|&j| format!("'{}'", self.urdf.joints[j].name)).collect::<Vec<_>>().join(", "),
+                    })
+                }
+            }
+        }
+    }
+
+    fn build(&self, base: Option<&str>, tip: Option<&str>) -> Result<Robot> {
+        let root = self.root()?;
+        let base = match base {
+            Some(b) => self.link(b)?,
+            None => root,
+        };
+        let tip = match tip {
+            Some(t) => self.link(t)?,
+            None => self.default_tip(base)?,
+        };
+        // path tip -> base through parent joints
+        let mut path = Vec::new();
+        let mut l = tip;
+        while l != base {
+            let j = self.parent_joint[l].ok_or_else(|| {
+                self.structure(format!(
+                    "tip link '{}' is not below base link '{}'",
+                    self.urdf.links[tip].name, self.urdf.links[base].name
+                ))
+            })?;
+            path.push(j);
+            l = self.link_index[self.urdf.joints[j].parent.link.as_str()];
+        }
+        path.reverse();
+
+        // gravity: rotate the root's -z gravity into the base frame (fixed joints only)
+        let mut base_rot = Mat3::identity();
+        let mut l = base;
+        while let Some(j) = self.parent_joint[l] {
+            let joint = &self.urdf.joints[j];
+            if is_movable(&joint.joint_type) {
+                return Err(self.structure(format!(
+                    "joint '{}' between the root and base link '{}' is movable; choose a base above it",
+                    joint.name, self.urdf.links[base].name
+                )));
+            }
+            base_rot = pose(&joint.origin).rot * base_rot;
+            l = self.link_index[joint.parent.link.as_str()];
+        }
+        let gravity = base_rot.transpose() * GRAVITY_Z;
+
+        // walk the chain: movable joints become model joints; fixed ones accumulate
+        let mut chain = Chain {
+            joints: vec![],
+            x_tree: vec![],
+            inertia: vec![],
+            drive: vec![],
+            limits: vec![],
+            gravity,
+            tool: Transform::IDENTITY,
+        };
+        let mut joint_names = vec![];
+        let mut link_names = vec![];
+        // segment of each link: Some(k) = fused into model link k, None = base (ignored);
+        // with the link's placement in that segment's frame (at locked q = 0).
+        let mut segment: Vec<Option<(Option<usize>, Transform)>> = vec![None; self.urdf.links.len()];
+        segment[base] = Some((None, Transform::IDENTITY));
+        let mut acc = Transform::IDENTITY; // placement of the current link in the last segment frame
+        let mut seg: Option<usize> = None;
+        for &j in &path {
+            let joint = &self.urdf.joints[j];
+            let child = self.link_index[joint.child.link.as_str()];
+            let origin = pose(&joint.origin);
+            match joint.joint_type {
+                JointType::Fixed => {
+                    acc = acc.compose(&origin);
+                }
+                JointType::Revolute | JointType::Continuous | JointType::Prismatic => {
+                    if joint.mimic.is_some() {
+                        return Err(Error::MimicJoint { file: self.file.clone(), joint: joint.name.clone() });
+                    }
+                    chain.x_tree.push(acc.compose(&origin));
+                    chain.joints.push(self.joint(joint)?);
+                    chain.limits.push(limits(joint));
+                    chain.drive.push(match &joint.dynamics {
+                        Some(d) => DriveParams { fc: d.friction, fv: d.damping, ia: 0.0, tau0: 0.0 },
+                        None => DriveParams::ZERO,
+                    });
+                    chain.inertia.push(LinkInertia::ZERO);
+                    joint_names.push(joint.name.clone());
+                    link_names.push(joint.child.link.clone());
+                    seg = Some(chain.joints.len() - 1);
+                    acc = Transform::IDENTITY;
+                }
+                ref t => {
+                    return Err(Error::UnsupportedJoint {
+                        file: self.file.clone(),
+                        joint: joint.name.clone(),
+                        kind: type_name(t).to_string(),
+                    })
+                }
+            }
+            segment[child] = Some((seg, acc));
+        }
+        if chain.joints.is_empty() {
+            return Err(self.structure(format!(
+                "no movable joint between base '{}' and tip '{}'",
+                self.urdf.links[base].name, self.urdf.links[tip].name
+            )));
+        }
+        chain.tool = acc;
+
+        // fuse every link below the base into its segment; lock off-chain movable joints
+        let mut locked = vec![];
+        let mut stack = vec![base];
+        while let Some(l) = stack.pop() {
+            let (seg_l, x_l) = segment[l].expect("visited links have a segment");
+            for &j in &self.child_joints[l] {
+                let joint = &self.urdf.joints[j];
+                let child = self.link_index[joint.child.link.as_str()];
+                if segment[child].is_none() {
+                    // off the chain: rigidly attached at q = 0
+                    match joint.joint_type {
+                        JointType::Fixed => {}
+                        JointType::Revolute | JointType::Continuous | JointType::Prismatic => {
+                            locked.push(joint.name.clone())
+                        }
+                        ref t => {
+                            return Err(Error::UnsupportedJoint {
+                                file: self.file.clone(),
+                                joint: joint.name.clone(),
+                                kind: type_name(t).to_string(),
+                            })
+                        }
+                    }
+                    segment[child] = Some((seg_l, x_l.compose(&pose(&joint.origin))));
+                }
+                stack.push(child);
+            }
+            if let Some(k) = seg_l {
+                let body = self.inertial(l)?;
+                chain.inertia[k] = chain.inertia[k].add(&body.transformed(&x_l));
+            }
+        }
+
+        Ok(Robot {
+            name: self.urdf.name.clone(),
+            joint_names,
+            link_names,
+            base_link: self.urdf.links[base].name.clone(),
+            tip_link: self.urdf.links[tip].name.clone(),
+            locked_joints: locked,
+            model: DynModel::from_chain(&chain)?,
+        })
+    }
+
+    fn joint(&self, joint: &urdf_rs::Joint) -> Result<Joint> {
+        let a = Vec3::from(*joint.axis.xyz);
+        let n = a.norm();
+        if !(n.is_finite() && n > 1e-12) {
+            return Err(Error::BadJoint {
+                file: self.file.clone(),
+                joint: joint.name.clone(),
+                msg: format!("axis {:?} has zero or non-finite length", *joint.axis.xyz),
+            });
+        }
+        let axis = a / n;
+        Ok(match joint.joint_type {
+            JointType::Prismatic => Joint::prismatic(axis),
+            _ => Joint::revolute(axis),
+        })
+    }
+
+    fn inertial(&self, l: usize) -> Result<LinkInertia> {
+        let link = &self.urdf.links[l];
+        let i = &link.inertial;
+        let vals = [i.mass.value, i.inertia.ixx, i.inertia.ixy, i.inertia.ixz, i.inertia.iyy, i.inertia.iyz, i.inertia.izz];
+        if vals.iter().any(|v| !v.is_finite()) || i.mass.value < 0.0 {
+            return Err(self.structure(format!("link '{}': non-finite or negative inertial values", link.name)));
+        }
+        let o = pose(&i.origin);
+        let ic = Mat3::new(
+            i.inertia.ixx, i.inertia.ixy, i.inertia.ixz,
+            i.inertia.ixy, i.inertia.iyy, i.inertia.iyz,
+            i.inertia.ixz, i.inertia.iyz, i.inertia.izz,
+        );
+        Ok(LinkInertia::from_mass_com_inertia(i.mass.value, &o.trans, &o.rot, &ic))
+    }
+}
+
+fn limits(joint: &urdf_rs::Joint) -> JointLimits {
+    let l = &joint.limit;
+    let or_inf = |v: f64| if v > 0.0 { v } else { f64::INFINITY };
+    let (lower, upper) = match joint.joint_type {
+        JointType::Continuous => (f64::NEG_INFINITY, f64::INFINITY),
+        _ if l.lower < l.upper => (l.lower, l.upper),
+        _ => (f64::NEG_INFINITY, f64::INFINITY),
+    };
+    JointLimits { lower, upper, velocity: or_inf(l.velocity), effort: or_inf(l.effort) }
+}
