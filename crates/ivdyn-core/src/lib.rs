@@ -35,6 +35,7 @@ pub mod crba;
 pub mod data;
 pub mod dh;
 pub mod energy;
+pub mod estim;
 pub mod error;
 pub mod fd;
 pub mod inertia;

@@ -10,7 +10,9 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod batch;
 pub mod error;
+pub mod ident;
 pub mod robot;
 pub mod urdf;
 

@@ -1,0 +1,190 @@
+//! Terminal-link estimation, paper eqs (38)-(54): the torque residual against the nominal
+//! model is linear in the *changes* of the parameters of links `k..N` (eq 46),
+//!
+//! `dtau_i = tau_i(measured) - rnea_nominal_i(q, qd, qdd) = sum_{l=max(i,k)}^{N} Y_il dx_l`,
+//!
+//! for rows `i = k..N`, each weighted (the paper's `P`). In the standard parametrisation a
+//! payload is the 10 inertial parameters added to the last link (plus its drive change).
+//! Not every column is identifiable from those rows (on the paper's robot the payload
+//! mass is invisible to joints 5 and 6): pass the indices of an identifiable (base)
+//! column set, found numerically on the desktop (`ivdyn::ident::base`).
+
+use crate::data::Data;
+use crate::error::Error;
+use crate::estim::{Riv, Rls};
+use crate::model::Model;
+use crate::params::{DRIVE_PARAMS, LINK_PARAMS};
+use crate::regressor::Regressor;
+use crate::{regressor, rnea, VecN};
+use nalgebra::allocator::Allocator;
+use nalgebra::{DefaultAllocator, Dim, OVector};
+
+/// Which unknowns: links (and joints) `k..N` (0-based `k`), with the selected drive
+/// parameters of each of those joints.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TerminalSpec {
+    /// First unknown link (0-based): the paper's `k - 1`.
+    pub k: usize,
+    /// Which of `[fc, fv, ia, tau0]` change with each unknown link's joint.
+    pub drive: [bool; DRIVE_PARAMS],
+}
+
+impl TerminalSpec {
+    /// The paper's simulation: links 5 and 6 (`k = 5`), each with `(F, d)` = `(fc, fv)`.
+    pub const PAPER: TerminalSpec = TerminalSpec { k: 4, drive: [true, true, false, false] };
+
+    fn per_link(&self) -> usize {
+        LINK_PARAMS + self.drive.iter().filter(|&&b| b).count()
+    }
+
+    /// Number of unknown columns for an `n`-joint chain.
+    pub fn cols(&self, n: usize) -> usize {
+        (n - self.k) * self.per_link()
+    }
+
+    /// Rows used: joints `k..n`.
+    pub fn rows(&self, n: usize) -> core::ops::Range<usize> {
+        self.k..n
+    }
+
+    /// `(link, entry)` of column `c`: entry `< 10` is inertial, `10 + d` is drive param `d`.
+    pub fn column(&self, c: usize) -> (usize, usize) {
+        let per = self.per_link();
+        let (l, e) = (self.k + c / per, c % per);
+        if e < LINK_PARAMS {
+            return (l, e);
+        }
+        let mut seen = 0;
+        for d in 0..DRIVE_PARAMS {
+            if self.drive[d] {
+                if seen == e - LINK_PARAMS {
+                    return (l, LINK_PARAMS + d);
+                }
+                seen += 1;
+            }
+        }
+        unreachable!("column index within cols()")
+    }
+
+    /// Entry `(row, c)` of the terminal regressor, taken from the full regressor.
+    #[inline]
+    pub fn entry<const N: usize>(&self, y: &Regressor<N>, row: usize, c: usize) -> f64 {
+        let (l, e) = self.column(c);
+        if e < LINK_PARAMS {
+            y.link[row][l][e]
+        } else if l == row {
+            y.drive[row][e - LINK_PARAMS]
+        } else {
+            0.0
+        }
+    }
+
+    /// Index into the full `theta` (layout of [`crate::params`]) of column `c`.
+    pub fn theta_index(&self, n: usize, c: usize) -> usize {
+        let (l, e) = self.column(c);
+        if e < LINK_PARAMS {
+            LINK_PARAMS * l + e
+        } else {
+            LINK_PARAMS * n + DRIVE_PARAMS * l + (e - LINK_PARAMS)
+        }
+    }
+}
+
+/// Least squares or instrumental variables, row by row.
+#[derive(Debug, Clone)]
+pub enum Method<D: Dim>
+where
+    DefaultAllocator: Allocator<D, D> + Allocator<D>,
+{
+    /// The paper's LSM (biased when the regressor holds noisy accelerations).
+    Ls(Rls<D>),
+    /// The paper's IVM.
+    Iv(Riv<D>),
+}
+
+/// Online terminal-link estimator: nominal model, unknown set, identifiable columns,
+/// row weights, and a recursive estimator over those columns. No allocation.
+#[derive(Debug, Clone)]
+pub struct TerminalLink<const N: usize, D: Dim>
+where
+    DefaultAllocator: Allocator<D, D> + Allocator<D> + Allocator<D, nalgebra::U1>,
+{
+    /// Nominal model (the arm before the change).
+    pub nominal: Model<N>,
+    /// Unknown set.
+    pub spec: TerminalSpec,
+    /// Indices (into `0..spec.cols(N)`) of the estimated columns; length `D`.
+    pub columns: OVector<usize, D>,
+    /// Row weights per joint (only `k..N` used): the paper's `P = diag(0.01, 1)`.
+    pub row_weight: [f64; N],
+    /// The estimator.
+    pub method: Method<D>,
+    data: Data<N>,
+    data_z: Data<N>,
+    phi: OVector<f64, D>,
+    z: OVector<f64, D>,
+}
+
+impl<const N: usize, D: Dim> TerminalLink<N, D>
+where
+    DefaultAllocator: Allocator<D, D> + Allocator<D> + Allocator<D, nalgebra::U1>,
+{
+    /// New estimator; `columns` selects identifiable columns of the terminal regressor.
+    pub fn new(nominal: Model<N>, spec: TerminalSpec, columns: OVector<usize, D>, row_weight: [f64; N], method: Method<D>) -> Self {
+        let (dim, _) = columns.shape_generic();
+        Self {
+            nominal,
+            spec,
+            columns,
+            row_weight,
+            method,
+            data: Data::new(),
+            data_z: Data::new(),
+            phi: OVector::zeros_generic(dim, nalgebra::Const::<1>),
+            z: OVector::zeros_generic(dim, nalgebra::Const::<1>),
+        }
+    }
+
+    /// Current estimate of the selected parameter changes.
+    pub fn theta(&self) -> &OVector<f64, D> {
+        match &self.method {
+            Method::Ls(r) => &r.theta,
+            Method::Iv(r) => &r.theta,
+        }
+    }
+
+    /// One sample: measured `q, qd, qdd` and torque `tau`, and the instrumental
+    /// acceleration `qdd_instr` (ignored by least squares). Eqs (41), (46), (52).
+    pub fn update(
+        &mut self,
+        q: &VecN<N>,
+        qd: &VecN<N>,
+        qdd: &VecN<N>,
+        tau: &VecN<N>,
+        qdd_instr: &VecN<N>,
+    ) -> Result<(), Error> {
+        crate::error::check_finite("tau", tau.as_slice())?;
+        let tau_nom = *rnea(&self.nominal, &mut self.data, q, qd, qdd);
+        regressor(&self.nominal, &mut self.data, q, qd, qdd);
+        if let Method::Iv(_) = self.method {
+            regressor(&self.nominal, &mut self.data_z, q, qd, qdd_instr);
+        }
+        for row in self.spec.rows(N) {
+            for (b, &c) in self.columns.iter().enumerate() {
+                self.phi[b] = self.spec.entry(&self.data.y, row, c);
+            }
+            let dtau = tau[row] - tau_nom[row];
+            let w = self.row_weight[row];
+            match &mut self.method {
+                Method::Ls(r) => r.update(&self.phi, dtau, w)?,
+                Method::Iv(r) => {
+                    for (b, &c) in self.columns.iter().enumerate() {
+                        self.z[b] = self.spec.entry(&self.data_z.y, row, c);
+                    }
+                    r.update(&self.phi, &self.z, dtau, w)?
+                }
+            }
+        }
+        Ok(())
+    }
+}

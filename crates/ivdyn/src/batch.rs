@@ -1,0 +1,1 @@
+//! Batched dynamics over many samples (row-major arrays), multi-threaded.

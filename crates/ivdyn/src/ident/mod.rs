@@ -1,0 +1,1 @@
+//! Batch identification: streaming least squares and instrumental variables, base parameters, uncertainty.
