@@ -31,6 +31,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod control;
 pub mod crba;
 pub mod data;
 pub mod dh;
@@ -45,7 +46,9 @@ pub mod paper;
 pub mod params;
 pub mod regressor;
 pub mod rnea;
+pub mod sim;
 pub mod spatial;
+pub mod trajectory;
 
 pub use crba::mass_matrix;
 pub use data::Data;

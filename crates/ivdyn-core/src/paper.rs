@@ -57,13 +57,24 @@ impl Table2Row {
     }
 }
 
+/// Link 6 after the simulated change (Figs 2-3), read literally as in `NOTES.md`: mass
+/// 0.020 -> 0.080 kg, centre of mass (0.01, 0.01, 0) -> (0.04, 0.04, 0) m, inertia about
+/// the centre of mass diag(1, 1, 1)e-4 -> diag(4, 3, 4)e-4 kg m^2, F 0.100 -> 0.250 N m.
+pub const LINK6_AFTER_CHANGE: Table2Row =
+    Table2Row { m: 0.080, s: [0.04, 0.04, 0.0], i_diag: [4e-4, 3e-4, 4e-4], f: 0.250, d: 0.0 };
+
+/// The paper's kinematics with the link parameters of `table` (rows in DH frames).
+pub fn robot_from_table(table: &[Table2Row; 6]) -> Model<6> {
+    let mut model = model_from_dh(&DH);
+    for i in 0..6 {
+        model.inertia[i] = inertia_from_dh_frame(&DH[i], &table[i].inertia_dh_frame());
+        model.drive[i] = DriveParams { fc: table[i].f, fv: table[i].d, ia: 0.0, tau0: 0.0 };
+    }
+    model
+}
+
 /// The paper's robot with Table 2 as its parameters (link parameters moved into the
 /// joint frames, see [`crate::dh`]); gravity `(0, 0, -9.81)` in the base frame.
 pub fn robot() -> Model<6> {
-    let mut model = model_from_dh(&DH);
-    for i in 0..6 {
-        model.inertia[i] = inertia_from_dh_frame(&DH[i], &TABLE2[i].inertia_dh_frame());
-        model.drive[i] = DriveParams { fc: TABLE2[i].f, fv: TABLE2[i].d, ia: 0.0, tau0: 0.0 };
-    }
-    model
+    robot_from_table(&TABLE2)
 }

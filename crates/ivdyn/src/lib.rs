@@ -11,9 +11,13 @@
 #![warn(missing_docs)]
 
 pub mod batch;
+pub mod control;
 pub mod error;
 pub mod ident;
+pub mod io;
+// pub mod repro; (enabled once ident lands)
 pub mod robot;
+pub mod signal;
 pub mod urdf;
 
 pub use error::Error;

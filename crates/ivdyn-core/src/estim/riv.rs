@@ -7,6 +7,7 @@
 //! positive definite; the Sherman-Morrison update
 //! `P <- (P - P z phi^T P / (lambda / w + phi^T P z)) / lambda`
 //! is guarded instead: a denominator that is not finite or is tiny relative to its terms
+//! scale `lambda / w + |phi| |P z|`
 //! (the instrument uncorrelated with the regressor in the current direction) is reported
 //! as [`Error::DegenerateUpdate`] and the state is left untouched.
 
@@ -79,7 +80,9 @@ where
         let r = self.forgetting / w;
         let s = phi.dot(&self.pz);
         let den = r + s;
-        if !den.is_finite() || den.abs() <= 1e-12 * (r.abs() + s.abs()) {
+        // scale of the terms by Cauchy-Schwarz: |phi^T P z| <= |phi| |P z|
+        let scale = r.abs() + phi.norm() * self.pz.norm();
+        if !den.is_finite() || den.abs() <= 1e-12 * scale {
             return Err(Error::DegenerateUpdate);
         }
         let innovation = y - phi.dot(&self.theta);

@@ -1,0 +1,1 @@
+//! Controllers: computed torque and PD with gravity compensation.

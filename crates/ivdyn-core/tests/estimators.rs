@@ -1,0 +1,160 @@
+//! Recursive estimators against closed-form batch solutions, noise-free recovery,
+//! long runs, and degenerate input.
+
+mod common;
+use common::Rng;
+use ivdyn_core::estim::{Riv, Rls};
+use ivdyn_core::Error;
+use nalgebra::{Const, SMatrix, SVector};
+
+const P: usize = 8;
+type V = SVector<f64, P>;
+type M = SMatrix<f64, P, P>;
+
+fn row(rng: &mut Rng) -> V {
+    V::from_fn(|i, _| rng.uniform(-1.0, 1.0) * (1.0 + i as f64))
+}
+
+/// RLS from `theta0 = 0`, `P0 = p0 I` is exactly ridge-regularised weighted LS:
+/// `theta = (Phi^T W Phi + I / p0)^{-1} Phi^T W y`.
+#[test]
+fn rls_equals_regularised_batch_solution() {
+    let mut rng = Rng(1);
+    let truth = row(&mut rng);
+    let p0 = 10.0;
+    let mut rls = Rls::<Const<P>>::new(V::zeros(), p0);
+    let (mut info, mut rhs) = (M::identity() / p0, V::zeros());
+    for _ in 0..500 {
+        let phi = row(&mut rng);
+        let w = rng.uniform(0.1, 2.0);
+        let y = phi.dot(&truth) + 0.1 * rng.uniform(-1.0, 1.0);
+        rls.update(&phi, y, w).unwrap();
+        info += w * phi * phi.transpose();
+        rhs += w * y * phi;
+    }
+    let batch = info.cholesky().unwrap().solve(&rhs);
+    assert!((rls.theta - batch).norm() <= 1e-10 * batch.norm(), "{} vs {}", rls.theta, batch);
+    // and the covariance is the inverse information
+    let p = rls.covariance();
+    assert!((p * info - M::identity()).norm() < 1e-9);
+    assert!((p - p.transpose()).norm() == 0.0 || (p - p.transpose()).norm() < 1e-15 * p.norm());
+}
+
+/// Started from a batch solution, the recursion continues it to rounding.
+#[test]
+fn rls_from_information_continues_batch_exactly() {
+    let mut rng = Rng(2);
+    let truth = row(&mut rng);
+    let rows: Vec<(V, f64, f64)> = (0..300)
+        .map(|_| {
+            let phi = row(&mut rng);
+            (phi, phi.dot(&truth) + 0.05 * rng.uniform(-1.0, 1.0), rng.uniform(0.5, 1.5))
+        })
+        .collect();
+    let (mut info, mut rhs) = (M::zeros(), V::zeros());
+    for (phi, y, w) in &rows[..20] {
+        info += *w * phi * phi.transpose();
+        rhs += *w * *y * phi;
+    }
+    let mut rls = Rls::<Const<P>>::from_information(&info, &rhs).unwrap();
+    for (phi, y, w) in &rows[20..] {
+        rls.update(phi, *y, *w).unwrap();
+        info += *w * phi * phi.transpose();
+        rhs += *w * *y * phi;
+    }
+    let batch = info.cholesky().unwrap().solve(&rhs);
+    assert!((rls.theta - batch).norm() <= 1e-11 * batch.norm());
+}
+
+/// Noise-free data: the recursion recovers the parameters to rounding.
+#[test]
+fn rls_noise_free_recovery() {
+    let mut rng = Rng(3);
+    let truth = row(&mut rng);
+    let mut rls = Rls::<Const<P>>::new(V::zeros(), 1e12);
+    for _ in 0..200 {
+        let phi = row(&mut rng);
+        rls.update(&phi, phi.dot(&truth), 1.0).unwrap();
+    }
+    assert!((rls.theta - truth).norm() <= 1e-8 * truth.norm());
+}
+
+/// Millions of updates with forgetting and a direction that is almost never excited:
+/// the UD form keeps the covariance symmetric positive definite and the estimate finite;
+/// the excited directions track the truth within the noise.
+#[test]
+fn rls_two_million_updates_stay_well_posed() {
+    let mut rng = Rng(4);
+    let truth = row(&mut rng);
+    let mut rls = Rls::<Const<P>>::new(V::zeros(), 1.0);
+    rls.forgetting = 0.999;
+    rls.max_variance = 1e6;
+    for k in 0..2_000_000u64 {
+        let mut phi = row(&mut rng);
+        if k % 100_000 != 0 {
+            phi[P - 1] = 0.0; // last parameter excited once every 100 000 rows
+        }
+        let y = phi.dot(&truth) + 1e-3 * rng.uniform(-1.0, 1.0);
+        rls.update(&phi, y, 1.0).unwrap();
+    }
+    let p = rls.covariance();
+    assert!(p.iter().all(|v| v.is_finite()));
+    assert!(p.cholesky().is_some(), "covariance lost positive definiteness");
+    let mut var = V::zeros();
+    rls.variances(&mut var);
+    assert!(var.iter().all(|&v| v > 0.0 && v <= 1e6 * 1.0001));
+    for i in 0..P - 1 {
+        assert!((rls.theta[i] - truth[i]).abs() < 1e-2, "param {i}: {} vs {}", rls.theta[i], truth[i]);
+    }
+}
+
+/// Recursive IV from a batch start equals the batch IV `(Z^T W Phi)^{-1} Z^T W y`.
+#[test]
+fn riv_equals_batch_iv() {
+    let mut rng = Rng(5);
+    let truth = row(&mut rng);
+    let (mut info, mut rhs) = (M::zeros(), V::zeros());
+    let mut data = vec![];
+    for _ in 0..400 {
+        let z = row(&mut rng);
+        // regressor = instrument + noise (errors in variables), output from the noise-free part
+        let phi = z + V::from_fn(|_, _| 0.3 * rng.uniform(-1.0, 1.0));
+        let y = z.dot(&truth) + 0.01 * rng.uniform(-1.0, 1.0);
+        data.push((phi, z, y, rng.uniform(0.5, 2.0)));
+    }
+    for (phi, z, y, w) in &data[..30] {
+        info += *w * z * phi.transpose();
+        rhs += *w * *y * z;
+    }
+    let mut riv = Riv::<Const<P>>::from_information(&info, &rhs).unwrap();
+    for (phi, z, y, w) in &data[30..] {
+        riv.update(phi, z, *y, *w).unwrap();
+        info += *w * z * phi.transpose();
+        rhs += *w * *y * z;
+    }
+    let batch = info.lu().solve(&rhs).unwrap();
+    assert!((riv.theta - batch).norm() <= 1e-10 * batch.norm(), "{} vs {}", riv.theta, batch);
+}
+
+#[test]
+fn degenerate_updates_are_errors_and_leave_the_state_alone() {
+    let mut rls = Rls::<Const<P>>::new(V::repeat(0.5), 1.0);
+    let before = rls.theta;
+    let phi = V::repeat(1.0);
+    assert_eq!(rls.update(&phi, 1.0, 0.0), Err(Error::DegenerateUpdate));
+    assert_eq!(rls.update(&phi, f64::NAN, 1.0), Err(Error::DegenerateUpdate));
+    let mut bad = phi;
+    bad[3] = f64::INFINITY;
+    assert_eq!(rls.update(&bad, 1.0, 1.0), Err(Error::NonFinite { what: "phi", index: 3 }));
+    assert_eq!(rls.theta, before);
+    assert_eq!(rls.count, 0);
+
+    let mut riv = Riv::<Const<P>>::new(V::zeros(), 1.0);
+    // instrument orthogonal to the regressor with P = I: phi^T P z = 0 and r ~ 0
+    let mut z = V::zeros();
+    z[0] = 1.0;
+    let mut phi2 = V::zeros();
+    phi2[1] = 1.0;
+    assert_eq!(riv.update(&phi2, &z, 1.0, 1e300), Err(Error::DegenerateUpdate));
+    assert_eq!(riv.theta, V::zeros());
+}

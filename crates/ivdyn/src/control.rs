@@ -1,0 +1,1 @@
+//! Closed-loop simulation and the computed-torque experiments (paper Fig. 5).

@@ -1,0 +1,1 @@
+//! Log input and output: ROS 2 MCAP (JointState) and CSV.

@@ -1,0 +1,1 @@
+//! Signal conditioning: differentiation, filtering, resampling, decimation, outliers.

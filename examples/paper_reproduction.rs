@@ -1,0 +1,112 @@
+//! Reproduces the paper's simulation (Figs 2 and 3) and a Monte Carlo study of the
+//! estimators' bias and spread; writes JSON for `examples/plot_paper.py`.
+//!
+//!     cargo run --release -p ivdyn --example paper_reproduction -- [--seeds 20] [--n-max 1000000] [--out out/paper]
+//!
+//! See `docs/paper-reproduction.md` for the set-up and the results.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use ivdyn::repro::{batch_estimates, recursive_traces, Estimator, PaperSim};
+use serde_json::json;
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
+    let args: Vec<String> = std::env::args().collect();
+    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(default)
+}
+
+fn log_points(lo: usize, hi: usize, per_decade: usize) -> Vec<usize> {
+    let mut v: Vec<usize> = (0..)
+        .map(|k| (lo as f64 * 10f64.powf(k as f64 / per_decade as f64)).round() as usize)
+        .take_while(|&n| n <= hi)
+        .collect();
+    v.dedup();
+    v
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let seeds: u64 = arg("--seeds", 20);
+    let n_max: usize = arg("--n-max", 1_000_000);
+    let out = PathBuf::from(arg("--out", "out/paper".to_string()));
+    std::fs::create_dir_all(&out)?;
+
+    // --- recursive traces for the figures (seed 0) ---
+    let sim = PaperSim::new(0)?;
+    println!("base combinations of the k = 5 problem ({} of {} unknowns):", sim.base.base_count(), sim.spec.cols(6));
+    for (i, n) in sim.base.names.iter().enumerate() {
+        println!("  [{i:2}] {n:<48} truth {:+.6e}", sim.truth_base[i]);
+    }
+    println!("not identifiable at all (zero columns): {:?}", sim.base.zero_columns.iter().map(|&c| &ivdyn::repro::terminal_names(&sim.spec, 6)[c]).collect::<Vec<_>>());
+    let n_fig = n_max.min(200_000);
+    let record = log_points(100, n_fig, 20);
+    eprintln!("recursive traces: {} samples x 3 estimators", n_fig);
+    let traces = recursive_traces(&sim, 0, &record, 1e4)?;
+    std::fs::write(
+        out.join("traces.json"),
+        serde_json::to_string(&json!({
+            "names": sim.base.names, "truth": sim.truth_base, "n": record,
+            "estimators": Estimator::ALL.iter().map(|e| e.label()).collect::<Vec<_>>(),
+            "estimates": traces,
+        }))?,
+    )?;
+
+    // --- Monte Carlo over seeds (nominal errors and noise both drawn per seed) ---
+    let checkpoints: Vec<usize> = [2_000usize, 10_000, 100_000, 1_000_000].into_iter().filter(|&n| n <= n_max).collect();
+    let bar = ProgressBar::new(seeds);
+    bar.set_style(ProgressStyle::with_template("monte carlo {bar:40} {pos}/{len} seeds [{elapsed_precise} / eta {eta}]")?);
+    let results = Mutex::new(Vec::new());
+    let next = Mutex::new(0u64);
+    std::thread::scope(|s| {
+        for _ in 0..std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1) {
+            s.spawn(|| loop {
+                let seed = {
+                    let mut g = next.lock().unwrap();
+                    if *g >= seeds {
+                        break;
+                    }
+                    *g += 1;
+                    *g - 1
+                };
+                let sim = PaperSim::new(seed).expect("set-up");
+                let est = batch_estimates(&sim, 1_000_000 + seed, &checkpoints).expect("estimates");
+                results.lock().unwrap().push((seed, sim.truth_base.clone(), est));
+                bar.inc(1);
+            });
+        }
+    });
+    bar.finish();
+    let mut results = results.into_inner()?;
+    results.sort_by_key(|r| r.0);
+    std::fs::write(
+        out.join("montecarlo.json"),
+        serde_json::to_string(&json!({
+            "names": sim.base.names, "checkpoints": checkpoints,
+            "estimators": Estimator::ALL.iter().map(|e| e.label()).collect::<Vec<_>>(),
+            "runs": results.iter().map(|(seed, truth, est)| json!({"seed": seed, "truth": truth, "estimates": est})).collect::<Vec<_>>(),
+        }))?,
+    )?;
+
+    // --- table: relative error of the final estimates, mean and std over seeds ---
+    println!("\nrelative error (estimate - truth) / |truth| in %, mean +- std over {} seeds:", results.len());
+    for (ci, &n) in checkpoints.iter().enumerate() {
+        println!("\nN = {n}");
+        println!("| combination | {} |", Estimator::ALL.iter().map(|e| e.label()).collect::<Vec<_>>().join(" | "));
+        for (b, name) in sim.base.names.iter().enumerate() {
+            if !name.contains("link6") && !name.contains("joint6") {
+                continue;
+            }
+            let cells: Vec<String> = (0..3)
+                .map(|k| {
+                    let errs: Vec<f64> = results.iter().map(|(_, t, e)| 100.0 * (e[k][ci][b] - t[b]) / t[b].abs()).collect();
+                    let m = errs.iter().sum::<f64>() / errs.len() as f64;
+                    let sd = (errs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (errs.len().max(2) - 1) as f64).sqrt();
+                    format!("{m:+.1} +- {sd:.1}")
+                })
+                .collect();
+            println!("| {name} | {} |", cells.join(" | "));
+        }
+    }
+    println!("\nwrote {}", out.display());
+    Ok(())
+}
