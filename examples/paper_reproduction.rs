@@ -37,7 +37,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (i, n) in sim.base.names.iter().enumerate() {
         println!("  [{i:2}] {n:<48} truth {:+.6e}", sim.truth_base[i]);
     }
-    println!("not identifiable at all (zero columns): {:?}", sim.base.zero_columns.iter().map(|&c| &ivdyn::repro::terminal_names(&sim.spec, 6)[c]).collect::<Vec<_>>());
+    let all_names = ivdyn::repro::terminal_names(&sim.spec, 6);
+    println!(
+        "no effect on joints 5-6 at all (zero columns): {:?}",
+        sim.base.zero_columns.iter().map(|&c| all_names[c].as_str()).collect::<Vec<_>>()
+    );
     let n_fig = n_max.min(200_000);
     let record = log_points(100, n_fig, 20);
     eprintln!("recursive traces: {} samples x 3 estimators", n_fig);
@@ -87,24 +91,30 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }))?,
     )?;
 
-    // --- table: relative error of the final estimates, mean and std over seeds ---
-    println!("\nrelative error (estimate - truth) / |truth| in %, mean +- std over {} seeds:", results.len());
+    // --- table: error of the final estimates, mean and std over seeds ---
+    println!("\nerror of the estimates over {} seeds, mean +- std: in % of |truth| where the truth is", results.len());
+    println!("nonzero, else absolute (SI units):");
     for (ci, &n) in checkpoints.iter().enumerate() {
         println!("\nN = {n}");
-        println!("| combination | {} |", Estimator::ALL.iter().map(|e| e.label()).collect::<Vec<_>>().join(" | "));
+        println!("| combination | truth (seed 0) | {} |", Estimator::ALL.iter().map(|e| e.label()).collect::<Vec<_>>().join(" | "));
+        println!("|---|---|{}", "---|".repeat(Estimator::ALL.len()));
         for (b, name) in sim.base.names.iter().enumerate() {
             if !name.contains("link6") && !name.contains("joint6") {
                 continue;
             }
-            let cells: Vec<String> = (0..3)
+            let relative = results.iter().all(|(_, t, _)| t[b].abs() > 1e-9);
+            let cells: Vec<String> = (0..Estimator::ALL.len())
                 .map(|k| {
-                    let errs: Vec<f64> = results.iter().map(|(_, t, e)| 100.0 * (e[k][ci][b] - t[b]) / t[b].abs()).collect();
+                    let errs: Vec<f64> = results
+                        .iter()
+                        .map(|(_, t, e)| if relative { 100.0 * (e[k][ci][b] - t[b]) / t[b].abs() } else { e[k][ci][b] - t[b] })
+                        .collect();
                     let m = errs.iter().sum::<f64>() / errs.len() as f64;
                     let sd = (errs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (errs.len().max(2) - 1) as f64).sqrt();
-                    format!("{m:+.1} +- {sd:.1}")
+                    if relative { format!("{m:+.1} % +- {sd:.1}") } else { format!("{m:+.1e} +- {sd:.1e}") }
                 })
                 .collect();
-            println!("| {name} | {} |", cells.join(" | "));
+            println!("| {name} | {:.4e} | {} |", results[0].1[b], cells.join(" | "));
         }
     }
     println!("\nwrote {}", out.display());

@@ -45,6 +45,7 @@ pub mod model;
 pub mod paper;
 pub mod params;
 pub mod regressor;
+pub mod rng;
 pub mod rnea;
 pub mod sim;
 pub mod spatial;
