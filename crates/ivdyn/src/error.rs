@@ -99,6 +99,30 @@ pub enum Error {
         /// The underlying error.
         source: std::io::Error,
     },
+    /// An identification step that cannot proceed (a simulation of the current estimate
+    /// diverging, a degenerate fit); the message says which step, iteration and sample.
+    #[error("identification: {msg}")]
+    Estimation {
+        /// What went wrong, where.
+        msg: String,
+    },
+    /// A log file (MCAP or CSV) that cannot be used: truncated or corrupt, topic not found,
+    /// wrong schema, joint names that do not match, non-finite values, stamps going back.
+    /// The message names the topic, sample index, joint and field where they are known.
+    #[error("{file}: {msg}")]
+    Log {
+        /// The file.
+        file: PathBuf,
+        /// What is wrong, where.
+        msg: String,
+    },
+    /// Bad input to a signal-conditioning function (an option out of range, too few
+    /// samples, a non-finite value).
+    #[error("signal: {msg}")]
+    Signal {
+        /// What is wrong.
+        msg: String,
+    },
 }
 
 /// Result alias.

@@ -1,6 +1,7 @@
 //! Streaming LS / IV accumulators: exactness, merging, QR against SVD, input checks.
 
-use ivdyn::ident::{IvAccumulator, LsAccumulator, SplitMix64, fit_iv, fit_ls};
+use ivdyn::ident::{IvAccumulator, LsAccumulator, fit_iv, fit_ls};
+use ivdyn_core::rng::Rng;
 use nalgebra::{DMatrix, DVector};
 
 /// A random problem: `phi` (`m x p` row-major, entries N(0,1)), `theta` (N(0,1)),
@@ -15,10 +16,10 @@ struct Problem {
 }
 
 fn problem(seed: u64, m: usize, p: usize, noise: f64) -> Problem {
-    let mut rng = SplitMix64::new(seed);
+    let mut rng = Rng::new(seed);
     let phi: Vec<f64> = (0..m * p).map(|_| rng.normal()).collect();
     let theta: Vec<f64> = (0..p).map(|_| rng.normal()).collect();
-    let w: Vec<f64> = (0..m).map(|_| rng.range(0.5, 2.0)).collect();
+    let w: Vec<f64> = (0..m).map(|_| rng.uniform(0.5, 2.0)).collect();
     let y = (0..m)
         .map(|i| {
             (0..p).map(|j| phi[i * p + j] * theta[j]).sum::<f64>()
@@ -133,7 +134,7 @@ fn chunked_and_merged_equal_one_shot() {
     }
 
     // IV accumulators merge too (instrument: a noisy copy of phi).
-    let mut rng = SplitMix64::new(22);
+    let mut rng = Rng::new(22);
     let z: Vec<f64> = pr.phi.iter().map(|v| v + 0.5 * rng.normal()).collect();
     let mut one = IvAccumulator::new(p);
     one.add_rows(&pr.phi, &z, &pr.y, Some(&pr.w)).unwrap();
@@ -250,7 +251,7 @@ fn bad_input_is_rejected_with_the_row_and_leaves_the_accumulator_unchanged() {
 fn iv_matches_direct_formulas() {
     let pr = problem(5, 300, 4, 0.5);
     let (m, p) = (pr.m, pr.p);
-    let mut rng = SplitMix64::new(55);
+    let mut rng = Rng::new(55);
     let z: Vec<f64> = pr.phi.iter().map(|v| v + 0.7 * rng.normal()).collect();
     let mut acc = IvAccumulator::new(p);
     acc.add_rows(&pr.phi, &z, &pr.y, Some(&pr.w)).unwrap();

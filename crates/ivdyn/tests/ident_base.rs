@@ -2,15 +2,16 @@
 //! stability of the rank, physically zero columns, and the known UR5 result (36).
 
 use ivdyn::Robot;
-use ivdyn::ident::{BaseParams, SplitMix64, robot_base_params};
+use ivdyn::ident::{BaseParams, robot_base_params};
+use ivdyn_core::rng::Rng;
 use nalgebra::DMatrix;
 
 /// Random state (q in ±π, qd in ±1.5, qdd in ±3) from `rng`.
-fn state(rng: &mut SplitMix64, n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+fn state(rng: &mut Rng, n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let pi = std::f64::consts::PI;
-    let q = (0..n).map(|_| rng.range(-pi, pi)).collect();
-    let qd = (0..n).map(|_| rng.range(-1.5, 1.5)).collect();
-    let qdd = (0..n).map(|_| rng.range(-3.0, 3.0)).collect();
+    let q = (0..n).map(|_| rng.uniform(-pi, pi)).collect();
+    let qd = (0..n).map(|_| rng.uniform(-1.5, 1.5)).collect();
+    let qdd = (0..n).map(|_| rng.uniform(-3.0, 3.0)).collect();
     (q, qd, qdd)
 }
 
@@ -18,7 +19,7 @@ fn state(rng: &mut SplitMix64, n: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
 /// columns of the regressor), relative to `max |Y θ|`.
 fn identity_error(robot: &Robot, base: &BaseParams, cols: usize, seed: u64) -> f64 {
     let (n, p) = (robot.dof(), robot.num_params());
-    let mut rng = SplitMix64::new(seed);
+    let mut rng = Rng::new(seed);
     let theta: Vec<f64> = (0..cols).map(|_| rng.normal()).collect();
     let theta_b = base.project(&theta).unwrap();
     let (mut worst, mut scale) = (0.0f64, 0.0f64);
@@ -132,7 +133,7 @@ fn ur5_rigid_body_base_count_is_36() {
     let names = robot.param_names()[..cols].to_vec();
     let mut counts = vec![];
     for (samples, seed) in [(60, 5), (150, 6)] {
-        let mut rng = SplitMix64::new(seed);
+        let mut rng = Rng::new(seed);
         let mut phi = DMatrix::zeros(samples * n, cols);
         for s in 0..samples {
             let (q, qd, qdd) = state(&mut rng, n);

@@ -2,7 +2,8 @@
 //! unexcited parameters. Tolerances follow from the simulated noise (see each test).
 
 use ivdyn::ident::stats::normal_quantile;
-use ivdyn::ident::{IvAccumulator, LsAccumulator, SplitMix64, fit_iv, fit_ls};
+use ivdyn::ident::{IvAccumulator, LsAccumulator, fit_iv, fit_ls};
+use ivdyn_core::rng::Rng;
 
 fn names(p: usize) -> Vec<String> {
     (0..p).map(|j| format!("theta{j}")).collect()
@@ -19,7 +20,7 @@ fn mean_sd(x: &[f64]) -> (f64, f64) {
 /// `x, u ~ N(0, 1)`. The regressor uses `x_meas = x + N(0, sx²)`, the instrument for `x`
 /// is an independent noisy copy `x + N(0, 0.5²)`; `u` and the constant are their own
 /// instruments.
-fn eiv_trial(rng: &mut SplitMix64, m: usize, sx: f64, theta: &[f64; 3]) -> IvAccumulator {
+fn eiv_trial(rng: &mut Rng, m: usize, sx: f64, theta: &[f64; 3]) -> IvAccumulator {
     let (mut phi, mut z, mut y) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..m {
         let (x, u) = (rng.normal(), rng.normal());
@@ -43,7 +44,7 @@ fn eiv_trial(rng: &mut SplitMix64, m: usize, sx: f64, theta: &[f64; 3]) -> IvAcc
 #[test]
 fn iv_is_consistent_where_ls_is_biased_and_dwh_detects_it() {
     let theta = [2.0, -1.0, 0.5];
-    let mut rng = SplitMix64::new(0xE1F);
+    let mut rng = Rng::new(0xE1F);
     let trials = 200;
     let (mut iv0, mut ls0, mut flagged, mut covered) = (vec![], vec![], 0, 0);
     for _ in 0..trials {
@@ -88,7 +89,7 @@ fn iv_is_consistent_where_ls_is_biased_and_dwh_detects_it() {
 #[test]
 fn dwh_p_value_is_uniform_without_measurement_noise() {
     let theta = [2.0, -1.0, 0.5];
-    let mut rng = SplitMix64::new(0xD0E5);
+    let mut rng = Rng::new(0xD0E5);
     let trials = 200;
     let mut p_values = Vec::with_capacity(trials);
     for _ in 0..trials {
@@ -119,14 +120,14 @@ fn ls_confidence_intervals_have_nominal_coverage() {
     let p = 4;
     let theta = [1.5, -0.3, 0.0, 4.0];
     let z = normal_quantile(0.975);
-    let mut rng = SplitMix64::new(0xC0FE);
+    let mut rng = Rng::new(0xC0FE);
     let trials = 400;
     let (mut hits, mut sigma2) = (0usize, vec![]);
     for _ in 0..trials {
         let (mut phi, mut y, mut w) = (Vec::new(), Vec::new(), Vec::new());
         for _ in 0..100 {
             let row: Vec<f64> = (0..p).map(|_| rng.normal()).collect();
-            let sigma = rng.range(0.1, 0.4);
+            let sigma = rng.uniform(0.1, 0.4);
             y.push(row.iter().zip(&theta).map(|(a, b)| a * b).sum::<f64>() + sigma * rng.normal());
             w.push(1.0 / (sigma * sigma));
             phi.extend(row);
@@ -150,7 +151,7 @@ fn ls_confidence_intervals_have_nominal_coverage() {
 fn unexcited_columns_are_reported_not_invented() {
     let p = 5;
     let theta = [0.7, -2.0, 3.0, 0.25, 1.0];
-    let mut rng = SplitMix64::new(77);
+    let mut rng = Rng::new(77);
     let (mut phi, mut z, mut y) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..120 {
         let mut row: Vec<f64> = (0..p).map(|_| rng.normal()).collect();

@@ -20,18 +20,34 @@ use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
 /// Which unknowns: links (and joints) `k..N` (0-based `k`), with the selected drive
-/// parameters of each of those joints.
+/// parameters of each of those joints, and which rows see them: joints `first_row..N`.
+/// The paper uses `first_row = k` (eq 46); a payload's mass needs the inner joints' rows
+/// (on the paper's robot it is invisible to joints 5 and 6), so `first_row` can be lower.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TerminalSpec {
     /// First unknown link (0-based): the paper's `k - 1`.
     pub k: usize,
     /// Which of `[fc, fv, ia, tau0]` change with each unknown link's joint.
     pub drive: [bool; DRIVE_PARAMS],
+    /// First row (joint, 0-based) used; `<= k`.
+    pub first_row: usize,
 }
 
 impl TerminalSpec {
-    /// The paper's simulation: links 5 and 6 (`k = 5`), each with `(F, d)` = `(fc, fv)`.
-    pub const PAPER: TerminalSpec = TerminalSpec { k: 4, drive: [true, true, false, false] };
+    /// The paper's simulation: links 5 and 6 (`k = 5`), each with `(F, d)` = `(fc, fv)`,
+    /// rows of joints 5 and 6.
+    pub const PAPER: TerminalSpec = TerminalSpec { k: 4, drive: [true, true, false, false], first_row: 4 };
+
+    /// Unknowns `k..N` seen by rows `k..N` (the paper's eq 46).
+    pub const fn new(k: usize, drive: [bool; DRIVE_PARAMS]) -> Self {
+        TerminalSpec { k, drive, first_row: k }
+    }
+
+    /// A payload on the last link of an `n`-joint chain, seen by every joint's row,
+    /// inertial parameters only.
+    pub const fn payload(n: usize) -> Self {
+        TerminalSpec { k: n - 1, drive: [false; DRIVE_PARAMS], first_row: 0 }
+    }
 
     fn per_link(&self) -> usize {
         LINK_PARAMS + self.drive.iter().filter(|&&b| b).count()
@@ -42,9 +58,9 @@ impl TerminalSpec {
         (n - self.k) * self.per_link()
     }
 
-    /// Rows used: joints `k..n`.
+    /// Rows used: joints `first_row..n`.
     pub fn rows(&self, n: usize) -> core::ops::Range<usize> {
-        self.k..n
+        self.first_row.min(self.k)..n
     }
 
     /// `(link, entry)` of column `c`: entry `< 10` is inertial, `10 + d` is drive param `d`.

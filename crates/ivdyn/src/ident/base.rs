@@ -20,7 +20,7 @@
 //! matrix, hence same column geometry) rather than on the `m x p` matrix itself.
 
 use super::accum::{back_substitute, triangular_factor};
-use super::rng::SplitMix64;
+use ivdyn_core::rng::Rng;
 use crate::error::{Error, Result};
 use nalgebra::DMatrix;
 
@@ -283,7 +283,7 @@ pub fn format_sig(x: f64, digits: usize) -> String {
     }
 }
 
-/// Base parameters of a robot from `samples` random states (seeded SplitMix64): `q`
+/// Base parameters of a robot from `samples` random states (seeded `ivdyn_core::rng::Rng`): `q`
 /// uniform within the joint limits where both are finite (else in `[-π, π]`), `qd`
 /// uniform in `±1` (`±min(1, velocity limit)` if a finite positive limit exists) and
 /// `qdd` uniform in `±2`; the full regressors (`dof x 14 dof` each) are stacked and
@@ -299,7 +299,7 @@ pub fn robot_base_params(robot: &crate::Robot, samples: usize, seed: u64) -> Res
         });
     }
     let limits = crate::with_model!(&robot.model, m => m.limits.to_vec());
-    let mut rng = SplitMix64::new(seed);
+    let mut rng = Rng::new(seed);
     let mut phi = DMatrix::zeros(samples * n, p);
     let (mut q, mut qd, mut qdd) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     for s in 0..samples {
@@ -315,9 +315,9 @@ pub fn robot_base_params(robot: &crate::Robot, samples: usize, seed: u64) -> Res
             } else {
                 1.0
             };
-            q[j] = rng.range(lo, hi);
-            qd[j] = rng.range(-vmax, vmax);
-            qdd[j] = rng.range(-2.0, 2.0);
+            q[j] = rng.uniform(lo, hi);
+            qd[j] = rng.uniform(-vmax, vmax);
+            qdd[j] = rng.uniform(-2.0, 2.0);
         }
         let y = robot.regressor(&q, &qd, &qdd)?;
         for r in 0..n {

@@ -11,7 +11,6 @@
 //! - [`base`]: [`BaseParams`], the identifiable parameter combinations found numerically,
 //!   and [`robot_base_params`];
 //! - [`stats`]: chi-square, F and normal distributions;
-//! - [`rng`]: the deterministic [`SplitMix64`] generator.
 //!
 //! ```
 //! use ivdyn::ident::{fit_ls, LsAccumulator};
@@ -27,10 +26,12 @@
 pub mod accum;
 pub mod base;
 pub mod fit;
-pub mod rng;
+pub mod idim;
+pub mod payload;
 pub mod stats;
 
 pub use accum::{IvAccumulator, LsAccumulator};
 pub use base::{BaseParams, robot_base_params};
 pub use fit::{DwhTest, FitReport, dwh_test, fit_iv, fit_ls};
-pub use rng::SplitMix64;
+pub use idim::{idim_iv, Experiment, IdimIvResult};
+pub use payload::{payload_from_fit, NotIdentifiable, PayloadEstimate};

@@ -1,0 +1,123 @@
+//! Estimation hot paths: one recursive update of the paper's terminal-link problem
+//! (k = 5, 18 base columns, rows of joints 5 and 6: dynamics + estimator), one scalar-row
+//! update of RLS and RIV over the paper robot's full base set, and a batch fit of 100 000
+//! UR5 samples (regressor + streaming QR least squares).
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use ivdyn::ident::{base::robot_base_params, fit_ls, LsAccumulator};
+use ivdyn::repro::{Estimator, PaperSim};
+use ivdyn::Robot;
+use ivdyn_core::estim::terminal::{Method, TerminalLink};
+use ivdyn_core::estim::{Riv, Rls};
+use ivdyn_core::rng::Rng;
+use ivdyn_core::{Data, VecN};
+use nalgebra::{Const, DVector, Dyn, SVector};
+use std::hint::black_box;
+
+fn terminal_link(c: &mut Criterion) {
+    let sim = PaperSim::new(0).unwrap();
+    assert_eq!(sim.base.base_count(), 18);
+    let cols = SVector::<usize, 18>::from_iterator(sim.base.independent.iter().copied());
+    let mut tl = TerminalLink::<6, Const<18>>::new(
+        sim.nominal.clone(),
+        sim.spec,
+        cols,
+        sim.row_weight,
+        Method::Iv(Riv::new(SVector::<f64, 18>::zeros(), 1e4)),
+    );
+    let samples: Vec<_> = sim.samples(1, 4000).collect();
+    let mut d = Data::<6>::new();
+    let instr: Vec<VecN<6>> = samples.iter().map(|s| Estimator::IvmEq35.instrument(&sim, s, &mut d).unwrap().unwrap()).collect();
+    let mut k = 0;
+    c.bench_function("terminal_link_iv_update/paper_k5_18cols", |b| {
+        b.iter(|| {
+            k = (k + 1) % samples.len();
+            let s = &samples[k];
+            tl.update(&s.q, &s.qd, &s.qdd_meas, &s.tau, &instr[k]).unwrap();
+            black_box(tl.theta()[0])
+        })
+    });
+    let mut ls = TerminalLink::<6, Const<18>>::new(
+        sim.nominal.clone(),
+        sim.spec,
+        cols,
+        sim.row_weight,
+        Method::Ls(Rls::new(SVector::<f64, 18>::zeros(), 1e4)),
+    );
+    c.bench_function("terminal_link_ls_update/paper_k5_18cols", |b| {
+        b.iter(|| {
+            k = (k + 1) % samples.len();
+            let s = &samples[k];
+            ls.update(&s.q, &s.qd, &s.qdd_meas, &s.tau, &s.qdd_meas).unwrap();
+            black_box(ls.theta()[0])
+        })
+    });
+}
+
+fn full_base_set(c: &mut Criterion) {
+    // the paper robot's full base set (inertial + drive)
+    let robot = Robot::paper();
+    let base = robot_base_params(&robot, 100, 1).unwrap();
+    let b = base.base_count();
+    let mut rng = Rng::new(3);
+    let rows: Vec<DVector<f64>> = (0..1024).map(|_| DVector::from_fn(b, |_, _| rng.uniform(-1.0, 1.0))).collect();
+    let mut rls = Rls::<Dyn>::new(DVector::zeros(b), 1e4);
+    let mut riv = Riv::<Dyn>::new(DVector::zeros(b), 1e4);
+    let mut k = 0;
+    c.bench_function(&format!("rls_row_update/paper_full_base_{b}"), |bch| {
+        bch.iter(|| {
+            k = (k + 1) & 1023;
+            rls.update(&rows[k], 0.5, 1.0).unwrap();
+        })
+    });
+    c.bench_function(&format!("riv_row_update/paper_full_base_{b}"), |bch| {
+        bch.iter(|| {
+            k = (k + 1) & 1023;
+            riv.update(&rows[k], &rows[(k + 7) & 1023], 0.5, 1.0).unwrap();
+        })
+    });
+}
+
+fn batch_fit(c: &mut Criterion) {
+    let robot = Robot::from_urdf(ivdyn_benches::root().join("fixtures/ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
+    let base = robot_base_params(&robot, 60, 1).unwrap();
+    let (n, p, b) = (robot.dof(), robot.num_params(), base.base_count());
+    let states = ivdyn_benches::states::<6>(100_000);
+    let mut g = c.benchmark_group("batch");
+    g.sample_size(10);
+    g.bench_function("ur5_100k_samples_regressor_plus_qr_ls", |bch| {
+        bch.iter(|| {
+            let mut acc = LsAccumulator::new(b);
+            let (mut phi, mut y) = (Vec::with_capacity(4096 * b), Vec::with_capacity(4096));
+            let mut row_b = vec![0.0; b];
+            let mut yf = vec![0.0; n * p];
+            let mut data = Data::<6>::new();
+            let ivdyn::DynModel::N6(m) = &robot.model else { unreachable!() };
+            for (q, qd, qdd) in &states {
+                let tau = *ivdyn_core::rnea(m, &mut data, q, qd, qdd);
+                ivdyn_core::regressor(m, &mut data, q, qd, qdd).write_row_major(&mut yf);
+                for i in 0..n {
+                    base.select_row(&yf[i * p..(i + 1) * p], &mut row_b).unwrap();
+                    phi.extend_from_slice(&row_b);
+                    y.push(tau[i]);
+                }
+                if y.len() >= 4096 {
+                    acc.add_rows(&phi, &y, None).unwrap();
+                    phi.clear();
+                    y.clear();
+                }
+            }
+            acc.add_rows(&phi, &y, None).unwrap();
+            black_box(fit_ls(&acc, &base.names).unwrap().theta[0])
+        })
+    });
+    g.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().warm_up_time(std::time::Duration::from_millis(500))
+        .measurement_time(std::time::Duration::from_secs(2));
+    targets = terminal_link, full_base_set, batch_fit
+}
+criterion_main!(benches);
