@@ -44,7 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let n_fig = n_max.min(200_000);
     let record = log_points(100, n_fig, 20);
-    eprintln!("recursive traces: {} samples x 3 estimators", n_fig);
+    eprintln!("recursive traces: {} samples x {} estimators", n_fig, Estimator::ALL.len());
     let traces = recursive_traces(&sim, 0, &record, 1e4)?;
     std::fs::write(
         out.join("traces.json"),

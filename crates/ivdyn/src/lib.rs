@@ -15,7 +15,7 @@ pub mod control;
 pub mod error;
 pub mod ident;
 pub mod io;
-// pub mod repro; (enabled once ident lands)
+pub mod repro;
 pub mod robot;
 pub mod signal;
 pub mod urdf;

@@ -1,0 +1,54 @@
+//! The one place where Rust errors become Python exceptions.
+//!
+//! - `ValueError`: bad input (array lengths, NaN/inf, URDF content, unknown links, too many
+//!   joints, invalid axes);
+//! - `FileNotFoundError` / `OSError`: the URDF file cannot be read;
+//! - `RuntimeError`: numerical failure (e.g. a mass matrix that is not positive definite).
+//!
+//! The message is always the Rust error's `Display` text.
+
+use ivdyn::batch::BatchError;
+use ivdyn::core::Error as CoreError;
+use ivdyn::Error;
+use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyRuntimeError, PyValueError};
+use pyo3::PyErr;
+
+fn core_is_input(e: &CoreError) -> bool {
+    matches!(
+        e,
+        CoreError::NonFinite { .. }
+            | CoreError::Dimension { .. }
+            | CoreError::InvalidAxis { .. }
+            | CoreError::NonPhysicalInertia { .. }
+    )
+}
+
+/// `ivdyn::Error` -> Python exception.
+pub fn to_py(e: Error) -> PyErr {
+    let msg = e.to_string();
+    match &e {
+        Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(msg),
+        Error::Io { .. } => PyOSError::new_err(msg),
+        Error::Core(c) if core_is_input(c) => PyValueError::new_err(msg),
+        Error::Core(_) => PyRuntimeError::new_err(msg),
+        Error::UrdfParse { .. }
+        | Error::UnsupportedJoint { .. }
+        | Error::MimicJoint { .. }
+        | Error::UnknownLink { .. }
+        | Error::Branching { .. }
+        | Error::UrdfStructure { .. }
+        | Error::BadJoint { .. }
+        | Error::TooManyJoints { .. }
+        | Error::Dimension { .. } => PyValueError::new_err(msg),
+        _ => PyRuntimeError::new_err(msg),
+    }
+}
+
+/// `ivdyn::batch::BatchError` -> Python exception (the message names the sample).
+pub fn batch_to_py(e: BatchError) -> PyErr {
+    match e {
+        BatchError::Input(e) => to_py(e),
+        BatchError::Sample { ref source, .. } if core_is_input(source) => PyValueError::new_err(e.to_string()),
+        e => PyRuntimeError::new_err(e.to_string()),
+    }
+}

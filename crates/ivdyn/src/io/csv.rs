@@ -1,0 +1,165 @@
+//! CSV joint logs: one row per sample, a header row naming the columns.
+//!
+//! * `t`: time in seconds (non-decreasing);
+//! * `<joint>.q` (required for every wanted joint), `<joint>.qd`, `<joint>.tau`,
+//!   `<joint>.u` (optional; a field is read when every wanted joint has it, and a field
+//!   that only some joints have is an error);
+//! * any other column (other joints, other signals) is ignored;
+//! * separator `,`; blank lines and lines starting with `#` are skipped; a comment
+//!   `# t0_ns: <int>` sets [`JointLog::t0_ns`] (written by [`write_csv`]).
+//!
+//! Values are parsed with Rust's `f64` parser (`1e-3`, `-0.5`, `inf`, `NaN` are numbers,
+//! the last two rejected as non-finite). Written values use the shortest representation
+//! that parses back to the same `f64`, so a write/read round trip is exact.
+
+use std::fs::File;
+use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::path::Path;
+
+use super::{name_list, JointLog};
+use crate::error::{Error, Result};
+
+const FIELDS: [&str; 4] = ["q", "qd", "tau", "u"];
+
+/// Reads a CSV joint log, returning the joints in the order of `joint_names`.
+pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Result<JointLog> {
+    let path = path.as_ref();
+    let err = |msg: String| Error::Log { file: path.to_path_buf(), msg };
+    let io = |e: std::io::Error| Error::Io { file: path.to_path_buf(), source: e };
+    let want: Vec<String> = joint_names.iter().map(|s| s.as_ref().to_string()).collect();
+    if want.is_empty() {
+        return Err(err("no joint names given to match the log against".into()));
+    }
+    let n = want.len();
+    let rd = BufReader::new(File::open(path).map_err(io)?);
+    let mut header: Option<Vec<String>> = None;
+    // column index of t, and of each (field, joint)
+    let mut tcol = 0usize;
+    let mut cols: [Option<Vec<usize>>; 4] = [None, None, None, None];
+    let mut log = JointLog { joint_names: want.clone(), ..Default::default() };
+    let mut data: [Vec<f64>; 4] = Default::default();
+    for (ln, line) in rd.lines().enumerate() {
+        let line = line.map_err(io)?;
+        let lineno = ln + 1;
+        let s = line.trim();
+        if s.is_empty() {
+            continue;
+        }
+        if let Some(c) = s.strip_prefix('#') {
+            if let Some(v) = c.trim().strip_prefix("t0_ns:") {
+                log.t0_ns = v.trim().parse().map_err(|_| err(format!("line {lineno}: bad t0_ns '{}'", v.trim())))?;
+            }
+            continue;
+        }
+        let cells: Vec<&str> = s.split(',').map(str::trim).collect();
+        let Some(h) = &header else {
+            let h: Vec<String> = cells.iter().map(|c| c.trim_matches('"').to_string()).collect();
+            tcol = h.iter().position(|c| c == "t").ok_or_else(|| {
+                err(format!("line {lineno}: no time column 't' in the header; columns are {}", name_list(&h)))
+            })?;
+            for (fi, f) in FIELDS.iter().enumerate() {
+                let idx: Vec<Option<usize>> =
+                    want.iter().map(|j| h.iter().position(|c| *c == format!("{j}.{f}"))).collect();
+                let missing: Vec<&str> =
+                    want.iter().zip(&idx).filter(|(_, i)| i.is_none()).map(|(j, _)| j.as_str()).collect();
+                if missing.is_empty() {
+                    cols[fi] = Some(idx.into_iter().map(Option::unwrap).collect());
+                } else if *f == "q" || missing.len() < n {
+                    let have: Vec<&String> = h.iter().filter(|c| c.ends_with(&format!(".{f}"))).collect();
+                    return Err(err(format!(
+                        "columns {} are missing (joints {}); the file has {}",
+                        name_list(&missing.iter().map(|j| format!("{j}.{f}")).collect::<Vec<_>>()),
+                        name_list(&missing),
+                        name_list(&have)
+                    )));
+                }
+            }
+            header = Some(h);
+            continue;
+        };
+        let k = log.t.len();
+        if cells.len() != h.len() {
+            return Err(err(format!("line {lineno} (sample {k}): {} cells, the header has {}", cells.len(), h.len())));
+        }
+        let num = |c: usize| -> Result<f64> {
+            cells[c].parse::<f64>().map_err(|_| {
+                err(format!("line {lineno} (sample {k}): column '{}': '{}' is not a number", h[c], cells[c]))
+            })
+        };
+        let t = num(tcol)?;
+        if !t.is_finite() {
+            return Err(err(format!("line {lineno} (sample {k}): time is {t}")));
+        }
+        if let Some(&prev) = log.t.last()
+            && t < prev
+        {
+            return Err(err(format!(
+                "line {lineno} (sample {k}): time goes back ({t} s after {prev} s at sample {})",
+                k - 1
+            )));
+        }
+        log.t.push(t);
+        for (fi, f) in FIELDS.iter().enumerate() {
+            let Some(ix) = &cols[fi] else { continue };
+            for (j, &c) in ix.iter().enumerate() {
+                let v = num(c)?;
+                if !v.is_finite() {
+                    return Err(err(format!("line {lineno} (sample {k}): joint '{}' {f} is {v}", want[j])));
+                }
+                data[fi].push(v);
+            }
+        }
+    }
+    if header.is_none() || log.t.is_empty() {
+        return Err(err("no samples (a header row and at least one data row are needed)".into()));
+    }
+    let [q, qd, tau, u] = data;
+    log.q = q;
+    log.qd = cols[1].is_some().then_some(qd);
+    log.tau = cols[2].is_some().then_some(tau);
+    log.u = cols[3].is_some().then_some(u);
+    Ok(log)
+}
+
+/// Writes a joint log as CSV (columns `t`, then `<joint>.q` for every joint, then `.qd`,
+/// `.tau`, `.u` when present), with a `# t0_ns: ...` comment line first. Written to a
+/// temporary file and renamed on success.
+pub fn write_csv(path: impl AsRef<Path>, log: &JointLog) -> Result<()> {
+    let path = path.as_ref();
+    log.check_shapes()?;
+    let fname = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{fname}.{}.tmp", std::process::id()));
+    let io = |e: std::io::Error| Error::Io { file: tmp.clone(), source: e };
+    let res = (|| -> Result<()> {
+        let mut w = BufWriter::new(File::create(&tmp).map_err(io)?);
+        let n = log.dof();
+        let arrays: Vec<(&str, &Vec<f64>)> = [("q", Some(&log.q)), ("qd", log.qd.as_ref()), ("tau", log.tau.as_ref()), ("u", log.u.as_ref())]
+            .into_iter()
+            .filter_map(|(f, a)| a.map(|a| (f, a)))
+            .collect();
+        writeln!(w, "# t0_ns: {}", log.t0_ns).map_err(io)?;
+        let mut head = vec!["t".to_string()];
+        for (f, _) in &arrays {
+            head.extend(log.joint_names.iter().map(|j| format!("{j}.{f}")));
+        }
+        writeln!(w, "{}", head.join(",")).map_err(io)?;
+        let mut line = String::new();
+        for k in 0..log.len() {
+            use std::fmt::Write as _;
+            line.clear();
+            let _ = write!(line, "{:?}", log.t[k]);
+            for (_, a) in &arrays {
+                for v in &a[k * n..(k + 1) * n] {
+                    let _ = write!(line, ",{v:?}");
+                }
+            }
+            writeln!(w, "{line}").map_err(io)?;
+        }
+        w.into_inner().map_err(|e| io(e.into_error()))?.sync_all().map_err(io)?;
+        std::fs::rename(&tmp, path).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })
+    })();
+    if res.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    res
+}

@@ -1,0 +1,587 @@
+//! Streaming reader of ROS 2 MCAP logs (`sensor_msgs/msg/JointState`, CDR).
+//!
+//! The file is read in one pass through [`mcap::sans_io::LinearReader`] with a 256 KiB
+//! buffer: memory stays bounded by the largest chunk record (ros2 bag writes 1 MiB chunks
+//! by default), whatever the file size. Chunked, uncompressed, zstd and lz4 files are read.
+//! Chunk CRCs are checked when the writer stored them.
+//!
+//! Summary and index records are not needed and not used, so a log whose recording was
+//! interrupted (no footer) can still be read with [`ReadOptions::allow_truncated`].
+
+use std::collections::HashMap;
+use std::fs::File;
+use std::io::{BufReader, Read};
+use std::path::{Path, PathBuf};
+
+use ::mcap::records::Record;
+use ::mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use ::mcap::McapError;
+
+use super::cdr::{decode_joint_state, JointState};
+use super::{name_list, JointLog};
+use crate::error::{Error, Result};
+
+/// The schema names accepted for JointState (ROS 2, and the ROS 1 spelling some
+/// converters keep).
+pub const JOINT_STATE_SCHEMAS: [&str; 2] = ["sensor_msgs/msg/JointState", "sensor_msgs/JointState"];
+
+/// Which field of the command topic's JointState is the actuator input `u`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CommandField {
+    /// `position` (position-controlled drives).
+    Position,
+    /// `velocity`.
+    Velocity,
+    /// `effort` (torque or current command, the paper's input): the default.
+    #[default]
+    Effort,
+}
+
+/// How command samples are aligned to the measurement stamps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CommandAlign {
+    /// The last command at or before each measurement stamp (what a drive does with a
+    /// sampled command); the default. Measurements before the first command take the first.
+    #[default]
+    ZeroOrderHold,
+    /// Linear interpolation between the two commands around each measurement stamp,
+    /// held constant outside the command's time span.
+    Linear,
+}
+
+/// Options of [`read_mcap`] and [`for_each_sample`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReadOptions {
+    /// The measured JointState topic (default `/joint_states`).
+    pub topic: String,
+    /// An optional second JointState topic carrying the actuator command `u`.
+    pub command_topic: Option<String>,
+    /// Which field of the command messages is `u` (default: effort).
+    pub command_field: CommandField,
+    /// Alignment of commands to measurement stamps (default: zero-order hold).
+    pub command_align: CommandAlign,
+    /// The joints wanted, in the order wanted (normally `Robot::joint_names`). Each must
+    /// be in every message; other joints in the log are ignored.
+    pub joint_names: Vec<String>,
+    /// Use the MCAP log time (when the recorder received the message) instead of the
+    /// message's `header.stamp` (when the driver sampled it, the default). Use it when
+    /// the driver leaves the stamp at zero.
+    pub use_log_time: bool,
+    /// Accept a file that ends in the middle of a record (an interrupted recording):
+    /// keep the messages read before the cut and set [`JointLog::truncated`]. Default
+    /// false: a truncated file is an error.
+    pub allow_truncated: bool,
+}
+
+impl ReadOptions {
+    /// Defaults (`/joint_states`, header stamps, no command topic) for these joints.
+    pub fn new<S: AsRef<str>>(joint_names: &[S]) -> Self {
+        ReadOptions {
+            topic: "/joint_states".into(),
+            command_topic: None,
+            command_field: CommandField::Effort,
+            command_align: CommandAlign::ZeroOrderHold,
+            joint_names: joint_names.iter().map(|s| s.as_ref().to_string()).collect(),
+            use_log_time: false,
+            allow_truncated: false,
+        }
+    }
+    /// Sets the measured topic.
+    pub fn topic(mut self, topic: &str) -> Self {
+        self.topic = topic.into();
+        self
+    }
+    /// Sets the command topic.
+    pub fn command_topic(mut self, topic: &str) -> Self {
+        self.command_topic = Some(topic.into());
+        self
+    }
+}
+
+/// Which topic a streamed [`Sample`] comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Source {
+    /// The measured topic ([`ReadOptions::topic`]).
+    Measured,
+    /// The command topic ([`ReadOptions::command_topic`]).
+    Command,
+}
+
+/// One decoded message, in the joint order of [`ReadOptions::joint_names`].
+#[derive(Debug, Clone, Copy)]
+pub struct Sample<'a> {
+    /// Which topic.
+    pub source: Source,
+    /// Index of this message within its topic (0-based).
+    pub index: usize,
+    /// Time in nanoseconds (header stamp, or log time with `use_log_time`).
+    pub stamp_ns: i64,
+    /// Positions; always present for [`Source::Measured`].
+    pub q: Option<&'a [f64]>,
+    /// Velocities, if the message has them.
+    pub qd: Option<&'a [f64]>,
+    /// Efforts, if the message has them.
+    pub tau: Option<&'a [f64]>,
+}
+
+/// What a streaming pass found.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct StreamSummary {
+    /// Messages on the measured topic.
+    pub measured: usize,
+    /// Messages on the command topic.
+    pub commands: usize,
+    /// Every topic in the file with its schema name, in order of appearance.
+    pub topics: Vec<(String, String)>,
+    /// The file ended mid-record and `allow_truncated` accepted it.
+    pub truncated: bool,
+    /// Bytes read.
+    pub bytes: u64,
+}
+
+/// Per-topic decoding state: name mapping cache, stamp order, field presence.
+struct TopicState {
+    topic: String,
+    source: Source,
+    count: usize,
+    last_stamp: Option<i64>,
+    cached_names: Vec<String>,
+    map: Vec<usize>,
+    has_qd: Option<bool>,
+    has_tau: Option<bool>,
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    tau: Vec<f64>,
+}
+
+impl TopicState {
+    fn new(topic: &str, source: Source, n: usize) -> Self {
+        TopicState {
+            topic: topic.into(),
+            source,
+            count: 0,
+            last_stamp: None,
+            cached_names: vec![],
+            map: vec![],
+            has_qd: None,
+            has_tau: None,
+            q: vec![0.0; n],
+            qd: vec![0.0; n],
+            tau: vec![0.0; n],
+        }
+    }
+
+    /// Validates `m` and fills `q/qd/tau` in the wanted joint order.
+    fn load(&mut self, m: &JointState, stamp_ns: i64, want: &[String]) -> std::result::Result<(), String> {
+        let k = self.count;
+        let topic = &self.topic;
+        if m.name != self.cached_names {
+            let mut map = Vec::with_capacity(want.len());
+            let mut missing = vec![];
+            for w in want {
+                match m.name.iter().position(|x| x == w) {
+                    Some(i) => map.push(i),
+                    None => missing.push(w.as_str()),
+                }
+            }
+            if !missing.is_empty() {
+                return Err(format!(
+                    "topic {topic}, sample {k}: joints {} are not in the log; the log has {}",
+                    name_list(&missing),
+                    name_list(&m.name)
+                ));
+            }
+            self.map = map;
+            self.cached_names = m.name.clone();
+        }
+        let nn = m.name.len();
+        for (field, len) in [("position", m.position.len()), ("velocity", m.velocity.len()), ("effort", m.effort.len())] {
+            if len != 0 && len != nn {
+                return Err(format!(
+                    "topic {topic}, sample {k}: {field} has {len} entries for {nn} joint names"
+                ));
+            }
+        }
+        if self.source == Source::Measured && m.position.is_empty() {
+            return Err(format!("topic {topic}, sample {k}: position is empty"));
+        }
+        for (field, len, has) in [
+            ("velocity", m.velocity.len(), &mut self.has_qd),
+            ("effort", m.effort.len(), &mut self.has_tau),
+        ] {
+            let now = len != 0;
+            match *has {
+                None => *has = Some(now),
+                Some(before) if before != now => {
+                    return Err(format!(
+                        "topic {topic}, sample {k}: {field} is {} but was {} in sample 0",
+                        if now { "present" } else { "empty" },
+                        if before { "present" } else { "empty" }
+                    ))
+                }
+                _ => {}
+            }
+        }
+        if let Some(prev) = self.last_stamp
+            && stamp_ns < prev
+        {
+            return Err(format!(
+                "topic {topic}, sample {k}: stamp goes back in time ({} s, {:.9} s before sample {})",
+                fmt_stamp(stamp_ns),
+                (prev - stamp_ns) as f64 * 1e-9,
+                k - 1
+            ));
+        }
+        self.last_stamp = Some(stamp_ns);
+        for (field, src, dst) in [
+            ("position", &m.position, &mut self.q),
+            ("velocity", &m.velocity, &mut self.qd),
+            ("effort", &m.effort, &mut self.tau),
+        ] {
+            if src.is_empty() {
+                continue;
+            }
+            for (j, &i) in self.map.iter().enumerate() {
+                let v = src[i];
+                if !v.is_finite() {
+                    return Err(format!("topic {topic}, sample {k}: joint '{}' {field} is {v}", want[j]));
+                }
+                dst[j] = v;
+            }
+        }
+        Ok(())
+    }
+
+    fn sample(&self, stamp_ns: i64, m: &JointState) -> Sample<'_> {
+        Sample {
+            source: self.source,
+            index: self.count,
+            stamp_ns,
+            q: (!m.position.is_empty()).then_some(&self.q[..]),
+            qd: (!m.velocity.is_empty()).then_some(&self.qd[..]),
+            tau: (!m.effort.is_empty()).then_some(&self.tau[..]),
+        }
+    }
+}
+
+fn fmt_stamp(ns: i64) -> String {
+    format!("{}.{:09}", ns.div_euclid(1_000_000_000), ns.rem_euclid(1_000_000_000))
+}
+
+/// Streams every message of the measured (and command) topic to `f`, in file order, in
+/// one pass with bounded memory. Returns what was seen. Errors from `f` stop the pass
+/// and are returned as they are.
+pub fn for_each_sample<F>(path: impl AsRef<Path>, opts: &ReadOptions, f: F) -> Result<StreamSummary>
+where
+    F: FnMut(&Sample<'_>) -> Result<()>,
+{
+    let path = path.as_ref();
+    let file = File::open(path).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })?;
+    let size = file.metadata().map(|m| m.len()).ok();
+    stream(BufReader::with_capacity(256 * 1024, file), path, size, opts, f)
+}
+
+/// [`for_each_sample`] on any byte source (a pipe, a socket, a decompressor); `name` is
+/// used in error messages.
+pub fn for_each_sample_from<R: Read, F>(source: R, name: &Path, opts: &ReadOptions, f: F) -> Result<StreamSummary>
+where
+    F: FnMut(&Sample<'_>) -> Result<()>,
+{
+    stream(source, name, None, opts, f)
+}
+
+fn stream<R: Read, F>(mut src: R, path: &Path, size: Option<u64>, opts: &ReadOptions, mut f: F) -> Result<StreamSummary>
+where
+    F: FnMut(&Sample<'_>) -> Result<()>,
+{
+    let file = || path.to_path_buf();
+    let err = |msg: String| Error::Log { file: file(), msg };
+    if opts.joint_names.is_empty() {
+        return Err(err("no joint names given to match the log against".into()));
+    }
+    let n = opts.joint_names.len();
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_validate_chunk_crcs(true)
+            .with_record_length_limit(1 << 30),
+    );
+    let mut schemas: HashMap<u16, (String, String)> = HashMap::new();
+    // channel id -> index into `states` (or None: a channel we ignore)
+    let mut channels: HashMap<u16, Option<usize>> = HashMap::new();
+    let mut states = vec![TopicState::new(&opts.topic, Source::Measured, n)];
+    if let Some(c) = &opts.command_topic {
+        if *c == opts.topic {
+            return Err(err(format!("command topic {c} is the measured topic")));
+        }
+        states.push(TopicState::new(c, Source::Command, n));
+    }
+    let mut summary = StreamSummary::default();
+    let mut offset: u64 = 0;
+    let mut records: u64 = 0;
+    let size_note = size.map(|s| format!(" of {s}")).unwrap_or_default();
+
+    while let Some(ev) = reader.next_event() {
+        let ev = match ev {
+            Ok(ev) => ev,
+            Err(McapError::UnexpectedEof) | Err(McapError::UnexpectedEoc) if opts.allow_truncated && offset > 8 => {
+                summary.truncated = true;
+                break;
+            }
+            Err(McapError::UnexpectedEof) => {
+                return Err(err(format!(
+                    "truncated MCAP: the file ends in the middle of a record at byte {offset} after {records} records \
+                     ({} messages on {}); set allow_truncated to keep what was read",
+                    states[0].count, opts.topic
+                )))
+            }
+            Err(McapError::BadMagic) => {
+                return Err(err(format!("not an MCAP file (bad magic bytes at the start or end; {offset} bytes read)")))
+            }
+            Err(e) => {
+                return Err(err(format!(
+                    "corrupt MCAP at or before byte {offset}{size_note} (after {records} records): {e}"
+                )))
+            }
+        };
+        match ev {
+            LinearReadEvent::ReadRequest(need) => {
+                let buf = reader.insert(need);
+                let got = read_some(&mut src, buf).map_err(|e| Error::Io { file: file(), source: e })?;
+                reader.notify_read(got);
+                offset += got as u64;
+            }
+            LinearReadEvent::Record { opcode, data } => {
+                records += 1;
+                let rec = ::mcap::parse_record(opcode, data).map_err(|e| {
+                    err(format!("corrupt MCAP record #{records} (opcode {opcode:#04x}) at or before byte {offset}: {e}"))
+                })?;
+                match rec {
+                    Record::Schema { header, .. } => {
+                        schemas.insert(header.id, (header.name, header.encoding));
+                    }
+                    Record::Channel(c) => {
+                        if channels.contains_key(&c.id) {
+                            continue; // repeated in the summary section
+                        }
+                        let schema = schemas.get(&c.schema_id).cloned();
+                        let schema_name = schema.as_ref().map(|s| s.0.clone()).unwrap_or_else(|| "(no schema)".into());
+                        if !summary.topics.iter().any(|(t, _)| *t == c.topic) {
+                            summary.topics.push((c.topic.clone(), schema_name.clone()));
+                        }
+                        let which = states.iter().position(|s| s.topic == c.topic);
+                        if which.is_some() {
+                            let ok = schema.as_ref().is_some_and(|(name, enc)| {
+                                JOINT_STATE_SCHEMAS.contains(&name.as_str()) && (enc == "ros2msg" || enc == "ros2idl")
+                            }) && c.message_encoding == "cdr";
+                            if !ok {
+                                let enc = schema.as_ref().map(|s| s.1.as_str()).unwrap_or("");
+                                return Err(err(format!(
+                                    "topic {} has schema '{schema_name}' (schema encoding '{enc}', message encoding '{}'); \
+                                     expected sensor_msgs/msg/JointState (ros2msg, cdr)",
+                                    c.topic, c.message_encoding
+                                )));
+                            }
+                        }
+                        channels.insert(c.id, which);
+                    }
+                    Record::Message { header, data } => {
+                        let Some(&Some(w)) = channels.get(&header.channel_id) else { continue };
+                        let st = &mut states[w];
+                        let m = decode_joint_state(&data).map_err(|e| {
+                            err(format!("topic {}, sample {}: bad message: {e}", st.topic, st.count))
+                        })?;
+                        let stamp = if opts.use_log_time {
+                            i64::try_from(header.log_time).unwrap_or(i64::MAX)
+                        } else {
+                            m.stamp_ns()
+                        };
+                        st.load(&m, stamp, &opts.joint_names).map_err(err)?;
+                        f(&st.sample(stamp, &m))?;
+                        st.count += 1;
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+    summary.bytes = offset;
+    summary.measured = states[0].count;
+    summary.commands = states.get(1).map_or(0, |s| s.count);
+    for st in &states {
+        if st.count > 0 {
+            continue;
+        }
+        let known = summary.topics.iter().any(|(t, _)| *t == st.topic);
+        let listing = if summary.topics.is_empty() {
+            "the log has no topics".to_string()
+        } else {
+            let l: Vec<String> = summary.topics.iter().map(|(t, s)| format!("{t} ({s})")).collect();
+            format!("the log has {}", l.join(", "))
+        };
+        return Err(err(if known {
+            format!("topic {} has no messages{}", st.topic, if summary.truncated { " before the truncation" } else { "" })
+        } else {
+            format!("topic {} not found; {listing}", st.topic)
+        }));
+    }
+    Ok(summary)
+}
+
+/// Reads until `buf` is full or EOF (a short read from a pipe is not EOF).
+fn read_some<R: Read>(src: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut got = 0;
+    while got < buf.len() {
+        match src.read(&mut buf[got..]) {
+            Ok(0) => break,
+            Ok(k) => got += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(got)
+}
+
+/// Reads a whole JointState log into memory (one streaming pass; the result is `T x N`).
+/// The command topic, if any, is aligned to the measurement stamps
+/// ([`ReadOptions::command_align`]). Times are relative to the first measurement.
+pub fn read_mcap(path: impl AsRef<Path>, opts: &ReadOptions) -> Result<JointLog> {
+    let path = path.as_ref();
+    let n = opts.joint_names.len();
+    let mut stamps: Vec<i64> = vec![];
+    let (mut q, mut qd, mut tau) = (vec![], vec![], vec![]);
+    let (mut has_qd, mut has_tau) = (false, false);
+    let (mut cmd_t, mut cmd) = (vec![], vec![]);
+    let field = opts.command_field;
+    let summary = for_each_sample(path, opts, |s| {
+        match s.source {
+            Source::Measured => {
+                stamps.push(s.stamp_ns);
+                q.extend_from_slice(s.q.unwrap_or(&[]));
+                if let Some(v) = s.qd {
+                    has_qd = true;
+                    qd.extend_from_slice(v);
+                }
+                if let Some(v) = s.tau {
+                    has_tau = true;
+                    tau.extend_from_slice(v);
+                }
+            }
+            Source::Command => {
+                let v = match field {
+                    CommandField::Position => s.q,
+                    CommandField::Velocity => s.qd,
+                    CommandField::Effort => s.tau,
+                };
+                let Some(v) = v else {
+                    return Err(Error::Log {
+                        file: path.to_path_buf(),
+                        msg: format!(
+                            "topic {}, sample {}: the command field {field:?} is empty",
+                            opts.command_topic.as_deref().unwrap_or(""),
+                            s.index
+                        ),
+                    });
+                };
+                cmd_t.push(s.stamp_ns);
+                cmd.extend_from_slice(v);
+            }
+        }
+        Ok(())
+    })?;
+    let t0 = stamps[0];
+    let t = stamps.iter().map(|&s| (s - t0) as f64 * 1e-9).collect();
+    let u = opts.command_topic.as_ref().map(|_| align(&stamps, &cmd_t, &cmd, n, opts.command_align));
+    Ok(JointLog {
+        joint_names: opts.joint_names.clone(),
+        t0_ns: t0,
+        t,
+        q,
+        qd: has_qd.then_some(qd),
+        tau: has_tau.then_some(tau),
+        u,
+        truncated: summary.truncated,
+    })
+}
+
+/// Aligns command rows (`ct`, non-decreasing, non-empty) to measurement stamps `mt`.
+fn align(mt: &[i64], ct: &[i64], c: &[f64], n: usize, how: CommandAlign) -> Vec<f64> {
+    let mut out = Vec::with_capacity(mt.len() * n);
+    let mut i = 0; // last command index with ct[i] <= t (or 0)
+    for &t in mt {
+        while i + 1 < ct.len() && ct[i + 1] <= t {
+            i += 1;
+        }
+        let row = |k: usize| &c[k * n..(k + 1) * n];
+        if t <= ct[0] || i + 1 >= ct.len() || how == CommandAlign::ZeroOrderHold {
+            out.extend_from_slice(row(i));
+        } else {
+            let (a, b) = (ct[i], ct[i + 1]);
+            let w = if b > a { (t - a) as f64 / (b - a) as f64 } else { 0.0 };
+            out.extend(row(i).iter().zip(row(i + 1)).map(|(x, y)| x + w * (y - x)));
+        }
+    }
+    out
+}
+
+/// Lists the topics of an MCAP file with their schema names and message counts (one
+/// streaming pass; for error messages and `ivdyn info`).
+pub fn list_topics(path: impl AsRef<Path>) -> Result<Vec<(String, String, usize)>> {
+    let path: PathBuf = path.as_ref().to_path_buf();
+    let file = File::open(&path).map_err(|e| Error::Io { file: path.clone(), source: e })?;
+    let mut src = BufReader::with_capacity(256 * 1024, file);
+    let mut reader = LinearReader::new();
+    let mut schemas: HashMap<u16, String> = HashMap::new();
+    let mut chan: HashMap<u16, usize> = HashMap::new();
+    let mut out: Vec<(String, String, usize)> = vec![];
+    let mut offset = 0u64;
+    while let Some(ev) = reader.next_event() {
+        match ev.map_err(|e| Error::Log { file: path.clone(), msg: format!("corrupt MCAP at or before byte {offset}: {e}") })? {
+            LinearReadEvent::ReadRequest(need) => {
+                let got = read_some(&mut src, reader.insert(need)).map_err(|e| Error::Io { file: path.clone(), source: e })?;
+                reader.notify_read(got);
+                offset += got as u64;
+            }
+            LinearReadEvent::Record { opcode, data } => {
+                match ::mcap::parse_record(opcode, data)
+                    .map_err(|e| Error::Log { file: path.clone(), msg: format!("corrupt MCAP record near byte {offset}: {e}") })?
+                {
+                    Record::Schema { header, .. } => {
+                        schemas.insert(header.id, header.name);
+                    }
+                    Record::Channel(c) => {
+                        if let std::collections::hash_map::Entry::Vacant(e) = chan.entry(c.id) {
+                            let s = schemas.get(&c.schema_id).cloned().unwrap_or_default();
+                            let i = out.iter().position(|(t, _, _)| *t == c.topic).unwrap_or_else(|| {
+                                out.push((c.topic.clone(), s, 0));
+                                out.len() - 1
+                            });
+                            e.insert(i);
+                        }
+                    }
+                    Record::Message { header, .. } => {
+                        if let Some(&i) = chan.get(&header.channel_id) {
+                            out[i].2 += 1;
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn align_zoh_and_linear() {
+        let mt = [0, 5, 10, 15, 20, 25];
+        let ct = [5, 15, 15, 20];
+        let c = [1.0, 2.0, 3.0, 4.0];
+        assert_eq!(align(&mt, &ct, &c, 1, CommandAlign::ZeroOrderHold), vec![1.0, 1.0, 1.0, 3.0, 4.0, 4.0]);
+        assert_eq!(align(&mt, &ct, &c, 1, CommandAlign::Linear), vec![1.0, 1.0, 1.5, 3.0, 4.0, 4.0]);
+        assert_eq!(fmt_stamp(-1), "-1.999999999");
+    }
+}

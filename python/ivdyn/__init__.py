@@ -1,0 +1,251 @@
+"""ivdyn: robot-arm dynamics from NumPy.
+
+Inverse and forward dynamics, gravity torques, mass matrices and the joint-torque
+regressor of serial arms (URDF, standard DH, or the paper's robot), computed by the
+Rust library ``ivdyn`` (multi-threaded over samples, GIL released).
+
+Conventions (SI units throughout: m, kg, s, rad, N, N m):
+
+* ``N`` = number of movable joints (``robot.dof``), ``T`` = number of samples.
+* Joint-space inputs ``q`` (rad or m), ``qd`` (rad/s or m/s), ``qdd`` (rad/s^2 or m/s^2),
+  ``tau`` (N m or N) have shape ``(N,)`` for one sample or ``(T, N)`` for ``T`` samples;
+  outputs follow the batchedness of the input. Anything ``np.asarray`` accepts works
+  (lists, float32, strided views); it is converted to contiguous float64.
+* Parameters ``theta`` (``robot.params``), shape ``(14 N,)``: per link
+  ``[m, m*cx, m*cy, m*cz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`` (kg, kg m, kg m^2; about the link
+  frame origin in link coordinates, Pinocchio's order) for links 1..N, then per joint
+  ``[fc, fv, ia, tau0]`` (Coulomb N m, viscous N m s/rad, armature kg m^2, offset N m)
+  for joints 1..N. ``robot.param_names`` names them.
+* ``regressor(q, qd, qdd) @ robot.params == rnea(q, qd, qdd)``.
+
+Example::
+
+    import numpy as np, ivdyn
+    robot = ivdyn.Robot.from_urdf("fixtures/ur5.urdf", base="base_link", tip="tool0")
+    q = np.zeros(robot.dof)
+    tau = robot.rnea(q, q, q)                       # (6,)
+    Y = robot.regressor(np.random.rand(1000, 6), np.zeros((1000, 6)), np.zeros((1000, 6)))
+    Y.shape                                         # (1000, 6, 84)
+"""
+from __future__ import annotations
+
+import os
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+
+from . import _ivdyn
+
+__all__ = ["Robot", "MAX_DOF", "__version__"]
+
+__version__: str = _ivdyn.__version__
+#: Largest supported number of movable joints.
+MAX_DOF: int = _ivdyn.MAX_DOF
+
+
+class Robot:
+    """A serial robot arm: joint/link names, its parameters, and its dynamics.
+
+    Build one with :meth:`from_urdf`, :meth:`from_dh` or :meth:`paper`. Every
+    joint-space vector is ordered like :attr:`joint_names` (base to tip).
+    """
+
+    __slots__ = ("_r",)
+
+    def __init__(self, native: "_ivdyn.Robot"):
+        """Wraps a native robot; use the constructors :meth:`from_urdf`, :meth:`from_dh`,
+        :meth:`paper` instead."""
+        if not isinstance(native, _ivdyn.Robot):
+            raise TypeError("use Robot.from_urdf, Robot.from_dh or Robot.paper to build a Robot")
+        self._r = native
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def from_urdf(cls, path, base: Optional[str] = None, tip: Optional[str] = None) -> "Robot":
+        """Loads the serial chain from ``base`` to ``tip`` (link names) of a URDF file.
+
+        Fixed joints are fused; movable joints off the chain are locked at 0 and fused
+        (listed in :attr:`locked_joints`). ``base`` defaults to the root, ``tip`` to the
+        end of the chain (required when the tree branches). Inertial parameters come
+        from the file, drive parameters from ``<dynamics friction damping>`` (``fc``,
+        ``fv``; zero when absent); gravity is ``(0, 0, -9.81)`` m/s^2
+        in the base frame.
+
+        Raises ``FileNotFoundError`` if the file does not exist and ``ValueError`` for
+        unusable contents (parse errors, unknown links, unsupported joints, ...).
+        """
+        return cls(_ivdyn.Robot.from_urdf(os.fspath(path), base, tip))
+
+    @classmethod
+    def from_dh(cls, a: Sequence[float], d: Sequence[float], alpha: Sequence[float],
+                offset: Optional[Sequence[float]] = None) -> "Robot":
+        """A revolute arm from a standard (distal) DH table, one entry per joint:
+        ``T_{i-1,i} = Rz(q_i + offset_i) Tz(d_i) Tx(a_i) Rx(alpha_i)``.
+
+        ``a``, ``d`` in m, ``alpha``, ``offset`` in rad (``offset`` defaults to 0). All
+        parameters are zero (set :attr:`params`); joints ``joint1..``, links ``link1..``
+        (link ``i``'s frame is joint ``i``'s frame: origin on joint ``i``'s axis, z along it).
+        """
+        vec = lambda x: np.asarray(x, dtype=np.float64).ravel().tolist()  # noqa: E731
+        return cls(_ivdyn.Robot.from_dh(vec(a), vec(d), vec(alpha),
+                                        None if offset is None else vec(offset)))
+
+    @classmethod
+    def paper(cls) -> "Robot":
+        """The six-joint robot of Kawasaki and Nishimura's paper (Tables 1 and 2):
+        DH geometry, link inertias, Coulomb friction ``fc = F``; joints ``joint1..6``."""
+        return cls(_ivdyn.Robot.paper())
+
+    def copy(self) -> "Robot":
+        """An independent copy (e.g. to change :attr:`params` without touching this one)."""
+        return Robot(self._r.copy())
+
+    __copy__ = copy
+
+    def __deepcopy__(self, memo) -> "Robot":
+        return self.copy()
+
+    # ------------------------------------------------------------------ description
+    @property
+    def name(self) -> str:
+        """Robot name (URDF ``<robot name>``, ``"paper"``, ``"dh"``)."""
+        return self._r.name
+
+    @property
+    def dof(self) -> int:
+        """Number of movable joints ``N``."""
+        return self._r.dof
+
+    @property
+    def joint_names(self) -> list:
+        """Movable joint names, base to tip: the order of every joint-space vector."""
+        return self._r.joint_names
+
+    @property
+    def link_names(self) -> list:
+        """Link of each joint (its URDF child link), base to tip."""
+        return self._r.link_names
+
+    @property
+    def base_link(self) -> str:
+        """The base link (its frame is the base frame; gravity is given in it)."""
+        return self._r.base_link
+
+    @property
+    def tip_link(self) -> str:
+        """The tip link (the tool frame)."""
+        return self._r.tip_link
+
+    @property
+    def locked_joints(self) -> list:
+        """Movable joints off the chain, locked at q = 0 and fused into the chain."""
+        return self._r.locked_joints
+
+    @property
+    def num_params(self) -> int:
+        """``14 N``."""
+        return 14 * self.dof
+
+    @property
+    def param_names(self) -> list:
+        """Names of the ``14 N`` parameters: ``"<link>.m"``, ``"<link>.m*cx"``, ...,
+        ``"<link>.Izz"`` for every link, then ``"<joint>.fc"``, ``.fv``, ``.ia``, ``.tau0``."""
+        return self._r.param_names
+
+    @property
+    def params(self) -> np.ndarray:
+        """Parameter vector ``theta``, shape ``(14 N,)`` (a copy; assign to change it).
+
+        Layout: 10 inertial parameters per link ``[m, m*cx, m*cy, m*cz, Ixx, Ixy, Iyy,
+        Ixz, Iyz, Izz]`` (kg, kg m, kg m^2, about the link origin, link coordinates) for
+        links 1..N, then 4 drive parameters per joint ``[fc, fv, ia, tau0]`` (N m,
+        N m s/rad, kg m^2, N m) for joints 1..N.
+        """
+        return self._r.params
+
+    @params.setter
+    def params(self, theta) -> None:
+        theta = np.ascontiguousarray(theta, dtype=np.float64)
+        if theta.shape != (self.num_params,):
+            raise ValueError(f"params must have shape ({self.num_params},), got {theta.shape}")
+        self._r.params = theta
+
+    def __repr__(self) -> str:
+        return (f"Robot(name={self.name!r}, dof={self.dof}, base_link={self.base_link!r}, "
+                f"tip_link={self.tip_link!r}, joints={self.joint_names!r})")
+
+    # ------------------------------------------------------------------ inputs
+    def _inputs(self, names, arrays) -> Tuple[list, bool]:
+        """Converts the arrays to contiguous float64 ``(T, N)``; returns them and whether
+        the call is batched. The first argument sets the batchedness and ``T``."""
+        n = self._r.dof
+        out = []
+        first = None
+        for name, x in zip(names, arrays):
+            a = np.asarray(x, dtype=np.float64)
+            if first is None:
+                first = a.shape
+                if first == (n,):
+                    batched = False
+                elif a.ndim == 2 and first[1] == n:
+                    batched = True
+                else:
+                    raise ValueError(f"{name} must have shape ({n},) or (T, {n}), got {first}")
+            elif a.shape != first:
+                raise ValueError(f"{name} must have shape {first} like {names[0]}, got {a.shape}")
+            if not a.flags.c_contiguous:
+                a = np.ascontiguousarray(a)
+            out.append(a if batched else a.reshape(1, n))
+        return out, batched
+
+    # ------------------------------------------------------------------ dynamics
+    def rnea(self, q, qd, qdd) -> np.ndarray:
+        """Inverse dynamics: joint torques (N m; N for prismatic joints) that produce
+        accelerations ``qdd`` at ``(q, qd)``, including the drive terms
+        ``fc sign(qd) + fv qd + ia qdd + tau0``.
+
+        ``q`` (rad), ``qd`` (rad/s), ``qdd`` (rad/s^2): shape ``(N,)`` -> ``(N,)``, or
+        ``(T, N)`` -> ``(T, N)``.
+        """
+        (q, qd, qdd), batched = self._inputs(("q", "qd", "qdd"), (q, qd, qdd))
+        tau = self._r.rnea(q, qd, qdd)
+        return tau if batched else tau[0]
+
+    def gravity(self, q) -> np.ndarray:
+        """Gravity torques ``g(q)`` (N m), no drive terms. ``q`` (rad): ``(N,)`` -> ``(N,)``
+        or ``(T, N)`` -> ``(T, N)``."""
+        (q,), batched = self._inputs(("q",), (q,))
+        g = self._r.gravity(q)
+        return g if batched else g[0]
+
+    def regressor(self, q, qd, qdd, rigid_only: bool = False) -> np.ndarray:
+        """Joint-torque regressor ``Y`` with ``Y @ params == rnea(q, qd, qdd)``.
+
+        ``(N,)`` inputs -> ``(N, P)``; ``(T, N)`` inputs -> ``(T, N, P)``, with ``P = 14 N``
+        (columns ordered like :attr:`params`), or ``P = 10 N`` (the inertial columns only,
+        equal to Pinocchio's ``computeJointTorqueRegressor``) when ``rigid_only``.
+        """
+        (q, qd, qdd), batched = self._inputs(("q", "qd", "qdd"), (q, qd, qdd))
+        y = self._r.regressor(q, qd, qdd, bool(rigid_only))
+        return y if batched else y[0]
+
+    def mass_matrix(self, q) -> np.ndarray:
+        """Joint-space mass matrix ``M(q)`` (kg m^2 for revolute joints), including the
+        armature ``ia`` on the diagonal; symmetric positive definite for physical
+        parameters. ``q`` (rad): ``(N,)`` -> ``(N, N)`` or ``(T, N)`` -> ``(T, N, N)``."""
+        (q,), batched = self._inputs(("q",), (q,))
+        m = self._r.mass_matrix(q)
+        return m if batched else m[0]
+
+    def forward_dynamics(self, q, qd, tau) -> np.ndarray:
+        """Forward dynamics: accelerations ``qdd`` (rad/s^2) with
+        ``rnea(q, qd, qdd) == tau``, i.e. ``M qdd = tau - h(q, qd) - fc sign(qd) - fv qd
+        - tau0``. ``q`` (rad), ``qd`` (rad/s), ``tau`` (N m): ``(N,)`` -> ``(N,)`` or
+        ``(T, N)`` -> ``(T, N)``.
+
+        Raises ``RuntimeError`` naming the sample if a mass matrix is not positive
+        definite (e.g. all-zero parameters).
+        """
+        (q, qd, tau), batched = self._inputs(("q", "qd", "tau"), (q, qd, tau))
+        qdd = self._r.forward_dynamics(q, qd, tau)
+        return qdd if batched else qdd[0]
