@@ -2,7 +2,10 @@
 
 Inverse and forward dynamics, gravity torques, mass matrices and the joint-torque
 regressor of serial arms (URDF, standard DH, or the paper's robot), computed by the
-Rust library ``ivdyn`` (multi-threaded over samples, GIL released).
+Rust library ``ivdyn`` (multi-threaded over samples, GIL released); identification
+(:func:`fit_ls`, :func:`fit_iv`, :func:`base_params`, :func:`payload_from_fit`,
+:class:`Rls`, :class:`Riv`), log reading (:func:`read_joint_states`), the paper's
+simulation study (:mod:`ivdyn.paper`) and plotting helpers (:mod:`ivdyn.plot`).
 
 Conventions (SI units throughout: m, kg, s, rad, N, N m):
 
@@ -36,11 +39,24 @@ import numpy as np
 
 from . import _ivdyn
 
-__all__ = ["Robot", "MAX_DOF", "__version__"]
+__all__ = [
+    "Robot", "MAX_DOF", "__version__",
+    # identification (python/ivdyn/_ident.py)
+    "fit_ls", "fit_iv", "FitReport", "base_params", "BaseParams", "payload_from_fit",
+    "Rls", "Riv", "read_joint_states",
+    # submodules
+    "paper", "plot",
+]
 
 __version__: str = _ivdyn.__version__
 #: Largest supported number of movable joints.
 MAX_DOF: int = _ivdyn.MAX_DOF
+
+from ._ident import (  # noqa: E402
+    BaseParams, FitReport, Riv, Rls, base_params, fit_iv, fit_ls, payload_from_fit,
+    read_joint_states,
+)
+from . import paper, plot  # noqa: E402
 
 
 class Robot:

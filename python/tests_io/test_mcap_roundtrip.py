@@ -20,11 +20,17 @@ T0 = 1_700_000_000_000_000_000
 
 @pytest.fixture(scope="module")
 def written(tmp_path_factory):
-    cargo = shutil.which("cargo")
-    assert cargo is not None, "cargo must be on PATH to build the writer example"
     out = tmp_path_factory.mktemp("mcap") / "ivdyn_out.mcap"
-    subprocess.run([cargo, "run", "-q", "-p", "ivdyn", "--example", "write_log", "--", str(out), "250"],
-                   cwd=ROOT, check=True)
+    # `make test` runs `cargo test --workspace` first, which builds the example; reuse it
+    # (a `cargo run -p ivdyn` here would rebuild with another feature set).
+    exe = os.path.join(ROOT, "target", "debug", "examples", "write_log")
+    if os.path.exists(exe):
+        subprocess.run([exe, str(out), "250"], cwd=ROOT, check=True)
+    else:
+        cargo = shutil.which("cargo")
+        assert cargo is not None, "cargo must be on PATH to build the writer example"
+        subprocess.run([cargo, "run", "-q", "-p", "ivdyn", "--example", "write_log", "--", str(out), "250"],
+                       cwd=ROOT, check=True)
     return out
 
 

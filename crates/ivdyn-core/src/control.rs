@@ -22,10 +22,10 @@
 
 use crate::data::Data;
 use crate::error::{check_finite, Error};
-use crate::estim::terminal::Method;
+use crate::estim::terminal::{Method, TerminalLink, TerminalSpec};
 use crate::model::Model;
 use crate::params::{sign, DRIVE_PARAMS, LINK_PARAMS};
-use crate::{regressor, rnea, VecN};
+use crate::{rnea, VecN};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 
@@ -232,30 +232,18 @@ pub struct PayloadEstimator<const N: usize, D: Dim>
 where
     DefaultAllocator: Allocator<D, D> + Allocator<D> + Allocator<D, nalgebra::U1>,
 {
-    /// Nominal model (the arm before the grasp).
-    pub nominal: Model<N>,
-    /// Estimated entries of the last link's 14-entry block; length `D`.
-    pub columns: OVector<usize, D>,
-    /// Row weights per joint (inverse variance of each row's equation error).
-    pub row_weight: [f64; N],
-    /// Rows of joints slower than this (rad/s or m/s) are skipped.
-    pub min_speed: f64,
-    /// The recursive estimator (LS or IV).
-    pub method: Method<D>,
-    /// Rows used so far.
-    pub rows_used: u64,
-    /// Rows skipped (slow joint) so far.
-    pub rows_skipped: u64,
-    data: Data<N>,
-    data_z: Data<N>,
-    phi: OVector<f64, D>,
-    z: OVector<f64, D>,
+    /// The terminal-link estimator it runs: last link unknown with its four drive
+    /// parameters, every joint's row ([`TerminalSpec`] with `first_row = 0`).
+    pub link: TerminalLink<N, D>,
 }
 
 impl<const N: usize, D: Dim> PayloadEstimator<N, D>
 where
     DefaultAllocator: Allocator<D, D> + Allocator<D> + Allocator<D, nalgebra::U1>,
 {
+    /// The unknown set: the last link's 14-entry block seen by every row.
+    pub const SPEC: TerminalSpec = TerminalSpec { k: N - 1, drive: [true; DRIVE_PARAMS], first_row: 0 };
+
     /// New estimator. Fails on a column index outside `0..14`.
     pub fn new(
         nominal: Model<N>,
@@ -267,28 +255,14 @@ where
         if let Some(&c) = columns.iter().find(|&&c| c >= LINK_PARAMS + DRIVE_PARAMS) {
             return Err(Error::Dimension { what: "columns", expected: LINK_PARAMS + DRIVE_PARAMS, got: c });
         }
-        let (dim, _) = columns.shape_generic();
-        Ok(Self {
-            nominal,
-            columns,
-            row_weight,
-            min_speed,
-            method,
-            rows_used: 0,
-            rows_skipped: 0,
-            data: Data::new(),
-            data_z: Data::new(),
-            phi: OVector::zeros_generic(dim, nalgebra::Const::<1>),
-            z: OVector::zeros_generic(dim, nalgebra::Const::<1>),
-        })
+        let mut link = TerminalLink::new(nominal, Self::SPEC, columns, row_weight, method);
+        link.min_speed = min_speed;
+        Ok(Self { link })
     }
 
     /// Current estimate of the selected changes.
     pub fn theta(&self) -> &OVector<f64, D> {
-        match &self.method {
-            Method::Ls(r) => &r.theta,
-            Method::Iv(r) => &r.theta,
-        }
+        self.link.theta()
     }
 
     /// Variance of estimate `b` (index into `columns`). LS: the diagonal of the
@@ -299,7 +273,7 @@ where
     /// Panda run, judged against the estimate's actual error). Both assume the row weights are the inverse
     /// variances of the rows' equation errors. `O(1)` for IV, `O(D^2)` for LS.
     pub fn variance(&self, b: usize) -> f64 {
-        match &self.method {
+        match &self.link.method {
             Method::Iv(r) => r.p[(b, b)],
             Method::Ls(r) => {
                 let mut v = r.theta.clone();
@@ -311,23 +285,11 @@ where
 
     /// Position in `columns` of last-link entry `entry` (`0` = mass), if estimated.
     pub fn column_of(&self, entry: usize) -> Option<usize> {
-        self.columns.iter().position(|&c| c == entry)
-    }
-
-    #[inline]
-    fn entry(y: &crate::Regressor<N>, row: usize, c: usize) -> f64 {
-        if c < LINK_PARAMS {
-            y.link[row][N - 1][c]
-        } else if row == N - 1 {
-            y.drive[row][c - LINK_PARAMS]
-        } else {
-            0.0
-        }
+        self.link.columns.iter().position(|&c| c == entry)
     }
 
     /// One sample: measured `q, qd, qdd`, torque `tau`, and the instrumental acceleration
-    /// `qdd_instr` (ignored by least squares). One RNEA and one or two regressor calls,
-    /// then one scalar update per used row.
+    /// `qdd_instr` (ignored by least squares). See [`TerminalLink::update`].
     pub fn update(
         &mut self,
         q: &VecN<N>,
@@ -336,38 +298,7 @@ where
         tau: &VecN<N>,
         qdd_instr: &VecN<N>,
     ) -> Result<(), Error> {
-        check_finite("tau", tau.as_slice())?;
-        check_finite("qdd", qdd.as_slice())?;
-        let tau_nom = *rnea(&self.nominal, &mut self.data, q, qd, qdd);
-        regressor(&self.nominal, &mut self.data, q, qd, qdd);
-        let iv = matches!(self.method, Method::Iv(_));
-        if iv {
-            check_finite("qdd_instr", qdd_instr.as_slice())?;
-            regressor(&self.nominal, &mut self.data_z, q, qd, qdd_instr);
-        }
-        for row in 0..N {
-            if !(qd[row].abs() >= self.min_speed) {
-                self.rows_skipped += 1;
-                continue;
-            }
-            for (b, &c) in self.columns.iter().enumerate() {
-                self.phi[b] = Self::entry(&self.data.y, row, c);
-            }
-            let dtau = tau[row] - tau_nom[row];
-            let w = self.row_weight[row];
-
-            match &mut self.method {
-                Method::Ls(r) => r.update(&self.phi, dtau, w)?,
-                Method::Iv(r) => {
-                    for (b, &c) in self.columns.iter().enumerate() {
-                        self.z[b] = Self::entry(&self.data_z.y, row, c);
-                    }
-                    r.update(&self.phi, &self.z, dtau, w)?
-                }
-            }
-            self.rows_used += 1;
-        }
-        Ok(())
+        self.link.update(q, qd, qdd, tau, qdd_instr)
     }
 
     /// Writes nominal + estimate into `model`'s last link and last drive (the entries not
@@ -375,10 +306,10 @@ where
     /// uses the estimate at its next call. `O(14)`.
     pub fn write_model(&self, model: &mut Model<N>) {
         let l = N - 1;
-        model.inertia[l] = self.nominal.inertia[l];
-        model.drive[l] = self.nominal.drive[l];
+        model.inertia[l] = self.link.nominal.inertia[l];
+        model.drive[l] = self.link.nominal.drive[l];
         let mut drive = model.drive[l].to_array();
-        for (b, &c) in self.columns.iter().enumerate() {
+        for (b, &c) in self.link.columns.iter().enumerate() {
             let v = self.theta()[b];
             if c < LINK_PARAMS {
                 model.inertia[l].0[c] += v;
@@ -391,8 +322,8 @@ where
 
     /// The last link as nominal + estimate (inertial entries only).
     pub fn estimated_last_link(&self) -> crate::LinkInertia {
-        let mut li = self.nominal.inertia[N - 1];
-        for (b, &c) in self.columns.iter().enumerate() {
+        let mut li = self.link.nominal.inertia[N - 1];
+        for (b, &c) in self.link.columns.iter().enumerate() {
             if c < LINK_PARAMS {
                 li.0[c] += self.theta()[b];
             }
@@ -421,17 +352,18 @@ where
     /// divided again by `Kp` the tracking error: a switching criterion in the controller's
     /// own units. `O(N D^2)` for IV.
     pub fn torque_std(&mut self, out: &mut VecN<N>) {
-        let cov_ls = match &self.method {
+        let cov_ls = match &self.link.method {
             Method::Ls(r) => Some(r.covariance()),
             Method::Iv(_) => None,
         };
+        let mut phi = self.link.theta().clone();
         for row in 0..N {
-            for (b, &c) in self.columns.iter().enumerate() {
-                self.phi[b] = Self::entry(&self.data.y, row, c);
+            for (b, &c) in self.link.columns.iter().enumerate() {
+                phi[b] = Self::SPEC.entry(self.link.last_regressor(), row, c);
             }
-            let v = match (&self.method, &cov_ls) {
-                (_, Some(c)) => quad(c, &self.phi),
-                (Method::Iv(r), None) => quad(&r.p, &self.phi),
+            let v = match (&self.link.method, &cov_ls) {
+                (_, Some(c)) => quad(c, &phi),
+                (Method::Iv(r), None) => quad(&r.p, &phi),
                 (Method::Ls(_), None) => 0.0,
             };
             out[row] = libm::sqrt(v.max(0.0));

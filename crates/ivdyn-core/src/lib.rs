@@ -20,6 +20,22 @@
 //!   the `N` drive blocks, `P = 14 N` entries (see [`params`]).
 //! - Units: SI (m, kg, s, rad, N, N m).
 //!
+//! # Quick start
+//! ```
+//! use ivdyn_core::{paper, rnea, regressor, mass_matrix, forward_dynamics, Data, VecN};
+//!
+//! let model = paper::robot();                 // Model<6>: Tables 1-2 of the paper
+//! let mut data = Data::<6>::new();            // every work buffer, allocated once
+//! let (q, qd, qdd) = (VecN::<6>::repeat(0.1), VecN::<6>::repeat(0.2), VecN::<6>::repeat(0.3));
+//! let tau = *rnea(&model, &mut data, &q, &qd, &qdd);
+//! let y = regressor(&model, &mut data, &q, &qd, &qdd);   // tau == Y theta
+//! let theta = model.params::<84>();                       // 14 per joint
+//! assert!((y.to_matrix::<84>() * theta - tau).norm() < 1e-12);
+//! let m = *mass_matrix(&model, &mut data, &q);
+//! let qdd2 = *forward_dynamics(&model, &mut data, &q, &qd, &tau).unwrap();
+//! assert!((qdd2 - qdd).norm() < 1e-9 && m[(0, 0)] > 0.0);
+//! ```
+//!
 //! # References
 //! - \[KN\] H. Kawasaki, K. Nishimura, "Terminal-link parameter estimation and trajectory
 //!   control of robotic manipulators" (the paper in `shared/paper`; equation numbers

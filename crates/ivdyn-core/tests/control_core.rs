@@ -260,7 +260,7 @@ fn online_estimator_converges_to_payload_mass() {
         }
     }
     let dm = est.theta()[0];
-    eprintln!("dm = {dm:.5} kg after 1.5 s ({} rows used, {} skipped), std {:.2e}", est.rows_used, est.rows_skipped, est.variance(0).sqrt());
+    eprintln!("dm = {dm:.5} kg after 1.5 s ({} rows used, {} skipped), std {:.2e}", est.link.rows_used, est.link.rows_skipped, est.variance(0).sqrt());
     assert!(((dm - 0.25) / 0.25).abs() < 0.05, "dm = {dm}");
     // the estimate written into a model gives the loaded last link's mass
     let mut m = nominal.clone();

@@ -7,7 +7,6 @@
 //!
 //! The message is always the Rust error's `Display` text.
 
-use ivdyn::batch::BatchError;
 use ivdyn::core::Error as CoreError;
 use ivdyn::Error;
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyRuntimeError, PyValueError};
@@ -39,16 +38,10 @@ pub fn to_py(e: Error) -> PyErr {
         | Error::UrdfStructure { .. }
         | Error::BadJoint { .. }
         | Error::TooManyJoints { .. }
-        | Error::Dimension { .. } => PyValueError::new_err(msg),
+        | Error::Dimension { .. }
+        | Error::Log { .. }
+        | Error::Signal { .. } => PyValueError::new_err(msg),
+        Error::Sample { source, .. } if core_is_input(source) => PyValueError::new_err(msg),
         _ => PyRuntimeError::new_err(msg),
-    }
-}
-
-/// `ivdyn::batch::BatchError` -> Python exception (the message names the sample).
-pub fn batch_to_py(e: BatchError) -> PyErr {
-    match e {
-        BatchError::Input(e) => to_py(e),
-        BatchError::Sample { ref source, .. } if core_is_input(source) => PyValueError::new_err(e.to_string()),
-        e => PyRuntimeError::new_err(e.to_string()),
     }
 }

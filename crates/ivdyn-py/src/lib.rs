@@ -7,10 +7,11 @@
 //! and is the public API.
 
 mod error;
+mod ident;
 
 use std::borrow::Cow;
 
-use error::{batch_to_py, to_py};
+use error::to_py;
 use ivdyn::batch;
 use numpy::ndarray::{Ix2, Ix3};
 use numpy::{IntoPyArray, PyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -65,11 +66,12 @@ where
     Ok(arr)
 }
 
-struct Batch(batch::BatchError);
+/// Carries an `ivdyn::Error` out of a GIL-free closure (orphan rule: no `From` for PyErr).
+struct Batch(ivdyn::Error);
 
 impl From<Batch> for PyErr {
     fn from(e: Batch) -> PyErr {
-        batch_to_py(e.0)
+        to_py(e.0)
     }
 }
 
@@ -242,6 +244,7 @@ fn batch_threads(t: usize) -> usize {
 #[pymodule]
 fn _ivdyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyRobot>()?;
+    ident::register(m)?;
     m.add_function(wrap_pyfunction!(batch_threads, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("MAX_DOF", ivdyn::MAX_DOF)?;

@@ -26,25 +26,9 @@ use ivdyn_core::{self as core_, Data, Model, VecN};
 /// Below this many samples per thread, spawning threads costs more than it saves.
 pub const MIN_SAMPLES_PER_THREAD: usize = 64;
 
-/// Errors of the batch functions.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum BatchError {
-    /// An argument has the wrong length ([`Error::Dimension`]).
-    #[error(transparent)]
-    Input(#[from] Error),
-    /// Sample `sample` failed: a non-finite input, or a singular mass matrix.
-    #[error("sample {sample}: {source}")]
-    Sample {
-        /// Index of the first failing sample (row of the inputs).
-        sample: usize,
-        /// What went wrong there.
-        source: core_::Error,
-    },
-}
-
-/// Result of the batch functions.
-pub type BatchResult<T> = std::result::Result<T, BatchError>;
+/// Result of the batch functions: errors name the failing sample
+/// ([`Error::Sample`]) or the argument with the wrong length ([`Error::Dimension`]).
+pub type BatchResult<T> = crate::error::Result<T>;
 
 /// Number of worker threads used for `t` samples: at most
 /// `std::thread::available_parallelism()` (read once: it parses cgroup files, ~50 us),
@@ -58,8 +42,8 @@ pub fn threads_for(t: usize) -> usize {
     avail.min(t / MIN_SAMPLES_PER_THREAD).max(1)
 }
 
-fn dim_err(what: String, expected: usize, got: usize) -> BatchError {
-    BatchError::Input(Error::Dimension { what, expected, got })
+fn dim_err(what: String, expected: usize, got: usize) -> Error {
+    Error::Dimension { what, expected, got }
 }
 
 /// Checks the inputs (`names[k]` has `inputs[k]`, each `T x N`) and `out` (`T x out_row`),
@@ -105,7 +89,7 @@ where
         let mut data = Box::new(Data::<N>::new());
         for (k, o) in out.chunks_exact_mut(out_row.max(1)).enumerate() {
             let s = first + k;
-            f(&mut data, s, o).map_err(|source| BatchError::Sample { sample: s, source })?;
+            f(&mut data, s, o).map_err(|source| Error::Sample { index: s, source })?;
         }
         Ok(())
     };
@@ -367,7 +351,7 @@ mod tests {
         assert!(e.contains("expected length 3600"), "{e}");
         assert!(matches!(
             gravity_batch(&robot, &q, &mut out[..6]),
-            Err(BatchError::Input(Error::Dimension { expected: 600, got: 6, .. }))
+            Err(Error::Dimension { expected: 600, got: 6, .. })
         ));
     }
 
@@ -383,7 +367,7 @@ mod tests {
         let mut out = vec![0.0; t * 6];
         let e = rnea_batch(&robot, &q, &qd, &qdd, &mut out).unwrap_err();
         assert_eq!(e.to_string(), "sample 613: non-finite value in qdd[5]");
-        assert!(matches!(e, BatchError::Sample { sample: 613, source: core_::Error::NonFinite { what: "qdd", index: 5 } }));
+        assert!(matches!(e, Error::Sample { index: 613, source: core_::Error::NonFinite { what: "qdd", index: 5 } }));
         let e = gravity_batch(&robot, &q, &mut out).unwrap_err();
         assert_eq!(e.to_string(), "sample 700: non-finite value in q[2]");
         let e = forward_dynamics_batch(&robot, &q, &qd, &qdd, &mut out).unwrap_err();

@@ -10,9 +10,11 @@
 //! until the estimated mass's standard deviation falls below `switch_rel_std` of the
 //! estimate, then nominal + estimate (refreshed every step).
 //!
-//! The nominal model is the unloaded arm exactly: this experiment assumes the unloaded
-//! arm has already been identified perfectly (the paper identifies it with IVM first),
-//! so that every difference between the schemes comes from the payload.
+//! The nominal model is either the unloaded arm exactly (`Experiment::paper()`, so that
+//! every difference between the schemes comes from the payload), or, as in the paper's
+//! experiment, the unloaded arm *identified* first from an unloaded run starting from a
+//! wrong prior ([`Experiment::with_identified_nominal`]): then `truth` (what the simulator
+//! runs) and `nominal` (what the controllers and the estimator use) differ.
 //!
 //! ```no_run
 //! use ivdyn::control::{Experiment, Scheme};
@@ -141,8 +143,10 @@ pub enum EstimatorKind {
 pub struct Experiment<const N: usize> {
     /// Name (for reports).
     pub name: String,
-    /// The unloaded arm: nominal model of every controller, and the truth before the grasp.
+    /// The unloaded arm as the controllers and the estimator know it.
     pub nominal: Model<N>,
+    /// The unloaded arm as the simulator runs it (the truth before the grasp).
+    pub truth: Model<N>,
     /// The payload grasped at `grasp_time`.
     pub payload: Payload,
     /// Reference trajectory.
@@ -327,6 +331,7 @@ impl<const N: usize> Experiment<N> {
         let base = last_link_base(&nominal, 40, 7);
         Ok(Self {
             name: name.to_string(),
+            truth: nominal.clone(),
             nominal,
             payload,
             traj,
@@ -349,7 +354,7 @@ impl<const N: usize> Experiment<N> {
 
     /// The truth after the grasp.
     pub fn loaded(&self) -> Model<N> {
-        self.payload.attach(&self.nominal)
+        self.payload.attach(&self.truth)
     }
 
     /// The true change of the estimated columns (the payload's parameters).
@@ -405,7 +410,7 @@ impl<const N: usize> Experiment<N> {
     pub fn run(&self, scheme: Scheme) -> Result<RunLog> {
         let loaded = self.loaded();
         let (r0q, r0qd, _) = self.traj.eval(0.0);
-        let mut sim = Simulator::new(self.nominal.clone(), self.sim, &r0q, &r0qd)?;
+        let mut sim = Simulator::new(self.truth.clone(), self.sim, &r0q, &r0qd)?;
         let mut data = Data::<N>::new();
         let m0 = *mass_matrix(&self.nominal, &mut data, &self.mean_pose());
         let gains = Gains::<N>::critically_damped(self.wn);
@@ -516,6 +521,130 @@ impl<const N: usize> Experiment<N> {
         }
         log.step_us = busy.as_secs_f64() * 1e6 / steps.max(1) as f64;
         Ok(log)
+    }
+}
+
+/// What [`Experiment::with_identified_nominal`] found.
+#[derive(Debug, Clone)]
+pub struct NominalIdentification {
+    /// The batch IV fit of the unloaded arm's base parameters.
+    pub fit: crate::ident::FitReport,
+    /// Rows used.
+    pub rows: usize,
+    /// RMS over one period of the reference trajectory of the torque difference to the
+    /// true unloaded arm (simulation only: the truth is known), per joint (N m), for the
+    /// prior model.
+    pub rms_prior: Vec<f64>,
+    /// The same for the identified model.
+    pub rms_identified: Vec<f64>,
+}
+
+impl<const N: usize> Experiment<N> {
+    /// The paper's experiment: identify the unloaded arm first. Starting from `prior` (a
+    /// wrong model), the TRUE unloaded arm tracks the trajectory for `seconds` under computed
+    /// torque with the prior; its base parameters (all links, Coulomb and viscous friction)
+    /// are fitted by batch IV (instrument: the planned acceleration; rows of joints slower
+    /// than `min_speed` skipped), and the nominal model becomes
+    /// `prior + to_full(theta_base - project(prior))`: the prior with its identifiable part
+    /// replaced. The payload is then estimated against that model.
+    pub fn with_identified_nominal(mut self, prior: Model<N>, seconds: f64) -> Result<(Self, NominalIdentification)> {
+        use crate::ident::{fit_iv, IvAccumulator};
+        use ivdyn_core::params::{param_count, DRIVE_PARAM_NAMES};
+        let p = param_count(N);
+        let names: Vec<String> = (0..p)
+            .map(|c| {
+                if c < LINK_PARAMS * N {
+                    format!("link{}.{}", c / LINK_PARAMS + 1, LINK_PARAM_NAMES[c % LINK_PARAMS])
+                } else {
+                    let d = c - LINK_PARAMS * N;
+                    format!("joint{}.{}", d / 4 + 1, DRIVE_PARAM_NAMES[d % 4])
+                }
+            })
+            .collect();
+        // base parameters of the whole arm (inertial + drive) at random states
+        let mut rng = ivdyn_core::rng::Rng::new(11);
+        let mut data = Data::<N>::new();
+        let samples = 12 * p / N + 20;
+        let mut phi_r = DMatrix::<f64>::zeros(samples * N, p);
+        let mut row = vec![0.0; N * p];
+        for s in 0..samples {
+            let mut r = |scale: f64| VecN::<N>::from_fn(|_, _| scale * rng.uniform(-1.0, 1.0));
+            let (q, qd, qdd) = (r(std::f64::consts::PI), r(1.0), r(1.0));
+            regressor(&prior, &mut data, &q, &qd, &qdd).write_row_major(&mut row);
+            for i in 0..N {
+                for c in 0..p {
+                    phi_r[(s * N + i, c)] = row[i * p + c];
+                }
+            }
+        }
+        let base = BaseParams::from_rows(&phi_r, &names);
+        let b = base.base_count();
+        // the unloaded run under computed torque with the prior
+        let (r0q, r0qd, _) = self.traj.eval(0.0);
+        let mut sim = Simulator::new(self.truth.clone(), self.sim, &r0q, &r0qd)?;
+        let gains = Gains::<N>::critically_damped(self.wn);
+        let mut ct = ComputedTorque::new(gains);
+        ct.coulomb = self.coulomb;
+        let mut acc = IvAccumulator::new(b);
+        let (mut phi, mut z, mut y) = (vec![], vec![], vec![]);
+        let mut rb = vec![0.0; b];
+        let mut dz = Data::<N>::new();
+        let steps = (seconds / self.sim.dt).round() as usize;
+        for k in 0..steps {
+            let r = Reference::from_tuple(self.traj.eval(k as f64 * self.sim.dt));
+            let s = *sim.sensors();
+            let u = *ct.torque(&prior, &mut data, &s.q, &s.qd, &r)?;
+            let Some(smp) = sim.step(&u)? else { continue };
+            if smp.t < 0.5 {
+                continue; // start-up transient
+            }
+            regressor(&prior, &mut data, &smp.x.q, &smp.x.qd, &smp.x.qdd).write_row_major(&mut row);
+            let zacc = self.traj.eval(smp.t).2;
+            let mut zrow = vec![0.0; N * p];
+            regressor(&prior, &mut dz, &smp.x.q, &smp.x.qd, &zacc).write_row_major(&mut zrow);
+            for i in 0..N {
+                if smp.x.qd[i].abs() < self.min_speed {
+                    continue;
+                }
+                base.select_row(&row[i * p..(i + 1) * p], &mut rb)?;
+                phi.extend_from_slice(&rb);
+                base.select_row(&zrow[i * p..(i + 1) * p], &mut rb)?;
+                z.extend_from_slice(&rb);
+                y.push(smp.tau[i]);
+            }
+        }
+        acc.add_rows(&phi, &z, &y, None)?;
+        let fit = fit_iv(&acc, &base.names)?;
+        if !fit.unexcited.is_empty() {
+            return Err(Error::Estimation { msg: format!("unloaded-arm identification: not excited by the trajectory: {:?}", fit.unexcited) });
+        }
+        let mut theta_prior = vec![0.0; p];
+        prior.params_to_slice(&mut theta_prior)?;
+        let delta: Vec<f64> = fit.theta.iter().zip(base.project(&theta_prior)?).map(|(a, b)| a - b).collect();
+        let full: Vec<f64> = base.to_full(&delta)?.iter().zip(&theta_prior).map(|(d, t)| t + d).collect();
+        let mut identified = prior.clone();
+        identified.set_params_from_slice(&full)?;
+        // model error along one period of the reference, prior vs identified
+        let rms = |m: &Model<N>| -> Vec<f64> {
+            let (mut d1, mut d2) = (Data::<N>::new(), Data::<N>::new());
+            let mut s2 = vec![0.0; N];
+            let n = 2000;
+            for k in 0..n {
+                let (q, qd, qdd) = self.traj.eval(k as f64 * self.traj.period() / n as f64);
+                let a = *ivdyn_core::rnea(m, &mut d1, &q, &qd, &qdd);
+                let t = *ivdyn_core::rnea(&self.truth, &mut d2, &q, &qd, &qdd);
+                for i in 0..N {
+                    s2[i] += (a[i] - t[i]).powi(2);
+                }
+            }
+            s2.iter().map(|v| (v / n as f64).sqrt()).collect()
+        };
+        let info = NominalIdentification { rows: y.len(), rms_prior: rms(&prior), rms_identified: rms(&identified), fit };
+        let lb = last_link_base(&identified, 40, 7);
+        self.columns = lb.independent.clone();
+        self.column_names = lb.independent.iter().map(|&c| base_name(&lb, c)).collect();
+        self.nominal = identified;
+        Ok((self, info))
     }
 }
 

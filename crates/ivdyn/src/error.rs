@@ -91,6 +91,14 @@ pub enum Error {
     /// An error of the dynamics core.
     #[error(transparent)]
     Core(#[from] ivdyn_core::Error),
+    /// An error of the dynamics core at one sample of a batch (the first failing one).
+    #[error("sample {index}: {source}")]
+    Sample {
+        /// Index of the sample (row of the inputs).
+        index: usize,
+        /// What went wrong there.
+        source: ivdyn_core::Error,
+    },
     /// I/O error with the file it concerns.
     #[error("{file}: {source}")]
     Io {

@@ -10,6 +10,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod arrays;
 pub mod batch;
 pub mod control;
 pub mod error;

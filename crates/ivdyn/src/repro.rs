@@ -136,7 +136,7 @@ pub fn paper_trajectory(qdd_rms: f64) -> Fourier<6, 5> {
 }
 
 /// Table 2 with independent uniform +-`frac` errors on each physical value.
-fn perturbed_table(rng: &mut Rng, frac: f64) -> [Table2Row; 6] {
+pub fn perturbed_table(rng: &mut Rng, frac: f64) -> [Table2Row; 6] {
     let mut t = TABLE2;
     let mut e = |x: &mut f64| *x *= 1.0 + rng.uniform(-frac, frac);
     for row in t.iter_mut() {

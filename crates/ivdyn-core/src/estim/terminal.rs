@@ -135,6 +135,15 @@ where
     pub row_weight: [f64; N],
     /// The estimator.
     pub method: Method<D>,
+    /// Rows of joints moving slower than this (rad/s or m/s) are skipped; 0 = use all.
+    /// Near a velocity reversal the nominal Coulomb term `fc sign(qd)` does not describe the
+    /// real friction (stiction, pre-sliding, a differentiated noisy velocity), and that
+    /// error, correlated with the motion, would bias any estimator, IV included.
+    pub min_speed: f64,
+    /// Rows used so far.
+    pub rows_used: u64,
+    /// Rows skipped (slow joint) so far.
+    pub rows_skipped: u64,
     data: Data<N>,
     data_z: Data<N>,
     phi: OVector<f64, D>,
@@ -154,6 +163,9 @@ where
             columns,
             row_weight,
             method,
+            min_speed: 0.0,
+            rows_used: 0,
+            rows_skipped: 0,
             data: Data::new(),
             data_z: Data::new(),
             phi: OVector::zeros_generic(dim, nalgebra::Const::<1>),
@@ -180,12 +192,18 @@ where
         qdd_instr: &VecN<N>,
     ) -> Result<(), Error> {
         crate::error::check_finite("tau", tau.as_slice())?;
+        crate::error::check_finite("qdd", qdd.as_slice())?;
         let tau_nom = *rnea(&self.nominal, &mut self.data, q, qd, qdd);
         regressor(&self.nominal, &mut self.data, q, qd, qdd);
         if let Method::Iv(_) = self.method {
+            crate::error::check_finite("qdd_instr", qdd_instr.as_slice())?;
             regressor(&self.nominal, &mut self.data_z, q, qd, qdd_instr);
         }
         for row in self.spec.rows(N) {
+            if self.min_speed > 0.0 && !(qd[row].abs() >= self.min_speed) {
+                self.rows_skipped += 1;
+                continue;
+            }
             for (b, &c) in self.columns.iter().enumerate() {
                 self.phi[b] = self.spec.entry(&self.data.y, row, c);
             }
@@ -200,7 +218,13 @@ where
                     r.update(&self.phi, &self.z, dtau, w)?
                 }
             }
+            self.rows_used += 1;
         }
         Ok(())
+    }
+
+    /// The regressor at the last update's measured state.
+    pub fn last_regressor(&self) -> &Regressor<N> {
+        &self.data.y
     }
 }
