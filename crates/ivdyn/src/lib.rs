@@ -16,6 +16,7 @@ pub mod control;
 pub mod error;
 pub mod ident;
 pub mod io;
+pub mod pipeline;
 pub mod repro;
 pub mod robot;
 pub mod signal;

@@ -1,0 +1,52 @@
+#![allow(dead_code)]
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+pub fn fixture(p: &str) -> String {
+    root().join("fixtures").join(p).display().to_string()
+}
+
+pub fn ivdyn(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ivdyn")).args(args).arg("--quiet").output().expect("run ivdyn")
+}
+
+/// A fresh, empty directory for one test.
+pub fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("ivdyn_cli_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+pub fn s(p: &Path) -> String {
+    p.display().to_string()
+}
+
+pub fn ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "ivdyn failed: {}\nstdout:\n{}\nstderr:\n{}",
+        out.status,
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+pub fn json(p: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+pub fn files_in(d: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
+    v.sort();
+    v
+}
+
+
+pub fn ur5_args() -> Vec<String> {
+    vec!["--urdf".into(), fixture("ur5.urdf"), "--base".into(), "base_link".into(), "--tip".into(), "tool0".into()]
+}
