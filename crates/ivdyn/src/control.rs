@@ -620,8 +620,7 @@ impl<const N: usize> Experiment<N> {
         }
         let mut theta_prior = vec![0.0; p];
         prior.params_to_slice(&mut theta_prior)?;
-        let delta: Vec<f64> = fit.theta.iter().zip(base.project(&theta_prior)?).map(|(a, b)| a - b).collect();
-        let full: Vec<f64> = base.to_full(&delta)?.iter().zip(&theta_prior).map(|(d, t)| t + d).collect();
+        let full = base.apply(&fit.theta, &theta_prior, 1.0)?;
         let mut identified = prior.clone();
         identified.set_params_from_slice(&full)?;
         // model error along one period of the reference, prior vs identified

@@ -608,8 +608,7 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
         },
     });
     // full parameters: nominal + base correction
-    let delta: Vec<f64> = theta.iter().zip(&nom_base).map(|(a, b)| a - b).collect();
-    let full: Vec<f64> = base.to_full(&delta)?.iter().zip(&nominal).map(|(d, t)| t + d).collect();
+    let full = base.apply(&theta, &nominal, 1.0)?;
     let base_vals = (0..b)
         .map(|i| BaseValue { name: base.names[i].clone(), value: fit.theta[i], std: fit.std[i], rel_std_pct: fit.rel_std_pct[i], nominal: nom_base[i] })
         .collect();

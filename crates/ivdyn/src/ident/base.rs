@@ -172,6 +172,17 @@ impl BaseParams {
         Ok(full)
     }
 
+    /// `theta_nominal` with its identifiable part moved to `theta_base`:
+    /// `theta_nominal + to_full(theta_base - project(theta_nominal))`. The parts the data
+    /// cannot see keep their nominal values, which keeps a model physical in practice.
+    /// With `alpha` in [0, 1] the move is partial (`alpha = 1`: all the way).
+    pub fn apply(&self, theta_base: &[f64], theta_nominal: &[f64], alpha: f64) -> Result<Vec<f64>> {
+        let nom_base = self.project(theta_nominal)?;
+        self.check_len("theta_base", self.base_count(), theta_base.len())?;
+        let delta: Vec<f64> = theta_base.iter().zip(&nom_base).map(|(a, b)| alpha * (a - b)).collect();
+        Ok(self.to_full(&delta)?.iter().zip(theta_nominal).map(|(d, t)| t + d).collect())
+    }
+
     fn check_len(&self, what: &str, expected: usize, got: usize) -> Result<()> {
         if expected != got {
             return Err(Error::Dimension {

@@ -83,7 +83,6 @@ where
     ls_acc.add_rows(&phi, exp.tau, None)?;
     let ls = fit_ls(&ls_acc, &base.names)?;
     let theta_nom = robot.params();
-    let nom_base = base.project(&theta_nom)?;
     let mut theta = ls.theta.clone();
     let mut history = vec![theta.clone()];
     let mut sim = robot.clone();
@@ -98,8 +97,7 @@ where
         let mut used = None;
         let mut last_err = None;
         for alpha in [1.0, 0.5, 0.25, 0.125, 1.0 / 16.0, 1.0 / 32.0, 0.0] {
-            let delta: Vec<f64> = theta.iter().zip(&nom_base).map(|(a, b)| alpha * (a - b)).collect();
-            let full: Vec<f64> = base.to_full(&delta)?.iter().zip(&theta_nom).map(|(d, t)| t + d).collect();
+            let full = base.apply(&theta, &theta_nom, alpha)?;
             sim.set_params(&full)?;
             match simulate(&sim, robot, base, exp, &mut control, &mut z) {
                 Ok(()) => {
