@@ -151,6 +151,29 @@ def main():
     print("ratio = min time / min time of the reference row (lower is faster).")
     if rust is None:
         print(f"(c) skipped: {why}")
+    # whole fit: regressor + least squares of the rigid-body parameters
+    # (Pinocchio: the loop above + numpy.linalg.lstsq, as ../shared/anchors/pinocchio/pipeline.py;
+    #  ivdyn: base parameters + the fused multi-threaded fit, regressor never stored)
+    theta = rng.uniform(-1.0, 1.0, 10 * n)
+    tau = (y_pin @ theta).reshape(t, n) + 1e-3 * rng.standard_normal((t, n))
+
+    def pin_fit():
+        return np.linalg.lstsq(pin_stack(), tau.reshape(-1), rcond=None)[0]
+
+    def iv_fit():
+        base = ivdyn.base_params(robot, rigid_only=True)
+        return ivdyn.fit_robot(robot, base, q, qd, qdd, tau), base
+
+    f_min, f_med, th_pin = timed(pin_fit, repeats)
+    g_min, g_med, (fit, base) = timed(iv_fit, repeats)
+    fit_err = np.abs(fit.theta - base.project(th_pin)).max() / np.abs(base.project(th_pin)).max()
+    print()
+    print(f"whole fit, regressor + least squares ({t} samples, {base.base_count} rigid-body base parameters):")
+    print(f"| {'method':<48} | {'min s':>8} | {'median s':>8} | {'speed-up':>8} |")
+    print(f"|{'-' * 50}|{'-' * 10}:|{'-' * 10}:|{'-' * 10}:|")
+    print(f"| {'Pinocchio loop + numpy.linalg.lstsq':<48} | {f_min:8.4f} | {f_med:8.4f} | {'1.00x':>8} |")
+    print(f"| {'ivdyn.base_params + ivdyn.fit_robot':<48} | {g_min:8.4f} | {g_med:8.4f} | {f_min / g_min:7.2f}x |")
+    print(f"base estimates agree to {fit_err:.1e} (relative, max)")
     if err > 1e-10:
         print("WARNING: ivdyn and Pinocchio regressors differ")
         return 1

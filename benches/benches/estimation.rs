@@ -111,6 +111,39 @@ fn batch_fit(c: &mut Criterion) {
             black_box(fit_ls(&acc, &base.names).unwrap().theta[0])
         })
     });
+    // the fused, multi-threaded path (ivdyn::batch::fit_ls_batch): full base set and the
+    // rigid-body base set (36 of 60 columns, as the Pinocchio + numpy anchor fits)
+    let (mut q, mut qd, mut qdd) = (vec![], vec![], vec![]);
+    for (a, b, c) in &states {
+        q.extend_from_slice(a.as_slice());
+        qd.extend_from_slice(b.as_slice());
+        qdd.extend_from_slice(c.as_slice());
+    }
+    let tau = {
+        let mut out = vec![0.0; q.len()];
+        ivdyn::batch::rnea_batch(&robot, &q, &qd, &qdd, &mut out).unwrap();
+        out
+    };
+    g.bench_function("ur5_100k_fused_fit_ls_batch_full_base", |bch| {
+        bch.iter(|| black_box(ivdyn::batch::fit_ls_batch(&robot, &base, &q, &qd, &qdd, &tau, None).unwrap().theta[0]))
+    });
+    let rigid = {
+        let mut phi = nalgebra::DMatrix::<f64>::zeros(6 * 200, 60);
+        let mut yr = vec![0.0; 6 * 60];
+        for (k, (a, b, c)) in states.iter().take(200).enumerate() {
+            ivdyn::batch::regressor_batch(&robot, a.as_slice(), b.as_slice(), c.as_slice(), &mut yr, true).unwrap();
+            for i in 0..6 {
+                for j in 0..60 {
+                    phi[(6 * k + i, j)] = yr[60 * i + j];
+                }
+            }
+        }
+        ivdyn::ident::BaseParams::from_rows(&phi, &robot.param_names()[..60])
+    };
+    assert_eq!(rigid.base_count(), 36);
+    g.bench_function("ur5_100k_fused_fit_ls_batch_rigid_base_36", |bch| {
+        bch.iter(|| black_box(ivdyn::batch::fit_ls_batch(&robot, &rigid, &q, &qd, &qdd, &tau, None).unwrap().theta[0]))
+    });
     g.finish();
 }
 

@@ -42,7 +42,7 @@ from . import _ivdyn
 __all__ = [
     "Robot", "MAX_DOF", "__version__",
     # identification (python/ivdyn/_ident.py)
-    "fit_ls", "fit_iv", "FitReport", "base_params", "BaseParams", "payload_from_fit",
+    "fit_ls", "fit_iv", "fit_robot", "FitReport", "base_params", "BaseParams", "payload_from_fit",
     "Rls", "Riv", "read_joint_states",
     # submodules
     "paper", "plot",
@@ -53,7 +53,7 @@ __version__: str = _ivdyn.__version__
 MAX_DOF: int = _ivdyn.MAX_DOF
 
 from ._ident import (  # noqa: E402
-    BaseParams, FitReport, Riv, Rls, base_params, fit_iv, fit_ls, payload_from_fit,
+    BaseParams, FitReport, Riv, Rls, base_params, fit_iv, fit_ls, fit_robot, payload_from_fit,
     read_joint_states,
 )
 from . import paper, plot  # noqa: E402

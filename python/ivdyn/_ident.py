@@ -155,16 +155,42 @@ class BaseParams:
         return f"BaseParams({self.base_count} of {self.full_cols} parameters identifiable)"
 
 
-def base_params(robot, samples: int = 100, seed: int = 1) -> BaseParams:
+def base_params(robot, samples: int = 100, seed: int = 1, rigid_only: bool = False) -> BaseParams:
     """Base parameters of ``robot`` (an :class:`ivdyn.Robot`), found numerically from the
     full regressors at ``samples`` random states (seeded): ``q`` within the joint limits,
-    ``qd`` in +-1 rad/s, ``qdd`` in +-2 rad/s^2. Needs ``samples * dof >= 14 dof``."""
+    ``qd`` in +-1 rad/s, ``qdd`` in +-2 rad/s^2. Needs ``samples * dof >= 14 dof``.
+    With ``rigid_only`` only the ``10 N`` inertial columns are considered (no drive
+    parameters: a rigid-body-only model)."""
     native = getattr(robot, "_r", robot)
     if not isinstance(native, _ivdyn.Robot):
         raise TypeError(f"robot must be an ivdyn.Robot, got {type(robot).__name__}")
     if int(samples) < 1:
         raise ValueError(f"samples must be >= 1, got {samples}")
-    return BaseParams(_ivdyn.base_params(native, int(samples), int(seed)))
+    return BaseParams(_ivdyn.base_params(native, int(samples), int(seed), bool(rigid_only)))
+
+
+def fit_robot(robot, base: BaseParams, q, qd, qdd, tau, joint_weight=None) -> "FitReport":
+    """Least-squares fit of the base parameters ``base`` from samples, in one fused,
+    multi-threaded pass: ``q, qd, qdd`` (rad, rad/s, rad/s^2) and measured ``tau`` (N m),
+    each ``(T, N)``; ``joint_weight`` ``(N,)`` inverse noise variances per joint (default 1).
+    Each thread evaluates the regressor of its samples and streams the base columns into
+    its own QR accumulator; they merge. The ``(T, N, P)`` regressor is never stored.
+    Returns a :class:`FitReport` over ``base.names``."""
+    native = getattr(robot, "_r", robot)
+    if not isinstance(native, _ivdyn.Robot):
+        raise TypeError(f"robot must be an ivdyn.Robot, got {type(robot).__name__}")
+    if not isinstance(base, BaseParams):
+        raise TypeError("base must be an ivdyn.BaseParams (from ivdyn.base_params)")
+    n = native.dof
+    arrs = []
+    for name, x in (("q", q), ("qd", qd), ("qdd", qdd), ("tau", tau)):
+        x = np.ascontiguousarray(x, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != n or (arrs and x.shape[0] != arrs[0].shape[0]):
+            t = arrs[0].shape[0] if arrs else "T"
+            raise ValueError(f"{name} must have shape ({t}, {n}), got {x.shape}")
+        arrs.append(x)
+    w = None if joint_weight is None else np.ascontiguousarray(joint_weight, dtype=np.float64).reshape(-1)
+    return _ivdyn.fit_robot(native, base._b, *arrs, w)
 
 
 def payload_from_fit(base: BaseParams, fit: "FitReport", cols: Sequence[int],

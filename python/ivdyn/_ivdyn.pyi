@@ -137,7 +137,11 @@ class BaseParams:
     def select(self, y_full: _F64) -> _F64:
         """``(M, P)`` -> ``(M, B)``"""
 
-def base_params(robot: Robot, samples: int = 100, seed: int = 1) -> BaseParams: ...
+def base_params(robot: Robot, samples: int = 100, seed: int = 1, rigid_only: bool = False) -> BaseParams: ...
+def fit_robot(robot: Robot, base: BaseParams, q: _F64, qd: _F64, qdd: _F64, tau: _F64,
+              joint_weight: Optional[_F64] = None) -> FitReport:
+    """Fused multi-threaded LS fit of ``base`` from ``(T, N)`` samples (rad, rad/s,
+    rad/s^2, N m); the regressor is never stored."""
 def payload_from_fit(base: BaseParams, fit: FitReport, cols: List[int],
                      full_names: List[str]) -> Dict[str, Any]:
     """``{"mass", "com" (3,), "inertia" (6,), "mass_std", "com_std", "inertia_std",

@@ -437,3 +437,27 @@ def test_plot_paper_traces(tmp_path):
         ivdyn.plot.paper_traces(names, [1.0, 2.0, 0.0], n, est[:, :2], ["LSM", "IVM"])
     with pytest.raises(ValueError, match="no base parameter named"):
         ivdyn.plot.paper_traces(names, [1.0, 2.0, 0.0], n, est, ["LSM", "IVM"], param="nope")
+
+
+def test_fit_robot_matches_materialised_regressor_fit():
+    """The fused Rust fit equals fitting the stacked regressor with NumPy (lstsq), on a
+    noisy UR5 data set; the rigid-only base set of the UR5 has 36 parameters."""
+    robot = ivdyn.Robot.from_urdf(os.path.join(FIXTURES, "ur5.urdf"), base="base_link", tip="tool0")
+    rng = np.random.default_rng(3)
+    T = 3000
+    Q, QD, QDD = rng.uniform(-3, 3, (T, 6)), rng.uniform(-1, 1, (T, 6)), rng.uniform(-2, 2, (T, 6))
+    tau = robot.rnea(Q, QD, QDD) + 0.05 * rng.standard_normal((T, 6))
+    for rigid in (False, True):
+        base = ivdyn.base_params(robot, rigid_only=rigid)
+        assert base.base_count == (36 if rigid else 58)
+        if rigid:
+            tau_fit = tau - (robot.rnea(Q, QD, QDD) - robot.regressor(Q, QD, QDD, rigid_only=True) @ robot.params[:60])
+        else:
+            tau_fit = tau
+        fit = ivdyn.fit_robot(robot, base, Q, QD, QDD, tau_fit)
+        Y = robot.regressor(Q, QD, QDD, rigid_only=rigid).reshape(-1, base.full_cols)
+        Phi = base.select(Y)
+        ref, *_ = np.linalg.lstsq(Phi, tau_fit.reshape(-1), rcond=None)
+        np.testing.assert_allclose(fit.theta, ref, rtol=1e-9, atol=1e-9 * np.abs(ref).max())
+    with pytest.raises(ValueError, match="tau must have shape"):
+        ivdyn.fit_robot(robot, base, Q, QD, QDD, tau[:, :5])

@@ -256,13 +256,39 @@ impl PyBaseParams {
     }
 }
 
-/// Base parameters of a robot from `samples` random states.
+/// Base parameters of a robot from `samples` random states (over the 10 N inertial
+/// columns only when `rigid_only`).
 #[pyfunction]
-#[pyo3(signature = (robot, samples=100, seed=1))]
-fn base_params(py: Python<'_>, robot: PyRef<'_, PyRobot>, samples: usize, seed: u64) -> PyResult<PyBaseParams> {
+#[pyo3(signature = (robot, samples=100, seed=1, rigid_only=false))]
+fn base_params(py: Python<'_>, robot: PyRef<'_, PyRobot>, samples: usize, seed: u64, rigid_only: bool) -> PyResult<PyBaseParams> {
     let r = robot.inner.clone();
-    let inner = py.detach(|| ivdyn::ident::robot_base_params(&r, samples, seed)).map_err(to_py)?;
+    let inner = py.detach(|| ivdyn::ident::base::robot_base_params_with(&r, samples, seed, rigid_only)).map_err(to_py)?;
     Ok(PyBaseParams { inner })
+}
+
+/// Fused, multi-threaded least-squares fit of `base` from samples: `q, qd, qdd, tau`
+/// `(T, N)`, optional per-joint weights `(N,)`; the regressor is never materialised.
+#[pyfunction]
+#[pyo3(signature = (robot, base, q, qd, qdd, tau, joint_weight=None))]
+#[allow(clippy::too_many_arguments)]
+fn fit_robot(
+    py: Python<'_>,
+    robot: PyRef<'_, PyRobot>,
+    base: PyRef<'_, PyBaseParams>,
+    q: PyReadonlyArray2<'_, f64>,
+    qd: PyReadonlyArray2<'_, f64>,
+    qdd: PyReadonlyArray2<'_, f64>,
+    tau: PyReadonlyArray2<'_, f64>,
+    joint_weight: Option<PyReadonlyArray1<'_, f64>>,
+) -> PyResult<PyFitReport> {
+    let n = robot.inner.dof();
+    let q = mat(&q, "q", None, Some(n))?;
+    let t = q.len() / n.max(1);
+    let (qd, qdd, tau) = (mat(&qd, "qd", Some(t), Some(n))?, mat(&qdd, "qdd", Some(t), Some(n))?, mat(&tau, "tau", Some(t), Some(n))?);
+    let w = joint_weight.as_ref().map(|w| vec1(w, "joint_weight", Some(n))).transpose()?;
+    let (r, b) = (&robot.inner, &base.inner);
+    let inner = py.detach(|| ivdyn::batch::fit_ls_batch(r, b, &q, &qd, &qdd, &tau, w.as_deref())).map_err(to_py)?;
+    Ok(PyFitReport { inner })
 }
 
 /// Payload (mass, com, inertia about the com) from a fit over `base`.
@@ -579,6 +605,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fit_ls, m)?)?;
     m.add_function(wrap_pyfunction!(fit_iv, m)?)?;
     m.add_function(wrap_pyfunction!(base_params, m)?)?;
+    m.add_function(wrap_pyfunction!(fit_robot, m)?)?;
     m.add_function(wrap_pyfunction!(payload_from_fit, m)?)?;
     m.add_function(wrap_pyfunction!(read_joint_states, m)?)?;
     m.add_function(wrap_pyfunction!(paper_estimators, m)?)?;

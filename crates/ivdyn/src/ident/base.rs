@@ -301,7 +301,14 @@ pub fn format_sig(x: f64, digits: usize) -> String {
 /// passed to [`BaseParams::from_rows`] with [`crate::Robot::param_names`].
 /// Needs `samples * dof >= 14 dof` rows; use a few times more for a robust rank.
 pub fn robot_base_params(robot: &crate::Robot, samples: usize, seed: u64) -> Result<BaseParams> {
-    let (n, p) = (robot.dof(), robot.num_params());
+    robot_base_params_with(robot, samples, seed, false)
+}
+
+/// [`robot_base_params`] over the `10 N` inertial columns only (`rigid_only`), as a
+/// rigid-body-only fit (e.g. Pinocchio's regressor) uses them, or over all `14 N`.
+pub fn robot_base_params_with(robot: &crate::Robot, samples: usize, seed: u64, rigid_only: bool) -> Result<BaseParams> {
+    let (n, p_all) = (robot.dof(), robot.num_params());
+    let p = if rigid_only { ivdyn_core::params::LINK_PARAMS * n } else { p_all };
     if samples * n < p {
         return Err(Error::Dimension {
             what: "samples * dof (rows; must be >= parameter count)".into(),
@@ -333,9 +340,9 @@ pub fn robot_base_params(robot: &crate::Robot, samples: usize, seed: u64) -> Res
         let y = robot.regressor(&q, &qd, &qdd)?;
         for r in 0..n {
             for c in 0..p {
-                phi[(s * n + r, c)] = y[r * p + c];
+                phi[(s * n + r, c)] = y[r * p_all + c];
             }
         }
     }
-    Ok(BaseParams::from_rows(&phi, &robot.param_names()))
+    Ok(BaseParams::from_rows(&phi, &robot.param_names()[..p]))
 }
