@@ -9,6 +9,8 @@
 //! println!("{:?} -> {tau:?}", robot.joint_names);
 //! ```
 #![warn(missing_docs)]
+// `!(x > 0.0)` is deliberate throughout: it is true for NaN, which must be rejected too.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod arrays;
 pub mod batch;

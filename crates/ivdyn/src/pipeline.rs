@@ -584,9 +584,9 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
         _ => None,
     };
     let dwh_src = match opts.method {
-        Method::IdimIv => fit.dwh.clone(),
+        Method::IdimIv => fit.dwh,
         _ => match &iv_fit {
-            Some(Ok(f)) => f.dwh.clone(),
+            Some(Ok(f)) => f.dwh,
             Some(Err(e)) => {
                 notes.push(format!("no LS-vs-IV test: the IV fit failed ({e})"));
                 None
@@ -838,7 +838,7 @@ fn random_rows(robot: &Robot, cols: &[usize], samples: usize, seed: u64) -> Resu
     for s in 0..samples {
         for j in 0..n {
             let l = &limits[j];
-            let (lo, hi) = if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower { (l.lower, l.upper) } else { (-3.14, 3.14) };
+            let (lo, hi) = if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower { (l.lower, l.upper) } else { (-std::f64::consts::PI, std::f64::consts::PI) };
             q[j] = rng.uniform(lo, hi);
             qd[j] = rng.uniform(-1.0, 1.0);
             qdd[j] = rng.uniform(-2.0, 2.0);
