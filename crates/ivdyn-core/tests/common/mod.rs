@@ -5,19 +5,25 @@ use ivdyn_core::{
     spatial::axis_angle, DriveParams, Joint, LinkInertia, Mat3, Model, Transform, Vec3, VecN,
 };
 
-/// SplitMix64: tiny deterministic generator, so property tests need no extra crate.
-pub struct Rng(pub u64);
+/// The crate's deterministic generator with helpers for random chains and states.
+pub struct Rng {
+    inner: ivdyn_core::rng::Rng,
+}
+
+/// `Rng(seed)`: a seeded generator (a function in the value namespace, so tests read
+/// like a tuple-struct constructor).
+#[allow(non_snake_case)]
+pub fn Rng(seed: u64) -> Rng {
+    Rng { inner: ivdyn_core::rng::Rng::new(seed) }
+}
+
 impl Rng {
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+        self.inner.next_u64()
     }
     /// Uniform in [lo, hi).
     pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
+        self.inner.uniform(lo, hi)
     }
     pub fn unit(&mut self) -> Vec3 {
         loop {
