@@ -34,7 +34,6 @@ def read(case):
 
 
 def test_mujoco_inverse_dynamics_agrees_with_ivdyn_on_clean_model():
-    pytest.importorskip("mujoco", reason="mujoco (python/requirements-dev.txt) not installed")
     import make_diagnose_cases as gen
     r = robot()
     assert list(r.joint_names) == MANIFEST["joints"]

@@ -65,20 +65,7 @@ KP, KD = WN * WN, 2 * ZETA * WN
 TERMINAL_LINK = "wrist_3_link"
 AGREEMENT_TOL = 1e-10
 
-JOINT_STATE = """std_msgs/Header header
-string[] name
-float64[] position
-float64[] velocity
-float64[] effort
-================================================================================
-MSG: std_msgs/Header
-builtin_interfaces/Time stamp
-string frame_id
-================================================================================
-MSG: builtin_interfaces/Time
-int32 sec
-uint32 nanosec
-"""
+from make_log_fixtures import JOINT_STATE  # noqa: E402  (the one JointState message definition of our Python writers)
 
 # Trajectory centres (rad) per joint; amplitudes are drawn per case.
 CENTRES = np.array([0.0, -1.3, 1.2, -1.2, 1.4, 0.0])
