@@ -15,6 +15,7 @@
 pub mod arrays;
 pub mod batch;
 pub mod control;
+pub mod diagnose;
 pub mod error;
 pub mod ident;
 pub mod io;

@@ -1,0 +1,250 @@
+//! Model-gap diagnosis (`ivdyn diagnose`, DESIGN.md "The model-gap diagnosis"): predict
+//! the torques of a log with the nominal model, find where measurement and model
+//! disagree, name the missing effect from a fixed vocabulary, add it, refit, and repeat
+//! until nothing significant is left.
+//!
+//! * [`search`]: the candidate effects, their regressor columns, the scoring and the
+//!   rules for look-alikes (the algorithm).
+//! * [`report`]: `report.html` (self-contained, PNG plots) and `residuals.mcap`.
+//!
+//! The output types below are shared by both: [`DiagnosisJson`] is `diagnosis.json`
+//! exactly; [`Diagnosis`] adds what a person needs to trust it (evidence, candidate
+//! scores, regimes, traces for the plots).
+
+use serde::{Deserialize, Serialize};
+
+pub mod report;
+pub mod search;
+
+pub use search::{diagnose, DiagnoseOptions};
+
+/// The effect vocabulary of DESIGN.md, in its order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum EffectKind {
+    /// `fc sign(qd)` per joint.
+    #[serde(rename = "coulomb_friction")]
+    Coulomb,
+    /// `fv qd` per joint.
+    #[serde(rename = "viscous_friction")]
+    Viscous,
+    /// `(fc + fs exp(-(qd/vs)^2)) sign(qd)` per joint.
+    #[serde(rename = "stribeck_friction")]
+    Stribeck,
+    /// Rotor inertia `ia qdd` per joint.
+    #[serde(rename = "armature")]
+    Armature,
+    /// A rigid body fixed to the terminal link (all joints).
+    #[serde(rename = "payload")]
+    Payload,
+    /// A constant `tau0` per joint (sensor or drive offset).
+    #[serde(rename = "torque_offset")]
+    TorqueOffset,
+    /// `k (q - q0)` per joint.
+    #[serde(rename = "joint_spring")]
+    JointSpring,
+}
+
+impl EffectKind {
+    /// Every effect, in the vocabulary's order.
+    pub const ALL: [EffectKind; 7] = [
+        EffectKind::Coulomb,
+        EffectKind::Viscous,
+        EffectKind::Stribeck,
+        EffectKind::Armature,
+        EffectKind::Payload,
+        EffectKind::TorqueOffset,
+        EffectKind::JointSpring,
+    ];
+
+    /// The vocabulary name (`"coulomb_friction"`, ...).
+    pub fn name(&self) -> &'static str {
+        match self {
+            EffectKind::Coulomb => "coulomb_friction",
+            EffectKind::Viscous => "viscous_friction",
+            EffectKind::Stribeck => "stribeck_friction",
+            EffectKind::Armature => "armature",
+            EffectKind::Payload => "payload",
+            EffectKind::TorqueOffset => "torque_offset",
+            EffectKind::JointSpring => "joint_spring",
+        }
+    }
+
+    /// A short human label ("Coulomb friction", ...).
+    pub fn label(&self) -> &'static str {
+        match self {
+            EffectKind::Coulomb => "Coulomb friction",
+            EffectKind::Viscous => "viscous friction",
+            EffectKind::Stribeck => "Stribeck friction",
+            EffectKind::Armature => "armature (rotor inertia)",
+            EffectKind::Payload => "payload on the last link",
+            EffectKind::TorqueOffset => "torque offset",
+            EffectKind::JointSpring => "joint spring",
+        }
+    }
+}
+
+/// One effect entry of `diagnosis.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EffectJson {
+    /// Vocabulary name.
+    pub name: String,
+    /// Joint names the effect was found on (empty for `payload`, which acts on the
+    /// terminal link).
+    pub joints: Vec<String>,
+    /// Per DESIGN.md: coulomb `{"fc": [..]}`, viscous `{"fv": [..]}`, stribeck
+    /// `{"fc","fs","vs"}`, armature `{"ia"}`, torque_offset `{"tau0"}`, joint_spring
+    /// `{"k","q0"}` (lists over `joints`), payload `{"mass","com","inertia"}`.
+    pub parameters: serde_json::Map<String, serde_json::Value>,
+    /// RMS residual per joint (N m, whole log) before this effect was added.
+    pub rms_before: Vec<f64>,
+    /// RMS residual per joint (N m, whole log) with it (and every earlier effect) added.
+    pub rms_after: Vec<f64>,
+}
+
+/// `diagnosis.json`, exactly (DESIGN.md): nothing more, nothing less.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DiagnosisJson {
+    /// Effects in the order found; empty when nothing is missing.
+    pub effects: Vec<EffectJson>,
+    /// RMS residual per joint of the nominal model (N m).
+    pub baseline_rms: Vec<f64>,
+    /// RMS residual per joint with every effect added (N m).
+    pub final_rms: Vec<f64>,
+    /// Joint names, the order of every per-joint list.
+    pub joints: Vec<String>,
+}
+
+/// How one candidate fared on one joint at one step.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct JointScore {
+    /// F statistic of the candidate's columns on this joint's rows (training part).
+    pub f: f64,
+    /// Its p-value.
+    pub p: f64,
+    /// Fraction of the held-out residual variance (above the noise) the candidate
+    /// removes on this joint (can be negative: it made the held-out part worse).
+    pub heldout_gain: f64,
+    /// RMS (N m) of the torque the fitted candidate adds on this joint.
+    pub effect_rms: f64,
+    /// Whether the candidate is significant on this joint.
+    pub significant: bool,
+}
+
+/// One candidate effect scored at one step.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CandidateScore {
+    /// The effect.
+    pub effect: EffectKind,
+    /// Per joint (the log's joint order).
+    pub per_joint: Vec<JointScore>,
+    /// Joints it is significant on.
+    pub joints: Vec<usize>,
+    /// Overall score used to rank candidates (larger is better; 0 when nothing significant).
+    pub score: f64,
+    /// Whether it was the one added at this step.
+    pub accepted: bool,
+    /// Why it was or was not chosen, in words (e.g. "explains less than armature").
+    pub reason: String,
+}
+
+/// One step of the search: the effect added, and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Step {
+    /// The effect added.
+    pub effect: EffectKind,
+    /// Joints (indices) it was added on (all joints for a payload).
+    pub joints: Vec<usize>,
+    /// The evidence, in sentences a user understands ("joint 2 residual jumps by
+    /// 3.1 N m at every velocity reversal: Coulomb friction").
+    pub evidence: Vec<String>,
+    /// Every candidate scored at this step.
+    pub candidates: Vec<CandidateScore>,
+    /// RMS per joint before / after.
+    pub rms_before: Vec<f64>,
+    /// RMS per joint after.
+    pub rms_after: Vec<f64>,
+}
+
+/// Where the residual is, per joint (for one prediction).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Regimes {
+    /// RMS over the whole log (N m).
+    pub rms: f64,
+    /// RMS within +-`window` samples of velocity reversals (N m; NaN if none).
+    pub rms_reversal: f64,
+    /// RMS where |qdd| is in its top 20 % (N m).
+    pub rms_high_acc: f64,
+    /// RMS elsewhere (away from reversals, moderate acceleration) (N m).
+    pub rms_rest: f64,
+    /// Mean jump of the residual across velocity reversals, signed as
+    /// `r(after) - r(before)` times the sign of the new velocity (N m; 2 fc for Coulomb friction).
+    pub reversal_jump: f64,
+    /// Number of velocity reversals.
+    pub reversals: usize,
+    /// Correlation of the residual with q, qd, qdd of the same joint.
+    pub corr_q: f64,
+    /// Correlation with qd.
+    pub corr_qd: f64,
+    /// Correlation with qdd.
+    pub corr_qdd: f64,
+    /// Mean of the residual (N m).
+    pub mean: f64,
+}
+
+/// The signals behind the plots (row-major `T x N`).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Traces {
+    /// Time (s) from the log's start.
+    pub t: Vec<f64>,
+    /// Positions (rad or m), conditioned.
+    pub q: Vec<f64>,
+    /// Velocities.
+    pub qd: Vec<f64>,
+    /// Accelerations.
+    pub qdd: Vec<f64>,
+    /// Measured torque (N m).
+    pub tau: Vec<f64>,
+    /// Predicted torque: `[0]` the nominal model, `[i]` after step `i`.
+    pub predicted: Vec<Vec<f64>>,
+}
+
+/// Facts about the input.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LogInfo {
+    /// The log file (as given).
+    pub file: String,
+    /// The URDF (as given).
+    pub urdf: String,
+    /// Samples used.
+    pub samples: usize,
+    /// Duration (s).
+    pub duration: f64,
+    /// Sample rate (Hz).
+    pub rate: f64,
+    /// Whether velocities came from the log (else differentiated from positions).
+    pub velocity_in_log: bool,
+}
+
+/// The whole diagnosis: the JSON content plus what the report shows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Diagnosis {
+    /// `diagnosis.json`.
+    pub json: DiagnosisJson,
+    /// The steps, one per effect in `json.effects`.
+    pub steps: Vec<Step>,
+    /// The candidates scored at the final step, when none was significant.
+    pub final_candidates: Vec<CandidateScore>,
+    /// Estimated sensor noise std per joint (N m), from the residual's sample-to-sample
+    /// differences (robust to the slow structure a missing effect leaves).
+    pub noise_std: Vec<f64>,
+    /// Regimes of the nominal residual, per joint.
+    pub regimes_before: Vec<Regimes>,
+    /// Regimes of the final residual, per joint.
+    pub regimes_after: Vec<Regimes>,
+    /// The verdict in one sentence ("nothing significant missing", or what was added).
+    pub verdict: String,
+    /// Signals for plots and `residuals.mcap`.
+    pub traces: Traces,
+    /// The input.
+    pub info: LogInfo,
+}
