@@ -30,6 +30,8 @@ enum Cmd {
     Payload(PayloadArgs),
     /// Write a synthetic log (inverse dynamics along a trajectory, with noise).
     Simulate(SimulateArgs),
+    /// Find what the nominal model misses in a log, name it, add it (docs/diagnose.md).
+    Diagnose(diagnose_cmd::DiagnoseArgs),
 }
 
 #[derive(Args)]
@@ -179,6 +181,9 @@ struct SimulateArgs {
     json: Option<PathBuf>,
 }
 
+#[path = "cmd/diagnose.rs"]
+mod diagnose_cmd;
+
 type R<T> = Result<T, String>;
 
 fn main() -> ExitCode {
@@ -188,6 +193,7 @@ fn main() -> ExitCode {
         Cmd::Identify(a) => identify(a, &bars),
         Cmd::Payload(a) => payload(a, &bars),
         Cmd::Simulate(a) => simulate(a, &bars),
+        Cmd::Diagnose(a) => diagnose_cmd::run(a, &bars),
     };
     match r {
         Ok(code) => code,

@@ -223,6 +223,12 @@ pub struct LogInfo {
     pub rate: f64,
     /// Whether velocities came from the log (else differentiated from positions).
     pub velocity_in_log: bool,
+    /// Zero-phase low-pass cutoff (Hz) used before differentiating (chosen on a grid
+    /// unless given).
+    pub cutoff_hz: f64,
+    /// Time alignment of the acceleration to the torque found in the log (samples; +0.5:
+    /// the torque of sample k acts over [t_k, t_k+1), as in a simulator step).
+    pub align_samples: f64,
 }
 
 /// The whole diagnosis: the JSON content plus what the report shows.

@@ -1,0 +1,89 @@
+//! `ivdyn diagnose`: the model-gap diagnosis (docs/diagnose.md).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+
+use super::{load_robot, read_log, write_json, Bars, LogArgs, RobotArgs, R};
+use ivdyn::diagnose::{self, DiagnoseOptions};
+
+#[derive(Args)]
+pub struct DiagnoseArgs {
+    #[command(flatten)]
+    robot: RobotArgs,
+    /// Log file (.mcap or .csv) with positions and measured torques.
+    #[arg(long)]
+    log: PathBuf,
+    #[command(flatten)]
+    log_args: LogArgs,
+    /// Output directory: diagnosis.json, report.html, residuals.mcap.
+    #[arg(long)]
+    out: PathBuf,
+    /// Significance level of the per-joint F test.
+    #[arg(long, default_value_t = 1e-6)]
+    alpha: f64,
+    /// Smallest effect named, in noise standard deviations of RMS torque.
+    #[arg(long, default_value_t = 0.5)]
+    min_effect: f64,
+    /// Differentiate positions even if the log has velocities.
+    #[arg(long)]
+    ignore_log_velocity: bool,
+    /// Also write diagnosis.json here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Skip report.html (faster; diagnosis.json and residuals.mcap only).
+    #[arg(long)]
+    no_report: bool,
+}
+
+pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
+    let robot = load_robot(&a.robot)?;
+    let log = read_log(&a.log, &robot, &a.log_args, bars)?;
+    let opts = DiagnoseOptions {
+        alpha: a.alpha,
+        min_effect: a.min_effect,
+        cutoff_hz: a.log_args.cutoff,
+        ignore_log_velocity: a.ignore_log_velocity,
+        log_name: a.log.display().to_string(),
+        urdf_name: a.robot.urdf.display().to_string(),
+        ..Default::default()
+    };
+    let pb = bars.spinner("diagnosing");
+    let d = diagnose::diagnose(&robot, &log, &opts).map_err(|e| format!("{}: {e}", a.log.display()))?;
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: cannot create: {e}", a.out.display()))?;
+    if !a.no_report {
+        let pb = bars.spinner("writing report.html");
+        diagnose::report::write_html(&d, &a.out).map_err(|e| e.to_string())?;
+        if let Some(pb) = pb {
+            pb.finish_and_clear();
+        }
+    }
+    diagnose::report::write_mcap(&d, &robot.joint_names, &a.out).map_err(|e| e.to_string())?;
+    write_json(&a.out.join("diagnosis.json"), &d.json)?;
+    if let Some(j) = &a.json {
+        write_json(j, &d.json)?;
+    }
+    print_summary(&d);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_summary(d: &diagnose::Diagnosis) {
+    let j = &d.json;
+    println!("{}", d.verdict);
+    for (st, e) in d.steps.iter().zip(&j.effects) {
+        println!("\n{} ({})", st.effect.label(), e.name);
+        for line in &st.evidence {
+            println!("  - {line}");
+        }
+        println!("  parameters: {}", serde_json::Value::Object(e.parameters.clone()));
+    }
+    println!("\nRMS residual per joint (N m):");
+    println!("  {:<24} {:>10} {:>10} {:>10}", "joint", "nominal", "final", "noise");
+    for (k, name) in j.joints.iter().enumerate() {
+        println!("  {:<24} {:>10.4} {:>10.4} {:>10.4}", name, j.baseline_rms[k], j.final_rms[k], d.noise_std[k]);
+    }
+}
