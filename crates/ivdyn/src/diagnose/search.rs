@@ -183,10 +183,6 @@ impl Model {
         }
         p
     }
-
-    fn is_empty(&self) -> bool {
-        !self.payload && self.per_joint.iter().all(|e| e.is_empty())
-    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -391,8 +387,6 @@ fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Grams {
 struct Fit {
     params: Vec<Param>,
     theta: Vec<f64>,
-    /// Parameter covariance (scaled by the weighted residual variance).
-    cov: DMatrix<f64>,
 }
 
 fn joint_index(params: &[Param], j: usize) -> Vec<(usize, usize)> {
@@ -414,8 +408,6 @@ fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]) -> Fit {
     let n = gr.g.len();
     let mut a = DMatrix::<f64>::zeros(p, p);
     let mut b = DVector::<f64>::zeros(p);
-    let mut yy = 0.0;
-    let mut rows = 0usize;
     for j in 0..n {
         let g = sum_folds(&gr.g[j], folds);
         let idx = joint_index(model_params, j);
@@ -425,11 +417,9 @@ fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]) -> Fit {
                 a[(ia, ib)] += w[j] * g[(ca, cb)];
             }
         }
-        yy += w[j] * g[(C_TARGET, C_TARGET)];
-        rows += folds.iter().map(|&f| gr.rows[j][f]).sum::<usize>();
     }
     if p == 0 {
-        return Fit { params: vec![], theta: vec![], cov: DMatrix::zeros(0, 0) };
+        return Fit { params: vec![], theta: vec![] };
     }
     // scale to unit diagonal, then a pseudo-inverse with a relative threshold
     let s: Vec<f64> = (0..p).map(|i| if a[(i, i)] > 0.0 { 1.0 / a[(i, i)].sqrt() } else { 0.0 }).collect();
@@ -440,10 +430,7 @@ fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]) -> Fit {
     let pinv = svd.pseudo_inverse(tol).unwrap_or_else(|_| DMatrix::zeros(p, p));
     let xn = &pinv * &bn;
     let theta: Vec<f64> = (0..p).map(|i| xn[i] * s[i]).collect();
-    let rss = (yy - 2.0 * xn.dot(&bn) + (xn.transpose() * &an * &xn)[(0, 0)]).max(0.0);
-    let sigma2 = rss / (rows.saturating_sub(p)).max(1) as f64;
-    let cov = DMatrix::from_fn(p, p, |i, k| pinv[(i, k)] * s[i] * s[k] * sigma2);
-    Fit { params: model_params.to_vec(), theta, cov }
+    Fit { params: model_params.to_vec(), theta }
 }
 
 /// Residual sum of squares of joint `j` over `folds` (unweighted, N m^2).
