@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test venv rust-test nostd py-test fixtures bench bench-anchor clean paper
+.PHONY: demo test venv rust-test nostd py-test fixtures bench bench-anchor clean paper real-data
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -73,3 +73,10 @@ clean:
 paper: venv
 	$(CARGO) run --release -p ivdyn --example paper_reproduction -- --seeds 20 --n-max 1000000 --out out/paper
 	$(PY) examples/plot_paper.py --in out/paper --out docs/figures
+
+## real-data: identification on the real TX40 and LWR4+ recordings in ../shared/data/real
+## (docs/real-data.md); DATA=path overrides the data folder
+DATA ?= ../shared/data/real
+real-data: venv
+	$(CARGO) run --release -p ivdyn --example real_data -- $(DATA) --out out/real
+	$(PY) examples/plot_real_data.py --in out/real --out docs/figures

@@ -20,9 +20,11 @@ pub mod error;
 pub mod ident;
 pub mod io;
 pub mod pipeline;
+pub mod realdata;
 pub mod repro;
 pub mod robot;
 pub mod signal;
+pub mod transmission;
 pub mod urdf;
 
 pub use error::Error;

@@ -25,6 +25,8 @@ pub mod cdr;
 pub mod csv;
 pub mod mcap;
 pub mod mcap_out;
+pub mod npz;
+pub mod real;
 
 use std::path::Path;
 
