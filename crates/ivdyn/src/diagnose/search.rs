@@ -602,6 +602,8 @@ struct Ctx<'a> {
     gr: &'a Grams,
     /// Mean diagonal of the nominal mass matrix over the log (kg m^2 or kg).
     m_diag: Vec<f64>,
+    /// Nominal mass of the terminal link (kg).
+    terminal_mass: f64,
     w: Vec<f64>,
     sigma: Vec<f64>,
     rho: Vec<f64>,
@@ -653,12 +655,15 @@ impl Ctx<'_> {
         JointScore { f: f_stat, p, heldout_gain, effect_rms: e_rms, significant }
     }
 
-    /// An armature below `ARMATURE_FLOOR` of the inertia the nominal model already puts on
-    /// the joint is indistinguishable from an error of the links' own inertias (CAD
-    /// inertias are rarely better than that): not named as a missing effect.
+    /// An armature below `NOMINAL_UNCERTAINTY` of the inertia the nominal model already
+    /// puts on the joint, or a payload lighter than that share of the terminal link, is
+    /// indistinguishable from an error of the links' own (CAD) inertias, which are rarely
+    /// better than that: not named as a missing effect.
     fn beyond_nominal_uncertainty(&self, f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> bool {
         f.params.iter().zip(&f.theta).all(|(p, &v)| {
-            !(added(p) && p.joint == Some(j) && p.kind == EffectKind::Armature && v < ARMATURE_FLOOR * self.m_diag[j])
+            let small_armature = p.joint == Some(j) && p.kind == EffectKind::Armature && v < NOMINAL_UNCERTAINTY * self.m_diag[j];
+            let small_payload = p.kind == EffectKind::Payload && p.col == C_PAYLOAD && v < NOMINAL_UNCERTAINTY * self.terminal_mass;
+            !(added(p) && (small_armature || small_payload))
         })
     }
 
@@ -804,8 +809,9 @@ fn backward(ctx: &Ctx, m: &Model) -> Model {
     }
 }
 
-/// Smallest armature named, as a fraction of the nominal inertia on the joint.
-const ARMATURE_FLOOR: f64 = 0.1;
+/// Smallest armature (payload) named, as a fraction of the nominal inertia on the joint
+/// (of the terminal link's nominal mass).
+const NOMINAL_UNCERTAINTY: f64 = 0.1;
 
 /// Mean over (a subsample of) the log of the nominal mass matrix's diagonal.
 fn mean_mass_diag(robot: &Robot, q: &[f64], n: usize) -> Result<Vec<f64>> {
@@ -955,7 +961,8 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     let (sigma, rho, _) = noise_of_all_model(&d, &gr, n, t_len);
     let w: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
     let m_diag = mean_mass_diag(robot, &s.q, n)?;
-    let ctx = Ctx { gr: &gr, m_diag, w, sigma: sigma.clone(), rho, n, opts };
+    let terminal_mass = robot.params()[10 * (n - 1)];
+    let ctx = Ctx { gr: &gr, m_diag, terminal_mass, w, sigma: sigma.clone(), rho, n, opts };
 
     let r_nom: Vec<f64> = (0..t_len * n).map(|i| d.r0[i % n][i / n]).collect();
     let baseline_rms = rms_per_joint(&r_nom, n);
