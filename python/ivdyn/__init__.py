@@ -4,8 +4,11 @@ Inverse and forward dynamics, gravity torques, mass matrices and the joint-torqu
 regressor of serial arms (URDF, standard DH, or the paper's robot), computed by the
 Rust library ``ivdyn`` (multi-threaded over samples, GIL released); identification
 (:func:`fit_ls`, :func:`fit_iv`, :func:`base_params`, :func:`payload_from_fit`,
-:class:`Rls`, :class:`Riv`), log reading (:func:`read_joint_states`), the paper's
-simulation study (:mod:`ivdyn.paper`) and plotting helpers (:mod:`ivdyn.plot`).
+:class:`Rls`, :class:`Riv`, the terminal-link estimator :func:`terminal_link`), log
+reading (:func:`read_joint_states`), closed-loop simulation (:func:`closed_loop`,
+:func:`control_experiment`), the command line's pipelines (:func:`identify`,
+:func:`payload`, :func:`simulate`), the paper's simulation study (:mod:`ivdyn.paper`) and
+plotting helpers (:mod:`ivdyn.plot`).
 
 Conventions (SI units throughout: m, kg, s, rad, N, N m):
 
@@ -44,6 +47,10 @@ __all__ = [
     # identification (python/ivdyn/_ident.py)
     "fit_ls", "fit_iv", "fit_robot", "FitReport", "base_params", "BaseParams", "payload_from_fit",
     "Rls", "Riv", "read_joint_states",
+    # terminal link, closed-loop simulation, control experiments (python/ivdyn/_control.py)
+    "terminal_base", "terminal_link", "closed_loop", "control_experiment",
+    # the command line's pipelines (python/ivdyn/_pipeline.py)
+    "identify", "payload", "simulate", "tqdm_progress",
     # submodules
     "paper", "plot",
 ]
@@ -56,6 +63,8 @@ from ._ident import (  # noqa: E402
     BaseParams, FitReport, Riv, Rls, base_params, fit_iv, fit_ls, fit_robot, payload_from_fit,
     read_joint_states,
 )
+from ._control import closed_loop, control_experiment, terminal_base, terminal_link  # noqa: E402
+from ._pipeline import identify, payload, simulate, tqdm_progress  # noqa: E402
 from . import paper, plot  # noqa: E402
 
 
@@ -214,54 +223,89 @@ class Robot:
             out.append(a if batched else a.reshape(1, n))
         return out, batched
 
+    @staticmethod
+    def _out(out, batched: bool, shape: Tuple[int, ...]):
+        """The caller's output array as the native batched shape (a view), or None."""
+        if out is None:
+            return None
+        if not isinstance(out, np.ndarray):
+            raise ValueError(f"out must be a numpy.ndarray of shape {shape} and dtype float64, "
+                             f"got {type(out).__name__}")
+        if out.shape != shape:
+            raise ValueError(f"out must have shape {shape}, got {out.shape}")
+        return out if batched else out[np.newaxis]
+
     # ------------------------------------------------------------------ dynamics
-    def rnea(self, q, qd, qdd) -> np.ndarray:
+    def rnea(self, q, qd, qdd, out: Optional[np.ndarray] = None) -> np.ndarray:
         """Inverse dynamics: joint torques (N m; N for prismatic joints) that produce
         accelerations ``qdd`` at ``(q, qd)``, including the drive terms
         ``fc sign(qd) + fv qd + ia qdd + tau0``.
 
         ``q`` (rad), ``qd`` (rad/s), ``qdd`` (rad/s^2): shape ``(N,)`` -> ``(N,)``, or
-        ``(T, N)`` -> ``(T, N)``.
+        ``(T, N)`` -> ``(T, N)``. ``out``: an optional float64 C-contiguous array of the
+        output's shape, written in place and returned (no allocation).
         """
         (q, qd, qdd), batched = self._inputs(("q", "qd", "qdd"), (q, qd, qdd))
-        tau = self._r.rnea(q, qd, qdd)
+        o = self._out(out, batched, q.shape if batched else (self.dof,))
+        tau = self._r.rnea(q, qd, qdd, o)
+        if out is not None:
+            return out
         return tau if batched else tau[0]
 
-    def gravity(self, q) -> np.ndarray:
+    def gravity(self, q, out: Optional[np.ndarray] = None) -> np.ndarray:
         """Gravity torques ``g(q)`` (N m), no drive terms. ``q`` (rad): ``(N,)`` -> ``(N,)``
-        or ``(T, N)`` -> ``(T, N)``."""
+        or ``(T, N)`` -> ``(T, N)``; ``out`` as in :meth:`rnea`."""
         (q,), batched = self._inputs(("q",), (q,))
-        g = self._r.gravity(q)
+        g = self._r.gravity(q, self._out(out, batched, q.shape if batched else (self.dof,)))
+        if out is not None:
+            return out
         return g if batched else g[0]
 
-    def regressor(self, q, qd, qdd, rigid_only: bool = False) -> np.ndarray:
+    def regressor(self, q, qd, qdd, rigid_only: bool = False,
+                  out: Optional[np.ndarray] = None) -> np.ndarray:
         """Joint-torque regressor ``Y`` with ``Y @ params == rnea(q, qd, qdd)``.
 
         ``(N,)`` inputs -> ``(N, P)``; ``(T, N)`` inputs -> ``(T, N, P)``, with ``P = 14 N``
         (columns ordered like :attr:`params`), or ``P = 10 N`` (the inertial columns only,
         equal to Pinocchio's ``computeJointTorqueRegressor``) when ``rigid_only``.
+
+        ``out``: an optional float64 C-contiguous array of that shape, written in place
+        (every entry) and returned. Reusing one buffer over calls saves the allocation and
+        the kernel's zeroing of fresh pages, a large part of the time for big batches
+        (``benches/README.md``: 100 000 UR5 samples are 288 MB).
         """
         (q, qd, qdd), batched = self._inputs(("q", "qd", "qdd"), (q, qd, qdd))
-        y = self._r.regressor(q, qd, qdd, bool(rigid_only))
+        n = self.dof
+        p = (10 if rigid_only else 14) * n
+        shape = (q.shape[0], n, p) if batched else (n, p)
+        y = self._r.regressor(q, qd, qdd, bool(rigid_only), self._out(out, batched, shape))
+        if out is not None:
+            return out
         return y if batched else y[0]
 
-    def mass_matrix(self, q) -> np.ndarray:
+    def mass_matrix(self, q, out: Optional[np.ndarray] = None) -> np.ndarray:
         """Joint-space mass matrix ``M(q)`` (kg m^2 for revolute joints), including the
         armature ``ia`` on the diagonal; symmetric positive definite for physical
-        parameters. ``q`` (rad): ``(N,)`` -> ``(N, N)`` or ``(T, N)`` -> ``(T, N, N)``."""
+        parameters. ``q`` (rad): ``(N,)`` -> ``(N, N)`` or ``(T, N)`` -> ``(T, N, N)``;
+        ``out`` as in :meth:`rnea`."""
         (q,), batched = self._inputs(("q",), (q,))
-        m = self._r.mass_matrix(q)
+        n = self.dof
+        m = self._r.mass_matrix(q, self._out(out, batched, (q.shape[0], n, n) if batched else (n, n)))
+        if out is not None:
+            return out
         return m if batched else m[0]
 
-    def forward_dynamics(self, q, qd, tau) -> np.ndarray:
+    def forward_dynamics(self, q, qd, tau, out: Optional[np.ndarray] = None) -> np.ndarray:
         """Forward dynamics: accelerations ``qdd`` (rad/s^2) with
         ``rnea(q, qd, qdd) == tau``, i.e. ``M qdd = tau - h(q, qd) - fc sign(qd) - fv qd
         - tau0``. ``q`` (rad), ``qd`` (rad/s), ``tau`` (N m): ``(N,)`` -> ``(N,)`` or
         ``(T, N)`` -> ``(T, N)``.
 
         Raises ``RuntimeError`` naming the sample if a mass matrix is not positive
-        definite (e.g. all-zero parameters).
+        definite (e.g. all-zero parameters). ``out`` as in :meth:`rnea`.
         """
         (q, qd, tau), batched = self._inputs(("q", "qd", "tau"), (q, qd, tau))
-        qdd = self._r.forward_dynamics(q, qd, tau)
+        qdd = self._r.forward_dynamics(q, qd, tau, self._out(out, batched, q.shape if batched else (self.dof,)))
+        if out is not None:
+            return out
         return qdd if batched else qdd[0]

@@ -182,7 +182,7 @@ def fit_robot(robot, base: BaseParams, q, qd, qdd, tau, joint_weight=None) -> "F
     if not isinstance(base, BaseParams):
         raise TypeError("base must be an ivdyn.BaseParams (from ivdyn.base_params)")
     n = native.dof
-    arrs = []
+    arrs: List[np.ndarray] = []
     for name, x in (("q", q), ("qd", qd), ("qdd", qdd), ("tau", tau)):
         x = np.ascontiguousarray(x, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] != n or (arrs and x.shape[0] != arrs[0].shape[0]):
@@ -190,7 +190,7 @@ def fit_robot(robot, base: BaseParams, q, qd, qdd, tau, joint_weight=None) -> "F
             raise ValueError(f"{name} must have shape ({t}, {n}), got {x.shape}")
         arrs.append(x)
     w = None if joint_weight is None else np.ascontiguousarray(joint_weight, dtype=np.float64).reshape(-1)
-    return _ivdyn.fit_robot(native, base._b, *arrs, w)
+    return _ivdyn.fit_robot(native, base._b, arrs[0], arrs[1], arrs[2], arrs[3], w)
 
 
 def payload_from_fit(base: BaseParams, fit: "FitReport", cols: Sequence[int],

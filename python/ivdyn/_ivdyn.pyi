@@ -5,10 +5,18 @@ Use the ``ivdyn`` package instead: its ``Robot`` wraps this one, accepts ``(N,)`
 methods take C-contiguous float64 ``(T, N)`` arrays only.
 """
 from os import PathLike
-from typing import Any, Dict, List, Optional, Sequence, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
+from typing_extensions import Self
+
+__all__ = [
+    "Robot", "FitReport", "BaseParams", "Rls", "Riv", "PaperSim", "fit_ls", "fit_iv", "base_params",
+    "fit_robot", "payload_from_fit", "read_joint_states", "paper_estimators", "terminal_base",
+    "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "simulate",
+    "batch_threads", "__version__", "MAX_DOF",
+]
 
 __version__: str
 MAX_DOF: int
@@ -18,6 +26,7 @@ _F64 = npt.NDArray[np.float64]
 def batch_threads(t: int) -> int:
     """Number of threads the batch functions use for ``t`` samples."""
 
+@final
 class Robot:
     @staticmethod
     def from_urdf(path: Union[str, PathLike], base: Optional[str] = None,
@@ -49,20 +58,24 @@ class Robot:
         """``(14 N,)``"""
     @params.setter
     def params(self, theta: _F64) -> None: ...
-    def rnea(self, q: _F64, qd: _F64, qdd: _F64) -> _F64:
+    # ``out``: a float64 C-contiguous writeable array of the output's shape, written in
+    # place and returned (ValueError otherwise)
+    def rnea(self, q: _F64, qd: _F64, qdd: _F64, out: Optional[_F64] = None) -> _F64:
         """``(T, N)`` x3 -> ``(T, N)``"""
-    def gravity(self, q: _F64) -> _F64:
+    def gravity(self, q: _F64, out: Optional[_F64] = None) -> _F64:
         """``(T, N)`` -> ``(T, N)``"""
-    def regressor(self, q: _F64, qd: _F64, qdd: _F64, rigid_only: bool = False) -> _F64:
+    def regressor(self, q: _F64, qd: _F64, qdd: _F64, rigid_only: bool = False,
+                  out: Optional[_F64] = None) -> _F64:
         """``(T, N)`` x3 -> ``(T, N, 14 N)`` or ``(T, N, 10 N)``"""
-    def mass_matrix(self, q: _F64) -> _F64:
+    def mass_matrix(self, q: _F64, out: Optional[_F64] = None) -> _F64:
         """``(T, N)`` -> ``(T, N, N)``"""
-    def forward_dynamics(self, q: _F64, qd: _F64, tau: _F64) -> _F64:
+    def forward_dynamics(self, q: _F64, qd: _F64, tau: _F64, out: Optional[_F64] = None) -> _F64:
         """``(T, N)`` x3 -> ``(T, N)``"""
 
 # ---------------------------------------------------------------- identification
 # (wrapped by python/ivdyn/_ident.py; the native functions take C-contiguous float64)
 
+@final
 class FitReport:
     """Result of :func:`fit_ls` / :func:`fit_iv` (``P`` parameters, ``M`` rows)."""
     @property
@@ -113,6 +126,7 @@ def fit_iv(phi: _F64, z: _F64, y: _F64, w: Optional[_F64] = None,
            names: Optional[List[str]] = None) -> FitReport:
     """``phi``, ``z`` ``(M, P)``, ``y`` ``(M,)``, ``w`` ``(M,)`` -> instrumental variables."""
 
+@final
 class BaseParams:
     """``theta_base = theta[independent] + K @ theta[dependent]``."""
     @property
@@ -147,8 +161,9 @@ def payload_from_fit(base: BaseParams, fit: FitReport, cols: List[int],
     """``{"mass", "com" (3,), "inertia" (6,), "mass_std", "com_std", "inertia_std",
     "params" (10,)}``; ``ValueError`` when not identifiable."""
 
+@final
 class Rls:
-    def __init__(self, p: int, p0: float = 1e4, forgetting: float = 1.0) -> None: ...
+    def __new__(cls, p: int, p0: float = 1e4, forgetting: float = 1.0) -> Self: ...
     def update(self, phi: _F64, y: float, w: float = 1.0) -> None:
         """``phi`` ``(P,)``"""
     def update_many(self, phi: _F64, y: _F64, w: Optional[_F64] = None) -> None:
@@ -166,8 +181,9 @@ class Rls:
     @property
     def forgetting(self) -> float: ...
 
+@final
 class Riv:
-    def __init__(self, p: int, p0: float = 1e4, forgetting: float = 1.0) -> None: ...
+    def __new__(cls, p: int, p0: float = 1e4, forgetting: float = 1.0) -> Self: ...
     def update(self, phi: _F64, z: _F64, y: float, w: float = 1.0) -> None:
         """``phi``, ``z`` ``(P,)``"""
     def update_many(self, phi: _F64, z: _F64, y: _F64, w: Optional[_F64] = None) -> None:
@@ -191,9 +207,10 @@ def read_joint_states(path: Union[str, PathLike], joint_names: List[str],
     """``{"t": (T,), "q": (T, N), "qd"/"tau"/"u": (T, N) or None, "joint_names",
     "t0_ns", "truncated"}``"""
 
+@final
 class PaperSim:
     """The paper's simulation set-up for one seed of nominal-model errors."""
-    def __init__(self, seed: int) -> None: ...
+    def __new__(cls, seed: int) -> Self: ...
     @property
     def seed(self) -> int: ...
     @property
@@ -219,3 +236,58 @@ class PaperSim:
         """``(4, len(record), B)``"""
 
 def paper_estimators() -> List[str]: ...
+
+# ---------------------------------------------------------------- terminal link, control
+# (wrapped by python/ivdyn/_control.py)
+
+def terminal_base(robot: Robot, k: Optional[int] = None, drive: List[str] = ...,
+                  first_row: Optional[int] = None, samples: int = 200, seed: int = 42) -> BaseParams:
+    """Identifiable columns of the terminal unknowns (links ``k..N-1`` + ``drive``) seen by
+    rows ``first_row..N-1``."""
+def terminal_link(robot: Robot, q: _F64, qd: _F64, qdd: _F64, tau: _F64, columns: List[int],
+                  k: Optional[int] = None, drive: List[str] = ..., first_row: Optional[int] = None,
+                  iv: bool = True, qdd_instr: Optional[_F64] = None, u: Optional[_F64] = None,
+                  row_weight: Optional[List[float]] = None, p0: float = 1e4, min_speed: float = 0.0,
+                  record: List[int] = ...) -> Dict[str, Any]:
+    """``(T, N)`` arrays -> ``{"names", "theta" (B,), "trace" (R, B), "record", "P" (B, B),
+    "rows_used", "rows_skipped", "method"}``"""
+def closed_loop(robot: Robot, q_des: _F64, qd_des: _F64, qdd_des: _F64, dt: float,
+                controller: str = "computed_torque", model: Optional[Robot] = None, wn: float = 20.0,
+                zeta: float = 1.0, coulomb: str = "reference", q0: Optional[List[float]] = None,
+                qd0: Optional[List[float]] = None, tau_limit: Optional[List[float]] = None,
+                encoder_bits: Optional[int] = None, q_noise: float = 0.0, tau_noise: float = 0.0,
+                substeps: int = 10, integrator: str = "rk4", coulomb_band: float = 0.05,
+                velocity_cutoff_hz: float = 0.0, seed: int = 0) -> Dict[str, Any]:
+    """``(T, N)`` reference -> ``{"t", "q", "qd", "q_meas", "qd_meas", "u", "tau", "saturated",
+    "id_t", "id_q", "id_qd", "id_qdd", "id_tau", "id_u"}``"""
+def control_experiment(scheme: str, robot: str = "paper", urdf: Optional[Union[str, PathLike[str]]] = None,
+                       duration: Optional[float] = None, grasp_time: Optional[float] = None,
+                       estimator: str = "iv", instrument: str = "planned", delay: int = 3,
+                       p0: Optional[float] = None, switch_error_tol: Optional[float] = None,
+                       record_every: Optional[int] = None) -> Dict[str, Any]:
+    """One Fig. 5 run (``ivdyn::control::Experiment``)."""
+
+# ---------------------------------------------------------------- pipelines
+# (wrapped by python/ivdyn/_pipeline.py; they return the command line's --json text)
+
+_Log = Union[str, PathLike[str], Dict[str, Any]]
+_Callback = Optional[Callable[[str, int, int], Any]]
+
+def identify(robot: Robot, log: _Log, method: str = "wls", validate: Optional[_Log] = None,
+             holdout: float = 0.25, topic: str = "/joint_states", command_topic: Optional[str] = None,
+             log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
+             params_json: Optional[str] = None, progress: _Callback = None) -> str:
+    """``ivdyn identify`` -> its ``--json`` document."""
+def payload(robot: Robot, log: _Log, before: Optional[_Log] = None, topic: str = "/joint_states",
+            command_topic: Optional[str] = None, log_time: bool = False, cutoff: Optional[float] = None,
+            decimate: int = 0, params_json: Optional[str] = None, progress: _Callback = None) -> str:
+    """``ivdyn payload`` -> its ``--json`` document."""
+def simulate(robot: Robot, out: Optional[Union[str, PathLike[str]]] = None, traj_t: Optional[_F64] = None,
+             traj_q: Optional[_F64] = None, duration: float = 20.0, rate: float = 500.0, seed: int = 1,
+             amplitude: float = 0.8, payload_mass: Optional[float] = None,
+             payload_com: Optional[List[float]] = None, payload_inertia: Optional[List[float]] = None,
+             fc: Optional[List[float]] = None, fv: Optional[List[float]] = None, noise: float = 0.0,
+             noise_q: float = 0.0, encoder_bits: Optional[int] = None, tau_resolution: Optional[float] = None,
+             velocity: bool = True, command: bool = False,
+             params_json: Optional[str] = None) -> Tuple[str, Dict[str, Any]]:
+    """``ivdyn simulate`` -> (its ``--json`` summary, the log as arrays)."""

@@ -198,7 +198,7 @@ fn fit_iv(
 /// Base parameters (`ivdyn::ident::BaseParams`).
 #[pyclass(name = "BaseParams", module = "ivdyn._ivdyn", frozen)]
 pub struct PyBaseParams {
-    inner: BaseParams,
+    pub(crate) inner: BaseParams,
 }
 
 #[pymethods]

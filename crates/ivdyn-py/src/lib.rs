@@ -6,8 +6,14 @@
 //! wrapper (`python/ivdyn/__init__.py`) accepts `(N,)` too, converts dtypes and layouts,
 //! and is the public API.
 
+// `!(x > 0.0)` is deliberate throughout: it is true for NaN, which must be rejected too.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+mod control;
 mod error;
 mod ident;
+mod pipeline;
+mod terminal;
 
 use std::borrow::Cow;
 
@@ -44,12 +50,16 @@ fn rows<'a>(x: &'a PyReadonlyArray2<'_, f64>, name: &str, n: usize, t: Option<us
     })
 }
 
-/// A zeroed C-order output array allocated by NumPy (whose allocator asks for transparent
+/// The output array: the caller's `out` (checked: float64, C-contiguous, writeable, shape
+/// `dims`), or a new C-order array allocated by NumPy (whose allocator asks for transparent
 /// huge pages on large arrays: a 288 MB regressor batch then costs a few hundred page
-/// faults instead of 70 000), filled by `fill` on its data with the GIL released.
+/// faults instead of 70 000). `fill` writes every element of its data with the GIL
+/// released; the worker threads of `ivdyn::batch` write (and so first touch) disjoint
+/// chunks, so the kernel's page zeroing is spread over the threads too.
 fn output<'py, D, E>(
     py: Python<'py>,
     dims: D,
+    out: Option<Bound<'py, PyAny>>,
     fill: impl FnOnce(&mut [f64]) -> Result<(), E> + Send,
 ) -> PyResult<Bound<'py, PyArray<f64, D>>>
 where
@@ -57,11 +67,30 @@ where
     E: Send,
     PyErr: From<E>,
 {
-    let arr = PyArray::<f64, D>::zeros(py, dims, false);
+    let arr = match out {
+        Some(o) => out_array(o, &dims)?,
+        None => PyArray::<f64, D>::zeros(py, dims, false),
+    };
     {
-        let mut rw = arr.readwrite();
+        let mut rw = arr.try_readwrite().map_err(|e| PyValueError::new_err(format!("out: {e}")))?;
         let out = rw.as_slice_mut().map_err(|e| PyRuntimeError::new_err(format!("internal error: output array: {e}")))?;
         py.detach(|| fill(out))?;
+    }
+    Ok(arr)
+}
+
+/// `out` as a float64 C-contiguous writeable array of shape `dims`, or `ValueError`.
+fn out_array<'py, D: numpy::ndarray::Dimension>(o: Bound<'py, PyAny>, dims: &D) -> PyResult<Bound<'py, PyArray<f64, D>>> {
+    let shape_str = |s: &[usize]| format!("({})", s.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", "));
+    let want = shape_str(dims.slice());
+    let arr = o.cast_into::<PyArray<f64, D>>().map_err(|e| {
+        PyValueError::new_err(format!("out must be a float64 numpy array of shape {want} ({e})"))
+    })?;
+    if arr.shape() != dims.slice() {
+        return Err(PyValueError::new_err(format!("out must have shape {want}, got {}", shape_str(arr.shape()))));
+    }
+    if !arr.is_c_contiguous() {
+        return Err(PyValueError::new_err("out must be C-contiguous (it is written in place)"));
     }
     Ok(arr)
 }
@@ -156,32 +185,35 @@ impl PyRobot {
     }
 
     /// Inverse dynamics with drive terms; `(T, N)` each -> `(T, N)`.
+    #[pyo3(signature = (q, qd, qdd, out=None))]
     fn rnea<'py>(
         &self,
         py: Python<'py>,
         q: PyReadonlyArray2<'py, f64>,
         qd: PyReadonlyArray2<'py, f64>,
         qdd: PyReadonlyArray2<'py, f64>,
+        out: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let n = self.inner.dof();
         let q = rows(&q, "q", n, None)?;
         let t = q.len() / n;
         let (qd, qdd) = (rows(&qd, "qd", n, Some(t))?, rows(&qdd, "qdd", n, Some(t))?);
         let robot = &self.inner;
-        output(py, Ix2(t, n), |out| batch::rnea_batch(robot, &q, &qd, &qdd, out).map_err(Batch))
+        output(py, Ix2(t, n), out, |o| batch::rnea_batch(robot, &q, &qd, &qdd, o).map_err(Batch))
     }
 
     /// Gravity torques; `(T, N)` -> `(T, N)`.
-    fn gravity<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    #[pyo3(signature = (q, out=None))]
+    fn gravity<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>, out: Option<Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let n = self.inner.dof();
         let q = rows(&q, "q", n, None)?;
         let t = q.len() / n;
         let robot = &self.inner;
-        output(py, Ix2(t, n), |out| batch::gravity_batch(robot, &q, out).map_err(Batch))
+        output(py, Ix2(t, n), out, |o| batch::gravity_batch(robot, &q, o).map_err(Batch))
     }
 
     /// Regressor; `(T, N)` each -> `(T, N, 14 N)` (or `(T, N, 10 N)` when `rigid_only`).
-    #[pyo3(signature = (q, qd, qdd, rigid_only=false))]
+    #[pyo3(signature = (q, qd, qdd, rigid_only=false, out=None))]
     fn regressor<'py>(
         &self,
         py: Python<'py>,
@@ -189,6 +221,7 @@ impl PyRobot {
         qd: PyReadonlyArray2<'py, f64>,
         qdd: PyReadonlyArray2<'py, f64>,
         rigid_only: bool,
+        out: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let n = self.inner.dof();
         let q = rows(&q, "q", n, None)?;
@@ -196,32 +229,35 @@ impl PyRobot {
         let (qd, qdd) = (rows(&qd, "qd", n, Some(t))?, rows(&qdd, "qdd", n, Some(t))?);
         let p = if rigid_only { 10 * n } else { 14 * n };
         let robot = &self.inner;
-        output(py, Ix3(t, n, p), |out| batch::regressor_batch(robot, &q, &qd, &qdd, out, rigid_only).map_err(Batch))
+        output(py, Ix3(t, n, p), out, |o| batch::regressor_batch(robot, &q, &qd, &qdd, o, rigid_only).map_err(Batch))
     }
 
     /// Mass matrices; `(T, N)` -> `(T, N, N)`.
-    fn mass_matrix<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+    #[pyo3(signature = (q, out=None))]
+    fn mass_matrix<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>, out: Option<Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let n = self.inner.dof();
         let q = rows(&q, "q", n, None)?;
         let t = q.len() / n;
         let robot = &self.inner;
-        output(py, Ix3(t, n, n), |out| batch::mass_matrix_batch(robot, &q, out).map_err(Batch))
+        output(py, Ix3(t, n, n), out, |o| batch::mass_matrix_batch(robot, &q, o).map_err(Batch))
     }
 
     /// Forward dynamics; `(T, N)` each -> `(T, N)`.
+    #[pyo3(signature = (q, qd, tau, out=None))]
     fn forward_dynamics<'py>(
         &self,
         py: Python<'py>,
         q: PyReadonlyArray2<'py, f64>,
         qd: PyReadonlyArray2<'py, f64>,
         tau: PyReadonlyArray2<'py, f64>,
+        out: Option<Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let n = self.inner.dof();
         let q = rows(&q, "q", n, None)?;
         let t = q.len() / n;
         let (qd, tau) = (rows(&qd, "qd", n, Some(t))?, rows(&tau, "tau", n, Some(t))?);
         let robot = &self.inner;
-        output(py, Ix2(t, n), |out| batch::forward_dynamics_batch(robot, &q, &qd, &tau, out).map_err(Batch))
+        output(py, Ix2(t, n), out, |o| batch::forward_dynamics_batch(robot, &q, &qd, &tau, o).map_err(Batch))
     }
 
     fn __repr__(&self) -> String {
@@ -245,6 +281,9 @@ fn batch_threads(t: usize) -> usize {
 fn _ivdyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyRobot>()?;
     ident::register(m)?;
+    terminal::register(m)?;
+    control::register(m)?;
+    pipeline::register(m)?;
     m.add_function(wrap_pyfunction!(batch_threads, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("MAX_DOF", ivdyn::MAX_DOF)?;

@@ -7,7 +7,10 @@
 //!   parameter count (`nalgebra::Dyn`) fed from slices;
 //! - [`read_joint_log`]: an MCAP or CSV log, chosen by the file extension;
 //! - [`not_identifiable_message`]: the text of a [`NotIdentifiable`] payload;
-//! - [`flatten3`]: nested estimates (`[a][b] -> [c]`) as one row-major array.
+//! - [`flatten3`]: nested estimates (`[a][b] -> [c]`) as one row-major array;
+//! - [`read_pipeline_log`] / [`check_pipeline_log`]: a log as the command line reads it;
+//! - [`terminal_link_run`] / [`terminal_base`]: the core's terminal-link estimator over
+//!   `T x N` arrays (any joint count), and its identifiable columns.
 //!
 //! ```
 //! use ivdyn::arrays::fit_ls_rows;
@@ -19,11 +22,16 @@
 
 use std::path::Path;
 
+use std::f64::consts::PI;
+
 use crate::error::{Error, Result};
-use crate::ident::{FitReport, IvAccumulator, LsAccumulator, NotIdentifiable, fit_iv, fit_ls};
+use crate::ident::{BaseParams, FitReport, IvAccumulator, LsAccumulator, NotIdentifiable, fit_iv, fit_ls};
 use crate::io::{JointLog, ReadOptions, read_csv, read_mcap};
-use ivdyn_core::estim::{Riv, Rls};
-use nalgebra::{DVector, Dyn};
+use crate::Robot;
+use ivdyn_core::estim::{InstrumentModel, Riv, Rls, TerminalLink, TerminalSpec};
+use ivdyn_core::rng::Rng;
+use ivdyn_core::{regressor, Data, Model, VecN};
+use nalgebra::{DMatrix, DVector, Dyn};
 
 /// Rows handed to an accumulator per call (bounds nothing but the granularity of the
 /// input checks: the accumulators buffer and absorb rows in blocks themselves).
@@ -287,6 +295,258 @@ pub fn flatten3(x: &[Vec<Vec<f64>>], inner: usize) -> Result<(Vec<f64>, usize, u
     Ok((out, a, b))
 }
 
+
+// ------------------------------------------------------------------ logs for the pipelines
+
+/// Reads a log as the `ivdyn` command line does for `--log`: `.csv` with [`read_csv`],
+/// anything else as MCAP ([`read_mcap`] on `topic`, with `command_topic` for `u` and the
+/// MCAP log times instead of header stamps when `use_log_time`), then
+/// [`check_pipeline_log`].
+pub fn read_pipeline_log(
+    path: &Path,
+    joint_names: &[String],
+    topic: &str,
+    command_topic: Option<&str>,
+    use_log_time: bool,
+) -> Result<JointLog> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    let log = if ext.as_deref() == Some("csv") {
+        read_csv(path, joint_names)?
+    } else {
+        let mut o = ReadOptions::new(joint_names).topic(topic);
+        if let Some(c) = command_topic {
+            o = o.command_topic(c);
+        }
+        o.use_log_time = use_log_time;
+        read_mcap(path, &o)?
+    };
+    check_pipeline_log(&log, path, topic)?;
+    Ok(log)
+}
+
+/// What the pipelines need of a log (`source` names it in errors): consistent shapes,
+/// finite values, non-decreasing stamps ([`JointLog::validate`]), stamps that are not all
+/// equal (unset header stamps), and at least 10 samples.
+pub fn check_pipeline_log(log: &JointLog, source: &Path, topic: &str) -> Result<()> {
+    log.validate(source)?;
+    let err = |msg: String| Error::Log { file: source.to_path_buf(), msg };
+    if log.len() >= 2 && log.t.first() == log.t.last() {
+        return Err(err(format!(
+            "all {} samples on topic {topic} have the same stamp (header stamps not set?); use the MCAP log times (--log-time)",
+            log.len()
+        )));
+    }
+    if log.len() < 10 {
+        return Err(err(format!("only {} samples on topic {topic}", log.len())));
+    }
+    Ok(())
+}
+
+// ------------------------------------------------------------------ terminal link, batch
+
+/// Instrument of [`terminal_link_run`] with the IV method.
+#[derive(Debug, Clone, Copy)]
+pub enum TerminalInstrument<'a> {
+    /// No instrument (least squares).
+    None,
+    /// Instrumental accelerations `T x N` (e.g. the planned `qdd` of the trajectory).
+    Qdd(&'a [f64]),
+    /// The paper's eq-35 model driven by the actuator command `u` (`T x N`), with the
+    /// "rough prior" coefficients of the nominal model at the mean measured pose
+    /// ([`InstrumentModel::from_nominal`]); sample `j` uses `u(j)` and `qd(j-1)`, so
+    /// sample 0 is not used.
+    Eq35(&'a [f64]),
+}
+
+/// Settings of [`terminal_link_run`].
+#[derive(Debug, Clone)]
+pub struct TerminalOptions {
+    /// Unknown links and rows (paper eqs 38-46).
+    pub spec: TerminalSpec,
+    /// Estimated columns (indices into `0..spec.cols(N)`), normally [`terminal_base`]'s
+    /// `independent`.
+    pub columns: Vec<usize>,
+    /// Weight of each joint's row (`N`; only the rows of `spec` are used).
+    pub row_weight: Vec<f64>,
+    /// Instrumental variables (`true`) or least squares.
+    pub iv: bool,
+    /// Initial covariance scale `P0 = p0 I`.
+    pub p0: f64,
+    /// Rows of joints slower than this (rad/s) are skipped.
+    pub min_speed: f64,
+    /// Sample counts (strictly increasing) after which the estimate is recorded.
+    pub record: Vec<usize>,
+}
+
+/// What [`terminal_link_run`] returns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TerminalRun {
+    /// Final estimate of the selected columns' changes.
+    pub theta: Vec<f64>,
+    /// Estimates after each `record` count, `len(record) x B` row-major.
+    pub trace: Vec<f64>,
+    /// Final `P` (`B x B` row-major): the covariance for LS, `(sum w z phi^T)^-1` for IV.
+    pub p: Vec<f64>,
+    /// Rows used and skipped (slow joints).
+    pub rows_used: u64,
+    /// Rows skipped.
+    pub rows_skipped: u64,
+}
+
+/// Names of the terminal unknowns of `robot`: `"<link>.m"`, ..., `"<joint>.fv"` (the full
+/// parameter names of [`Robot::param_names`] at [`TerminalSpec::theta_index`]).
+pub fn terminal_names(robot: &Robot, spec: &TerminalSpec) -> Vec<String> {
+    let (n, all) = (robot.dof(), robot.param_names());
+    (0..spec.cols(n)).map(|c| all[spec.theta_index(n, c)].clone()).collect()
+}
+
+fn check_spec(spec: &TerminalSpec, n: usize) -> Result<()> {
+    if spec.k >= n || spec.first_row > spec.k {
+        return Err(Error::Estimation {
+            msg: format!("terminal link: need first_row <= k < N = {n}, got k = {}, first_row = {}", spec.k, spec.first_row),
+        });
+    }
+    Ok(())
+}
+
+/// Identifiable columns of the terminal problem of `robot` (its rows `spec.rows(N)` at
+/// `samples` random states: `q` in the joint limits or +-pi, `qd` in +-2 rad/s, `qdd` in
+/// +-10 rad/s^2), named by [`terminal_names`].
+pub fn terminal_base(robot: &Robot, spec: &TerminalSpec, samples: usize, seed: u64) -> Result<BaseParams> {
+    let n = robot.dof();
+    check_spec(spec, n)?;
+    let names = terminal_names(robot, spec);
+    let phi = crate::with_model!(&robot.model, m => terminal_rows_n(&**m, spec, samples, seed));
+    Ok(BaseParams::from_rows(&phi, &names))
+}
+
+fn terminal_rows_n<const N: usize>(m: &Model<N>, spec: &TerminalSpec, samples: usize, seed: u64) -> DMatrix<f64> {
+    let mut rng = Rng::new(seed);
+    let rows: Vec<usize> = spec.rows(N).collect();
+    let cols = spec.cols(N);
+    let mut phi = DMatrix::<f64>::zeros(samples * rows.len(), cols);
+    let mut data = Data::<N>::new();
+    for s in 0..samples {
+        let q = VecN::<N>::from_fn(|j, _| {
+            let l = &m.limits[j];
+            if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower { rng.uniform(l.lower, l.upper) } else { rng.uniform(-PI, PI) }
+        });
+        let qd = VecN::<N>::from_fn(|_, _| rng.uniform(-2.0, 2.0));
+        let qdd = VecN::<N>::from_fn(|_, _| rng.uniform(-10.0, 10.0));
+        let y = regressor(m, &mut data, &q, &qd, &qdd);
+        for (r, &row) in rows.iter().enumerate() {
+            for c in 0..cols {
+                phi[(s * rows.len() + r, c)] = spec.entry(y, row, c);
+            }
+        }
+    }
+    phi
+}
+
+/// Runs the online terminal-link estimator ([`ivdyn_core::estim::TerminalLink`], paper
+/// eqs 38-54, starting from zero change) over `T` samples of measured `q, qd, qdd, tau`
+/// (`T x N` row-major), with `robot` as the nominal model. A bad sample stops the run
+/// with [`Error::Sample`] naming it.
+pub fn terminal_link_run(
+    robot: &Robot,
+    opts: &TerminalOptions,
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+    tau: &[f64],
+    instrument: TerminalInstrument<'_>,
+) -> Result<TerminalRun> {
+    let n = robot.dof();
+    check_spec(&opts.spec, n)?;
+    let t = q.len() / n;
+    check_len("q (T x N)", t * n, q.len())?;
+    for (what, x) in [("qd (T x N)", qd), ("qdd (T x N)", qdd), ("tau (T x N)", tau)] {
+        check_len(what, t * n, x.len())?;
+    }
+    match instrument {
+        TerminalInstrument::Qdd(z) => check_len("qdd_instr (T x N)", t * n, z.len())?,
+        TerminalInstrument::Eq35(u) => check_len("u (T x N)", t * n, u.len())?,
+        TerminalInstrument::None if opts.iv => {
+            return Err(Error::Estimation { msg: "terminal link: the IV method needs an instrument (qdd_instr or u)".into() });
+        }
+        TerminalInstrument::None => {}
+    }
+    check_len("row_weight (one per joint)", n, opts.row_weight.len())?;
+    let cols = opts.spec.cols(n);
+    if opts.columns.is_empty() {
+        return Err(Error::Estimation { msg: "terminal link: no columns to estimate".into() });
+    }
+    if let Some(&c) = opts.columns.iter().find(|&&c| c >= cols) {
+        return Err(Error::Estimation { msg: format!("terminal link: column {c} out of range (the unknown set has {cols} columns)") });
+    }
+    check_start(opts.columns.len(), opts.p0, 1.0)?;
+    if opts.record.first() == Some(&0) || opts.record.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(Error::Estimation { msg: "terminal link: record must be strictly increasing positive sample counts".into() });
+    }
+    crate::with_model!(&robot.model, m => terminal_run_n(&**m, opts, t, q, qd, qdd, tau, instrument))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn terminal_run_n<const N: usize>(
+    m: &Model<N>,
+    opts: &TerminalOptions,
+    t: usize,
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+    tau: &[f64],
+    instrument: TerminalInstrument<'_>,
+) -> Result<TerminalRun> {
+    use ivdyn_core::estim::terminal::Method;
+    let b = opts.columns.len();
+    let zero = DVector::<f64>::zeros(b);
+    let method = if opts.iv { Method::Iv(Riv::new(zero, opts.p0)) } else { Method::Ls(Rls::new(zero, opts.p0)) };
+    let mut w = [0.0; N];
+    w.copy_from_slice(&opts.row_weight);
+    let mut tl = TerminalLink::<N, Dyn>::new(m.clone(), opts.spec, DVector::from_vec(opts.columns.clone()), w, method);
+    tl.min_speed = opts.min_speed;
+    let row = |x: &[f64], s: usize| VecN::<N>::from_column_slice(&x[s * N..(s + 1) * N]);
+    let eq35 = match instrument {
+        TerminalInstrument::Eq35(_) if t > 0 => {
+            let mut mean = VecN::<N>::zeros();
+            for s in 0..t {
+                mean += row(q, s);
+            }
+            Some(InstrumentModel::from_nominal(m, &mut Data::<N>::new(), &(mean / t as f64)))
+        }
+        _ => None,
+    };
+    let mut trace = Vec::with_capacity(opts.record.len() * b);
+    let mut next = 0;
+    for s in 0..t {
+        let (qs, qds, qdds, taus) = (row(q, s), row(qd, s), row(qdd, s), row(tau, s));
+        let z = match instrument {
+            TerminalInstrument::None => qdds,
+            TerminalInstrument::Qdd(z) => row(z, s),
+            TerminalInstrument::Eq35(u) => match (&eq35, s) {
+                (Some(model), 1..) => model.qdd_hat(&row(u, s), &row(qd, s - 1)),
+                _ => VecN::<N>::from_element(f64::NAN),
+            },
+        };
+        let skip = matches!(instrument, TerminalInstrument::Eq35(_)) && s == 0;
+        if !skip {
+            ivdyn_core::error::check_finite("q", qs.as_slice())
+                .and_then(|_| ivdyn_core::error::check_finite("qd", qds.as_slice()))
+                .and_then(|_| tl.update(&qs, &qds, &qdds, &taus, &z))
+                .map_err(|source| Error::Sample { index: s, source })?;
+        }
+        while next < opts.record.len() && s + 1 == opts.record[next] {
+            trace.extend_from_slice(tl.theta().as_slice());
+            next += 1;
+        }
+    }
+    let p = match &tl.method {
+        Method::Ls(r) => r.covariance().transpose().as_slice().to_vec(),
+        Method::Iv(r) => r.p.transpose().as_slice().to_vec(),
+    };
+    Ok(TerminalRun { theta: tl.theta().as_slice().to_vec(), trace, p, rows_used: tl.rows_used, rows_skipped: tl.rows_skipped })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -310,5 +570,52 @@ mod tests {
     fn read_joint_log_rejects_unknown_extension() {
         let e = read_joint_log("x.bag", &["a".into()], "/joint_states", None).unwrap_err();
         assert!(e.to_string().contains(".mcap or .csv"), "{e}");
+    }
+
+    /// Exact data of the paper's arm with 0.5 kg added to its last link: least squares on
+    /// the payload's identifiable columns recovers the change (projected on them).
+    #[test]
+    fn terminal_link_run_recovers_an_exact_payload() {
+        let robot = Robot::paper();
+        let n = robot.dof();
+        let spec = TerminalSpec::payload(n);
+        let base = terminal_base(&robot, &spec, 60, 3).unwrap();
+        let mut truth = robot.clone();
+        let mut th = truth.params();
+        let dx = [0.5, 0.01, -0.02, 0.03, 2e-3, 1e-4, 3e-3, -2e-4, 1e-4, 1e-3];
+        for (k, d) in dx.iter().enumerate() {
+            th[10 * (n - 1) + k] += d;
+        }
+        truth.set_params(&th).unwrap();
+        let t = 400;
+        let mut rng = Rng::new(5);
+        let mut draw = |s: f64| (0..t * n).map(|_| rng.uniform(-s, s)).collect::<Vec<f64>>();
+        let (q, qd, qdd) = (draw(2.0), draw(1.5), draw(5.0));
+        let mut tau = vec![0.0; t * n];
+        crate::batch::rnea_batch(&truth, &q, &qd, &qdd, &mut tau).unwrap();
+        let opts = TerminalOptions {
+            spec,
+            columns: base.independent.clone(),
+            row_weight: vec![1.0; n],
+            iv: false,
+            p0: 1e6,
+            min_speed: 0.0,
+            record: vec![100, t],
+        };
+        let run = terminal_link_run(&robot, &opts, &q, &qd, &qdd, &tau, TerminalInstrument::None).unwrap();
+        let want = base.project(&dx).unwrap();
+        for (a, b) in run.theta.iter().zip(&want) {
+            assert!((a - b).abs() < 1e-6 * (1.0 + b.abs()), "{:?} vs {want:?}", run.theta);
+        }
+        assert_eq!(run.trace.len(), 2 * want.len());
+        assert_eq!(&run.trace[want.len()..], &run.theta[..]);
+        assert_eq!(run.rows_used, (t * n) as u64);
+        // IV without an instrument, and a NaN sample, are refused with their reason
+        let e = terminal_link_run(&robot, &TerminalOptions { iv: true, ..opts.clone() }, &q, &qd, &qdd, &tau, TerminalInstrument::None).unwrap_err();
+        assert!(e.to_string().contains("instrument"), "{e}");
+        let mut bad = tau.clone();
+        bad[7 * n + 2] = f64::NAN;
+        let e = terminal_link_run(&robot, &opts, &q, &qd, &qdd, &bad, TerminalInstrument::None).unwrap_err();
+        assert!(e.to_string().starts_with("sample 7"), "{e}");
     }
 }

@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use ivdyn::io::{self, JointLog, ReadOptions};
+use ivdyn::io::{self, JointLog};
 use ivdyn::pipeline::{self, IdentifyOptions, Method, ParamsFile, PayloadOptions, PayloadSpec, Progress, SimulateOptions, Trajectory};
 use ivdyn::Robot;
 
@@ -285,34 +285,11 @@ fn ext(p: &Path) -> String {
 
 fn read_log(path: &Path, robot: &Robot, la: &LogArgs, bars: &Bars) -> R<JointLog> {
     let pb = bars.spinner(&format!("reading {}", path.display()));
-    let r = match ext(path).as_str() {
-        "csv" => io::read_csv(path, &robot.joint_names),
-        _ => {
-            let mut o = ReadOptions::new(&robot.joint_names).topic(&la.topic);
-            if let Some(c) = &la.command_topic {
-                o = o.command_topic(c);
-            }
-            o.use_log_time = la.log_time;
-            io::read_mcap(path, &o)
-        }
-    };
+    let r = ivdyn::arrays::read_pipeline_log(path, &robot.joint_names, &la.topic, la.command_topic.as_deref(), la.log_time);
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    let log = r.map_err(|e| e.to_string())?;
-    log.validate(path).map_err(|e| e.to_string())?;
-    if log.len() >= 2 && log.t.first() == log.t.last() {
-        return Err(format!(
-            "{}: all {} samples on topic {} have the same stamp (header stamps not set?); try --log-time",
-            path.display(),
-            log.len(),
-            la.topic
-        ));
-    }
-    if log.len() < 10 {
-        return Err(format!("{}: only {} samples on topic {}", path.display(), log.len(), la.topic));
-    }
-    Ok(log)
+    r.map_err(|e| e.to_string())
 }
 
 fn condition_opts(la: &LogArgs) -> ivdyn::signal::ConditionOptions {

@@ -1,0 +1,228 @@
+"""The command line's pipelines from Python: :func:`identify`, :func:`payload`,
+:func:`simulate` run ``ivdyn::pipeline`` (the code behind ``ivdyn identify / payload /
+simulate``) and return the same content as the command's ``--json`` file, as a dict.
+
+Long calls release the GIL and report progress: ``progress=callable(done, total)`` is
+called from the pipeline's progress hook (``total`` 0 for a step of unknown length; a
+new step starts again from ``done = 0``), ``progress=True`` shows a tqdm bar if tqdm is
+installed (nothing otherwise). An exception raised by the callback, or Ctrl-C, stops the
+call and is raised from it.
+"""
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Callable, Dict, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _ivdyn
+
+PathLike = Union[str, "os.PathLike[str]"]
+Progress = Union[None, bool, Callable[[int, int], Any]]
+
+
+class tqdm_progress:
+    """A progress callback drawing one tqdm bar per pipeline step (``progress=True``).
+    Without tqdm installed it does nothing. Use as a context manager or call
+    :meth:`close`."""
+
+    def __init__(self) -> None:
+        try:
+            from tqdm.auto import tqdm  # type: ignore[import-untyped]
+        except ImportError:  # tqdm is optional
+            tqdm = None
+        self._tqdm = tqdm
+        self._bar: Any = None
+        self._stage: Optional[str] = None
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        if self._tqdm is None:
+            return
+        if stage != self._stage or self._bar is None:
+            self.close()
+            self._stage = stage
+            self._bar = self._tqdm(total=total or None, desc=stage, unit="sample", leave=False)
+        self._bar.update(done - self._bar.n)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    def __enter__(self) -> "tqdm_progress":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def _callback(progress: Progress):
+    """The native callback ``(stage, done, total)`` for ``progress``, and a closer."""
+    if progress is None or progress is False:
+        return None, lambda: None
+    if progress is True:
+        bar = tqdm_progress()
+        return bar, bar.close
+    if not callable(progress):
+        raise ValueError(f"progress must be None, True or a callable(done, total), got {type(progress).__name__}")
+    user = progress
+    return (lambda stage, done, total: user(done, total)), lambda: None
+
+
+def _robot(robot, base: Optional[str], tip: Optional[str]):
+    """``robot`` as a native robot: an :class:`ivdyn.Robot`, or a URDF path."""
+    native = getattr(robot, "_r", None)
+    if isinstance(native, _ivdyn.Robot):
+        if base is not None or tip is not None:
+            raise ValueError("base/tip are for a URDF path; the Robot already has its chain")
+        return native
+    if isinstance(robot, _ivdyn.Robot):
+        return robot
+    if isinstance(robot, (str, os.PathLike)):
+        return _ivdyn.Robot.from_urdf(os.fspath(robot), base, tip)
+    raise TypeError(f"robot must be an ivdyn.Robot or a URDF path, got {type(robot).__name__}")
+
+
+def _params(params) -> Optional[str]:
+    """A parameter file (path, or its dict as ``identify(...)["params"]``) as JSON text."""
+    if params is None:
+        return None
+    if isinstance(params, dict):
+        return json.dumps(params)
+    if isinstance(params, (str, os.PathLike)):
+        with open(params) as f:
+            return f.read()
+    raise TypeError(f"params must be a parameter-file path or dict, got {type(params).__name__}")
+
+
+def _log(log, n: int, what: str):
+    """A log path, or a dict of arrays (``t``, ``q``, optional ``qd``, ``tau``, ``u``,
+    ``joint_names``) converted to float64."""
+    if isinstance(log, (str, os.PathLike)):
+        return os.fspath(log)
+    if not isinstance(log, dict):
+        raise TypeError(f"{what} must be a path or a dict of arrays, got {type(log).__name__}")
+    out: Dict[str, Any] = {}
+    for key, shape in (("t", 1), ("q", 2), ("qd", 2), ("tau", 2), ("u", 2)):
+        x = log.get(key)
+        if x is None:
+            continue
+        try:
+            a = np.ascontiguousarray(x, dtype=np.float64)
+        except (TypeError, ValueError) as e:
+            raise ValueError(f"{what}['{key}'] must be a float array: {e}") from None
+        if a.ndim != shape or (shape == 2 and a.shape[1] != n):
+            want = "(T,)" if shape == 1 else f"(T, {n})"
+            raise ValueError(f"{what}['{key}'] must have shape {want}, got {a.shape}")
+        out[key] = a
+    if log.get("joint_names") is not None:
+        out["joint_names"] = [str(j) for j in log["joint_names"]]
+    return out
+
+
+def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip: Optional[str] = None,
+             params=None, validate=None, holdout: float = 0.25, topic: str = "/joint_states",
+             command_topic: Optional[str] = None, log_time: bool = False, cutoff: Optional[float] = None,
+             decimate: int = 0, progress: Progress = None) -> Dict[str, Any]:
+    """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
+    torques; returns the ``--json`` report as a dict (``docs/cli.md``: ``method``,
+    ``base`` [{name, value, std, rel_std_pct, nominal}], ``fit``, ``validation``, ``dwh``,
+    ``params`` (the identified full parameter file), ``notes``, ...). ``NaN`` values are
+    ``None``, as in the JSON file.
+
+    ``robot``: an :class:`ivdyn.Robot` or a URDF path (with ``base``/``tip`` links);
+    ``params``: a parameter file (path or dict, e.g. a previous ``["params"]``) replacing
+    the nominal values; ``log`` / ``validate``: a ``.mcap`` / ``.csv`` path (read as the
+    command line reads ``--log``: ``topic``, ``command_topic``, ``log_time``) or a dict of
+    arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd", "u" optional}`` (e.g.
+    from :func:`read_joint_states` or :func:`simulate`); ``method``: ``"ols"``, ``"wls"``,
+    ``"iv"``, ``"idim-iv"``; ``holdout``: tail fraction kept for validation when no
+    ``validate`` log; ``cutoff`` (Hz) and ``decimate`` as ``--cutoff``, ``--decimate``.
+    """
+    native = _robot(robot, base, tip)
+    cb, close = _callback(progress)
+    try:
+        out = _ivdyn.identify(native, _log(log, native.dof, "log"), str(method),
+                              None if validate is None else _log(validate, native.dof, "validate"),
+                              float(holdout), str(topic), command_topic, bool(log_time),
+                              None if cutoff is None else float(cutoff), int(decimate), _params(params), cb)
+    finally:
+        close()
+    return json.loads(out)
+
+
+def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optional[str] = None,
+            params=None, topic: str = "/joint_states", command_topic: Optional[str] = None,
+            log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
+            progress: Progress = None) -> Dict[str, Any]:
+    """``ivdyn payload`` from Python: the payload on the last link from a log after the
+    grasp (and optionally ``before``, a log of the unloaded arm, identified first and used
+    as the nominal model); returns the ``--json`` report as a dict: ``link``,
+    ``identifiable``, ``mass`` (kg), ``com`` (m, link frame), ``inertia`` ([Ixx, Ixy, Ixz,
+    Iyy, Iyz, Izz] kg m^2 about the COM), their ``*_std``, ``params``,
+    ``not_identifiable`` [{parameter, combined_in}], ``rms_before``/``rms_after`` (N m),
+    ``notes``. When the payload is not identifiable from the log, ``identifiable`` is
+    False and the numbers are None (the command line exits with 2). Arguments as in
+    :func:`identify`.
+    """
+    native = _robot(robot, base, tip)
+    cb, close = _callback(progress)
+    try:
+        out = _ivdyn.payload(native, _log(log, native.dof, "log"),
+                             None if before is None else _log(before, native.dof, "before"), str(topic),
+                             command_topic, bool(log_time), None if cutoff is None else float(cutoff),
+                             int(decimate), _params(params), cb)
+    finally:
+        close()
+    return json.loads(out)
+
+
+def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = None, tip: Optional[str] = None,
+             params=None, traj=None, duration: float = 20.0, rate: float = 500.0, seed: int = 1,
+             amplitude: float = 0.8, payload_mass: Optional[float] = None,
+             payload_com: Optional[Sequence[float]] = None, payload_inertia: Optional[Sequence[float]] = None,
+             fc: Optional[Sequence[float]] = None, fv: Optional[Sequence[float]] = None, noise: float = 0.0,
+             noise_q: float = 0.0, encoder_bits: Optional[int] = None, tau_resolution: Optional[float] = None,
+             velocity: bool = True, command: bool = False) -> Dict[str, Any]:
+    """``ivdyn simulate`` from Python: a synthetic log, the true model's inverse dynamics
+    along a trajectory (``robot`` + payload on the last link + friction ``fc``, ``fv``),
+    then noise (``noise`` N m on the torque, ``noise_q`` rad on the position) and
+    quantisation (``encoder_bits``, ``tau_resolution`` N m). Trajectory: ``traj`` =
+    ``{"t": (T,) s uniformly spaced, "q": (T, N) rad}`` or a CSV path (columns ``t``,
+    ``<joint>.q``), else the built-in random Fourier excitation (``duration`` s at ``rate``
+    Hz, ``seed``, peak ``amplitude`` rad). Payload: ``payload_mass`` kg, ``payload_com``
+    (x, y, z) m and ``payload_inertia`` (Ixx, Ixy, Ixz, Iyy, Iyz, Izz) kg m^2 about the COM
+    in the last link's frame. ``command``: also record the noise-free torque as the
+    command ``u``; ``velocity=False``: no velocities in the log.
+
+    Writes the log to ``out`` (``.mcap`` or ``.csv``) when given. Returns the command's
+    ``--json`` summary ``{"out", "samples", "joints", "options", "true_params"}`` plus
+    ``"log": {"t": (T,), "q", "qd", "tau", "u": (T, N) or None, "joint_names"}``, which
+    :func:`identify` and :func:`payload` accept as a log.
+    """
+    native = _robot(robot, base, tip)
+    n = native.dof
+    tt = tq = None
+    if traj is not None:
+        if isinstance(traj, (str, os.PathLike)):
+            traj = _ivdyn.read_joint_states(os.fspath(traj), native.joint_names)
+        if not isinstance(traj, dict) or "t" not in traj or "q" not in traj:
+            raise ValueError("traj must be a dict {'t': (T,), 'q': (T, N)} or a CSV path")
+        lg = _log({"t": traj["t"], "q": traj["q"]}, n, "traj")
+        tt, tq = lg["t"], lg["q"]
+
+    def seq(x, name):
+        return None if x is None else [float(v) for v in np.asarray(x, dtype=np.float64).ravel()]
+
+    summary, log = _ivdyn.simulate(native, None if out is None else os.fspath(out), tt, tq, float(duration),
+                                   float(rate), int(seed), float(amplitude),
+                                   None if payload_mass is None else float(payload_mass),
+                                   seq(payload_com, "payload_com"), seq(payload_inertia, "payload_inertia"),
+                                   seq(fc, "fc"), seq(fv, "fv"), float(noise), float(noise_q),
+                                   None if encoder_bits is None else int(encoder_bits),
+                                   None if tau_resolution is None else float(tau_resolution),
+                                   bool(velocity), bool(command), _params(params))
+    res = json.loads(summary)
+    res["log"] = log
+    return res
