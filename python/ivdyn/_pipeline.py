@@ -226,3 +226,28 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
     res = json.loads(summary)
     res["log"] = log
     return res
+
+
+def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *, base: Optional[str] = None,
+             tip: Optional[str] = None, params=None, topic: str = "/joint_states", log_time: bool = False,
+             cutoff: Optional[float] = None, alpha: float = 1e-6, min_effect: float = 0.5,
+             ignore_log_velocity: bool = False, report: bool = True) -> Dict[str, Any]:
+    """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
+    measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
+    ``effects`` [{name, joints, parameters, rms_before, rms_after}] in the order found
+    (empty when nothing is missing), ``baseline_rms`` and ``final_rms`` (N m per joint),
+    ``joints``. With ``out`` (a directory) it also writes ``diagnosis.json``,
+    ``report.html`` (unless ``report=False``) and ``residuals.mcap`` there.
+
+    ``robot``: an :class:`ivdyn.Robot` or a URDF path (``base``/``tip`` links); ``params``:
+    a parameter file replacing the nominal values; ``log``: a ``.mcap`` / ``.csv`` path or a
+    dict of arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd": optional}``;
+    ``cutoff`` (Hz): differentiation low-pass (default: chosen from the data); ``alpha``:
+    F-test level; ``min_effect``: smallest effect named, in noise standard deviations.
+    """
+    native = _robot(robot, base, tip)
+    out_s = None if out is None else os.fspath(out)
+    text = _ivdyn.diagnose(native, _log(log, native.dof, "log"), out_s, str(topic), bool(log_time),
+                           None if cutoff is None else float(cutoff), float(alpha), float(min_effect),
+                           bool(ignore_log_velocity), bool(report), _params(params))
+    return json.loads(text)

@@ -397,7 +397,51 @@ fn simulate<'py>(
     Ok((json(&summary)?, d))
 }
 
+/// `ivdyn diagnose` -> `diagnosis.json` (a string); with `out`, also writes
+/// diagnosis.json, report.html and residuals.mcap there.
+#[pyfunction]
+#[pyo3(signature = (robot, log, out=None, topic="/joint_states", log_time=false, cutoff=None, alpha=1e-6,
+                    min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None))]
+#[allow(clippy::too_many_arguments)]
+fn diagnose(
+    py: Python<'_>,
+    robot: PyRef<'_, PyRobot>,
+    log: &Bound<'_, PyAny>,
+    out: Option<std::path::PathBuf>,
+    topic: &str,
+    log_time: bool,
+    cutoff: Option<f64>,
+    alpha: f64,
+    min_effect: f64,
+    ignore_log_velocity: bool,
+    report: bool,
+    params_json: Option<&str>,
+) -> PyResult<String> {
+    use ivdyn::diagnose::{self as dg, DiagnoseOptions};
+    let r = robot_with_params(&robot.inner, params_json)?;
+    let src = LogSource { topic, command_topic: None, log_time };
+    let jl = joint_log(py, &r, log, &src, "log")?;
+    let log_name = log.extract::<std::path::PathBuf>().map(|p| p.display().to_string()).unwrap_or_else(|_| "(arrays)".into());
+    let opts = DiagnoseOptions { alpha, min_effect, cutoff_hz: cutoff, ignore_log_velocity, log_name, ..Default::default() };
+    let text = run(py, None, |_| {
+        let d = dg::diagnose(&r, &jl, &opts)?;
+        if let Some(dir) = &out {
+            std::fs::create_dir_all(dir).map_err(|e| ivdyn::Error::Io { file: dir.clone(), source: e })?;
+            if report {
+                dg::report::write_html(&d, dir)?;
+            }
+            dg::report::write_mcap(&d, &r.joint_names, dir)?;
+            let text = serde_json::to_string_pretty(&d.json).map_err(|e| ivdyn::Error::Estimation { msg: e.to_string() })?;
+            let path = dir.join("diagnosis.json");
+            std::fs::write(&path, text + "\n").map_err(|e| ivdyn::Error::Io { file: path.clone(), source: e })?;
+        }
+        serde_json::to_string(&d.json).map_err(|e| ivdyn::Error::Estimation { msg: e.to_string() })
+    })?;
+    Ok(text)
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(diagnose, m)?)?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(payload, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;

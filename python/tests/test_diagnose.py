@@ -1,0 +1,77 @@
+"""ivdyn.diagnose from Python: the same content as the command line's diagnosis.json, on
+the MuJoCo hidden-effect logs (truth from fixtures/diagnose/cases.json, the generator's)."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import ivdyn
+
+ROOT = os.path.join(os.path.dirname(__file__), "..", "..")
+CASES = os.path.join(ROOT, "fixtures", "diagnose")
+
+
+def _manifest():
+    with open(os.path.join(CASES, "cases.json")) as f:
+        return json.load(f)
+
+
+def _robot(case, m):
+    return ivdyn.Robot.from_urdf(os.path.join(ROOT, case["urdf"]), base=m["base"], tip=m["tip"])
+
+
+def _case(name):
+    m = _manifest()
+    return next(c for c in m["cases"] if c["name"] == name), m
+
+
+def test_diagnose_names_the_hidden_coulomb_friction(tmp_path):
+    case, m = _case("coulomb")
+    d = ivdyn.diagnose(_robot(case, m), os.path.join(CASES, case["log"]), out=tmp_path)
+    assert set(d) == {"effects", "baseline_rms", "final_rms", "joints"}
+    assert d["joints"] == m["joints"]
+    (e,) = d["effects"]
+    truth = case["effects"][0]
+    assert e["name"] == "coulomb_friction" and e["joints"] == truth["joints"]
+    np.testing.assert_allclose(e["parameters"]["fc"], truth["parameters"]["fc"], rtol=0.1)
+    assert np.all(np.asarray(d["final_rms"]) <= 1.5 * np.asarray(case["oracle"]["oracle_rms_exact"]))
+    # the output directory holds the same JSON, the report and the residual log
+    with open(tmp_path / "diagnosis.json") as f:
+        assert json.load(f) == d
+    assert (tmp_path / "report.html").stat().st_size > 10_000
+    assert (tmp_path / "residuals.mcap").stat().st_size > 0
+
+
+def test_clean_log_names_nothing_from_arrays():
+    case, m = _case("clean_b")
+    robot = _robot(case, m)
+    log = ivdyn.read_joint_states(os.path.join(CASES, case["log"]), robot.joint_names)
+    d = ivdyn.diagnose(robot, {"t": log["t"], "q": log["q"], "qd": log["qd"], "tau": log["tau"]})
+    assert d["effects"] == []
+    assert len(d["baseline_rms"]) == 6
+
+
+def test_python_and_cli_agree(tmp_path):
+    case, m = _case("torque_offset")
+    exe = os.path.join(ROOT, "target", "release", "ivdyn")
+    if not os.path.exists(exe):
+        exe = os.path.join(ROOT, "target", "debug", "ivdyn")
+    assert os.path.exists(exe), "build the ivdyn binary first (make test does)"
+    subprocess.run([exe, "diagnose", "--urdf", os.path.join(ROOT, case["urdf"]), "--base", m["base"], "--tip", m["tip"],
+                    "--log", os.path.join(CASES, case["log"]), "--out", str(tmp_path), "--no-report", "--quiet"],
+                   check=True, capture_output=True)
+    with open(tmp_path / "diagnosis.json") as f:
+        cli = json.load(f)
+    py = ivdyn.diagnose(_robot(case, m), os.path.join(CASES, case["log"]))
+    assert [e["name"] for e in py["effects"]] == [e["name"] for e in cli["effects"]] == ["torque_offset"]
+    np.testing.assert_allclose(py["final_rms"], cli["final_rms"], rtol=1e-12)
+
+
+def test_bad_input_raises_with_the_problem():
+    case, m = _case("clean_a")
+    robot = _robot(case, m)
+    with pytest.raises(Exception, match="effort|tau"):
+        ivdyn.diagnose(robot, {"t": np.arange(100) * 1e-3, "q": np.zeros((100, 6))})
