@@ -100,8 +100,9 @@ fn render(width: u32, height: u32, draw: impl FnOnce(&Area<'_>) -> Result<(), Dr
         let mut enc = png::Encoder::new(&mut bytes, width, height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
-        // Plots are mostly flat colour: the fast deflate is both quick and small here.
-        enc.set_compression(png::Compression::Fast);
+        // Balanced halves the page size against Fast (2.6 vs 5.7 MB for 6 joints, 60 s at
+        // 1 kHz) for about 0.25 s more rendering in release.
+        enc.set_compression(png::Compression::Balanced);
         let mut w = enc.write_header().map_err(|e| e.to_string())?;
         w.write_image_data(&buf).map_err(|e| e.to_string())?;
         w.finish().map_err(|e| e.to_string())?;
