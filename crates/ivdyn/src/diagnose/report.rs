@@ -1,16 +1,250 @@
-//! `report.html` (self-contained, PNG plots embedded) and `residuals.mcap`.
+//! The outputs a person reads: `report.html` (one self-contained page: inline CSS, PNG
+//! plots embedded as base64 data URIs, no script, no external file) and `residuals.mcap`
+//! (measured, predicted and residual torques as JointState topics, for a log viewer).
+//! Topic names and the page's content are documented in `docs/diagnose.md` ("Outputs").
+//!
+//! * [`plots`]: the figures (plotters into an RGB buffer, embedded font, PNG).
+//! * [`html`]: the page text.
 
-use std::path::Path;
+mod backend;
+mod html;
+mod plots;
+
+use std::path::{Path, PathBuf};
+
+pub use html::{fmt_num, fmt_p, fmt_pct};
 
 use super::Diagnosis;
-use crate::error::Result;
+use crate::error::{Error, Result};
+use crate::io::McapWriter;
+use plots::{StateAxis, Trace};
 
-/// Writes `report.html` into `dir`.
-pub fn write_html(_d: &Diagnosis, _dir: &Path) -> Result<()> {
-    todo!("report.html")
+/// File name of the page written by [`write_html`].
+pub const HTML_FILE: &str = "report.html";
+/// File name of the log written by [`write_mcap`].
+pub const MCAP_FILE: &str = "residuals.mcap";
+
+/// Sample count `T` and joint count `N` of a diagnosis whose arrays all agree; otherwise
+/// an error naming the field.
+fn check_shapes(d: &Diagnosis) -> Result<(usize, usize)> {
+    let n = d.json.joints.len();
+    let tr = &d.traces;
+    let t = tr.t.len();
+    let dim = |what: &str, expected: usize, got: usize| -> Result<()> {
+        if expected == got { Ok(()) } else { Err(Error::Dimension { what: format!("diagnosis {what}"), expected, got }) }
+    };
+    if n == 0 {
+        return Err(Error::Dimension { what: "diagnosis json.joints".into(), expected: 1, got: 0 });
+    }
+    if t == 0 {
+        return Err(Error::Dimension { what: "diagnosis traces.t (samples)".into(), expected: 1, got: 0 });
+    }
+    for (what, a) in [("traces.q", &tr.q), ("traces.qd", &tr.qd), ("traces.qdd", &tr.qdd), ("traces.tau", &tr.tau)] {
+        dim(what, t * n, a.len())?;
+    }
+    dim("traces.predicted (models: nominal + one per step)", d.steps.len() + 1, tr.predicted.len())?;
+    for (i, p) in tr.predicted.iter().enumerate() {
+        dim(&format!("traces.predicted[{i}]"), t * n, p.len())?;
+    }
+    dim("json.effects (one per step)", d.steps.len(), d.json.effects.len())?;
+    for (what, a) in [("json.baseline_rms", &d.json.baseline_rms), ("json.final_rms", &d.json.final_rms), ("noise_std", &d.noise_std)] {
+        dim(what, n, a.len())?;
+    }
+    dim("regimes_before", n, d.regimes_before.len())?;
+    dim("regimes_after", n, d.regimes_after.len())?;
+    for (i, s) in d.steps.iter().enumerate() {
+        dim(&format!("steps[{i}].rms_after"), n, s.rms_after.len())?;
+        for c in &s.candidates {
+            dim(&format!("steps[{i}] candidate {} per_joint", c.effect.name()), n, c.per_joint.len())?;
+        }
+    }
+    for c in &d.final_candidates {
+        dim(&format!("final_candidates {} per_joint", c.effect.name()), n, c.per_joint.len())?;
+    }
+    Ok((t, n))
 }
 
-/// Writes `residuals.mcap` into `dir`.
-pub fn write_mcap(_d: &Diagnosis, _joints: &[String], _dir: &Path) -> Result<()> {
-    todo!("residuals.mcap")
+/// Column `j` of a row-major `T x n` array.
+fn column(a: &[f64], n: usize, j: usize) -> Vec<f64> {
+    a.iter().skip(j).step_by(n).copied().collect()
+}
+
+/// The time window (about a tenth of the log, 1 to 5 s) where the squared residual `r` is
+/// largest; `None` when the log is too short for a zoom to show anything new.
+fn zoom_window(t: &[f64], r: &[f64]) -> Option<(f64, f64)> {
+    let (t0, t1) = (t[0], *t.last()?);
+    let dur = t1 - t0;
+    let w = (dur / 10.0).clamp(1.0, 5.0);
+    if !(dur > 3.0 * w) {
+        return None;
+    }
+    // Prefix sums of r^2 (non-finite values count as 0) for O(T) sliding windows.
+    let mut cum = Vec::with_capacity(r.len() + 1);
+    cum.push(0.0);
+    for &v in r {
+        cum.push(cum.last().unwrap() + if v.is_finite() { v * v } else { 0.0 });
+    }
+    let (mut best, mut best_k) = (f64::NEG_INFINITY, 0);
+    let mut hi = 0;
+    for k in 0..t.len() {
+        if t[k] + w > t1 {
+            break;
+        }
+        while hi < t.len() && t[hi] <= t[k] + w {
+            hi += 1;
+        }
+        let s = cum[hi] - cum[k];
+        if s > best {
+            best = s;
+            best_k = k;
+        }
+    }
+    Some((t[best_k], t[best_k] + w))
+}
+
+/// The error for a figure that cannot be drawn (the report file is what fails).
+fn plot_error(dir: &Path, what: &str, msg: String) -> Error {
+    Error::Io { file: dir.join(HTML_FILE), source: std::io::Error::other(format!("cannot draw {what}: {msg}")) }
+}
+
+/// Renders every figure.
+fn figures(d: &Diagnosis, n: usize, dir: &Path) -> Result<html::Figures> {
+    let tr = &d.traces;
+    let k = d.steps.len();
+    let joints = &d.json.joints;
+    // RMS bars: nominal, then after each step.
+    let mut bars = vec![("nominal model".to_string(), plots::step_color(0), d.json.baseline_rms.clone())];
+    for (i, s) in d.steps.iter().enumerate() {
+        bars.push((format!("after step {}: + {}", i + 1, s.effect.label()), plots::step_color(i + 1), s.rms_after.clone()));
+    }
+    let rms_bars = plots::rms_bars(joints, &bars, &d.noise_std).map_err(|e| plot_error(dir, "the RMS bar chart", e))?;
+
+    let final_label = if k == 0 { "nominal model".to_string() } else { format!("final model (+ {} effect{})", k, if k == 1 { "" } else { "s" }) };
+    let mut out = Vec::with_capacity(n);
+    for (j, name) in joints.iter().enumerate() {
+        let tau = column(&tr.tau, n, j);
+        let pred: Vec<Vec<f64>> = tr.predicted.iter().map(|p| column(p, n, j)).collect();
+        let res: Vec<Vec<f64>> = pred.iter().map(|p| tau.iter().zip(p).map(|(a, b)| a - b).collect()).collect();
+
+        let mut torque = vec![
+            Trace { label: "measured".into(), color: plots::MEASURED, y: &tau, width: 1 },
+            Trace { label: "nominal model".into(), color: plots::NOMINAL, y: &pred[0], width: 2 },
+        ];
+        if k > 0 {
+            torque.push(Trace { label: final_label.clone(), color: plots::step_color(k), y: &pred[k], width: 2 });
+        }
+        let zoom = zoom_window(&tr.t, &res[0]);
+        let torque = plots::torque_vs_time(name, &tr.t, &torque, zoom).map_err(|e| plot_error(dir, &format!("the torque plot of joint '{name}'"), e))?;
+
+        let residual: Vec<Trace> = (0..=k)
+            .map(|i| Trace {
+                label: if i == 0 { "nominal model".into() } else { format!("after step {i}: + {}", d.steps[i - 1].effect.label()) },
+                color: plots::step_color(i),
+                y: &res[i],
+                width: if i == k && k > 0 { 2 } else { 1 },
+            })
+            .collect();
+        let residual = plots::residual_vs_time(name, &tr.t, &residual).map_err(|e| plot_error(dir, &format!("the residual plot of joint '{name}'"), e))?;
+
+        let (q, qd, qdd) = (column(&tr.q, n, j), column(&tr.qd, n, j), column(&tr.qdd, n, j));
+        let axes = [
+            StateAxis { desc: "velocity qd (rad/s)", x: &qd },
+            StateAxis { desc: "acceleration qdd (rad/s\u{b2})", x: &qdd },
+            StateAxis { desc: "position q (rad)", x: &q },
+        ];
+        let mut scatter = vec![Trace { label: "nominal model".into(), color: plots::NOMINAL, y: &res[0], width: 1 }];
+        if k > 0 {
+            scatter.push(Trace { label: final_label.clone(), color: plots::step_color(k), y: &res[k], width: 1 });
+        }
+        let state = plots::residual_vs_state(name, &axes, &scatter).map_err(|e| plot_error(dir, &format!("the residual-vs-state plot of joint '{name}'"), e))?;
+        out.push(html::JointFigures { torque, residual, state });
+    }
+    Ok(html::Figures { rms_bars, joints: out })
+}
+
+/// Writes `report.html` into `dir` (created if missing): one self-contained page with
+/// the verdict, the RMS table, each step's evidence, parameters and candidate scores, the
+/// regimes table and the plots. The page is written to a temporary name and renamed, so
+/// an error leaves no partial file.
+pub fn write_html(d: &Diagnosis, dir: &Path) -> Result<()> {
+    let (_, n) = check_shapes(d)?;
+    let figs = figures(d, n, dir)?;
+    let page = html::document(d, &figs);
+    write_atomic(&dir.join(HTML_FILE), page.as_bytes())
+}
+
+/// Writes `bytes` to `path` via a temporary file in the same directory and a rename.
+fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?;
+    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp: PathBuf = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    let r = std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, path));
+    if let Err(e) = r {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(Error::Io { file: path.to_path_buf(), source: e });
+    }
+    Ok(())
+}
+
+/// Topic of the prediction after step `i` (1-based) that added `effect`:
+/// `/ivdyn/predicted/step<i>_<effect name>`.
+pub fn step_topic(i: usize, effect: super::EffectKind) -> String {
+    format!("/ivdyn/predicted/step{i}_{}", effect.name())
+}
+
+/// Writes `residuals.mcap` into `dir` with stamps relative to the log's start (`t0 = 0`);
+/// see [`write_mcap_stamped`] to keep the log's absolute stamps.
+pub fn write_mcap(d: &Diagnosis, joints: &[String], dir: &Path) -> Result<()> {
+    write_mcap_stamped(d, joints, 0, dir)
+}
+
+/// Writes `residuals.mcap` into `dir` (created if missing): JointState messages stamped
+/// `t0_ns + t` (pass the log's `JointLog::t0_ns` to line them up with the input log) on
+/// the topics
+///
+/// * `/joint_states`: measured `q` (position), `qd` (velocity), `tau` (effort);
+/// * `/ivdyn/predicted/nominal`, `/ivdyn/predicted/final`: predicted torque (effort);
+/// * `/ivdyn/residual/nominal`, `/ivdyn/residual/final`: measured - predicted (effort);
+/// * `/ivdyn/predicted/step<i>_<effect>` for each step `i` (1-based), e.g.
+///   `/ivdyn/predicted/step1_coulomb_friction`.
+///
+/// With no step, `final` equals `nominal`. `joints` names the joints in the order of
+/// every per-joint list. An error leaves no file (see [`McapWriter`]).
+pub fn write_mcap_stamped(d: &Diagnosis, joints: &[String], t0_ns: i64, dir: &Path) -> Result<()> {
+    let (t, n) = check_shapes(d)?;
+    if joints.len() != n {
+        return Err(Error::Dimension { what: "joint names for residuals.mcap".into(), expected: n, got: joints.len() });
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?;
+    let tr = &d.traces;
+    let k = d.steps.len();
+    let mut w = McapWriter::create(dir.join(MCAP_FILE))?;
+    let meas = w.add_joint_state_topic("/joint_states")?;
+    let pred_nom = w.add_joint_state_topic("/ivdyn/predicted/nominal")?;
+    let pred_fin = w.add_joint_state_topic("/ivdyn/predicted/final")?;
+    let res_nom = w.add_joint_state_topic("/ivdyn/residual/nominal")?;
+    let res_fin = w.add_joint_state_topic("/ivdyn/residual/final")?;
+    let steps = d.steps.iter().enumerate().map(|(i, s)| w.add_joint_state_topic(&step_topic(i + 1, s.effect))).collect::<Result<Vec<_>>>()?;
+    let (nominal, last) = (&tr.predicted[0], &tr.predicted[k]);
+    let mut res = vec![0.0; n];
+    for s in 0..t {
+        let row = s * n..(s + 1) * n;
+        let stamp = t0_ns.saturating_add((tr.t[s] * 1e9).round() as i64);
+        let tau = &tr.tau[row.clone()];
+        w.write(meas, stamp, joints, &tr.q[row.clone()], &tr.qd[row.clone()], tau)?;
+        for (id, rid, p) in [(pred_nom, res_nom, nominal), (pred_fin, res_fin, last)] {
+            let p = &p[row.clone()];
+            w.write(id, stamp, joints, &[], &[], p)?;
+            for j in 0..n {
+                res[j] = tau[j] - p[j];
+            }
+            w.write(rid, stamp, joints, &[], &[], &res)?;
+        }
+        for (i, id) in steps.iter().enumerate() {
+            w.write(*id, stamp, joints, &[], &[], &tr.predicted[i + 1][row.clone()])?;
+        }
+    }
+    w.finish()?;
+    Ok(())
 }

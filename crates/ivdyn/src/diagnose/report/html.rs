@@ -1,0 +1,493 @@
+//! The text of `report.html`: one self-contained page (inline CSS, images as
+//! `data:image/png;base64` URIs, no script, no external file or network access).
+
+use std::fmt::Write as _;
+
+use base64::Engine as _;
+use serde_json::Value;
+
+use super::plots::Png;
+use crate::diagnose::{CandidateScore, Diagnosis, EffectJson, EffectKind, Regimes};
+
+/// The figures of one joint.
+pub(super) struct JointFigures {
+    /// Measured vs predicted torque.
+    pub torque: Png,
+    /// Residual vs time.
+    pub residual: Png,
+    /// Residual vs position, velocity, acceleration.
+    pub state: Png,
+}
+
+/// Every figure of the report.
+pub(super) struct Figures {
+    /// RMS per joint per step.
+    pub rms_bars: Png,
+    /// Per joint, in the log's joint order.
+    pub joints: Vec<JointFigures>,
+}
+
+/// HTML-escapes text (element content and attribute values).
+pub(super) fn esc(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            '\'' => out.push_str("&#39;"),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// A number with 3 significant digits (`2.50`, `0.123`, `12.3`, `1235`), scientific
+/// below 1e-3 or from 1e4 on (`1.23e-5`), `0` for zero and an en dash for NaN/inf
+/// (not available).
+pub fn fmt_num(x: f64) -> String {
+    if !x.is_finite() {
+        return "\u{2013}".into();
+    }
+    if x == 0.0 {
+        return "0".into();
+    }
+    let a = x.abs();
+    if !(1e-3..1e4).contains(&a) {
+        return format!("{x:.2e}");
+    }
+    let decimals = (2 - a.log10().floor() as i32).max(0) as usize;
+    format!("{x:.decimals$}")
+}
+
+/// A p-value: [`fmt_num`], or `< 1e-16` below what double precision resolves near 1.
+pub fn fmt_p(p: f64) -> String {
+    if p.is_finite() && p < 1e-16 { "&lt; 1e-16".into() } else { fmt_num(p) }
+}
+
+/// A fraction as a percentage: one decimal within +-1000 % (`87.3 %`), else
+/// [`fmt_num`] of the percentage (`-3.77e7 %`, a gain relative to a near-zero excess).
+pub fn fmt_pct(x: f64) -> String {
+    let pct = 100.0 * x;
+    if !pct.is_finite() {
+        "\u{2013}".into()
+    } else if pct.abs() < 0.05 {
+        "0.0\u{a0}%".into() // not "-0.0 %"
+    } else if pct.abs() < 1000.0 {
+        format!("{pct:.1}\u{a0}%")
+    } else {
+        format!("{}\u{a0}%", fmt_num(pct))
+    }
+}
+
+/// Unit and meaning of an effect parameter of `diagnosis.json` (revolute joints; for a
+/// prismatic joint read N for N m and m for rad).
+fn param_meta(key: &str) -> (&'static str, &'static str) {
+    match key {
+        "fc" => ("N m", "Coulomb friction level"),
+        "fs" => ("N m", "Stribeck excess over Coulomb at rest"),
+        "vs" => ("rad/s", "Stribeck velocity"),
+        "fv" => ("N m s/rad", "viscous coefficient"),
+        "ia" => ("kg m\u{b2}", "armature (rotor) inertia"),
+        "tau0" => ("N m", "torque offset"),
+        "k" => ("N m/rad", "spring stiffness"),
+        "q0" => ("rad", "spring rest position"),
+        "mass" => ("kg", "mass"),
+        "com" => ("m", "centre of mass [x, y, z] in the terminal link frame"),
+        "inertia" => ("kg m\u{b2}", "inertia about the COM [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]"),
+        _ => ("", ""),
+    }
+}
+
+fn img(png: &Png, alt: &str) -> String {
+    let b64 = base64::engine::general_purpose::STANDARD.encode(&png.bytes);
+    format!(
+        "<img src=\"data:image/png;base64,{b64}\" width=\"{}\" height=\"{}\" alt=\"{}\">",
+        png.width,
+        png.height,
+        esc(alt)
+    )
+}
+
+fn figure(out: &mut String, png: &Png, alt: &str, caption: &str) {
+    let _ = writeln!(out, "<figure>{}<figcaption>{caption}</figcaption></figure>", img(png, alt));
+}
+
+const CSS: &str = r#"
+:root { --fg: #1d232b; --muted: #5b6675; --line: #d5dbe3; --head: #eef2f7; --ok: #1e7b34; --warn: #a35a00; }
+* { box-sizing: border-box; }
+body { font-family: "DejaVu Sans", "Segoe UI", system-ui, -apple-system, Helvetica, Arial, sans-serif;
+       color: var(--fg); font-size: 16px; line-height: 1.45; margin: 0; background: #f7f8fa; }
+main { max-width: 1180px; margin: 0 auto; padding: 24px 28px 60px; background: #fff; }
+h1 { font-size: 30px; margin: 0 0 4px; }
+h2 { font-size: 23px; margin: 38px 0 10px; padding-bottom: 4px; border-bottom: 2px solid var(--line); }
+h3 { font-size: 19px; margin: 26px 0 8px; }
+p, li { max-width: 60em; }
+.sub { color: var(--muted); margin: 0 0 2px; }
+.sub code { font-size: 14px; }
+code { font-family: "DejaVu Sans Mono", Menlo, Consolas, monospace; font-size: 15px; }
+.verdict { font-size: 28px; font-weight: bold; padding: 16px 22px; margin: 20px 0; border-radius: 6px;
+           border-left: 10px solid; }
+.verdict.clean { background: #eaf6ec; border-color: var(--ok); color: #124d20; }
+.verdict.found { background: #fff4e5; border-color: var(--warn); color: #5e3400; }
+nav { font-size: 15px; margin: 8px 0 0; }
+nav a { margin-right: 14px; }
+table { border-collapse: collapse; margin: 10px 0 14px; font-size: 15px; }
+th, td { border: 1px solid var(--line); padding: 4px 10px; vertical-align: top; }
+th { background: var(--head); text-align: left; font-weight: 600; }
+table.candidates { font-size: 14px; }
+table.candidates th, table.candidates td { padding: 2px 8px; }
+td.n { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+tr.accepted td { background: #eaf6ec; }
+td.sig { font-weight: bold; color: var(--ok); }
+td.dim { color: var(--muted); }
+.unit { font-weight: normal; color: var(--muted); font-size: 13px; }
+figure { margin: 14px 0 24px; }
+figure img { display: block; max-width: 100%; height: auto; border: 1px solid var(--line); }
+figcaption { color: var(--muted); font-size: 14px; margin-top: 4px; max-width: 75em; }
+.evidence li { margin: 3px 0; }
+.note { color: var(--muted); font-size: 14px; }
+footer { margin-top: 40px; color: var(--muted); font-size: 13px; }
+"#;
+
+/// The whole page.
+pub(super) fn document(d: &Diagnosis, figs: &Figures) -> String {
+    let mut o = String::with_capacity(4 << 20);
+    let joints = &d.json.joints;
+    let k = d.steps.len();
+    let title = format!("Model-gap diagnosis: {}", file_name(&d.info.urdf));
+    let _ = writeln!(
+        o,
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+         <title>{}</title>\n<style>{CSS}</style>\n</head>\n<body>\n<main>",
+        esc(&title)
+    );
+    header(&mut o, d, &title);
+    let class = if k == 0 { "clean" } else { "found" };
+    let _ = writeln!(o, "<div class=\"verdict {class}\" id=\"verdict\">{}</div>", esc(&d.verdict));
+    o.push_str(
+        "<nav><a href=\"#rms\">RMS table</a><a href=\"#steps\">Steps</a><a href=\"#final\">Final check</a>\
+         <a href=\"#regimes\">Where the residual is</a><a href=\"#plots\">Plots per joint</a></nav>\n",
+    );
+    o.push_str(
+        "<p>The <b>residual</b> is the measured joint torque minus the torque the model predicts \
+         for the logged motion. The diagnosis adds one effect at a time from a fixed vocabulary \
+         (Coulomb, viscous and Stribeck friction, armature, payload, torque offset, joint spring), \
+         each time choosing the candidate that explains most of the residual on a held-out part of \
+         the log with a statistically significant F test, and stops when no candidate is significant. \
+         When the model is complete, the residual RMS approaches the sensor noise.</p>\n",
+    );
+    rms_section(&mut o, d, figs);
+    steps_section(&mut o, d);
+    final_section(&mut o, d);
+    regimes_section(&mut o, d);
+    plots_section(&mut o, d, figs, joints);
+    let _ = writeln!(
+        o,
+        "<footer>Written by ivdyn {} (<code>ivdyn diagnose</code>). Units are for revolute joints; \
+         for a prismatic joint read N for N m and m for rad.</footer>\n</main>\n</body>\n</html>",
+        env!("CARGO_PKG_VERSION")
+    );
+    o
+}
+
+fn file_name(path: &str) -> String {
+    std::path::Path::new(path).file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| path.to_string())
+}
+
+fn header(o: &mut String, d: &Diagnosis, title: &str) {
+    let i = &d.info;
+    let _ = writeln!(o, "<h1>{}</h1>", esc(title));
+    let _ = writeln!(o, "<p class=\"sub\">Robot model (URDF): <code>{}</code></p>", esc(&i.urdf));
+    let _ = writeln!(o, "<p class=\"sub\">Log: <code>{}</code></p>", esc(&i.file));
+    let vel = if i.velocity_in_log { "taken from the log" } else { "not in the log: differentiated from positions" };
+    let _ = writeln!(
+        o,
+        "<p class=\"sub\">{} samples over {} s at {} Hz; {} joints ({}); velocities {}.</p>",
+        i.samples,
+        fmt_num(i.duration),
+        fmt_num(i.rate),
+        d.json.joints.len(),
+        esc(&d.json.joints.join(", ")),
+        vel
+    );
+}
+
+/// Column label of the model after step `i` (0 = nominal).
+fn model_label(d: &Diagnosis, i: usize) -> String {
+    if i == 0 { "nominal model".into() } else { format!("after step {i}: + {}", d.steps[i - 1].effect.label()) }
+}
+
+fn unit(u: &str) -> String {
+    if u.is_empty() { String::new() } else { format!(" <span class=\"unit\">({u})</span>") }
+}
+
+fn rms_section(o: &mut String, d: &Diagnosis, figs: &Figures) {
+    let k = d.steps.len();
+    o.push_str("<h2 id=\"rms\">RMS residual per joint</h2>\n");
+    o.push_str(
+        "<p>Root mean square of the residual over the whole log, for the nominal model and after each \
+         step. The noise estimate comes from the sample-to-sample differences of the residual; a final \
+         RMS close to it means nothing structured is left.</p>\n",
+    );
+    o.push_str("<table id=\"rms-table\">\n<tr><th>joint</th>");
+    for i in 0..=k {
+        let _ = write!(o, "<th>{}{}</th>", esc(&model_label(d, i)), unit("N m"));
+    }
+    let _ = writeln!(o, "<th>final{}</th><th>noise std (estimate){}</th><th>final / noise</th></tr>", unit("N m"), unit("N m"));
+    for (j, name) in d.json.joints.iter().enumerate() {
+        let _ = write!(o, "<tr><td>{}</td>", esc(name));
+        for i in 0..=k {
+            let v = if i == 0 { d.json.baseline_rms[j] } else { d.steps[i - 1].rms_after[j] };
+            let _ = write!(o, "<td class=\"n\">{}</td>", fmt_num(v));
+        }
+        let (f, s) = (d.json.final_rms[j], d.noise_std[j]);
+        let ratio = if s > 0.0 { f / s } else { f64::NAN };
+        let _ = writeln!(o, "<td class=\"n\"><b>{}</b></td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>", fmt_num(f), fmt_num(s), fmt_num(ratio));
+    }
+    o.push_str("</table>\n");
+    figure(
+        o,
+        &figs.rms_bars,
+        "bar chart of the RMS residual per joint and step",
+        "RMS residual per joint: one bar per model (nominal, then after each step); the black line is the sensor noise estimate.",
+    );
+}
+
+fn steps_section(o: &mut String, d: &Diagnosis) {
+    o.push_str("<h2 id=\"steps\">Steps: what was added, and why</h2>\n");
+    if d.steps.is_empty() {
+        o.push_str("<p>No effect was added: no candidate was significant on the nominal model (see the final check below).</p>\n");
+        return;
+    }
+    for (i, (s, e)) in d.steps.iter().zip(&d.json.effects).enumerate() {
+        let names: Vec<&str> = s.joints.iter().filter_map(|&j| d.json.joints.get(j).map(|s| s.as_str())).collect();
+        let on = if s.effect == EffectKind::Payload { "on the terminal link".to_string() } else { format!("on {}", names.join(", ")) };
+        let _ = writeln!(
+            o,
+            "<h3 id=\"step{}\">Step {}: {} {} <span class=\"unit\">(<code>{}</code>)</span></h3>",
+            i + 1,
+            i + 1,
+            esc(s.effect.label()),
+            esc(&on),
+            s.effect.name()
+        );
+        o.push_str("<p><b>Evidence</b></p>\n<ul class=\"evidence\">\n");
+        for ev in &s.evidence {
+            let _ = writeln!(o, "<li>{}</li>", esc(ev));
+        }
+        o.push_str("</ul>\n<p><b>Identified parameters</b></p>\n");
+        params_table(o, e, s.effect);
+        let _ = writeln!(o, "<p><b>Candidates scored at step {}</b></p>", i + 1);
+        candidates_table(o, d, &s.candidates);
+    }
+}
+
+fn params_table(o: &mut String, e: &EffectJson, kind: EffectKind) {
+    let per_joint = kind != EffectKind::Payload
+        && !e.joints.is_empty()
+        && e.parameters.values().all(|v| v.as_array().is_some_and(|a| a.len() == e.joints.len()));
+    if per_joint {
+        o.push_str("<table class=\"params\">\n<tr><th>joint</th>");
+        for key in e.parameters.keys() {
+            let (u, what) = param_meta(key);
+            let _ = write!(o, "<th><code>{}</code> {}{}</th>", esc(key), esc(what), unit(u));
+        }
+        o.push_str("</tr>\n");
+        for (r, joint) in e.joints.iter().enumerate() {
+            let _ = write!(o, "<tr><td>{}</td>", esc(joint));
+            for v in e.parameters.values() {
+                let _ = write!(o, "<td class=\"n\">{}</td>", value_text(&v[r]));
+            }
+            o.push_str("</tr>\n");
+        }
+        o.push_str("</table>\n");
+    } else {
+        o.push_str("<table class=\"params\">\n<tr><th>parameter</th><th>value</th></tr>\n");
+        for (key, v) in &e.parameters {
+            let (u, what) = param_meta(key);
+            let _ = writeln!(o, "<tr><td><code>{}</code> {}{}</td><td class=\"n\">{}</td></tr>", esc(key), esc(what), unit(u), value_text(v));
+        }
+        o.push_str("</table>\n");
+    }
+}
+
+/// A JSON parameter value as text: numbers with [`fmt_num`], lists in brackets.
+fn value_text(v: &Value) -> String {
+    match v {
+        Value::Number(n) => n.as_f64().map(fmt_num).unwrap_or_else(|| esc(&n.to_string())),
+        Value::Array(a) => format!("[{}]", a.iter().map(value_text).collect::<Vec<_>>().join(", ")),
+        Value::Null => "\u{2013}".into(),
+        other => esc(&other.to_string()),
+    }
+}
+
+fn candidates_table(o: &mut String, d: &Diagnosis, cands: &[CandidateScore]) {
+    let n = d.json.joints.len();
+    o.push_str(
+        "<table class=\"candidates\">\n<tr><th>candidate</th><th>joint</th><th>significant</th>\
+         <th>held-out gain</th><th>effect RMS <span class=\"unit\">(N m)</span></th><th>F</th><th>p</th>\
+         <th>score</th><th>decision</th></tr>\n",
+    );
+    for c in cands {
+        let class = if c.accepted { " class=\"accepted\"" } else { "" };
+        let rows = c.per_joint.len().max(1);
+        for (j, s) in c.per_joint.iter().enumerate() {
+            let _ = write!(o, "<tr{class}>");
+            if j == 0 {
+                let _ = write!(o, "<td rowspan=\"{rows}\">{}<br><code>{}</code></td>", esc(c.effect.label()), c.effect.name());
+            }
+            let joint = d.json.joints.get(j).map(|s| esc(s)).unwrap_or_else(|| format!("#{j}"));
+            let sig = if s.significant { "<td class=\"sig\">yes</td>" } else { "<td class=\"dim\">no</td>" };
+            let _ = write!(
+                o,
+                "<td>{joint}</td>{sig}<td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td>",
+                fmt_pct(s.heldout_gain),
+                fmt_num(s.effect_rms),
+                fmt_num(s.f),
+                fmt_p(s.p)
+            );
+            if j == 0 {
+                let verdict = if c.accepted { "<b>added</b>: " } else { "not added: " };
+                let _ = write!(o, "<td rowspan=\"{rows}\" class=\"n\">{}</td><td rowspan=\"{rows}\">{verdict}{}</td>", fmt_num(c.score), esc(&c.reason));
+            }
+            o.push_str("</tr>\n");
+        }
+        if c.per_joint.is_empty() {
+            let _ = writeln!(o, "<tr{class}><td>{}</td><td colspan=\"8\">{}</td></tr>", esc(c.effect.label()), esc(&c.reason));
+        }
+    }
+    o.push_str("</table>\n");
+    let _ = writeln!(
+        o,
+        "<p class=\"note\">Per joint ({n} joints): <i>significant</i> = the F test of the candidate's \
+         columns on the training part rejects \u{201c}no effect\u{201d}, and the fit also helps on the \
+         held-out part; <i>held-out gain</i> = fraction of the held-out residual variance above the noise \
+         that the fitted candidate removes (negative: it made the held-out part worse); <i>effect RMS</i> = \
+         RMS of the torque the fitted candidate adds; <i>F</i>, <i>p</i> = the F statistic and its p-value. \
+         The score ranks the candidates (0 when nothing is significant).</p>"
+    );
+}
+
+fn final_section(o: &mut String, d: &Diagnosis) {
+    o.push_str("<h2 id=\"final\">Final check: nothing else significant</h2>\n");
+    if d.final_candidates.is_empty() {
+        o.push_str("<p>No candidate scores were recorded for the final model.</p>\n");
+        return;
+    }
+    let _ = writeln!(
+        o,
+        "<p>Every candidate scored on the residual of the final model ({}): none is significant, so the search stopped.</p>",
+        esc(&model_label(d, d.steps.len()))
+    );
+    candidates_table(o, d, &d.final_candidates);
+}
+
+fn regimes_section(o: &mut String, d: &Diagnosis) {
+    o.push_str("<h2 id=\"regimes\">Where the residual is</h2>\n");
+    o.push_str(
+        "<p>RMS of the residual in three regimes (near velocity reversals, at high acceleration, \
+         elsewhere), the mean jump of the residual across velocity reversals (about twice the Coulomb \
+         friction level when that is missing), and the correlation of the residual with the joint's \
+         own position, velocity and acceleration. Nominal model vs final model.</p>\n",
+    );
+    o.push_str("<table id=\"regimes-table\">\n<tr><th>joint</th><th>model</th>");
+    for (h, u) in [
+        ("RMS", "N m"),
+        ("RMS at reversals", "N m"),
+        ("RMS at high |qdd|", "N m"),
+        ("RMS elsewhere", "N m"),
+        ("jump at reversal", "N m"),
+        ("reversals", ""),
+        ("corr(r, q)", ""),
+        ("corr(r, qd)", ""),
+        ("corr(r, qdd)", ""),
+        ("mean", "N m"),
+    ] {
+        let _ = write!(o, "<th>{}{}</th>", esc(h), unit(u));
+    }
+    o.push_str("</tr>\n");
+    let final_label = if d.steps.is_empty() { "final (= nominal)" } else { "final" };
+    for (j, name) in d.json.joints.iter().enumerate() {
+        for (r, label, first) in [(&d.regimes_before[j], "nominal", true), (&d.regimes_after[j], final_label, false)] {
+            o.push_str("<tr>");
+            if first {
+                let _ = write!(o, "<td rowspan=\"2\">{}</td>", esc(name));
+            }
+            let _ = writeln!(o, "<td>{label}</td>{}</tr>", regime_cells(r));
+        }
+    }
+    o.push_str("</table>\n");
+    o.push_str("<p class=\"note\">High |qdd| = the top 20 % of the joint's absolute acceleration; \u{2013} = not available (e.g. no velocity reversal in the log).</p>\n");
+}
+
+fn regime_cells(r: &Regimes) -> String {
+    let mut s = String::new();
+    for v in [r.rms, r.rms_reversal, r.rms_high_acc, r.rms_rest, r.reversal_jump] {
+        let _ = write!(s, "<td class=\"n\">{}</td>", fmt_num(v));
+    }
+    let _ = write!(s, "<td class=\"n\">{}</td>", r.reversals);
+    for v in [r.corr_q, r.corr_qd, r.corr_qdd] {
+        let _ = write!(s, "<td class=\"n\">{}</td>", if v.is_finite() { format!("{v:+.2}") } else { "\u{2013}".into() });
+    }
+    let _ = write!(s, "<td class=\"n\">{}</td>", fmt_num(r.mean));
+    s
+}
+
+fn plots_section(o: &mut String, d: &Diagnosis, figs: &Figures, joints: &[String]) {
+    let k = d.steps.len();
+    o.push_str("<h2 id=\"plots\">Plots per joint</h2>\n");
+    o.push_str(
+        "<p>Long logs are drawn as the minimum and maximum of each pixel column (time plots) and as a \
+         random subsample of the samples (scatter plots).</p>\n",
+    );
+    let final_txt = if k == 0 { "no effect was added, so the final model is the nominal one".to_string() } else { format!("final model = nominal + the {k} effect(s) of the steps above") };
+    for (j, (name, f)) in joints.iter().zip(&figs.joints).enumerate() {
+        let _ = writeln!(o, "<h3 id=\"joint{j}\">{}</h3>", esc(name));
+        figure(
+            o,
+            &f.torque,
+            &format!("{name}: measured and predicted torque vs time"),
+            &format!("Measured torque and the torques predicted by the nominal and final models ({}); top: whole log, bottom: zoom.", esc(&final_txt)),
+        );
+        figure(
+            o,
+            &f.residual,
+            &format!("{name}: residual vs time"),
+            "Residual of the nominal model and after each step. A residual that follows the motion means a missing effect; what remains at the end should look like noise.",
+        );
+        figure(
+            o,
+            &f.state,
+            &format!("{name}: residual vs position, velocity, acceleration"),
+            "Residual against the joint's own state: a step at zero velocity is Coulomb friction, a slope in velocity viscous friction, a slope in acceleration armature, a slope in position a spring, an offset a torque offset.",
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_have_three_significant_digits() {
+        assert_eq!(fmt_num(2.5), "2.50");
+        assert_eq!(fmt_num(0.1234), "0.123");
+        assert_eq!(fmt_num(12.345), "12.3");
+        assert_eq!(fmt_num(-3.21), "-3.21");
+        assert_eq!(fmt_num(1234.4), "1234");
+        assert_eq!(fmt_num(1.234e-5), "1.23e-5");
+        assert_eq!(fmt_num(0.0), "0");
+        assert_eq!(fmt_num(f64::NAN), "\u{2013}");
+        assert_eq!(fmt_pct(0.873), "87.3\u{a0}%");
+        assert_eq!(fmt_pct(-0.0001), "0.0\u{a0}%");
+        assert_eq!(fmt_pct(-377092.817), "-3.77e7\u{a0}%");
+    }
+
+    #[test]
+    fn escapes_markup() {
+        assert_eq!(esc("a<b & \"c\""), "a&lt;b &amp; &quot;c&quot;");
+    }
+}

@@ -1,0 +1,312 @@
+//! The diagnosis outputs on a small hand-made `Diagnosis` (2 joints, 500 samples, one
+//! step): `report.html` is self-contained (every image a PNG data URI of its stated size),
+//! shows the verdict, the joint names and the numbers in the documented format;
+//! `residuals.mcap` reads back with ivdyn's reader on every topic with the trace values.
+//! Expected strings follow the format rule of `report::fmt_num` (3 significant digits,
+//! docs/diagnose.md), written out by hand here.
+
+use std::io::Cursor;
+use std::path::Path;
+
+use base64::Engine as _;
+use ivdyn::diagnose::report::{self, write_html, write_mcap_stamped};
+use ivdyn::diagnose::{
+    CandidateScore, Diagnosis, DiagnosisJson, EffectJson, EffectKind, JointScore, LogInfo, Regimes, Step, Traces,
+};
+use ivdyn::io::mcap::list_topics;
+use ivdyn::io::{for_each_sample, ReadOptions, Source};
+
+const T: usize = 500;
+const N: usize = 2;
+/// A joint name with markup characters: the page must escape it.
+const J1: &str = "wrist<1>";
+
+fn regimes(rms: f64, rev: f64) -> Regimes {
+    Regimes {
+        rms,
+        rms_reversal: rev,
+        rms_high_acc: rms,
+        rms_rest: rms,
+        reversal_jump: 2.0 * rms,
+        reversals: 3,
+        corr_q: 0.1,
+        corr_qd: 0.8,
+        corr_qdd: -0.05,
+        mean: 0.0,
+    }
+}
+
+fn score(significant: bool, f: f64, p: f64, gain: f64) -> JointScore {
+    JointScore { f, p, heldout_gain: gain, effect_rms: 0.25, significant }
+}
+
+/// Joint 0 `j_one`, joint 1 `wrist<1>`; q = sin(2 pi t + j), qd, qdd its derivatives;
+/// the nominal model misses a Coulomb friction of 0.5 and 1.25 N m, which step 1 adds.
+fn synthetic() -> Diagnosis {
+    let joints = vec!["j_one".to_string(), J1.to_string()];
+    let t: Vec<f64> = (0..T).map(|k| k as f64 * 1e-3).collect();
+    let w = 2.0 * std::f64::consts::PI;
+    let at = |f: &dyn Fn(f64, usize) -> f64| -> Vec<f64> { (0..T * N).map(|i| f(t[i / N], i % N)).collect() };
+    let q = at(&|t, j| (w * t + j as f64).sin());
+    let qd = at(&|t, j| w * (w * t + j as f64).cos());
+    let qdd = at(&|t, j| -w * w * (w * t + j as f64).sin());
+    let fc = [0.5, 1.25];
+    // deterministic "noise": a fast pattern of +-0.01
+    let noise = at(&|t, j| 0.01 * ((t * 1e3) as usize % 3) as f64 - 0.01 + 0.001 * j as f64);
+    let rigid = at(&|t, j| 3.0 * (w * t + j as f64).sin() + 0.2 * j as f64);
+    let tau: Vec<f64> = (0..T * N).map(|i| rigid[i] + fc[i % N] * qd[i].signum() + noise[i]).collect();
+    let nominal = rigid.clone();
+    let fin: Vec<f64> = (0..T * N).map(|i| rigid[i] + fc[i % N] * qd[i].signum()).collect();
+
+    let mut params = serde_json::Map::new();
+    params.insert("fc".into(), serde_json::json!([0.5, 1.25]));
+    let cands = vec![
+        CandidateScore {
+            effect: EffectKind::Coulomb,
+            per_joint: vec![score(true, 812.25, 3.2e-9, 0.873), score(true, 4321.0, 0.0, 0.95)],
+            joints: vec![0, 1],
+            score: 42.5,
+            accepted: true,
+            reason: "largest held-out gain".into(),
+        },
+        CandidateScore {
+            effect: EffectKind::Viscous,
+            per_joint: vec![score(false, 1.5, 0.22, -0.012), score(true, 50.0, 1e-6, 0.3)],
+            joints: vec![1],
+            score: 3.0,
+            accepted: false,
+            reason: "explains less than Coulomb friction".into(),
+        },
+    ];
+    let final_cands = vec![CandidateScore {
+        effect: EffectKind::Armature,
+        per_joint: vec![score(false, 0.5, 0.48, 0.001), score(false, 1.1, 0.29, -0.002)],
+        joints: vec![],
+        score: 0.0,
+        accepted: false,
+        reason: "not significant on any joint".into(),
+    }];
+    Diagnosis {
+        json: DiagnosisJson {
+            effects: vec![EffectJson {
+                name: "coulomb_friction".into(),
+                joints: joints.clone(),
+                parameters: params,
+                rms_before: vec![0.512, 1.25],
+                rms_after: vec![0.0225, 0.0478],
+            }],
+            baseline_rms: vec![0.512, 1.25],
+            final_rms: vec![0.0225, 0.0478],
+            joints: joints.clone(),
+        },
+        steps: vec![Step {
+            effect: EffectKind::Coulomb,
+            joints: vec![0, 1],
+            evidence: vec!["joint wrist<1> residual jumps by 2.5 N m at every velocity reversal: Coulomb friction".into()],
+            candidates: cands,
+            rms_before: vec![0.512, 1.25],
+            rms_after: vec![0.0225, 0.0478],
+        }],
+        final_candidates: final_cands,
+        noise_std: vec![0.015, 0.0478],
+        regimes_before: vec![regimes(0.512, 0.7), regimes(1.25, 1.5)],
+        regimes_after: vec![regimes(0.0225, f64::NAN), regimes(0.0478, 0.05)],
+        verdict: "Missing: Coulomb friction on j_one, wrist<1>".into(),
+        traces: Traces { t, q, qd, qdd, tau, predicted: vec![nominal, fin] },
+        info: LogInfo {
+            file: "logs/run & test.mcap".into(),
+            urdf: "robots/arm.urdf".into(),
+            samples: T,
+            duration: 0.499,
+            rate: 1000.0,
+            velocity_in_log: true,
+        },
+    }
+}
+
+/// Text of the HTML between the first `<table id="{id}"` and its `</table>`, one string
+/// per row with tags removed and cells separated by `|`.
+fn table_rows(html: &str, id: &str) -> Vec<String> {
+    let start = html.find(&format!("<table id=\"{id}\"")).unwrap_or_else(|| panic!("no table {id}"));
+    let body = &html[start..start + html[start..].find("</table>").unwrap()];
+    body.split("<tr")
+        .skip(1)
+        .map(|row| {
+            let mut s = String::new();
+            let mut in_tag = false;
+            for c in row.chars() {
+                match c {
+                    '<' => {
+                        in_tag = true;
+                        // a new cell starts a new field
+                        s.push('|');
+                    }
+                    '>' => in_tag = false,
+                    c if !in_tag => s.push(c),
+                    _ => {}
+                }
+            }
+            s.split('|').map(|c| c.trim()).filter(|c| !c.is_empty()).collect::<Vec<_>>().join("|")
+        })
+        .collect()
+}
+
+/// The `src`, `width`, `height` of every `<img>`.
+fn images(html: &str) -> Vec<(String, u32, u32)> {
+    let attr = |tag: &str, name: &str| -> String {
+        let k = tag.find(&format!(" {name}=\"")).unwrap_or_else(|| panic!("<img> without {name}")) + name.len() + 3;
+        tag[k..k + tag[k..].find('"').unwrap()].to_string()
+    };
+    html.match_indices("<img")
+        .map(|(i, _)| {
+            let tag = &html[i..i + html[i..].find('>').unwrap()];
+            (attr(tag, "src"), attr(tag, "width").parse().unwrap(), attr(tag, "height").parse().unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn html_is_self_contained_and_complete() {
+    let dir = tempdir("html");
+    let d = synthetic();
+    write_html(&d, &dir).unwrap();
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.starts_with("<!DOCTYPE html>"));
+
+    // Nothing outside the file: no network, no external stylesheet/script/font.
+    for bad in ["http://", "https://", "<script", "<link", "url(", "@import", "<iframe", "<object"] {
+        assert!(!html.contains(bad), "report.html contains {bad}");
+    }
+    let srcs = html.matches("src=").count();
+    let imgs = images(&html);
+    assert_eq!(srcs, imgs.len(), "every src= belongs to an <img>");
+    // the RMS bar chart + 3 figures per joint
+    assert_eq!(imgs.len(), 1 + 3 * N);
+    let nominal_blue = [31u8, 119, 180];
+    for (src, w, h) in &imgs {
+        let b64 = src.strip_prefix("data:image/png;base64,").expect("image is an inline PNG");
+        let bytes = base64::engine::general_purpose::STANDARD.decode(b64).expect("valid base64");
+        let mut reader = png::Decoder::new(Cursor::new(&bytes)).read_info().expect("valid PNG header");
+        let info = reader.info();
+        assert_eq!((info.width, info.height), (*w, *h), "stated size = PNG size");
+        assert!(*w >= 800 && *h >= 300, "readable size, got {w}x{h}");
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let frame = reader.next_frame(&mut buf).expect("PNG decodes");
+        assert_eq!(frame.color_type, png::ColorType::Rgb);
+        let px = &buf[..frame.buffer_size()];
+        // Every figure draws the nominal model (bars, lines or points in its colour;
+        // points are blended at 35 % so look for exact pixels of lines/bars/legend swatches).
+        assert!(px.chunks(3).any(|p| p == nominal_blue), "figure without the nominal model's colour");
+        // and text/axes in black-ish
+        assert!(px.chunks(3).filter(|p| p.iter().all(|&c| c < 60)).count() > 500, "figure without text");
+    }
+
+    // The verdict and every joint name, escaped.
+    assert!(html.contains("Missing: Coulomb friction on j_one, wrist&lt;1&gt;"));
+    assert!(html.contains("j_one") && html.contains("wrist&lt;1&gt;") && !html.contains("wrist<1>"));
+    assert!(html.contains("logs/run &amp; test.mcap") && html.contains("robots/arm.urdf"));
+
+    // RMS table: joint | nominal | after step 1 | final | noise | final/noise
+    let rms = table_rows(&html, "rms-table");
+    assert_eq!(rms.len(), 1 + N);
+    assert!(rms[0].contains("N m"), "units in the header: {}", rms[0]);
+    assert_eq!(rms[1], "j_one|0.512|0.0225|0.0225|0.0150|1.50");
+    assert_eq!(rms[2], "wrist&lt;1&gt;|1.25|0.0478|0.0478|0.0478|1.00");
+
+    // Parameters with units, evidence, candidate scores.
+    assert!(html.contains("Coulomb friction level <span class=\"unit\">(N m)</span>"));
+    assert!(html.contains(">0.500<") && html.contains(">1.25<"));
+    assert!(html.contains("residual jumps by 2.5 N m at every velocity reversal"));
+    for s in [">812<", ">3.20e-9<", "87.3\u{a0}%", "&lt; 1e-16", ">4321<", "-1.2\u{a0}%", ">0.220<", "largest held-out gain", "explains less than Coulomb friction", "not significant on any joint"] {
+        assert!(html.contains(s), "missing {s}");
+    }
+
+    // Regimes: NaN shown as a dash, correlations signed.
+    let reg = table_rows(&html, "regimes-table");
+    assert_eq!(reg.len(), 1 + 2 * N);
+    assert_eq!(reg[2], "final|0.0225|\u{2013}|0.0225|0.0225|0.0450|3|+0.10|+0.80|-0.05|0");
+}
+
+#[test]
+fn bad_shapes_are_refused_and_leave_no_file() {
+    let dir = tempdir("bad");
+    let mut d = synthetic();
+    d.traces.predicted[1].pop();
+    let e = write_html(&d, &dir).unwrap_err().to_string();
+    assert!(e.contains("traces.predicted[1]") && e.contains("1000") && e.contains("999"), "{e}");
+    let e = write_mcap_stamped(&d, &d.json.joints.clone(), 0, &dir).unwrap_err().to_string();
+    assert!(e.contains("traces.predicted[1]"), "{e}");
+    let mut d = synthetic();
+    d.steps.clear(); // one effect in the JSON, no step
+    assert!(write_html(&d, &dir).unwrap_err().to_string().contains("traces.predicted"));
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(left.is_empty(), "files left after errors: {left:?}");
+}
+
+#[test]
+fn mcap_reads_back_on_every_topic() {
+    let dir = tempdir("mcap");
+    let d = synthetic();
+    let t0: i64 = 1_700_000_000_123_456_789;
+    write_mcap_stamped(&d, &d.json.joints, t0, &dir).unwrap();
+    let path = dir.join("residuals.mcap");
+    let topics = list_topics(&path).unwrap();
+    let expected = [
+        "/joint_states",
+        "/ivdyn/predicted/nominal",
+        "/ivdyn/predicted/final",
+        "/ivdyn/residual/nominal",
+        "/ivdyn/residual/final",
+        "/ivdyn/predicted/step1_coulomb_friction",
+    ];
+    assert_eq!(topics.len(), expected.len(), "{topics:?}");
+    for (name, schema, count) in &topics {
+        assert!(expected.contains(&name.as_str()), "unexpected topic {name}");
+        assert_eq!(schema, "sensor_msgs/msg/JointState");
+        assert_eq!(*count, T, "{name}");
+    }
+    assert_eq!(report::step_topic(1, EffectKind::Coulomb), "/ivdyn/predicted/step1_coulomb_friction");
+
+    let tr = &d.traces;
+    let stamp = |k: usize| t0 + (tr.t[k] * 1e9).round() as i64;
+    let residual = |p: &[f64]| -> Vec<f64> { tr.tau.iter().zip(p).map(|(a, b)| a - b).collect() };
+    // measured: q, qd, tau
+    let log = ivdyn::io::read_mcap(&path, &ReadOptions::new(&d.json.joints)).unwrap();
+    assert_eq!(log.t0_ns, t0);
+    assert_eq!(log.q, tr.q);
+    assert_eq!(log.qd.as_deref(), Some(&tr.qd[..]));
+    assert_eq!(log.tau.as_deref(), Some(&tr.tau[..]));
+    // effort-only topics, read as the command topic next to /joint_states
+    for (topic, want) in [
+        ("/ivdyn/predicted/nominal", tr.predicted[0].clone()),
+        ("/ivdyn/predicted/final", tr.predicted[1].clone()),
+        ("/ivdyn/predicted/step1_coulomb_friction", tr.predicted[1].clone()),
+        ("/ivdyn/residual/nominal", residual(&tr.predicted[0])),
+        ("/ivdyn/residual/final", residual(&tr.predicted[1])),
+    ] {
+        let mut got = vec![];
+        let mut stamps = vec![];
+        for_each_sample(&path, &ReadOptions::new(&d.json.joints).command_topic(topic), |s| {
+            if s.source == Source::Command {
+                assert!(s.q.is_none() && s.qd.is_none(), "{topic}: effort only");
+                stamps.push(s.stamp_ns);
+                got.extend_from_slice(s.tau.unwrap());
+            }
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(got, want, "{topic}");
+        assert_eq!(stamps, (0..T).map(stamp).collect::<Vec<_>>(), "{topic} stamps");
+    }
+    // a wrong joint list is refused
+    let e = write_mcap_stamped(&d, &d.json.joints[..1], t0, &dir).unwrap_err().to_string();
+    assert!(e.contains("joint names"), "{e}");
+}
+
+fn tempdir(tag: &str) -> std::path::PathBuf {
+    let p = std::env::temp_dir().join(format!("ivdyn_diag_report_{tag}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&p);
+    std::fs::create_dir_all(&p).unwrap();
+    assert!(Path::new(&p).is_dir());
+    p
+}
