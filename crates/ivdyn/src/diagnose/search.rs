@@ -97,14 +97,18 @@ const C_QDD: usize = 4;
 const STRIBECK_VS: [f64; 5] = [0.02, 0.05, 0.1, 0.2, 0.4];
 const C_STRIBECK: usize = 5;
 const C_PAYLOAD: usize = C_STRIBECK + STRIBECK_VS.len();
-const NCOLS: usize = C_PAYLOAD + 10;
+/// Link-scale columns of the look-alike check: link i's nominal torque on the joint,
+/// `Y_i(q, qd, qdd) theta_i` (a wrong link mass or inertia scales it).
+const C_LINK: usize = C_PAYLOAD + 10;
+const NCOLS: usize = C_LINK + crate::MAX_DOF;
 /// The target (the nominal residual) is the last Gram column.
 const C_TARGET: usize = NCOLS;
 
 /// One parameter of a model: which joints' rows it touches and through which column.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Param {
-    kind: EffectKind,
+    /// `None`: a link-scale parameter of the look-alike check (not an effect).
+    kind: Option<EffectKind>,
     /// `Some(j)`: a per-joint parameter; `None`: payload (all joints).
     joint: Option<usize>,
     /// Dictionary column (for payload: `C_PAYLOAD + k`).
@@ -117,11 +121,13 @@ struct Model {
     per_joint: Vec<Vec<EffectKind>>,
     stribeck_vs: Vec<usize>,
     payload: bool,
+    /// Per-link scale factors of the nominal inertials (look-alike check only).
+    link_scale: bool,
 }
 
 impl Model {
     fn new(n: usize) -> Self {
-        Model { per_joint: vec![vec![]; n], stribeck_vs: vec![0; n], payload: false }
+        Model { per_joint: vec![vec![]; n], stribeck_vs: vec![0; n], payload: false, link_scale: false }
     }
 
     fn has(&self, j: usize, e: EffectKind) -> bool {
@@ -171,14 +177,19 @@ impl Model {
                 for &c in cols {
                     let c = if c == C_STRIBECK { C_STRIBECK + self.stribeck_vs[j] } else { c };
                     if !p.iter().any(|x: &Param| x.joint == Some(j) && x.col == c) {
-                        p.push(Param { kind: e, joint: Some(j), col: c });
+                        p.push(Param { kind: Some(e), joint: Some(j), col: c });
                     }
                 }
             }
         }
         if self.payload {
             for k in 0..10 {
-                p.push(Param { kind: EffectKind::Payload, joint: None, col: C_PAYLOAD + k });
+                p.push(Param { kind: Some(EffectKind::Payload), joint: None, col: C_PAYLOAD + k });
+            }
+        }
+        if self.link_scale {
+            for i in 0..self.per_joint.len() {
+                p.push(Param { kind: None, joint: None, col: C_LINK + i });
             }
         }
         p
@@ -309,6 +320,7 @@ fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> Result<Dicti
     // the terminal link's 10 regressor columns, in blocks (the whole regressor would be
     // T x N x 14N doubles)
     let link = 10 * (n - 1);
+    let theta_nom = robot.params();
     let block = 2048;
     let mut y = vec![0.0; block * n * p_full];
     for k0 in (0..t_len).step_by(block) {
@@ -322,6 +334,9 @@ fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> Result<Dicti
                 let row = &out[(kk * n + j) * p_full..(kk * n + j + 1) * p_full];
                 for c in 0..10 {
                     cols[j][C_PAYLOAD + c][k0 + kk] = row[link + c];
+                }
+                for i in 0..n {
+                    cols[j][C_LINK + i][k0 + kk] = (0..10).map(|c| row[10 * i + c] * theta_nom[10 * i + c]).sum();
                 }
             }
         }
@@ -661,8 +676,8 @@ impl Ctx<'_> {
     /// better than that: not named as a missing effect.
     fn beyond_nominal_uncertainty(&self, f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> bool {
         f.params.iter().zip(&f.theta).all(|(p, &v)| {
-            let small_armature = p.joint == Some(j) && p.kind == EffectKind::Armature && v < NOMINAL_UNCERTAINTY * self.m_diag[j];
-            let small_payload = p.kind == EffectKind::Payload && p.col == C_PAYLOAD && v < NOMINAL_UNCERTAINTY * self.terminal_mass;
+            let small_armature = p.joint == Some(j) && p.kind == Some(EffectKind::Armature) && v < NOMINAL_UNCERTAINTY * self.m_diag[j];
+            let small_payload = p.kind == Some(EffectKind::Payload) && p.col == C_PAYLOAD && v < NOMINAL_UNCERTAINTY * self.terminal_mass;
             !(added(p) && (small_armature || small_payload))
         })
     }
@@ -677,8 +692,11 @@ fn physical(f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> bool {
             return true;
         }
         match (p.kind, p.col) {
-            (EffectKind::Coulomb, C_SIGN) | (EffectKind::Viscous, C_QD) | (EffectKind::Armature, C_QDD) | (EffectKind::JointSpring, C_Q) => v > 0.0,
-            (EffectKind::Payload, C_PAYLOAD) => v > 0.0,
+            (Some(EffectKind::Coulomb), C_SIGN)
+            | (Some(EffectKind::Viscous), C_QD)
+            | (Some(EffectKind::Armature), C_QDD)
+            | (Some(EffectKind::JointSpring), C_Q)
+            | (Some(EffectKind::Payload), C_PAYLOAD) => v > 0.0,
             _ => true,
         }
     })
@@ -688,6 +706,36 @@ fn physical(f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> bool {
     fn gain(&self, smaller: &Model, larger: &Model) -> f64 {
         let (fs, fl) = (fit(&smaller.params(), self.gr, &self.w, &[0, 1]), fit(&larger.params(), self.gr, &self.w, &[0, 1]));
         (0..self.n).map(|j| self.w[j] * (rss_joint(&fs, self.gr, j, &[0, 1]) - rss_joint(&fl, self.gr, j, &[0, 1]))).sum()
+    }
+}
+
+/// Largest relative error of the nominal link inertials still taken as a plausible
+/// explanation of a residual (CAD masses and inertias are rarely off by more).
+const LINK_SCALE_MAX: f64 = 0.25;
+
+/// The effects a wrong nominal link mass or inertia can imitate.
+fn inertia_like(e: EffectKind) -> bool {
+    matches!(e, EffectKind::Payload | EffectKind::Armature | EffectKind::TorqueOffset | EffectKind::JointSpring)
+}
+
+/// Look-alike check against the nominal model's own error: if scaling each link's nominal
+/// inertials (by at most `LINK_SCALE_MAX`) explains the residual and the candidate is no
+/// longer significant on joint `j` once those scales are free, the candidate is imitated
+/// by a model error. Returns the largest scale (as a fraction) when it is.
+fn model_error_lookalike(ctx: &Ctx, m: &Model, larger: &Model, j: usize, added: &dyn Fn(&Param) -> bool) -> Option<f64> {
+    let mut base = m.clone();
+    base.link_scale = true;
+    let mut l = larger.clone();
+    l.link_scale = true;
+    let fb = fit(&base.params(), ctx.gr, &ctx.w, &[0, 1]);
+    let smax = fb.params.iter().zip(&fb.theta).filter(|(p, _)| p.kind.is_none()).map(|(_, v)| v.abs()).fold(0.0, f64::max);
+    if smax > LINK_SCALE_MAX {
+        return None;
+    }
+    if ctx.joint_score(&base, &l, j, added).significant {
+        None
+    } else {
+        Some(smax)
     }
 }
 
@@ -709,14 +757,23 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
     for e in EffectKind::ALL {
         let mut per_joint = vec![];
         let mut larger = m.clone();
+        let mut lookalike: Vec<(usize, f64)> = vec![];
         match e {
             EffectKind::Payload => {
                 if m.payload {
                     continue;
                 }
                 let l = m.with(None, e);
+                let is_payload = |p: &Param| p.kind == Some(EffectKind::Payload);
                 for j in 0..n {
-                    per_joint.push(ctx.joint_score(m, &l, j, &|p| p.kind == EffectKind::Payload));
+                    let mut sc = ctx.joint_score(m, &l, j, &is_payload);
+                    if sc.significant {
+                        if let Some(s) = model_error_lookalike(ctx, m, &l, j, &is_payload) {
+                            sc.significant = false;
+                            lookalike.push((j, s));
+                        }
+                    }
+                    per_joint.push(sc);
                 }
                 if per_joint.iter().any(|s| s.significant) {
                     larger = l;
@@ -734,8 +791,8 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
                         let mut l = m.with(Some(j), EffectKind::Stribeck);
                         l.stribeck_vs[j] = g;
                         let f = fit(&l.params(), ctx.gr, &ctx.w, &[0, 1]);
-                        let fs = f.params.iter().position(|p| p.kind == EffectKind::Stribeck && p.joint == Some(j)).map(|i| f.theta[i]);
-                        let mut sc = ctx.joint_score(m, &l, j, &|p| p.kind == EffectKind::Stribeck);
+                        let fs = f.params.iter().position(|p| p.kind == Some(EffectKind::Stribeck) && p.joint == Some(j)).map(|i| f.theta[i]);
+                        let mut sc = ctx.joint_score(m, &l, j, &|p| p.kind == Some(EffectKind::Stribeck));
                         if fs.is_none_or(|v| v <= 0.0) {
                             sc.significant = false;
                         }
@@ -759,12 +816,18 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
                             // a spring is named only if its position column matters beyond
                             // a constant: test it against the model with an offset
                             let (base, sel): (Model, &dyn Fn(&Param) -> bool) = if e == EffectKind::JointSpring {
-                                (m.with(Some(j), EffectKind::TorqueOffset), &|p: &Param| p.kind == EffectKind::JointSpring && p.col == C_Q)
+                                (m.with(Some(j), EffectKind::TorqueOffset), &|p: &Param| p.kind == Some(EffectKind::JointSpring) && p.col == C_Q)
                             } else {
-                                (m.clone(), &move |p: &Param| p.kind == e)
+                                (m.clone(), &move |p: &Param| p.kind == Some(e))
                             };
                             let l = if e == EffectKind::JointSpring { l.without(Some(j), EffectKind::TorqueOffset) } else { l };
-                            let sc = ctx.joint_score(&base, &l, j, &|p| p.joint == Some(j) && sel(p));
+                            let mut sc = ctx.joint_score(&base, &l, j, &|p| p.joint == Some(j) && sel(p));
+                            if sc.significant && inertia_like(e) {
+                                if let Some(s) = model_error_lookalike(ctx, &base, &l, j, &|p| p.joint == Some(j) && sel(p)) {
+                                    sc.significant = false;
+                                    lookalike.push((j, s));
+                                }
+                            }
                             if sc.significant {
                                 larger.per_joint[j] = l.per_joint[j].clone();
                             }
@@ -776,7 +839,16 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
         }
         let joints: Vec<usize> = (0..n).filter(|&j| per_joint[j].significant).collect();
         let score = if joints.is_empty() { 0.0 } else { ctx.gain(m, &larger) };
-        out.push((CandidateScore { effect: e, per_joint, joints, score, accepted: false, reason: String::new() }, larger));
+        let reason = if lookalike.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "on joint(s) {} it is imitated as well by the nominal link inertials being off by up to {:.0} % (not named)",
+                lookalike.iter().map(|(j, _)| (j + 1).to_string()).collect::<Vec<_>>().join(", "),
+                100.0 * lookalike.iter().map(|x| x.1).fold(0.0, f64::max)
+            )
+        };
+        out.push((CandidateScore { effect: e, per_joint, joints, score, accepted: false, reason }, larger));
     }
     out
 }
@@ -789,7 +861,7 @@ fn backward(ctx: &Ctx, m: &Model) -> Model {
         for j in 0..ctx.n {
             for &e in &m.per_joint[j] {
                 let smaller = m.without(Some(j), e);
-                let sc = ctx.joint_score(&smaller, &m, j, &|p| p.joint == Some(j) && p.kind == e);
+                let sc = ctx.joint_score(&smaller, &m, j, &|p| p.joint == Some(j) && p.kind == Some(e));
                 if !sc.significant && worst.as_ref().is_none_or(|w| sc.f < w.0) {
                     worst = Some((sc.f, Some(j), e));
                 }
@@ -797,7 +869,7 @@ fn backward(ctx: &Ctx, m: &Model) -> Model {
         }
         if m.payload {
             let smaller = m.without(None, EffectKind::Payload);
-            let any = (0..ctx.n).any(|j| ctx.joint_score(&smaller, &m, j, &|p| p.kind == EffectKind::Payload).significant);
+            let any = (0..ctx.n).any(|j| ctx.joint_score(&smaller, &m, j, &|p| p.kind == Some(EffectKind::Payload)).significant);
             if !any {
                 worst = Some((0.0, None, EffectKind::Payload));
             }
@@ -975,7 +1047,9 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
         let best = cands.iter().enumerate().filter(|(_, c)| !c.0.joints.is_empty()).max_by(|a, b| a.1 .0.score.total_cmp(&b.1 .0.score)).map(|(i, _)| i);
         let Some(bi) = best else {
             for c in cands.iter_mut() {
-                c.0.reason = "not significant on any joint".into();
+                if c.0.reason.is_empty() {
+                    c.0.reason = "not significant on any joint".into();
+                }
             }
             final_candidates = cands.into_iter().map(|c| c.0).collect();
             break;
@@ -987,7 +1061,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
             c.0.reason = if i == bi {
                 "explains the most residual".into()
             } else if c.0.joints.is_empty() {
-                "not significant on any joint".into()
+                if c.0.reason.is_empty() { "not significant on any joint".into() } else { c.0.reason.clone() }
             } else {
                 format!("explains less than {best_name} ({:.0} % of its weighted residual reduction)", 100.0 * c.0.score / best_score)
             };
@@ -1051,7 +1125,7 @@ fn assemble(
     // effects in the order found, with the final fit's parameters; an effect whose
     // joints were all dropped by a later backward step is not reported
     let theta_of = |j: usize, kind: EffectKind, col: usize| -> f64 {
-        f.params.iter().position(|p| p.joint == Some(j) && p.kind == kind && p.col == col).map(|i| f.theta[i]).unwrap_or(0.0)
+        f.params.iter().position(|p| p.joint == Some(j) && p.kind == Some(kind) && p.col == col).map(|i| f.theta[i]).unwrap_or(0.0)
     };
     let mut effects = vec![];
     let mut out_steps = vec![];
@@ -1112,7 +1186,7 @@ fn assemble(
             EffectKind::Payload => {
                 let mut p10 = [0.0; 10];
                 for (i, p) in f.params.iter().enumerate() {
-                    if p.kind == EffectKind::Payload {
+                    if p.kind == Some(EffectKind::Payload) {
                         p10[p.col - C_PAYLOAD] = f.theta[i];
                     }
                 }
