@@ -1,16 +1,19 @@
 #!/usr/bin/env python3
-"""Generate the model-gap diagnosis test data in fixtures/diagnose/ (issue 7, item 6).
+"""Generate the model-gap diagnosis test data in fixtures/diagnose/ (UR5) and
+fixtures/diagnose_panda/ (Franka Panda) (issue 7, item 6).
 
-MuJoCo (`mujoco` from PyPI) plays the "real robot": it loads fixtures/ur5.urdf (the file has no
-<visual>/<collision>; MuJoCo fuses the static root into the world body), contacts and joint
-limits are disabled, and each hidden effect is added through MuJoCo's own mechanisms:
+MuJoCo (`mujoco` from PyPI) plays the "real robot": it loads the robot's URDF (fixtures/ur5.urdf,
+or for the Panda fixtures/panda.urdf without its fingers and with zero joint damping, written as
+panda_arm.urdf; neither file has <visual>/<collision>; MuJoCo fuses the static root into the
+world body), contacts and joint limits are disabled, and each hidden effect is added through
+MuJoCo's own mechanisms:
 
     coulomb_friction  joint `frictionloss`, solref_friction (2 ms, 1) (constraint force; stick
                       phases near v = 0)
     viscous_friction  joint `damping`               (integrated implicitly by MuJoCo's Euler)
     armature          joint `armature`              (exact)
     joint_spring      joint `stiffness` + `springref` (exact: tau_spring = k (q - q0))
-    payload           a body welded to wrist_3_link (exact rigid body)
+    payload           a body welded to the terminal link (exact rigid body)
     torque_offset     added on the sensor side to the logged effort
 
 `stribeck_friction` is not generated: MuJoCo's joint friction loss has a constant magnitude and
@@ -24,16 +27,19 @@ stops if they differ by more than 1e-10 relative.
 The arm follows a sum-of-sinusoids reference per joint at 1 ms steps (semi-implicit Euler) with
 a PD tracking controller whose gains are scaled by the nominal mass matrix:
     tau = rnea(q_ref, qd_ref, qdd_ref) + M(q_ref) (kp e + kd ed)
-(nominal model = ivdyn on fixtures/ur5.urdf). The logged effort is the applied actuator torque,
+(nominal model = ivdyn on the robot's clean URDF). The logged effort is the applied actuator torque,
 as a joint torque sensor would measure it, plus the sensor-side offset (torque_offset case only)
 and Gaussian noise; positions are quantised like an encoder; velocity is MuJoCo's joint
 velocity (omitted in one case).
 
 Deterministic (numpy default_rng seeds per case, fixed stamps). Run from the repository root:
 
-    .venv/bin/python python/tools/make_diagnose_cases.py [--out DIR] [--duration S]
+    .venv/bin/python python/tools/make_diagnose_cases.py [--robot ur5|panda] [--out DIR] [--duration S]
 
-Default: fixtures/diagnose/, 2 s per case. Writes <case>.mcap, ur5_inertia5.urdf and cases.json.
+Default: --robot ur5, fixtures/diagnose/ (panda: fixtures/diagnose_panda/), 2 s per case. Writes
+<case>.mcap, the 5 %-off nominal URDF (ur5_inertia5.urdf / panda_inertia5.urdf), for the Panda
+panda_arm.urdf, and cases.json. The UR5 output is byte-identical to what this script wrote
+before the Panda was added.
 """
 import argparse
 import json
@@ -50,32 +56,26 @@ from mcap_ros2.writer import Writer
 import ivdyn
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
-URDF = os.path.join(ROOT, "fixtures", "ur5.urdf")
-BASE, TIP = "base_link", "tool0"
-DT = 1e-3
+DT = 1e-3                                      # default step = log period (1 kHz)
 T0_NS = 1_700_000_000_000_000_000
 # Sensor quanta are powers of two so that the float64 values compress (the logs stay small).
 Q_RES = 2.0 ** -18                             # rad, encoder quantum (~1.65e6 counts/rev)
 ENCODER_COUNTS = round(2 * math.pi / Q_RES)
 TAU_RES = 2.0 ** -14                           # N m, torque sensor quantum (6.1e-5 N m)
 QD_RES = 2.0 ** -16                            # rad/s, velocity quantum (1.5e-5 rad/s)
-TORQUE_NOISE = [0.15, 0.15, 0.08, 0.03, 0.03, 0.02]  # N m, std per joint (URDF order)
 WN, ZETA = 2 * math.pi * 10.0, 0.7             # PD bandwidth (rad/s) and damping ratio
 KP, KD = WN * WN, 2 * ZETA * WN
-TERMINAL_LINK = "wrist_3_link"
 AGREEMENT_TOL = 1e-10
 
 from make_log_fixtures import JOINT_STATE  # noqa: E402  (the one JointState message definition of our Python writers)
 
-# Trajectory centres (rad) per joint; amplitudes are drawn per case.
-CENTRES = np.array([0.0, -1.3, 1.2, -1.2, 1.4, 0.0])
-
-# The cases. `effects` uses the diagnosis.json vocabulary of ../shared/DESIGN.md.
+# ----------------------------------------------------------------------------- UR5 cases
+# `effects` uses the diagnosis.json vocabulary of ../shared/DESIGN.md.
 PAYLOAD_A = {"mass": 2.0, "com": [0.02, 0.13, -0.01],
              "inertia": [0.0040, 0.0002, 0.0, 0.0030, 0.0, 0.0045]}
 PAYLOAD_B = {"mass": 1.2, "com": [-0.015, 0.11, 0.02],
              "inertia": [0.0020, 0.0, 0.0001, 0.0025, 0.0, 0.0018]}
-CASES = [
+UR5_CASES = [
     {"name": "clean_a", "seed": 101, "effects": []},
     {"name": "clean_b", "seed": 102, "effects": []},
     {"name": "coulomb", "seed": 103, "effects": [
@@ -107,13 +107,128 @@ CASES = [
          "parameters": {"fc": [3.0, 2.0]}}]},
 ]
 
+# ----------------------------------------------------------------------------- Panda cases
+# Joints and magnitudes differ from the UR5 set; magnitudes are of the order reported for the
+# Panda (friction ~0.5-2 N m, viscous ~0.2-1 N m s/rad, reflected rotor inertia ~0.05-0.3 kg m^2,
+# a gripped part of ~1 kg). Payload frame: panda_link7 (ivdyn's terminal link, flange at
+# z = 0.107 m, hand fused into it); the COM sits in the gripper, off the flange axis.
+P = "panda_joint"
+PANDA_PAYLOAD = {"mass": 1.0, "com": [0.03, -0.02, 0.19],
+                 "inertia": [0.0025, 0.0001, 0.0, 0.0020, -0.0002, 0.0012]}
+PANDA_CASES = [
+    {"name": "clean_a", "seed": 201, "effects": []},
+    {"name": "clean_b", "seed": 202, "effects": []},
+    {"name": "coulomb", "seed": 203, "effects": [
+        {"name": "coulomb_friction", "joints": [P + "1", P + "4", P + "6"],
+         "parameters": {"fc": [1.5, 1.0, 0.5]}}]},
+    {"name": "viscous", "seed": 204, "effects": [
+        {"name": "viscous_friction", "joints": [P + "2", P + "5", P + "7"],
+         "parameters": {"fv": [0.8, 0.3, 0.2]}}]},
+    {"name": "armature", "seed": 205, "effects": [
+        {"name": "armature", "joints": [P + "2", P + "4", P + "6"],
+         "parameters": {"ia": [0.3, 0.15, 0.05]}}]},
+    {"name": "payload", "seed": 206, "effects": [
+        {"name": "payload", "joints": [], "parameters": PANDA_PAYLOAD}]},
+    {"name": "torque_offset", "seed": 207, "effects": [
+        {"name": "torque_offset", "joints": [P + "3", P + "5", P + "7"],
+         "parameters": {"tau0": [0.6, -0.3, 0.2]}}]},
+    {"name": "joint_spring", "seed": 208, "effects": [
+        {"name": "joint_spring", "joints": [P + "3", P + "6"],
+         "parameters": {"k": [12.0, 6.0], "q0": [0.3, 1.2]}}]},
+    # Coulomb and viscous friction together on the same joints, as on real arms
+    {"name": "coulomb_viscous", "seed": 209, "effects": [
+        {"name": "coulomb_friction", "joints": [P + "2", P + "6"],
+         "parameters": {"fc": [1.2, 0.6]}},
+        {"name": "viscous_friction", "joints": [P + "2", P + "6"],
+         "parameters": {"fv": [0.6, 0.3]}}]},
+    # 500 Hz: simulated, controlled and logged at 2 ms steps
+    {"name": "armature_500hz", "seed": 210, "rate_hz": 500.0, "effects": [
+        {"name": "armature", "joints": [P + "1", P + "5"],
+         "parameters": {"ia": [0.25, 0.06]}}]},
+    {"name": "viscous_novel", "seed": 211, "velocity": False, "effects": [
+        {"name": "viscous_friction", "joints": [P + "1", P + "6"],
+         "parameters": {"fv": [0.5, 0.25]}}]},
+    {"name": "inertia5_offset", "seed": 212, "nominal": "panda_inertia5.urdf", "effects": [
+        {"name": "torque_offset", "joints": [P + "2", P + "6"],
+         "parameters": {"tau0": [0.8, -0.25]}}]},
+    {"name": "noise2x_coulomb", "seed": 213, "noise_scale": 2.0, "effects": [
+        {"name": "coulomb_friction", "joints": [P + "3", P + "7"],
+         "parameters": {"fc": [0.8, 0.3]}}]},
+]
+
+# ----------------------------------------------------------------------------- robots
+ROBOTS = {
+    "ur5": {
+        "source_urdf": "fixtures/ur5.urdf",
+        "urdf": None,                          # used as is
+        "base": "base_link", "tip": "tool0", "terminal_link": "wrist_3_link",
+        "out": os.path.join(ROOT, "fixtures", "diagnose"),
+        "torque_noise": [0.15, 0.15, 0.08, 0.03, 0.03, 0.02],   # N m, std per joint (URDF order)
+        # Trajectory centres (rad) per joint; amplitudes are drawn per case.
+        "centres": [0.0, -1.3, 1.2, -1.2, 1.4, 0.0],
+        # amplitudes keep |qd_ref| < 3.1 rad/s (UR5 velocity limits 3.15 / 3.2 rad/s)
+        "amp_scale": 0.6 * np.array([0.5, 0.35, 0.4, 0.5, 0.5, 0.6]),
+        "acc_limits": None,
+        "check_reference": False,              # the UR5 set predates the check (|qd_ref| up to 3.1 rad/s)
+        "perturbed": "ur5_inertia5.urdf",
+        "moving_links": ["shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link",
+                         "wrist_2_link", "wrist_3_link"],
+        "cases": UR5_CASES,
+    },
+    "panda": {
+        "source_urdf": "fixtures/panda.urdf",
+        "urdf": "panda_arm.urdf",              # derived by panda_arm_urdf()
+        "base": "panda_link0", "tip": "panda_hand", "terminal_link": "panda_link7",
+        "out": os.path.join(ROOT, "fixtures", "diagnose_panda"),
+        "torque_noise": [0.1, 0.1, 0.1, 0.1, 0.03, 0.03, 0.02],
+        # inside the joint limits (j4 in [-3.07, -0.07], j6 in [-0.02, 3.75]), near the
+        # usual working pose, >= 0.9 rad from every limit including the motion
+        "centres": [0.3, -0.4, -0.3, -2.0, 0.4, 1.9, 0.7],
+        # amplitudes keep |qd_ref| below 90 % of the velocity limits (2.175 rad/s joints 1-4,
+        # 2.61 rad/s joints 5-7; checked) and |qdd_ref| below acc_limits
+        "amp_scale": np.array([0.19, 0.10, 0.11, 0.15, 0.19, 0.21, 0.28]),
+        # Franka Control Interface documentation, joint acceleration limits (rad/s^2)
+        "acc_limits": [15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0],
+        "check_reference": True,
+        "perturbed": "panda_inertia5.urdf",
+        "moving_links": ["panda_link1", "panda_link2", "panda_link3", "panda_link4", "panda_link5",
+                         "panda_link6", "panda_link7", "panda_hand"],
+        "cases": PANDA_CASES,
+    },
+}
+
+
+def panda_arm_urdf(path_out):
+    """fixtures/panda.urdf without the two finger links and joints (the arm ends at the hand),
+    with every `<dynamics>` set to damping = friction = 0 (the file has damping 0.003 and
+    non-standard attributes; the nominal model carries no drive terms, as for the UR5, so
+    that the hidden effects listed in cases.json are the whole truth)."""
+    tree = ET.parse(os.path.join(ROOT, "fixtures", "panda.urdf"))
+    root = tree.getroot()
+    fingers = {"panda_leftfinger", "panda_rightfinger"}
+    for link in list(root.findall("link")):
+        if link.get("name") in fingers:
+            root.remove(link)
+    for joint in list(root.findall("joint")):
+        if joint.find("child").get("link") in fingers:
+            root.remove(joint)
+            continue
+        dyn = joint.find("dynamics")
+        if dyn is not None:
+            dyn.attrib.clear()
+            dyn.set("damping", "0.0")
+            dyn.set("friction", "0.0")
+    tree.write(path_out, encoding="utf-8", xml_declaration=True)
+
 
 # ----------------------------------------------------------------------------- models
-def mujoco_model(effects, joint_names):
-    """MuJoCo model of fixtures/ur5.urdf with the given effects (sensor-side ones ignored)."""
-    spec = mujoco.MjSpec.from_file(URDF)
+def mujoco_model(cfg, effects, joint_names, dt=DT):
+    """MuJoCo model of the robot's clean URDF with the given effects (sensor-side ones ignored)."""
+    spec = mujoco.MjSpec.from_file(cfg["urdf_path"])
     joints = {j.name: j for j in spec.joints}
     assert [j.name for j in spec.joints] == joint_names, [j.name for j in spec.joints]
+    for j in spec.joints:   # the clean model has no passive joint terms
+        assert j.frictionloss == 0 and j.armature == 0 and j.stiffness[0] == 0 and j.damping[0] == 0, j.name
     for e in effects:
         p = e["parameters"]
         for i, jn in enumerate(e["joints"]):
@@ -122,7 +237,7 @@ def mujoco_model(effects, joint_names):
                 j.frictionloss = p["fc"][i]
                 # stiffest stable friction constraint at this step (2 dt): the default 0.02 s
                 # time constant makes the friction force lag sign changes by tens of ms
-                j.solref_friction = [2 * DT, 1.0]
+                j.solref_friction = [2 * dt, 1.0]
             elif e["name"] == "viscous_friction":
                 j.damping = [p["fv"][i], 0.0, 0.0]   # [linear, polynomial terms]
             elif e["name"] == "armature":
@@ -131,7 +246,7 @@ def mujoco_model(effects, joint_names):
                 j.stiffness = [p["k"][i], 0.0, 0.0]
                 j.springref = p["q0"][i]
         if e["name"] == "payload":
-            parent = spec.body(TERMINAL_LINK)
+            parent = spec.body(cfg["terminal_link"])
             b = parent.add_body(name="payload")
             b.pos = [0.0, 0.0, 0.0]
             b.explicitinertial = True
@@ -140,22 +255,21 @@ def mujoco_model(effects, joint_names):
             ixx, ixy, ixz, iyy, iyz, izz = p["inertia"]
             b.fullinertia = [ixx, iyy, izz, ixy, ixz, iyz]   # MuJoCo order
     m = spec.compile()
-    m.opt.timestep = DT
+    m.opt.timestep = dt
     m.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
     m.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_LIMIT
     return m
 
 
-def perturbed_urdf(path_out, seed):
-    """fixtures/ur5.urdf with every moving link's mass and inertia tensor scaled by 1 +- 5 %
-    (random signs); COMs unchanged. Returns {link: factor}."""
+def perturbed_urdf(cfg, path_out, seed):
+    """The clean URDF with every moving link's mass and inertia tensor scaled by 1 +- 5 %
+    (random signs, drawn in file order); COMs unchanged. Returns {link: factor}."""
     rng = np.random.default_rng(seed)
-    tree = ET.parse(URDF)
+    tree = ET.parse(cfg["urdf_path"])
     factors = {}
     for link in tree.getroot().findall("link"):
         name = link.get("name")
-        if name not in ("shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link",
-                        "wrist_2_link", "wrist_3_link"):
+        if name not in cfg["moving_links"]:
             continue
         f = 1.0 + 0.05 * float(rng.choice([-1.0, 1.0]))
         factors[name] = f
@@ -169,9 +283,10 @@ def perturbed_urdf(path_out, seed):
     return factors
 
 
-def check_agreement(robot, n=200, seed=0):
+def check_agreement(robot, n=200, seed=0, cfg=None):
     """Max relative difference |mj_inverse - rnea| / max(|rnea|_inf, 1) and same for M."""
-    m = mujoco_model([], robot.joint_names)
+    cfg = cfg if cfg is not None else robot_config("ur5")
+    m = mujoco_model(cfg, [], robot.joint_names)
     d = mujoco.MjData(m)
     rng = np.random.default_rng(seed)
     worst_tau = worst_m = 0.0
@@ -190,17 +305,34 @@ def check_agreement(robot, n=200, seed=0):
     return worst_tau, worst_m
 
 
+def robot_config(name, out=None):
+    """The robot's settings with `urdf_path` (the clean URDF MuJoCo and ivdyn load) and `out`.
+    For a derived URDF (Panda) the file is written into `out` first."""
+    cfg = dict(ROBOTS[name])
+    cfg["name"] = name
+    if out is not None:
+        cfg["out"] = out
+    if cfg["urdf"] is None:
+        cfg["urdf_path"] = os.path.join(ROOT, cfg["source_urdf"])
+    else:
+        cfg["urdf_path"] = os.path.join(cfg["out"], cfg["urdf"])
+        if not os.path.exists(cfg["urdf_path"]) or out is not None:
+            os.makedirs(cfg["out"], exist_ok=True)
+            panda_arm_urdf(cfg["urdf_path"])
+    return cfg
+
+
 # ----------------------------------------------------------------------------- trajectory
-def reference(seed, t):
-    """Sum of 3 harmonics per joint (base frequency 0.4-0.6 Hz), centred on CENTRES."""
+def reference(cfg, seed, t):
+    """Sum of 3 harmonics per joint (base frequency 0.4-0.6 Hz), centred on the robot's centres."""
+    centres = np.array(cfg["centres"])
     rng = np.random.default_rng(seed)
-    n = len(CENTRES)
+    n = len(centres)
     f0 = rng.uniform(0.4, 0.6)
-    q = np.tile(CENTRES, (len(t), 1))
+    q = np.tile(centres, (len(t), 1))
     qd = np.zeros_like(q)
     qdd = np.zeros_like(q)
-    # amplitudes keep |qd_ref| < 3.1 rad/s (UR5 velocity limits 3.15 / 3.2 rad/s)
-    amp_scale = 0.6 * np.array([0.5, 0.35, 0.4, 0.5, 0.5, 0.6])
+    amp_scale = cfg["amp_scale"]
     for j in range(n):
         for h in (1, 2, 3):
             a = amp_scale[j] * rng.uniform(0.5, 1.0) / h
@@ -212,19 +344,42 @@ def reference(seed, t):
     return q, qd, qdd
 
 
-def simulate(case, robot_nominal_ctrl, duration):
+def check_reference(cfg, robot_urdf, case, qr, qdr, qddr):
+    """Refuses a reference outside 90 % of the URDF velocity limits, closer than 0.2 rad to a
+    joint limit, or above the robot's acceleration limits (when known)."""
+    tree = ET.parse(robot_urdf)
+    limits = {j.get("name"): j.find("limit") for j in tree.getroot().findall("joint")}
+    for i, jn in enumerate(case["joint_names"]):
+        lim = limits[jn]
+        if lim is None:
+            continue
+        lo, hi, vmax = float(lim.get("lower")), float(lim.get("upper")), float(lim.get("velocity"))
+        if qr[:, i].min() < lo + 0.2 or qr[:, i].max() > hi - 0.2:
+            raise RuntimeError(f"{case['name']}: {jn} reference [{qr[:, i].min():.2f}, {qr[:, i].max():.2f}] "
+                               f"within 0.2 rad of its limits [{lo}, {hi}]")
+        if np.abs(qdr[:, i]).max() > 0.9 * vmax:
+            raise RuntimeError(f"{case['name']}: {jn} |qd_ref| {np.abs(qdr[:, i]).max():.2f} > 90 % of {vmax} rad/s")
+        if cfg["acc_limits"] is not None and np.abs(qddr[:, i]).max() > cfg["acc_limits"][i]:
+            raise RuntimeError(f"{case['name']}: {jn} |qdd_ref| {np.abs(qddr[:, i]).max():.2f} > "
+                               f"{cfg['acc_limits'][i]} rad/s^2")
+
+
+def simulate(cfg, case, robot_nominal_ctrl, duration, dt=DT):
     names = robot_nominal_ctrl.joint_names
-    m = mujoco_model(case["effects"], names)
+    n = len(names)
+    m = mujoco_model(cfg, case["effects"], names, dt)
     d = mujoco.MjData(m)
-    T = int(round(duration / DT))
-    t = np.arange(T + 1) * DT
-    qr, qdr, qddr = reference(case["seed"], t)
+    T = int(round(duration / dt))
+    t = np.arange(T + 1) * dt
+    qr, qdr, qddr = reference(cfg, case["seed"], t)
+    if cfg["check_reference"]:   # refuse a reference the real arm could not follow
+        check_reference(cfg, cfg["urdf_path"], dict(case, joint_names=names), qr, qdr, qddr)
     tau_ff = robot_nominal_ctrl.rnea(qr, qdr, qddr)
     Mr = robot_nominal_ctrl.mass_matrix(qr)
     d.qpos[:], d.qvel[:] = qr[0], qdr[0]
     mujoco.mj_forward(m, d)
-    q = np.zeros((T + 1, 6)); qd = np.zeros((T + 1, 6)); tau = np.zeros((T, 6))
-    friction = np.zeros((T, 6))
+    q = np.zeros((T + 1, n)); qd = np.zeros((T + 1, n)); tau = np.zeros((T, n))
+    friction = np.zeros((T, n))
     for k in range(T):
         q[k], qd[k] = d.qpos, d.qvel
         e, ed = qr[k] - d.qpos, qdr[k] - d.qvel
@@ -235,10 +390,10 @@ def simulate(case, robot_nominal_ctrl, duration):
         if not np.all(np.isfinite(d.qpos)):
             raise RuntimeError(f"{case['name']}: simulation diverged at step {k}")
     q[T], qd[T] = d.qpos, d.qvel
-    qdd = np.diff(qd, axis=0) / DT          # realised acceleration of each step (semi-implicit Euler)
+    qdd = np.diff(qd, axis=0) / dt          # realised acceleration of each step (semi-implicit Euler)
     track = np.max(np.abs(q[:T] - qr[:T]))
     return {"t": t[:T], "q": q[:T], "qd": qd[:T], "qdd": qdd, "tau": tau, "friction": friction,
-            "tracking_max_err": float(track), "q_ref": qr[:T]}
+            "tracking_max_err": float(track), "q_ref": qr[:T], "qd_ref": qdr[:T], "qdd_ref": qddr[:T]}
 
 
 # ----------------------------------------------------------------------------- effects (oracle)
@@ -285,12 +440,13 @@ def payload_torque(robot, p, q, qd, qdd):
 
 
 # ----------------------------------------------------------------------------- writing
-def write_mcap(path, names, t, q, qd, tau):
+def write_mcap(path, names, t, q, qd, tau, dt=DT):
+    step_ns = int(round(dt * 1e9))
     with open(path, "wb") as f:
         w = Writer(output=f, chunk_size=256 * 1024, compression=CompressionType.ZSTD)
         js = w.register_msgdef("sensor_msgs/msg/JointState", JOINT_STATE)
         for k in range(len(t)):
-            stamp = T0_NS + k * 1_000_000
+            stamp = T0_NS + k * step_ns
             sec, nsec = divmod(stamp, 1_000_000_000)
             msg = {"header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": ""},
                    "name": names,
@@ -308,76 +464,100 @@ def rms(x):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", default=os.path.join(ROOT, "fixtures", "diagnose"))
+    ap.add_argument("--robot", choices=sorted(ROBOTS), default="ur5")
+    ap.add_argument("--out", default=None, help="output directory (default fixtures/diagnose for ur5, "
+                    "fixtures/diagnose_panda for panda)")
     ap.add_argument("--duration", type=float, default=2.0, help="seconds per case")
     args = ap.parse_args(argv)
-    os.makedirs(args.out, exist_ok=True)
+    cfg = robot_config(args.robot)
+    out = args.out if args.out is not None else cfg["out"]
+    os.makedirs(out, exist_ok=True)
+    cfg = robot_config(args.robot, out)
+    panda = args.robot == "panda"
+    base, tip = cfg["base"], cfg["tip"]
+    noise_std = cfg["torque_noise"]
+    # the clean URDF as named in cases.json (path from the repository root)
+    robot_urdf = cfg["source_urdf"] if cfg["urdf"] is None else os.path.relpath(cfg["urdf_path"], ROOT)
 
-    robot = ivdyn.Robot.from_urdf(URDF, base=BASE, tip=TIP)
+    robot = ivdyn.Robot.from_urdf(cfg["urdf_path"], base=base, tip=tip)
     names = list(robot.joint_names)
-    err_tau, err_m = check_agreement(robot)
+    n = len(names)
+    assert robot.link_names[-1] == cfg["terminal_link"], robot.link_names
+    err_tau, err_m = check_agreement(robot, cfg=cfg)
     print(f"MuJoCo vs ivdyn on the clean model: tau {err_tau:.2e}, M {err_m:.2e} (max relative, 200 states)")
     if err_tau > AGREEMENT_TOL or err_m > AGREEMENT_TOL:
         sys.exit("MuJoCo and ivdyn disagree on the clean model; not writing anything")
 
-    factors = perturbed_urdf(os.path.join(args.out, "ur5_inertia5.urdf"), seed=5)
+    factors = perturbed_urdf(cfg, os.path.join(out, cfg["perturbed"]), seed=5)
     manifest = {
         "generator": "python/tools/make_diagnose_cases.py",
         "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__},
-        "robot_urdf": "fixtures/ur5.urdf", "base": BASE, "tip": TIP,
-        "terminal_link": TERMINAL_LINK,
+        "robot_urdf": robot_urdf, "base": base, "tip": tip,
+        "terminal_link": cfg["terminal_link"],
         "joints": names,
         "topic": "/joint_states",
         "rate_hz": 1000.0, "dt": DT, "duration_s": args.duration,
         "agreement": {"max_rel_tau": err_tau, "max_rel_mass_matrix": err_m, "states": 200,
                       "tolerance": AGREEMENT_TOL},
-        "sensor": {"torque_noise_std": TORQUE_NOISE, "encoder_counts_per_rev": ENCODER_COUNTS,
+        "sensor": {"torque_noise_std": noise_std, "encoder_counts_per_rev": ENCODER_COUNTS,
                    "position_resolution_rad": Q_RES,
                    "torque_resolution_nm": TAU_RES, "velocity_resolution_rad_s": QD_RES,
                    "velocity": "MuJoCo joint velocity rounded to velocity_resolution_rad_s, no noise",
                    "effort": "applied joint torque + torque_offset (that case only) + N(0, torque_noise_std), "
                              "rounded to torque_resolution_nm"},
         "controller": {"law": "tau = rnea_nominal(q_ref, qd_ref, qdd_ref) + M_nominal(q_ref) (kp e + kd ed)",
-                       "kp": KP, "kd": KD, "nominal": "fixtures/ur5.urdf"},
+                       "kp": KP, "kd": KD, "nominal": robot_urdf},
         "integrator": "MuJoCo Euler (semi-implicit; joint damping implicit), timestep 1 ms",
         "skipped": {"stribeck_friction": "MuJoCo's joint frictionloss has a constant magnitude; "
                     "MuJoCo has no velocity-dependent (Stribeck) friction mechanism"},
         "cases": [],
     }
+    if panda:
+        manifest["source_urdf"] = cfg["source_urdf"]
+        manifest["source_changes"] = ("finger links and joints (panda_leftfinger, panda_rightfinger) removed; "
+                                      "every <dynamics> set to damping 0, friction 0 (was damping 0.003)")
+        manifest["integrator"] = ("MuJoCo Euler (semi-implicit; joint damping implicit), timestep = the case's "
+                                  "dt (1 ms; 2 ms in the 500 Hz case)")
+        manifest["rate_hz_note"] = ("rate_hz / dt are the default; a case with its own rate_hz / dt was "
+                                    "simulated, controlled and logged at that rate")
+        manifest["acc_limits_rad_s2"] = cfg["acc_limits"]
     total = 0
-    for case in CASES:
+    for case in cfg["cases"]:
         nominal = case.get("nominal")
-        sim = simulate(case, robot, args.duration)
+        rate = case.get("rate_hz", 1000.0)
+        dt = DT if "rate_hz" not in case else 1.0 / rate
+        sim = simulate(cfg, case, robot, args.duration, dt)
         rng = np.random.default_rng(case["seed"] + 1000)
         T = len(sim["t"])
-        offset = np.zeros(6)
+        offset = np.zeros(n)
         for e in case["effects"]:
             if e["name"] == "torque_offset":
                 for jn, v in zip(e["joints"], e["parameters"]["tau0"]):
                     offset[names.index(jn)] += v
-        noise = rng.standard_normal((T, 6)) * np.array(TORQUE_NOISE)
+        case_noise = noise_std if "noise_scale" not in case else [case["noise_scale"] * s for s in noise_std]
+        noise = rng.standard_normal((T, n)) * np.array(case_noise)
         tau_meas = sim["tau"] + offset + noise
         tau_meas = np.round(tau_meas / TAU_RES) * TAU_RES
         q_meas = np.round(sim["q"] / Q_RES) * Q_RES
         qd_meas = np.round(sim["qd"] / QD_RES) * QD_RES
         with_vel = case.get("velocity", True)
         log = f"{case['name']}.mcap"
-        size = write_mcap(os.path.join(args.out, log), names, sim["t"], q_meas,
-                          qd_meas if with_vel else None, tau_meas)
+        size = write_mcap(os.path.join(out, log), names, sim["t"], q_meas,
+                          qd_meas if with_vel else None, tau_meas, dt)
         total += size
 
         # oracle, on the exact simulated states and realised accelerations
         nominal_robot = robot if nominal is None else ivdyn.Robot.from_urdf(
-            os.path.join(args.out, nominal), base=BASE, tip=TIP)
+            os.path.join(out, nominal), base=base, tip=tip)
         tau_nom = nominal_robot.rnea(sim["q"], sim["qd"], sim["qdd"])
         eff = effect_torque(case["effects"], names, sim["q"], sim["qd"], sim["qdd"], robot)
         entry = {
             "name": case["name"], "log": log, "bytes": size,
-            "urdf": "fixtures/ur5.urdf" if nominal is None else os.path.relpath(os.path.join(args.out, nominal), ROOT),
+            "urdf": robot_urdf if nominal is None else os.path.relpath(os.path.join(out, nominal), ROOT),
             "samples": T, "velocity_in_log": with_vel, "seed": case["seed"],
             "noise_seed": case["seed"] + 1000,
             "effects": case["effects"],
-            "torque_noise_std": TORQUE_NOISE,
+            "torque_noise_std": case_noise,
             "tracking_max_err_rad": sim["tracking_max_err"],
             "velocity_reversals": [int(v) for v in np.sum(np.diff(np.sign(sim["qd"]), axis=0) != 0, axis=0)],
             "q_range": [[float(a), float(b)] for a, b in zip(sim["q"].min(0), sim["q"].max(0))],
@@ -395,14 +575,19 @@ def main(argv=None):
                         "frictionloss is a constraint force, |f| < fc in stick phases",
             },
         }
+        if panda:
+            entry["rate_hz"] = rate
+            entry["dt"] = dt
+            entry["qd_ref_max"] = [float(v) for v in np.abs(sim["qd_ref"]).max(0)]
+            entry["qdd_ref_max"] = [float(v) for v in np.abs(sim["qdd_ref"]).max(0)]
         if nominal is not None:
-            entry["model_error"] = {"kind": "inertials scaled", "true_urdf": "fixtures/ur5.urdf",
+            entry["model_error"] = {"kind": "inertials scaled", "true_urdf": robot_urdf,
                                     "mass_and_inertia_factor": factors}
         manifest["cases"].append(entry)
         print(f"{case['name']:18s} {T:6d} samples {size:8d} bytes  track {sim['tracking_max_err']:.1e} rad  "
               f"oracle rms {np.round(entry['oracle']['oracle_rms_exact'], 3)}  "
               f"baseline {np.round(entry['oracle']['baseline_rms_exact'], 3)}")
-    with open(os.path.join(args.out, "cases.json"), "w") as f:
+    with open(os.path.join(out, "cases.json"), "w") as f:
         json.dump(manifest, f, indent=1)
         f.write("\n")
     print(f"total {total} bytes of logs")
