@@ -16,6 +16,7 @@ pub mod arrays;
 pub mod batch;
 pub mod control;
 pub mod error;
+pub mod excite;
 pub mod ident;
 pub mod io;
 pub mod pipeline;

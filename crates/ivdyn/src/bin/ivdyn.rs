@@ -30,6 +30,8 @@ enum Cmd {
     Payload(PayloadArgs),
     /// Write a synthetic log (inverse dynamics along a trajectory, with noise).
     Simulate(SimulateArgs),
+    /// Design an excitation trajectory (finite Fourier series, optimised base regressor).
+    Excite(ExciteArgs),
 }
 
 #[derive(Args)]
@@ -179,6 +181,63 @@ struct SimulateArgs {
     json: Option<PathBuf>,
 }
 
+#[derive(Args)]
+struct ExciteArgs {
+    #[command(flatten)]
+    robot: RobotArgs,
+    /// Duration of the written trajectory (s).
+    #[arg(long, default_value_t = 20.0)]
+    duration: f64,
+    /// Number of harmonics (>= 2).
+    #[arg(long, default_value_t = 5)]
+    harmonics: usize,
+    /// Fundamental frequency (Hz); the trajectory repeats every 1/f0 s.
+    #[arg(long, default_value_t = 0.1)]
+    f0: f64,
+    /// Sample rate of the written trajectory (Hz).
+    #[arg(long, default_value_t = 100.0)]
+    rate: f64,
+    /// Criterion: minimise the condition number, or maximise log det of the information matrix.
+    #[arg(long, value_enum, default_value = "cond")]
+    criterion: CriterionArg,
+    /// Acceleration limit (rad/s^2), one value or one per joint (URDF has none).
+    #[arg(long, value_delimiter = ',', default_value = "5")]
+    acc_limit: Vec<f64>,
+    /// Velocity limit (rad/s) replacing the URDF's, one value or one per joint.
+    #[arg(long, value_delimiter = ',')]
+    vel_limit: Option<Vec<f64>>,
+    /// Safety margin: fraction by which every limit is shrunk.
+    #[arg(long, default_value_t = 0.01)]
+    margin: f64,
+    /// Random starts of the optimiser.
+    #[arg(long, default_value_t = 6)]
+    starts: usize,
+    /// L-BFGS iterations per start.
+    #[arg(long, default_value_t = 150)]
+    iterations: usize,
+    /// Random trajectories for the comparison.
+    #[arg(long, default_value_t = 20)]
+    random: usize,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output CSV (t, <joint>.q, .qd, .qdd).
+    #[arg(long)]
+    out: PathBuf,
+    /// Output MCAP (/joint_states: position and velocity).
+    #[arg(long)]
+    out_mcap: Option<PathBuf>,
+    /// JSON report (criteria, random comparison, coefficients).
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum CriterionArg {
+    Cond,
+    Logdet,
+}
+
 type R<T> = Result<T, String>;
 
 fn main() -> ExitCode {
@@ -188,6 +247,7 @@ fn main() -> ExitCode {
         Cmd::Identify(a) => identify(a, &bars),
         Cmd::Payload(a) => payload(a, &bars),
         Cmd::Simulate(a) => simulate(a, &bars),
+        Cmd::Excite(a) => excite(a, &bars),
     };
     match r {
         Ok(code) => code,
@@ -529,6 +589,51 @@ fn simulate(a: SimulateArgs, bars: &Bars) -> R<ExitCode> {
         let truth = pipeline::true_robot(&robot, &opts).map_err(|e| e.to_string())?;
         let tp = ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: truth.params() };
         write_json(p, &SimJson { out: a.out.display().to_string(), samples: log.len(), joints: &robot.joint_names, options: &opts, true_params: tp })?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+// ------------------------------------------------------------------------ excite
+
+fn excite(a: ExciteArgs, bars: &Bars) -> R<ExitCode> {
+    use ivdyn::excite::{self, Criterion, ExciteOptions};
+    let robot = load_robot(&a.robot)?;
+    let opts = ExciteOptions {
+        duration_s: a.duration,
+        harmonics: a.harmonics,
+        f0_hz: a.f0,
+        rate_hz: a.rate,
+        criterion: match a.criterion {
+            CriterionArg::Cond => Criterion::Cond,
+            CriterionArg::Logdet => Criterion::Logdet,
+        },
+        acc_limit: a.acc_limit.clone(),
+        vel_limit: a.vel_limit.clone(),
+        margin: a.margin,
+        starts: a.starts,
+        iterations: a.iterations,
+        random_draws: a.random,
+        seed: a.seed,
+        progress: bars.sink(),
+        ..Default::default()
+    };
+    let rep = excite::design(&robot, &opts).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
+    excite::write_csv(&a.out, &rep.joints, &rep.trajectory).map_err(|e| e.to_string())?;
+    if let Some(p) = &a.out_mcap {
+        excite::write_mcap(p, &rep.joints, &rep.trajectory).map_err(|e| e.to_string())?;
+    }
+    println!("robot '{}', {} joints, {} base parameters, {} harmonics of {} Hz, {} s at {} Hz", rep.robot, rep.joints.len(), rep.base_count, rep.harmonics, rep.f0_hz, rep.duration_s, rep.rate_hz);
+    println!("  optimised ({:?}): cond = {:.4e}, log det = {:.4}", rep.criterion, rep.optimised.cond, rep.optimised.logdet);
+    println!("  random Fourier ({} draws, same harmonics and bounds): median cond = {:.4e} (best {:.4e}), median log det = {:.4}", rep.random.draws, rep.random.cond_median, rep.random.cond_min, rep.random.logdet_median);
+    println!("  condition number {:.1}x better than the random median", rep.cond_improvement);
+    println!("  peak |qd| / limit per joint [{}], peak |qdd| / limit [{}]", fmt_list(&rep.velocity_use, 3), fmt_list(&rep.acceleration_use, 3));
+    for n in &rep.notes {
+        println!("note: {n}");
+    }
+    println!("trajectory written to {}{}", a.out.display(), a.out_mcap.as_ref().map(|p| format!(" and {}", p.display())).unwrap_or_default());
+    if let Some(p) = &a.json {
+        write_json(p, &rep)?;
+        println!("report written to {}", p.display());
     }
     Ok(ExitCode::SUCCESS)
 }
