@@ -24,6 +24,7 @@ pub mod repro;
 pub mod robot;
 pub mod signal;
 pub mod urdf;
+pub mod urdf_write;
 
 pub use error::Error;
 pub use ivdyn_core as core;

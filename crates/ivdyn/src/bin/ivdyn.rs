@@ -102,6 +102,12 @@ struct IdentifyArgs {
     /// Identified full parameters (JSON, reloadable with --params).
     #[arg(long)]
     out_params: Option<PathBuf>,
+    /// Also fit physically consistent parameters (log-Cholesky); --out-params and --write-urdf then use them.
+    #[arg(long)]
+    consistent: bool,
+    /// Write a copy of the URDF with the identified inertials and friction (+ OUT.json side file).
+    #[arg(long)]
+    write_urdf: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -119,6 +125,18 @@ struct PayloadArgs {
     /// JSON report.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Write a copy of the URDF with the payload (+ OUT.json side file).
+    #[arg(long)]
+    write_urdf: Option<PathBuf>,
+    /// How the payload goes into the URDF: a fixed child link of the tip, or merged into it.
+    #[arg(long, value_enum, default_value = "link")]
+    payload_as: PayloadAsArg,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PayloadAsArg {
+    Link,
+    Merge,
 }
 
 #[derive(Args)]
@@ -329,6 +347,13 @@ fn load_robot(a: &RobotArgs) -> R<Robot> {
         let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
         let pf: ParamsFile = serde_json::from_str(&text).map_err(|e| format!("{}: not a parameter file: {e}", p.display()))?;
         pipeline::load_params(&mut robot, &pf).map_err(|e| format!("{}: {e}", p.display()))?;
+    } else {
+        // armature and offsets of a URDF written by --write-urdf
+        let side = ivdyn::urdf_write::side_path(&a.urdf);
+        if side.exists() {
+            robot.apply_side_file(&side).map_err(|e| e.to_string())?;
+            eprintln!("note: applied the side file {}", side.display());
+        }
     }
     Ok(robot)
 }
@@ -421,6 +446,7 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
         validation_fraction: a.holdout,
         validation_log: vlog,
         progress: bars.sink(),
+        consistent: a.consistent,
         ..Default::default()
     };
     let rep = pipeline::identify(&robot, &log, &opts).map_err(|e| format!("{}: {e}", a.log.display()))?;
@@ -454,9 +480,37 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
     for n in &rep.notes {
         println!("note: {n}");
     }
+    if rep.physical.consistent {
+        println!("identified full parameters (nominal + base correction) are physically consistent");
+    } else {
+        println!("identified full parameters (nominal + base correction) are NOT physically consistent:");
+        for l in rep.physical.lines() {
+            println!("  {l}");
+        }
+    }
+    let mut params = &rep.params;
+    if let Some(c) = &rep.consistent {
+        let r = &c.result;
+        println!("consistent fit ({} LM iterations{}): weighted RSS {:.6e} -> {:.6e} (+{:.3}%), {}", r.iterations, if r.converged { "" } else { ", NOT converged" }, r.rss_ls, r.rss, 100.0 * r.rss_increase, if r.check.consistent { "physically consistent".to_string() } else { format!("still inconsistent: {}", r.check.lines().join("; ")) });
+        println!("  {} unidentifiable directions pulled toward the nominal parameters", r.regularised_directions);
+        println!("fit quality per joint with the consistent parameters:");
+        print_quality(&rep.joints, &c.fit);
+        if let Some(v) = &c.validation {
+            println!("validation with the consistent parameters ({}):", v.data);
+            print_quality(&rep.joints, v);
+        }
+        params = &c.params;
+    }
     if let Some(p) = &a.out_params {
-        write_json(p, &rep.params)?;
+        write_json(p, params)?;
         println!("parameters written to {}", p.display());
+    }
+    if let Some(out) = &a.write_urdf {
+        let source = if rep.consistent.is_some() { "ivdyn identify --consistent: physically consistent full parameters" } else { "ivdyn identify: nominal parameters corrected in the identifiable directions (BaseParams::apply)" };
+        let text = std::fs::read_to_string(&a.robot.urdf).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
+        let wb = ivdyn::urdf_write::write_back(&text, &a.robot.urdf, &robot, Some(&params.theta), None, vec![source.to_string()]).map_err(|e| e.to_string())?;
+        ivdyn::urdf_write::write_files(out, &wb).map_err(|e| e.to_string())?;
+        println!("URDF written to {} (armature and offsets in {})", out.display(), ivdyn::urdf_write::side_path(out).display());
     }
     if let Some(p) = &a.json {
         write_json(p, &rep)?;
@@ -505,6 +559,18 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
     if let Some(p) = &a.json {
         write_json(p, &rep)?;
         println!("report written to {}", p.display());
+    }
+    if let (Some(out), true) = (&a.write_urdf, rep.identifiable) {
+        let spec = PayloadSpec { mass: rep.mass.unwrap_or(f64::NAN), com: rep.com.unwrap_or([f64::NAN; 3]), inertia: rep.inertia.unwrap_or([f64::NAN; 6]) };
+        let mode = match a.payload_as {
+            PayloadAsArg::Link => ivdyn::urdf_write::PayloadMode::Link,
+            PayloadAsArg::Merge => ivdyn::urdf_write::PayloadMode::Merge,
+        };
+        let text = std::fs::read_to_string(&a.robot.urdf).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
+        let theta = robot.params();
+        let wb = ivdyn::urdf_write::write_back(&text, &a.robot.urdf, &robot, Some(&theta), Some((&spec, mode)), vec!["ivdyn payload: the arm as loaded (URDF, --params or side file) plus the identified payload".into()]).map_err(|e| e.to_string())?;
+        ivdyn::urdf_write::write_files(out, &wb).map_err(|e| e.to_string())?;
+        println!("URDF with the payload written to {}", out.display());
     }
     if !rep.identifiable {
         let names: Vec<&str> = rep.not_identifiable.iter().map(|h| h.parameter.as_str()).collect();

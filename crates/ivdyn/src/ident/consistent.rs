@@ -91,6 +91,19 @@ pub struct ConsistentFit {
     pub regularised_directions: usize,
 }
 
+/// The consistent fit inside an identification report (`ivdyn identify --consistent`).
+#[derive(Debug, Clone, Serialize)]
+pub struct ConsistentReport {
+    /// The fit (parameters, checks, weighted RSS before and after).
+    pub result: ConsistentFit,
+    /// Per-joint quality of the consistent parameters on the fitted data.
+    pub fit: crate::pipeline::Quality,
+    /// On the held-out tail (`null` with a separate validation log).
+    pub validation: Option<crate::pipeline::Quality>,
+    /// The consistent full parameters, reloadable with `--params`.
+    pub params: crate::pipeline::ParamsFile,
+}
+
 /// Options of [`fit_consistent`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ConsistentOptions {
