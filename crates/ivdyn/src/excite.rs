@@ -373,6 +373,9 @@ struct Problem<'a> {
     coulomb: Vec<bool>,
 }
 
+/// Per joint: scale, active bound, projected coefficients, `dq0/dz`.
+type JointMap = (f64, Active, Vec<f64>, f64);
+
 /// Result of one evaluation.
 struct Eval {
     f: f64,
@@ -386,7 +389,7 @@ impl<'a> Problem<'a> {
 
     /// Maps the variables `x = [z_i, c_i (2h)]_i` to coefficients (scaled into the bounds
     /// on `grid`), with per joint the scale, the active bound and the projected `c`.
-    fn realise(&self, x: &[f64], grid: &Basis) -> (Coeffs, Vec<(f64, Active, Vec<f64>, f64)>) {
+    fn realise(&self, x: &[f64], grid: &Basis) -> (Coeffs, Vec<JointMap>) {
         let (n, h) = (self.n, self.h);
         let mut co = Coeffs { n, h, omega: self.omega, q0: vec![0.0; n], a: vec![0.0; n * h], b: vec![0.0; n * h] };
         let mut info = Vec::with_capacity(n);
@@ -713,7 +716,8 @@ pub fn joint_bounds(robot: &Robot, opts: &ExciteOptions) -> Result<Vec<JointBoun
     };
     (0..n)
         .map(|i| {
-            if !(acc[i] > 0.0 && acc[i].is_finite()) || !(vel[i] > 0.0 && vel[i].is_finite()) {
+            let ok = |v: f64| v > 0.0 && v.is_finite(); // false for NaN too
+            if !ok(acc[i]) || !ok(vel[i]) {
                 return Err(bad(format!("joint '{}': velocity and acceleration limits must be positive and finite (got {} and {})", robot.joint_names[i], vel[i], acc[i])));
             }
             Ok(JointBounds { lower: lim[i].lower, upper: lim[i].upper, velocity: vel[i], acceleration: acc[i] })

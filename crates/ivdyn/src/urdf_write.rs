@@ -113,13 +113,17 @@ fn inertial_xml(p: &[f64], indent: &str, link: &str) -> Result<String> {
     ))
 }
 
+/// A link found in the text: name, end of the start tag (start of `<link/>`), start of
+/// `</link>` (end of `<link/>`), range of its `<inertial>`, whether it is `<link/>`.
+type LinkSpan = (String, usize, usize, Option<(usize, usize)>, bool);
+/// A joint: name, end of the start tag, start of `</joint>`, range of its `<dynamics>`.
+type JointSpan = (String, usize, usize, Option<(usize, usize)>);
+
 /// Byte ranges found in the URDF text.
 #[derive(Default)]
 struct Scan {
-    /// per link name: (start tag end, or None for `<link/>`), whole element range, inertial range, indent
-    links: Vec<(String, usize, usize, Option<(usize, usize)>, bool)>,
-    /// per joint name: element range, dynamics range
-    joints: Vec<(String, usize, usize, Option<(usize, usize)>)>,
+    links: Vec<LinkSpan>,
+    joints: Vec<JointSpan>,
     robot_end: Option<usize>,
     link_names: Vec<String>,
     joint_names: Vec<String>,
@@ -168,13 +172,11 @@ fn scan(text: &str, file: &Path) -> Result<Scan> {
                     let name = name_attr(&e, file)?;
                     sc.link_names.push(name.clone());
                     sc.links.push((name, before, after, None, true));
-                } else if depth == 2 {
-                    if let Some(c) = &cur {
-                        let want = if c.0 == "link" { "inertial" } else { "dynamics" };
-                        if tag == want {
-                            child = Some((before, after));
-                        }
-                    }
+                } else if depth == 2
+                    && let Some(c) = &cur
+                    && tag == if c.0 == "link" { "inertial" } else { "dynamics" }
+                {
+                    child = Some((before, after));
                 }
             }
             Event::End(e) => {
@@ -185,16 +187,15 @@ fn scan(text: &str, file: &Path) -> Result<Scan> {
                         child = Some((child_start, after));
                     }
                 }
-                if depth == 2 {
-                    if let Some((kind, name, start, head)) = cur.take() {
-                        if kind == "link" {
-                            sc.link_names.push(name.clone());
-                            sc.links.push((name, head, before, child, false));
-                            let _ = start;
-                        } else {
-                            sc.joint_names.push(name.clone());
-                            sc.joints.push((name, head, before, child));
-                        }
+                if depth == 2
+                    && let Some((kind, name, _start, head)) = cur.take()
+                {
+                    if kind == "link" {
+                        sc.link_names.push(name.clone());
+                        sc.links.push((name, head, before, child, false));
+                    } else {
+                        sc.joint_names.push(name.clone());
+                        sc.joints.push((name, head, before, child));
                     }
                 }
                 if depth == 1 && tag == "robot" {
@@ -254,8 +255,8 @@ pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>
         side_payload = Some(*p);
         match mode {
             PayloadMode::Merge => {
-                for c in 0..LINK_PARAMS {
-                    own[n - 1][c] += li.0[c];
+                for (o, v) in own[n - 1].iter_mut().zip(li.0) {
+                    *o += v;
                 }
                 notes.push(format!("payload {} kg merged into link '{}'", p.mass, robot.link_names[n - 1]));
             }
@@ -276,9 +277,9 @@ pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>
             }
         }
     }
-    for k in 0..n {
+    for (k, own_k) in own.iter().enumerate() {
         let total = &theta[link_col(k, 0)..link_col(k, LINK_PARAMS)];
-        if check_link(&own[k]).len() > check_link(total).len() && !own[k].iter().all(|v| *v == 0.0) {
+        if check_link(own_k).len() > check_link(total).len() && !own_k.iter().all(|v| *v == 0.0) {
             notes.push(format!(
                 "link '{}': its own <inertial> is not physically consistent on its own (the links fused into it keep their nominal inertials); their sum is what the data identify",
                 robot.link_names[k]
@@ -290,7 +291,7 @@ pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>
     let sc = scan(input, file)?;
     let mut edits: Vec<(usize, usize, String)> = vec![];
     let write_arm = theta != nom_theta || payload.is_some_and(|(_, m)| m == PayloadMode::Merge);
-    for k in 0..n {
+    for (k, own_k) in own.iter().enumerate() {
         let touch = write_arm && (theta != nom_theta || k == n - 1);
         if !touch {
             continue;
@@ -299,14 +300,14 @@ pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>
         let (_, head, end, inertial, empty) = sc.links.iter().find(|l| &l.0 == name).ok_or_else(|| xml_err(file, format!("no <link name=\"{name}\"> element")))?;
         if *empty {
             let ind = indent_at(input, *head);
-            let body = inertial_xml(&own[k], &format!("{ind}  "), name)?;
+            let body = inertial_xml(own_k, &format!("{ind}  "), name)?;
             edits.push((*head, *end, format!("<link name=\"{name}\">\n{ind}  {body}\n{ind}</link>")));
         } else if let Some((s, e)) = inertial {
             let ind = indent_at(input, *s);
-            edits.push((*s, *e, inertial_xml(&own[k], &ind, name)?));
+            edits.push((*s, *e, inertial_xml(own_k, &ind, name)?));
         } else {
             let ind = format!("{}  ", indent_at(input, *end));
-            edits.push((*head, *head, format!("\n{ind}{}", inertial_xml(&own[k], &ind, name)?)));
+            edits.push((*head, *head, format!("\n{ind}{}", inertial_xml(own_k, &ind, name)?)));
         }
     }
     if theta != nom_theta {

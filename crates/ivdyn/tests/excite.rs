@@ -39,6 +39,7 @@ fn small_opts(seed: u64, criterion: Criterion) -> ExciteOptions {
 }
 
 #[test]
+#[allow(clippy::approx_constant)] // the URDF's own literals, not approximations of pi
 fn optimised_trajectory_respects_the_limits_and_beats_random() {
     let robot = Robot::from_urdf(UR5, Some("base_link"), Some("tool0")).unwrap();
     let n = robot.dof();
