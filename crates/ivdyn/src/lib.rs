@@ -17,6 +17,7 @@ pub mod batch;
 pub mod control;
 pub mod diagnose;
 pub mod error;
+pub mod excite;
 pub mod ident;
 pub mod io;
 pub mod pipeline;
@@ -26,6 +27,7 @@ pub mod robot;
 pub mod signal;
 pub mod transmission;
 pub mod urdf;
+pub mod urdf_write;
 
 pub use error::Error;
 pub use ivdyn_core as core;

@@ -135,6 +135,8 @@ pub struct IdentifyOptions {
     pub idim_tol: f64,
     /// Progress sink.
     pub progress: ProgressSink,
+    /// Also fit physically consistent full parameters ([`ident::consistent`]).
+    pub consistent: bool,
 }
 
 impl Default for IdentifyOptions {
@@ -150,6 +152,7 @@ impl Default for IdentifyOptions {
             idim_max_iter: 10,
             idim_tol: 1e-3,
             progress: None,
+            consistent: false,
         }
     }
 }
@@ -251,6 +254,11 @@ pub struct IdentifyReport {
     pub params: ParamsFile,
     /// Warnings and remarks.
     pub notes: Vec<String>,
+    /// Physical consistency of `params` ([`ident::physical`]).
+    pub physical: ident::physical::PhysicalCheck,
+    /// The fit with physical consistency enforced (`IdentifyOptions::consistent`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub consistent: Option<ident::consistent::ConsistentReport>,
     /// The underlying fit.
     #[serde(skip)]
     pub fit_report: Option<FitReport>,
@@ -566,7 +574,7 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
     };
     let theta = fill(&fit.theta);
     let fit_q = quality("fit".into(), phi_fit, tau_fit, &theta, n);
-    let validation = match (&opts.validation_log, val_range) {
+    let validation = match (&opts.validation_log, val_range.clone()) {
         (Some(vlog), _) => {
             let vp = prepare(robot, &base, vlog, opts, false, "validation log")?;
             let t2 = vp.len();
@@ -609,6 +617,22 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
     });
     // full parameters: nominal + base correction
     let full = base.apply(&theta, &nominal, 1.0)?;
+    let physical = ident::physical::check_robot_params(robot, &full);
+    let consistent = if opts.consistent {
+        let _st = Stage::begin(&opts.progress, "consistent fit", 0);
+        let mut cacc = LsAccumulator::new(b);
+        cacc.add_rows(phi_fit, tau_fit, Some(&row_weights(&weights, rows)))?;
+        let cf = ident::consistent::fit_consistent(&cacc, &base, &full, &nominal, &robot.link_names, &robot.joint_names, &Default::default())?;
+        let val = val_range.filter(|r| opts.validation_log.is_none() && r.len() > 1).map(|r| quality(format!("tail {:.0}% of the log", 100.0 * opts.validation_fraction), rows_of(&prep.phi, w_row, r.clone()), rows_of(&prep.tau, n, r), &cf.theta_base, n));
+        Some(ident::consistent::ConsistentReport {
+            fit: quality("fit".into(), phi_fit, tau_fit, &cf.theta_base, n),
+            validation: val,
+            params: ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: cf.theta.clone() },
+            result: cf,
+        })
+    } else {
+        None
+    };
     let base_vals = (0..b)
         .map(|i| BaseValue { name: base.names[i].clone(), value: fit.theta[i], std: fit.std[i], rel_std_pct: fit.rel_std_pct[i], nominal: nom_base[i] })
         .collect();
@@ -638,6 +662,8 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
         dwh,
         params: ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: full },
         notes,
+        physical,
+        consistent,
         fit_report: Some(fit),
     })
 }
@@ -858,7 +884,7 @@ fn random_rows(robot: &Robot, cols: &[usize], samples: usize, seed: u64) -> Resu
 // ---------------------------------------------------------------------------------------
 
 /// A payload to add to the last link.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PayloadSpec {
     /// Mass (kg).
     pub mass: f64,

@@ -321,14 +321,20 @@ impl<'a> Builder<'a> {
         if vals.iter().any(|v| !v.is_finite()) || i.mass.value < 0.0 {
             return Err(self.structure(format!("link '{}': non-finite or negative inertial values", link.name)));
         }
-        let o = pose(&i.origin);
-        let ic = Mat3::new(
-            i.inertia.ixx, i.inertia.ixy, i.inertia.ixz,
-            i.inertia.ixy, i.inertia.iyy, i.inertia.iyz,
-            i.inertia.ixz, i.inertia.iyz, i.inertia.izz,
-        );
-        Ok(LinkInertia::from_mass_com_inertia(i.mass.value, &o.trans, &o.rot, &ic))
+        Ok(link_inertia(i))
     }
+}
+
+/// A URDF `<inertial>` (mass, origin, inertia about the COM in the rotated frame) as the
+/// 10 standard parameters in the link frame (no checks).
+pub fn link_inertia(i: &urdf_rs::Inertial) -> LinkInertia {
+    let o = pose(&i.origin);
+    let ic = Mat3::new(
+        i.inertia.ixx, i.inertia.ixy, i.inertia.ixz,
+        i.inertia.ixy, i.inertia.iyy, i.inertia.iyz,
+        i.inertia.ixz, i.inertia.iyz, i.inertia.izz,
+    );
+    LinkInertia::from_mass_com_inertia(i.mass.value, &o.trans, &o.rot, &ic)
 }
 
 fn limits(joint: &urdf_rs::Joint) -> JointLimits {

@@ -32,6 +32,8 @@ enum Cmd {
     Simulate(SimulateArgs),
     /// Find what the nominal model misses in a log, name it, add it (docs/diagnose.md).
     Diagnose(diagnose_cmd::DiagnoseArgs),
+    /// Design an excitation trajectory (finite Fourier series, optimised base regressor).
+    Excite(ExciteArgs),
 }
 
 #[derive(Args)]
@@ -102,6 +104,12 @@ struct IdentifyArgs {
     /// Identified full parameters (JSON, reloadable with --params).
     #[arg(long)]
     out_params: Option<PathBuf>,
+    /// Also fit physically consistent parameters (log-Cholesky); --out-params and --write-urdf then use them.
+    #[arg(long)]
+    consistent: bool,
+    /// Write a copy of the URDF with the identified inertials and friction (+ OUT.json side file).
+    #[arg(long)]
+    write_urdf: Option<PathBuf>,
 }
 
 #[derive(Args)]
@@ -119,6 +127,18 @@ struct PayloadArgs {
     /// JSON report.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Write a copy of the URDF with the payload (+ OUT.json side file).
+    #[arg(long)]
+    write_urdf: Option<PathBuf>,
+    /// How the payload goes into the URDF: a fixed child link of the tip, or merged into it.
+    #[arg(long, value_enum, default_value = "link")]
+    payload_as: PayloadAsArg,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PayloadAsArg {
+    Link,
+    Merge,
 }
 
 #[derive(Args)]
@@ -183,6 +203,62 @@ struct SimulateArgs {
 
 #[path = "cmd/diagnose.rs"]
 mod diagnose_cmd;
+#[derive(Args)]
+struct ExciteArgs {
+    #[command(flatten)]
+    robot: RobotArgs,
+    /// Duration of the written trajectory (s).
+    #[arg(long, default_value_t = 20.0)]
+    duration: f64,
+    /// Number of harmonics (>= 2).
+    #[arg(long, default_value_t = 5)]
+    harmonics: usize,
+    /// Fundamental frequency (Hz); the trajectory repeats every 1/f0 s.
+    #[arg(long, default_value_t = 0.1)]
+    f0: f64,
+    /// Sample rate of the written trajectory (Hz).
+    #[arg(long, default_value_t = 100.0)]
+    rate: f64,
+    /// Criterion: minimise the condition number, or maximise log det of the information matrix.
+    #[arg(long, value_enum, default_value = "cond")]
+    criterion: CriterionArg,
+    /// Acceleration limit (rad/s^2), one value or one per joint (URDF has none).
+    #[arg(long, value_delimiter = ',', default_value = "5")]
+    acc_limit: Vec<f64>,
+    /// Velocity limit (rad/s) replacing the URDF's, one value or one per joint.
+    #[arg(long, value_delimiter = ',')]
+    vel_limit: Option<Vec<f64>>,
+    /// Safety margin: fraction by which every limit is shrunk.
+    #[arg(long, default_value_t = 0.01)]
+    margin: f64,
+    /// Random starts of the optimiser.
+    #[arg(long, default_value_t = 6)]
+    starts: usize,
+    /// L-BFGS iterations per start.
+    #[arg(long, default_value_t = 150)]
+    iterations: usize,
+    /// Random trajectories for the comparison.
+    #[arg(long, default_value_t = 20)]
+    random: usize,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output CSV (t, <joint>.q, .qd, .qdd).
+    #[arg(long)]
+    out: PathBuf,
+    /// Output MCAP (/joint_states: position and velocity).
+    #[arg(long)]
+    out_mcap: Option<PathBuf>,
+    /// JSON report (criteria, random comparison, coefficients).
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum CriterionArg {
+    Cond,
+    Logdet,
+}
 
 type R<T> = Result<T, String>;
 
@@ -194,6 +270,7 @@ fn main() -> ExitCode {
         Cmd::Payload(a) => payload(a, &bars),
         Cmd::Simulate(a) => simulate(a, &bars),
         Cmd::Diagnose(a) => diagnose_cmd::run(a, &bars),
+        Cmd::Excite(a) => excite(a, &bars),
     };
     match r {
         Ok(code) => code,
@@ -275,6 +352,13 @@ fn load_robot(a: &RobotArgs) -> R<Robot> {
         let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
         let pf: ParamsFile = serde_json::from_str(&text).map_err(|e| format!("{}: not a parameter file: {e}", p.display()))?;
         pipeline::load_params(&mut robot, &pf).map_err(|e| format!("{}: {e}", p.display()))?;
+    } else {
+        // armature and offsets of a URDF written by --write-urdf
+        let side = ivdyn::urdf_write::side_path(&a.urdf);
+        if side.exists() {
+            robot.apply_side_file(&side).map_err(|e| e.to_string())?;
+            eprintln!("note: applied the side file {}", side.display());
+        }
     }
     Ok(robot)
 }
@@ -344,6 +428,7 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
         validation_fraction: a.holdout,
         validation_log: vlog,
         progress: bars.sink(),
+        consistent: a.consistent,
         ..Default::default()
     };
     let rep = pipeline::identify(&robot, &log, &opts).map_err(|e| format!("{}: {e}", a.log.display()))?;
@@ -377,9 +462,37 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
     for n in &rep.notes {
         println!("note: {n}");
     }
+    if rep.physical.consistent {
+        println!("identified full parameters (nominal + base correction) are physically consistent");
+    } else {
+        println!("identified full parameters (nominal + base correction) are NOT physically consistent:");
+        for l in rep.physical.lines() {
+            println!("  {l}");
+        }
+    }
+    let mut params = &rep.params;
+    if let Some(c) = &rep.consistent {
+        let r = &c.result;
+        println!("consistent fit ({} LM iterations{}): weighted RSS {:.6e} -> {:.6e} (+{:.3}%), {}", r.iterations, if r.converged { "" } else { ", NOT converged" }, r.rss_ls, r.rss, 100.0 * r.rss_increase, if r.check.consistent { "physically consistent".to_string() } else { format!("still inconsistent: {}", r.check.lines().join("; ")) });
+        println!("  {} unidentifiable directions pulled toward the nominal parameters", r.regularised_directions);
+        println!("fit quality per joint with the consistent parameters:");
+        print_quality(&rep.joints, &c.fit);
+        if let Some(v) = &c.validation {
+            println!("validation with the consistent parameters ({}):", v.data);
+            print_quality(&rep.joints, v);
+        }
+        params = &c.params;
+    }
     if let Some(p) = &a.out_params {
-        write_json(p, &rep.params)?;
+        write_json(p, params)?;
         println!("parameters written to {}", p.display());
+    }
+    if let Some(out) = &a.write_urdf {
+        let source = if rep.consistent.is_some() { "ivdyn identify --consistent: physically consistent full parameters" } else { "ivdyn identify: nominal parameters corrected in the identifiable directions (BaseParams::apply)" };
+        let text = std::fs::read_to_string(&a.robot.urdf).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
+        let wb = ivdyn::urdf_write::write_back(&text, &a.robot.urdf, &robot, Some(&params.theta), None, vec![source.to_string()]).map_err(|e| e.to_string())?;
+        ivdyn::urdf_write::write_files(out, &wb).map_err(|e| e.to_string())?;
+        println!("URDF written to {} (armature and offsets in {})", out.display(), ivdyn::urdf_write::side_path(out).display());
     }
     if let Some(p) = &a.json {
         write_json(p, &rep)?;
@@ -428,6 +541,18 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
     if let Some(p) = &a.json {
         write_json(p, &rep)?;
         println!("report written to {}", p.display());
+    }
+    if let (Some(out), true) = (&a.write_urdf, rep.identifiable) {
+        let spec = PayloadSpec { mass: rep.mass.unwrap_or(f64::NAN), com: rep.com.unwrap_or([f64::NAN; 3]), inertia: rep.inertia.unwrap_or([f64::NAN; 6]) };
+        let mode = match a.payload_as {
+            PayloadAsArg::Link => ivdyn::urdf_write::PayloadMode::Link,
+            PayloadAsArg::Merge => ivdyn::urdf_write::PayloadMode::Merge,
+        };
+        let text = std::fs::read_to_string(&a.robot.urdf).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
+        let theta = robot.params();
+        let wb = ivdyn::urdf_write::write_back(&text, &a.robot.urdf, &robot, Some(&theta), Some((&spec, mode)), vec!["ivdyn payload: the arm as loaded (URDF, --params or side file) plus the identified payload".into()]).map_err(|e| e.to_string())?;
+        ivdyn::urdf_write::write_files(out, &wb).map_err(|e| e.to_string())?;
+        println!("URDF with the payload written to {}", out.display());
     }
     if !rep.identifiable {
         let names: Vec<&str> = rep.not_identifiable.iter().map(|h| h.parameter.as_str()).collect();
@@ -512,6 +637,51 @@ fn simulate(a: SimulateArgs, bars: &Bars) -> R<ExitCode> {
         let truth = pipeline::true_robot(&robot, &opts).map_err(|e| e.to_string())?;
         let tp = ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: truth.params() };
         write_json(p, &SimJson { out: a.out.display().to_string(), samples: log.len(), joints: &robot.joint_names, options: &opts, true_params: tp })?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+// ------------------------------------------------------------------------ excite
+
+fn excite(a: ExciteArgs, bars: &Bars) -> R<ExitCode> {
+    use ivdyn::excite::{self, Criterion, ExciteOptions};
+    let robot = load_robot(&a.robot)?;
+    let opts = ExciteOptions {
+        duration_s: a.duration,
+        harmonics: a.harmonics,
+        f0_hz: a.f0,
+        rate_hz: a.rate,
+        criterion: match a.criterion {
+            CriterionArg::Cond => Criterion::Cond,
+            CriterionArg::Logdet => Criterion::Logdet,
+        },
+        acc_limit: a.acc_limit.clone(),
+        vel_limit: a.vel_limit.clone(),
+        margin: a.margin,
+        starts: a.starts,
+        iterations: a.iterations,
+        random_draws: a.random,
+        seed: a.seed,
+        progress: bars.sink(),
+        ..Default::default()
+    };
+    let rep = excite::design(&robot, &opts).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
+    excite::write_csv(&a.out, &rep.joints, &rep.trajectory).map_err(|e| e.to_string())?;
+    if let Some(p) = &a.out_mcap {
+        excite::write_mcap(p, &rep.joints, &rep.trajectory).map_err(|e| e.to_string())?;
+    }
+    println!("robot '{}', {} joints, {} base parameters, {} harmonics of {} Hz, {} s at {} Hz", rep.robot, rep.joints.len(), rep.base_count, rep.harmonics, rep.f0_hz, rep.duration_s, rep.rate_hz);
+    println!("  optimised ({:?}): cond = {:.4e}, log det = {:.4}", rep.criterion, rep.optimised.cond, rep.optimised.logdet);
+    println!("  random Fourier ({} draws, same harmonics and bounds): median cond = {:.4e} (best {:.4e}), median log det = {:.4}", rep.random.draws, rep.random.cond_median, rep.random.cond_min, rep.random.logdet_median);
+    println!("  condition number {:.1}x better than the random median", rep.cond_improvement);
+    println!("  peak |qd| / limit per joint [{}], peak |qdd| / limit [{}]", fmt_list(&rep.velocity_use, 3), fmt_list(&rep.acceleration_use, 3));
+    for n in &rep.notes {
+        println!("note: {n}");
+    }
+    println!("trajectory written to {}{}", a.out.display(), a.out_mcap.as_ref().map(|p| format!(" and {}", p.display())).unwrap_or_default());
+    if let Some(p) = &a.json {
+        write_json(p, &rep)?;
+        println!("report written to {}", p.display());
     }
     Ok(ExitCode::SUCCESS)
 }

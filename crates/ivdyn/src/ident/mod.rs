@@ -11,6 +11,8 @@
 //! - [`base`]: [`BaseParams`], the identifiable parameter combinations found numerically,
 //!   and [`robot_base_params`];
 //! - [`stats`]: chi-square, F and normal distributions;
+//! - [`physical`]: physical-consistency checks per link and joint; [`consistent`]: the LS
+//!   fit with consistency enforced (log-Cholesky parametrisation);
 //!
 //! ```
 //! use ivdyn::ident::{fit_ls, LsAccumulator};
@@ -25,9 +27,11 @@
 
 pub mod accum;
 pub mod base;
+pub mod consistent;
 pub mod fit;
 pub mod idim;
 pub mod payload;
+pub mod physical;
 pub mod stats;
 
 pub use accum::{IvAccumulator, LsAccumulator};
