@@ -227,6 +227,36 @@ fn html_is_self_contained_and_complete() {
     assert_eq!(reg[2], "final|0.0225|\u{2013}|0.0225|0.0225|0.0450|3|+0.10|+0.80|-0.05|0");
 }
 
+/// The diagnosis of a log with nothing missing: no step, final = nominal.
+fn clean() -> Diagnosis {
+    let mut d = synthetic();
+    d.json.effects.clear();
+    d.steps.clear();
+    d.traces.predicted.truncate(1);
+    d.json.final_rms = d.json.baseline_rms.clone();
+    d.regimes_after = d.regimes_before.clone();
+    d.verdict = "Nothing significant missing".into();
+    d
+}
+
+#[test]
+fn clean_diagnosis_has_no_step() {
+    let dir = tempdir("clean");
+    let d = clean();
+    write_html(&d, &dir).unwrap();
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.contains("verdict clean") && html.contains("Nothing significant missing"));
+    assert!(html.contains("No effect was added"));
+    assert_eq!(images(&html).len(), 1 + 3 * N);
+    // joint | nominal | final | noise | final/noise
+    let rms = table_rows(&html, "rms-table");
+    assert_eq!(rms[1], "j_one|0.512|0.512|0.0150|34.1");
+    write_mcap_stamped(&d, &d.json.joints, 0, &dir).unwrap();
+    let topics = list_topics(dir.join("residuals.mcap")).unwrap();
+    assert_eq!(topics.len(), 5, "no step topic: {topics:?}");
+    assert!(topics.iter().all(|t| !t.0.contains("step")));
+}
+
 #[test]
 fn bad_shapes_are_refused_and_leave_no_file() {
     let dir = tempdir("bad");

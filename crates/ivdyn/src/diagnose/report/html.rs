@@ -138,6 +138,7 @@ th, td { border: 1px solid var(--line); padding: 4px 10px; vertical-align: top; 
 th { background: var(--head); text-align: left; font-weight: 600; }
 table.candidates { font-size: 14px; }
 table.candidates th, table.candidates td { padding: 2px 8px; }
+#regimes-table th { min-width: 5.2em; }
 td.n { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 tr.accepted td { background: #eaf6ec; }
 td.sig { font-weight: bold; color: var(--ok); }
