@@ -258,6 +258,33 @@ fn clean_diagnosis_has_no_step() {
 }
 
 #[test]
+fn payload_parameters_and_a_single_sample() {
+    let dir = tempdir("payload");
+    let mut d = synthetic();
+    d.steps[0].effect = EffectKind::Payload;
+    d.json.effects[0].name = "payload".into();
+    d.json.effects[0].joints.clear();
+    let p = serde_json::json!({"mass": 2.0, "com": [0.01, -0.02, 0.05], "inertia": [0.004, 0.0, 0.0, 0.004, 0.0, 0.002]});
+    d.json.effects[0].parameters = p.as_object().unwrap().clone();
+    write_html(&d, &dir).unwrap();
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.contains("Step 1: payload on the last link <span"));
+    for s in ["mass <span class=\"unit\">(kg)</span>", ">2.00<", "[0.0100, -0.0200, 0.0500]", "[0.00400, 0, 0, 0.00400, 0, 0.00200]", "kg m\u{b2}"] {
+        assert!(html.contains(s), "missing {s}");
+    }
+    // one sample: still a page with every figure
+    let mut d = synthetic();
+    let tr = &mut d.traces;
+    tr.t.truncate(1);
+    for a in [&mut tr.q, &mut tr.qd, &mut tr.qdd, &mut tr.tau].into_iter().chain(tr.predicted.iter_mut()) {
+        a.truncate(N);
+    }
+    write_html(&d, &dir).unwrap();
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert_eq!(images(&html).len(), 1 + 3 * N);
+}
+
+#[test]
 fn bad_shapes_are_refused_and_leave_no_file() {
     let dir = tempdir("bad");
     let mut d = synthetic();

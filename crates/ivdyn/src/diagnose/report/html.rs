@@ -265,10 +265,11 @@ fn steps_section(o: &mut String, d: &Diagnosis) {
     }
     for (i, (s, e)) in d.steps.iter().zip(&d.json.effects).enumerate() {
         let names: Vec<&str> = s.joints.iter().filter_map(|&j| d.json.joints.get(j).map(|s| s.as_str())).collect();
-        let on = if s.effect == EffectKind::Payload { "on the terminal link".to_string() } else { format!("on {}", names.join(", ")) };
+        // (the payload's label already says where it is)
+        let on = if s.effect == EffectKind::Payload { String::new() } else { format!(" on {}", names.join(", ")) };
         let _ = writeln!(
             o,
-            "<h3 id=\"step{}\">Step {}: {} {} <span class=\"unit\">(<code>{}</code>)</span></h3>",
+            "<h3 id=\"step{}\">Step {}: {}{} <span class=\"unit\">(<code>{}</code>)</span></h3>",
             i + 1,
             i + 1,
             esc(s.effect.label()),

@@ -235,6 +235,8 @@ pub(super) fn subsample(n: usize, m: usize) -> Vec<usize> {
 
 /// One time-series panel: every trace against `t` over `[t0, t1]`.
 fn time_panel(area: &Area<'_>, caption: &str, t: &[f64], (t0, t1): (f64, f64), traces: &[Trace<'_>], y_desc: &str) -> Result<(), DrawErr> {
+    // a single sample still gets a (1 s wide) axis
+    let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
     let lo = t.partition_point(|&x| x < t0);
     let hi = t.partition_point(|&x| x <= t1).max(lo);
     let (ylo, yhi) = y_range(traces.iter().map(|tr| &tr.y[lo..hi]));
