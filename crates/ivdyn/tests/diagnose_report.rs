@@ -227,6 +227,63 @@ fn html_is_self_contained_and_complete() {
     assert_eq!(reg[2], "final|0.0225|\u{2013}|0.0225|0.0225|0.0450|3|+0.10|+0.80|-0.05|0");
 }
 
+/// The diagnosis of a log with nothing missing: no step, final = nominal.
+fn clean() -> Diagnosis {
+    let mut d = synthetic();
+    d.json.effects.clear();
+    d.steps.clear();
+    d.traces.predicted.truncate(1);
+    d.json.final_rms = d.json.baseline_rms.clone();
+    d.regimes_after = d.regimes_before.clone();
+    d.verdict = "Nothing significant missing".into();
+    d
+}
+
+#[test]
+fn clean_diagnosis_has_no_step() {
+    let dir = tempdir("clean");
+    let d = clean();
+    write_html(&d, &dir).unwrap();
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.contains("verdict clean") && html.contains("Nothing significant missing"));
+    assert!(html.contains("No effect was added"));
+    assert_eq!(images(&html).len(), 1 + 3 * N);
+    // joint | nominal | final | noise | final/noise
+    let rms = table_rows(&html, "rms-table");
+    assert_eq!(rms[1], "j_one|0.512|0.512|0.0150|34.1");
+    write_mcap_stamped(&d, &d.json.joints, 0, &dir).unwrap();
+    let topics = list_topics(dir.join("residuals.mcap")).unwrap();
+    assert_eq!(topics.len(), 5, "no step topic: {topics:?}");
+    assert!(topics.iter().all(|t| !t.0.contains("step")));
+}
+
+#[test]
+fn payload_parameters_and_a_single_sample() {
+    let dir = tempdir("payload");
+    let mut d = synthetic();
+    d.steps[0].effect = EffectKind::Payload;
+    d.json.effects[0].name = "payload".into();
+    d.json.effects[0].joints.clear();
+    let p = serde_json::json!({"mass": 2.0, "com": [0.01, -0.02, 0.05], "inertia": [0.004, 0.0, 0.0, 0.004, 0.0, 0.002]});
+    d.json.effects[0].parameters = p.as_object().unwrap().clone();
+    write_html(&d, &dir).unwrap();
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.contains("Step 1: payload on the last link <span"));
+    for s in ["mass <span class=\"unit\">(kg)</span>", ">2.00<", "[0.0100, -0.0200, 0.0500]", "[0.00400, 0, 0, 0.00400, 0, 0.00200]", "kg m\u{b2}"] {
+        assert!(html.contains(s), "missing {s}");
+    }
+    // one sample: still a page with every figure
+    let mut d = synthetic();
+    let tr = &mut d.traces;
+    tr.t.truncate(1);
+    for a in [&mut tr.q, &mut tr.qd, &mut tr.qdd, &mut tr.tau].into_iter().chain(tr.predicted.iter_mut()) {
+        a.truncate(N);
+    }
+    write_html(&d, &dir).unwrap();
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert_eq!(images(&html).len(), 1 + 3 * N);
+}
+
 #[test]
 fn bad_shapes_are_refused_and_leave_no_file() {
     let dir = tempdir("bad");

@@ -119,29 +119,43 @@ fn figures(d: &Diagnosis, n: usize, dir: &Path) -> Result<html::Figures> {
     }
     let rms_bars = plots::rms_bars(joints, &bars, &d.noise_std).map_err(|e| plot_error(dir, "the RMS bar chart", e))?;
 
-    let final_label = if k == 0 { "nominal model".to_string() } else { format!("final model (+ {} effect{})", k, if k == 1 { "" } else { "s" }) };
     let mut out = Vec::with_capacity(n);
     for (j, name) in joints.iter().enumerate() {
         let tau = column(&tr.tau, n, j);
         let pred: Vec<Vec<f64>> = tr.predicted.iter().map(|p| column(p, n, j)).collect();
         let res: Vec<Vec<f64>> = pred.iter().map(|p| tau.iter().zip(p).map(|(a, b)| a - b).collect()).collect();
 
+        // Steps that did not touch this joint predict exactly what the step before did;
+        // `last` is the model whose prediction is final on this joint (0: the nominal one).
+        let changed: Vec<bool> = (0..=k).map(|i| i > 0 && pred[i] != pred[i - 1]).collect();
+        let last = (0..=k).rev().find(|&i| changed[i]).unwrap_or(0);
+        let (nominal_label, final_label) = match (k, last) {
+            (0, _) => ("nominal model".to_string(), String::new()),
+            (_, 0) => ("nominal model (= final model on this joint)".to_string(), String::new()),
+            _ => ("nominal model".to_string(), format!("final model (+ {k} effect{})", if k == 1 { "" } else { "s" })),
+        };
+
         let mut torque = vec![
             Trace { label: "measured".into(), color: plots::MEASURED, y: &tau, width: 1 },
-            Trace { label: "nominal model".into(), color: plots::NOMINAL, y: &pred[0], width: 2 },
+            Trace { label: nominal_label.clone(), color: plots::NOMINAL, y: &pred[0], width: 2 },
         ];
-        if k > 0 {
-            torque.push(Trace { label: final_label.clone(), color: plots::step_color(k), y: &pred[k], width: 2 });
+        if last > 0 {
+            torque.push(Trace { label: final_label.clone(), color: plots::step_color(last), y: &pred[last], width: 2 });
         }
         let zoom = zoom_window(&tr.t, &res[0]);
         let torque = plots::torque_vs_time(name, &tr.t, &torque, zoom).map_err(|e| plot_error(dir, &format!("the torque plot of joint '{name}'"), e))?;
 
         let residual: Vec<Trace> = (0..=k)
             .map(|i| Trace {
-                label: if i == 0 { "nominal model".into() } else { format!("after step {i}: + {}", d.steps[i - 1].effect.label()) },
+                label: match i {
+                    0 => "nominal model".into(),
+                    _ if !changed[i] => format!("after step {i} (no change on this joint)"),
+                    _ => format!("after step {i}: + {}", d.steps[i - 1].effect.label()),
+                },
                 color: plots::step_color(i),
                 y: &res[i],
-                width: if i == k && k > 0 { 2 } else { 1 },
+                // unchanged: legend only, so the trace it would cover stays visible
+                width: if i > 0 && !changed[i] { 0 } else if i == last && last > 0 { 2 } else { 1 },
             })
             .collect();
         let residual = plots::residual_vs_time(name, &tr.t, &residual).map_err(|e| plot_error(dir, &format!("the residual plot of joint '{name}'"), e))?;
@@ -152,9 +166,9 @@ fn figures(d: &Diagnosis, n: usize, dir: &Path) -> Result<html::Figures> {
             StateAxis { desc: "acceleration qdd (rad/s\u{b2})", x: &qdd },
             StateAxis { desc: "position q (rad)", x: &q },
         ];
-        let mut scatter = vec![Trace { label: "nominal model".into(), color: plots::NOMINAL, y: &res[0], width: 1 }];
-        if k > 0 {
-            scatter.push(Trace { label: final_label.clone(), color: plots::step_color(k), y: &res[k], width: 1 });
+        let mut scatter = vec![Trace { label: nominal_label, color: plots::NOMINAL, y: &res[0], width: 1 }];
+        if last > 0 {
+            scatter.push(Trace { label: final_label, color: plots::step_color(last), y: &res[last], width: 1 });
         }
         let state = plots::residual_vs_state(name, &axes, &scatter).map_err(|e| plot_error(dir, &format!("the residual-vs-state plot of joint '{name}'"), e))?;
         out.push(html::JointFigures { torque, residual, state });

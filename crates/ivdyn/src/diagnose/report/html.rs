@@ -138,6 +138,7 @@ th, td { border: 1px solid var(--line); padding: 4px 10px; vertical-align: top; 
 th { background: var(--head); text-align: left; font-weight: 600; }
 table.candidates { font-size: 14px; }
 table.candidates th, table.candidates td { padding: 2px 8px; }
+#regimes-table th { min-width: 5.2em; }
 td.n { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 tr.accepted td { background: #eaf6ec; }
 td.sig { font-weight: bold; color: var(--ok); }
@@ -264,10 +265,11 @@ fn steps_section(o: &mut String, d: &Diagnosis) {
     }
     for (i, (s, e)) in d.steps.iter().zip(&d.json.effects).enumerate() {
         let names: Vec<&str> = s.joints.iter().filter_map(|&j| d.json.joints.get(j).map(|s| s.as_str())).collect();
-        let on = if s.effect == EffectKind::Payload { "on the terminal link".to_string() } else { format!("on {}", names.join(", ")) };
+        // (the payload's label already says where it is)
+        let on = if s.effect == EffectKind::Payload { String::new() } else { format!(" on {}", names.join(", ")) };
         let _ = writeln!(
             o,
-            "<h3 id=\"step{}\">Step {}: {} {} <span class=\"unit\">(<code>{}</code>)</span></h3>",
+            "<h3 id=\"step{}\">Step {}: {}{} <span class=\"unit\">(<code>{}</code>)</span></h3>",
             i + 1,
             i + 1,
             esc(s.effect.label()),

@@ -67,7 +67,7 @@ pub(super) struct Trace<'a> {
     pub color: RGBColor,
     /// Values, one per sample.
     pub y: &'a [f64],
-    /// Line width in pixels.
+    /// Line width in pixels (0: in the legend only, not drawn).
     pub width: u32,
 }
 
@@ -127,7 +127,7 @@ fn legend(area: &Area<'_>, items: &[(String, RGBColor, Swatch)]) -> Result<(), D
     for (label, color, swatch) in items {
         match swatch {
             Swatch::Line(w) => {
-                area.draw(&PathElement::new(vec![(x, yc), (x + 28, yc)], color.stroke_width(*w + 1)))?;
+                area.draw(&PathElement::new(vec![(x, yc), (x + 28, yc)], color.stroke_width((*w).max(1) + 1)))?;
             }
             Swatch::Dot => area.draw(&Circle::new((x + 14, yc), 5, color.filled()))?,
             Swatch::Bar => area.draw(&Rectangle::new([(x + 4, yc - 7), (x + 24, yc + 7)], color.filled()))?,
@@ -235,6 +235,8 @@ pub(super) fn subsample(n: usize, m: usize) -> Vec<usize> {
 
 /// One time-series panel: every trace against `t` over `[t0, t1]`.
 fn time_panel(area: &Area<'_>, caption: &str, t: &[f64], (t0, t1): (f64, f64), traces: &[Trace<'_>], y_desc: &str) -> Result<(), DrawErr> {
+    // a single sample still gets a (1 s wide) axis
+    let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
     let lo = t.partition_point(|&x| x < t0);
     let hi = t.partition_point(|&x| x <= t1).max(lo);
     let (ylo, yhi) = y_range(traces.iter().map(|tr| &tr.y[lo..hi]));
@@ -266,7 +268,7 @@ fn time_panel(area: &Area<'_>, caption: &str, t: &[f64], (t0, t1): (f64, f64), t
         let pts = envelope(t, tr.y, t0, t1, px.max(1) as usize);
         // Thick lines as 1-px polylines shifted by whole pixels: plotters' polygonised wide
         // strokes put long miter spikes at the sharp turns of an envelope or a friction jump.
-        for k in 0..tr.width.max(1) {
+        for k in 0..tr.width {
             let off = k as f64 * dy;
             chart.draw_series(LineSeries::new(pts.iter().map(|&(x, y)| (x, y + off)), tr.color.stroke_width(1)))?;
         }
