@@ -71,7 +71,7 @@ pub struct DiagnoseOptions {
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         DiagnoseOptions {
-            alpha: 1e-6,
+            alpha: 1e-3,
             min_effect: 0.5,
             min_share: 0.75,
             cutoff_hz: None,
@@ -639,6 +639,8 @@ struct Ctx<'a> {
     terminal_mass: f64,
     w: Vec<f64>,
     sigma: Vec<f64>,
+    /// Held-out RSS per joint of the all-candidates model (two-fold).
+    h_all: Vec<f64>,
     /// Integrated autocorrelation time of the residual per joint (samples).
     tau: Vec<f64>,
     n: usize,
@@ -678,7 +680,11 @@ impl Ctx<'_> {
         // missing effect explains (nearly) all of the structure it leaves on its joint; a
         // look-alike (e.g. an offset standing in for a wrong link mass) only part of it
         let n_test = (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64;
-        let structure = (h0 - n_test * self.sigma[j].powi(2)).max(1e-12 * h0);
+        // "structure" = what is above the noise, or what the vocabulary can explain at all
+        // (held-out residual of the all-candidates model) when that is less, e.g. when a
+        // friction model leaves stick-slip bursts at reversals that nothing explains
+        let explainable = (h0 - self.h_all[j]).min(h0 - n_test * self.sigma[j].powi(2));
+        let structure = explainable.max(0.05 * h0);
         let heldout_gain = if h0 > 0.0 { ((h0 - h1) / structure).min(1.0) } else { 0.0 };
         let e_rms = effect_rms(&fl, self.gr, j, added);
         let significant = p < self.opts.alpha
@@ -840,13 +846,7 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
                                 (m.clone(), &move |p: &Param| p.kind == Some(e))
                             };
                             let l = if e == EffectKind::JointSpring { l.without(Some(j), EffectKind::TorqueOffset) } else { l };
-                            let mut sc = ctx.joint_score(&base, &l, j, &|p| p.joint == Some(j) && sel(p));
-                            if sc.significant && inertia_like(e) {
-                                if let Some(s) = model_error_lookalike(ctx, &base, &l, j, &|p| p.joint == Some(j) && sel(p)) {
-                                    sc.significant = false;
-                                    lookalike.push((j, s));
-                                }
-                            }
+                            let sc = ctx.joint_score(&base, &l, j, &|p| p.joint == Some(j) && sel(p));
                             if sc.significant {
                                 larger.per_joint[j] = l.per_joint[j].clone();
                             }
@@ -854,6 +854,30 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
                         }
                     }
                 }
+            }
+        }
+        // look-alike check of inertia-like effects against the nominal model's own error,
+        // with the effect in on the other joints where it is significant (so that a real
+        // effect there does not inflate the link scales)
+        if inertia_like(e) && e != EffectKind::Payload {
+            for j in 0..n {
+                if !per_joint[j].significant {
+                    continue;
+                }
+                let mut base = larger.without(Some(j), e);
+                let sel: Box<dyn Fn(&Param) -> bool> = if e == EffectKind::JointSpring {
+                    base = base.with(Some(j), EffectKind::TorqueOffset);
+                    Box::new(move |p: &Param| p.joint == Some(j) && p.kind == Some(EffectKind::JointSpring) && p.col == C_Q)
+                } else {
+                    Box::new(move |p: &Param| p.joint == Some(j) && p.kind == Some(e))
+                };
+                if let Some(sc) = model_error_lookalike(ctx, &base, &larger, j, &*sel) {
+                    per_joint[j].significant = false;
+                    lookalike.push((j, sc));
+                }
+            }
+            for &(j, _) in &lookalike {
+                larger.per_joint[j] = m.per_joint[j].clone();
             }
         }
         let joints: Vec<usize> = (0..n).filter(|&j| per_joint[j].significant).collect();
@@ -1053,7 +1077,12 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     let w: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
     let m_diag = mean_mass_diag(robot, &s.q, n)?;
     let terminal_mass = robot.params()[10 * (n - 1)];
-    let ctx = Ctx { gr: &gr, m_diag, terminal_mass, w, sigma: sigma.clone(), tau: rho, n, opts };
+    let h_all: Vec<f64> = {
+        let pa = all_model(n).params();
+        let (f0, f1) = (fit(&pa, &gr, &w, &[0]), fit(&pa, &gr, &w, &[1]));
+        (0..n).map(|j| rss_joint(&f0, &gr, j, &[1]) + rss_joint(&f1, &gr, j, &[0])).collect()
+    };
+    let ctx = Ctx { gr: &gr, m_diag, terminal_mass, w, sigma: sigma.clone(), h_all, tau: rho, n, opts };
 
     let r_nom: Vec<f64> = (0..t_len * n).map(|i| d.r0[i % n][i / n]).collect();
     let baseline_rms = rms_per_joint(&r_nom, n);
