@@ -430,7 +430,7 @@ fn diagnose(
             if report {
                 dg::report::write_html(&d, dir)?;
             }
-            dg::report::write_mcap(&d, &r.joint_names, dir)?;
+            dg::report::write_mcap_stamped(&d, &r.joint_names, jl.t0_ns, dir)?;
             let text = serde_json::to_string_pretty(&d.json).map_err(|e| ivdyn::Error::Estimation { msg: e.to_string() })?;
             let path = dir.join("diagnosis.json");
             std::fs::write(&path, text + "\n").map_err(|e| ivdyn::Error::Io { file: path.clone(), source: e })?;

@@ -18,14 +18,22 @@ fn root() -> PathBuf {
 }
 
 fn cases() -> Value {
-    let p = root().join("fixtures/diagnose/cases.json");
+    cases_in("diagnose")
+}
+
+fn cases_in(set: &str) -> Value {
+    let p = root().join("fixtures").join(set).join("cases.json");
     serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
 }
 
 fn run(case: &Value, m: &Value) -> DiagnosisJson {
+    run_in("diagnose", case, m)
+}
+
+fn run_in(set: &str, case: &Value, m: &Value) -> DiagnosisJson {
     let urdf = root().join(case["urdf"].as_str().unwrap());
     let robot = Robot::from_urdf(urdf, m["base"].as_str(), m["tip"].as_str()).unwrap();
-    let log = read_mcap(root().join("fixtures/diagnose").join(case["log"].as_str().unwrap()), &ReadOptions::new(&robot.joint_names)).unwrap();
+    let log = read_mcap(root().join("fixtures").join(set).join(case["log"].as_str().unwrap()), &ReadOptions::new(&robot.joint_names)).unwrap();
     diagnose(&robot, &log, &DiagnoseOptions::default()).unwrap().json
 }
 
@@ -34,9 +42,13 @@ fn f64s(v: &Value) -> Vec<f64> {
 }
 
 fn check_case(name: &str) {
-    let m = cases();
+    check_case_in("diagnose", name)
+}
+
+fn check_case_in(set: &str, name: &str) {
+    let m = cases_in(set);
     let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
-    let d = run(case, &m);
+    let d = run_in(set, case, &m);
     let truth = case["effects"].as_array().unwrap();
 
     // the JSON's shape (DESIGN.md): joints in URDF order, one RMS per joint
@@ -166,6 +178,24 @@ fn payload_inertia_is_close() {
     let norm = t.iter().map(|x| x * x).sum::<f64>().sqrt();
     let worst = t.iter().zip(&f).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     assert!(worst <= 0.15 * norm, "payload inertia {f:?} vs {t:?}");
+}
+
+/// The Panda set (a second robot, 7 joints, generated after the method was written). Its
+/// two misses are reported in docs/diagnose.md, not asserted: `coulomb_viscous` (viscous
+/// friction missed on one of its two joints) and `inertia5_offset` (extra offsets).
+#[test]
+fn panda_cases() {
+    for name in ["clean_a", "clean_b", "coulomb", "viscous", "armature", "torque_offset", "joint_spring", "armature_500hz", "viscous_novel"] {
+        check_case_in("diagnose_panda", name);
+    }
+}
+
+/// Payload on the Panda: mass and COM within 10 % (checked by `check_case_in`, which skips
+/// the inertia); twice the sensor noise: Coulomb friction on both joints.
+#[test]
+fn panda_payload_and_noisy_coulomb() {
+    check_case_in("diagnose_panda", "payload");
+    check_case_in("diagnose_panda", "noise2x_coulomb");
 }
 
 #[test]

@@ -62,7 +62,7 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
             pb.finish_and_clear();
         }
     }
-    diagnose::report::write_mcap(&d, &robot.joint_names, &a.out).map_err(|e| e.to_string())?;
+    diagnose::report::write_mcap_stamped(&d, &robot.joint_names, log.t0_ns, &a.out).map_err(|e| e.to_string())?;
     write_json(&a.out.join("diagnosis.json"), &d.json)?;
     if let Some(j) = &a.json {
         write_json(j, &d.json)?;
