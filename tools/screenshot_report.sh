@@ -4,8 +4,9 @@
 #
 #   tools/screenshot_report.sh [REPORT.html] [OUT.png] [HEIGHT]
 #
-# Without REPORT.html, builds and runs the example diagnose_report_demo (synthetic UR5 log,
-# 60 s at 1 kHz) into out/diagnose_report_demo/ and screenshots its report into
+# Without REPORT.html, builds ivdyn and diagnoses the hidden-effect log
+# fixtures/diagnose/viscous_payload.mcap (MuJoCo UR5: viscous friction + a payload) into
+# out/diagnose_report_demo/ and screenshots its report into
 # docs/figures/diagnose_report_screenshot.png. Needs `chromium` (Debian: apt-get install
 # chromium) and, to shrink it to a 256-colour PNG, Pillow (in .venv via matplotlib, or
 # python3; optional: without it the screenshot is kept as Chromium wrote it).
@@ -16,8 +17,9 @@ report="${1:-}"
 out="${2:-docs/figures/diagnose_report_screenshot.png}"
 height="${3:-3000}"
 if [[ -z "$report" ]]; then
-    cargo build --release -q -p ivdyn --example diagnose_report_demo
-    ./target/release/examples/diagnose_report_demo --out out/diagnose_report_demo
+    cargo build --release -q -p ivdyn --bin ivdyn
+    ./target/release/ivdyn diagnose --urdf fixtures/ur5.urdf --base base_link --tip tool0 \
+        --log fixtures/diagnose/viscous_payload.mcap --out out/diagnose_report_demo --quiet
     report=out/diagnose_report_demo/report.html
 fi
 [[ -f "$report" ]] || { echo "no such report: $report" >&2; exit 1; }

@@ -1,10 +1,11 @@
 """residuals.mcap of `ivdyn diagnose` (crates/ivdyn/src/diagnose/report.rs) -> Python's
 mcap_ros2 reader (the independent decoder).
 
-Runs the Rust example `diagnose_report_demo` (a synthetic UR5 log, 2 s at 1 kHz) and
-decodes its residuals.mcap: the topics of docs/diagnose.md, JointState messages on the
-same stamps on every topic, residual = measured effort - predicted effort, `final` equal
-to the last step's prediction.
+Runs `ivdyn diagnose` on the MuJoCo log fixtures/diagnose/viscous_payload.mcap (UR5,
+2 s at 1 kHz, header stamps 1.7e9 s + k ms) and decodes its residuals.mcap: the topics of
+docs/diagnose.md, JointState messages on the log's own stamps on every topic, residual =
+measured effort - predicted effort, `final` equal to the last step's prediction, and the
+measured effort equal to the log's.
 """
 import os
 import re
@@ -18,7 +19,8 @@ import mcap.reader as mcap_reader
 import mcap_ros2.decoder as mcap_ros2_decoder
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
-T0 = 1_700_000_000_000_000_000  # the example's t0_ns
+T0 = 1_700_000_000_000_000_000  # the log's first stamp (docs/diagnose-data.md)
+LOG = os.path.join(ROOT, "fixtures", "diagnose", "viscous_payload.mcap")
 UR5 = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
 VOCABULARY = {"coulomb_friction", "viscous_friction", "stribeck_friction", "armature", "payload",
               "torque_offset", "joint_spring"}
@@ -29,15 +31,16 @@ FIXED = ["/joint_states", "/ivdyn/predicted/nominal", "/ivdyn/predicted/final",
 @pytest.fixture(scope="module")
 def decoded(tmp_path_factory):
     out = tmp_path_factory.mktemp("diag")
-    args = ["--seconds", "2", "--out", str(out)]
-    # `make test` runs `cargo test --workspace` first, which builds the example; reuse it.
-    exe = os.path.join(ROOT, "target", "debug", "examples", "diagnose_report_demo")
+    args = ["diagnose", "--urdf", os.path.join(ROOT, "fixtures", "ur5.urdf"), "--base", "base_link", "--tip", "tool0",
+            "--log", LOG, "--out", str(out), "--quiet"]
+    # `make test` runs `cargo test --workspace` first, which builds the binary; reuse it.
+    exe = os.path.join(ROOT, "target", "debug", "ivdyn")
     if os.path.exists(exe):
         subprocess.run([exe, *args], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
     else:
         cargo = shutil.which("cargo")
-        assert cargo is not None, "cargo must be on PATH to build the example"
-        subprocess.run([cargo, "run", "-q", "-p", "ivdyn", "--example", "diagnose_report_demo", "--", *args],
+        assert cargo is not None, "cargo must be on PATH to build ivdyn"
+        subprocess.run([cargo, "run", "-q", "-p", "ivdyn", "--bin", "ivdyn", "--", *args],
                        cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
     path = out / "residuals.mcap"
     msgs = {}
@@ -69,8 +72,12 @@ def test_topics(decoded):
 def test_stamps_and_fields(decoded):
     _, msgs = decoded
     n = len(msgs["/joint_states"])
-    assert n == 2001
-    want = [T0 + k * 1_000_000 for k in range(n)]
+    # the diagnosis drops the filters' edge samples at both ends; what is left keeps the
+    # log's own stamps, 1 ms apart
+    assert 1500 < n < 2000
+    first = msgs["/joint_states"][0][0]
+    assert (first - T0) % 1_000_000 == 0 and 0 < first - T0 < 250_000_000
+    want = [first + k * 1_000_000 for k in range(n)]
     for topic, rows in msgs.items():
         assert [r[0] for r in rows] == want, topic
         if topic == "/joint_states":
@@ -90,6 +97,12 @@ def test_residual_is_measured_minus_predicted(decoded):
                    key=lambda t: int(re.search(r"step(\d+)_", t).group(1)))
     last = effort[steps[-1]] if steps else effort["/ivdyn/predicted/nominal"]
     np.testing.assert_array_equal(effort["/ivdyn/predicted/final"], last)
+    # the measured effort is the log's own (read independently with mcap_ros2)
+    k0 = (msgs["/joint_states"][0][0] - T0) // 1_000_000
+    with open(LOG, "rb") as f:
+        reader = mcap_reader.make_reader(f, decoder_factories=[mcap_ros2_decoder.DecoderFactory()])
+        logged = np.array([list(ros.effort) for _, _, _, ros in reader.iter_decoded_messages(topics=["/joint_states"])])
+    np.testing.assert_array_equal(tau, logged[k0:k0 + len(tau)])
     # the nominal model misses something in this log, and the final model removes part of it
     rms = lambda x: np.sqrt(np.mean(x ** 2, axis=0))
     assert rms(effort["/ivdyn/residual/final"]).sum() < rms(effort["/ivdyn/residual/nominal"]).sum()

@@ -1380,7 +1380,7 @@ fn evidence(
         let name = &names[j];
         let gain = cand.map(|c| c.per_joint[j].heldout_gain).unwrap_or(f64::NAN);
         let tail = format!(
-            "adding it removes {:.0} % of the residual variance on held-out data (RMS {:.3} -> {:.3} N m, noise {:.3} N m)",
+            "on held-out data it removes {:.0} % of the residual that any effect can explain (RMS {:.3} -> {:.3} N m, noise {:.3} N m)",
             100.0 * gain,
             st.rms_before[j],
             st.rms_after[j],
@@ -1427,7 +1427,11 @@ fn evidence(
     }
     if st.effect == EffectKind::Payload {
         let m = params.get("mass").and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
-        let com = params.get("com").map(|v| v.to_string()).unwrap_or_default();
+        let com = params
+            .get("com")
+            .and_then(|v| v.as_array())
+            .map(|a| format!("[{}]", a.iter().map(|x| format!("{:.4}", x.as_f64().unwrap_or(f64::NAN))).collect::<Vec<_>>().join(", ")))
+            .unwrap_or_else(|| "(not identifiable)".into());
         let js: Vec<&str> = cand.map(|c| c.joints.iter().map(|&j| names[j].as_str()).collect()).unwrap_or_default();
         out.push(format!(
             "the residuals of {} follow pose and acceleration together, as the torques of one rigid body on the last link would: a payload of {m:.3} kg with its centre of mass at {com} m (terminal link frame)",
