@@ -121,8 +121,9 @@ pub struct JointScore {
     pub f: f64,
     /// Its p-value.
     pub p: f64,
-    /// Fraction of the held-out residual variance (above the noise) the candidate
-    /// removes on this joint (can be negative: it made the held-out part worse).
+    /// Fraction of the held-out residual (the part above the noise that the model with
+    /// every candidate in can explain) the candidate removes on this joint (negative: it
+    /// made the held-out part worse).
     pub heldout_gain: f64,
     /// RMS (N m) of the torque the fitted candidate adds on this joint.
     pub effect_rms: f64,
