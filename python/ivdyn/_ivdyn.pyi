@@ -279,7 +279,7 @@ def identify(robot: Robot, log: _Log, method: str = "wls", validate: Optional[_L
              params_json: Optional[str] = None, progress: _Callback = None) -> str:
     """``ivdyn identify`` -> its ``--json`` document."""
 def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/joint_states",
-             log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-6,
+             log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3,
              min_effect: float = 0.5, ignore_log_velocity: bool = False, report: bool = True,
              params_json: Optional[str] = None) -> str:
     """``ivdyn diagnose`` -> ``diagnosis.json`` (and the output directory's files with ``out``)."""

@@ -230,7 +230,7 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
 
 def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *, base: Optional[str] = None,
              tip: Optional[str] = None, params=None, topic: str = "/joint_states", log_time: bool = False,
-             cutoff: Optional[float] = None, alpha: float = 1e-6, min_effect: float = 0.5,
+             cutoff: Optional[float] = None, alpha: float = 1e-3, min_effect: float = 0.5,
              ignore_log_velocity: bool = False, report: bool = True) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):

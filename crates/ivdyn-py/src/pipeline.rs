@@ -400,7 +400,7 @@ fn simulate<'py>(
 /// `ivdyn diagnose` -> `diagnosis.json` (a string); with `out`, also writes
 /// diagnosis.json, report.html and residuals.mcap there.
 #[pyfunction]
-#[pyo3(signature = (robot, log, out=None, topic="/joint_states", log_time=false, cutoff=None, alpha=1e-6,
+#[pyo3(signature = (robot, log, out=None, topic="/joint_states", log_time=false, cutoff=None, alpha=1e-3,
                     min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(

@@ -44,8 +44,9 @@ use crate::Robot;
 /// Options of [`diagnose`].
 #[derive(Debug, Clone)]
 pub struct DiagnoseOptions {
-    /// Significance level of the per-joint F test (default 1e-6: about 50 tests are made
-    /// per step, and real residuals are only approximately Gaussian).
+    /// Significance level of the per-joint F test on the effective sample count (default
+    /// 1e-3; the held-out share, the size and the physics rules guard against what an
+    /// F test on correlated residuals lets through).
     pub alpha: f64,
     /// An effect must add at least this many noise standard deviations of RMS torque on
     /// a joint to be named there (default 0.5).

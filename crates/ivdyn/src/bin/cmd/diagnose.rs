@@ -21,7 +21,7 @@ pub struct DiagnoseArgs {
     #[arg(long)]
     out: PathBuf,
     /// Significance level of the per-joint F test.
-    #[arg(long, default_value_t = 1e-6)]
+    #[arg(long, default_value_t = 1e-3)]
     alpha: f64,
     /// Smallest effect named, in noise standard deviations of RMS torque.
     #[arg(long, default_value_t = 0.5)]
