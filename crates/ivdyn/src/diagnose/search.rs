@@ -10,16 +10,21 @@
 //! The data enter only through per-joint, per-fold Gram matrices of that dictionary, so
 //! scoring dozens of candidate models costs microseconds each, whatever the log length.
 //!
-//! A candidate (effect, joint) is *significant* when all three hold:
+//! A candidate (effect, joint) is *significant* when all of these hold (docs/diagnose.md):
 //! 1. an F test of its columns (nested models, joint's rows, all data) rejects "no
-//!    effect" at `alpha`, with the sample count reduced to an effective count for the
-//!    residual's autocorrelation (AR(1): `n (1 - rho) / (1 + rho)`), since real residuals
-//!    are not white;
-//! 2. it lowers the residual on held-out data (two-fold cross-validation over
-//!    interleaved blocks of the log): an effect that only fits noise makes it worse;
+//!    effect" at `alpha`, with the sample count divided by the residual's integrated
+//!    autocorrelation time, since real residuals are not white;
+//! 2. on held-out data (two-fold cross-validation over interleaved blocks of the log) it
+//!    removes at least `min_share` of the residual that is above the noise and that the
+//!    model with every candidate in can explain: a missing effect explains nearly all
+//!    the structure it leaves on its joint, a look-alike only part of it;
 //! 3. it matters: the torque it adds has an RMS of at least `min_effect` times the
-//!    joint's noise level (the noise is estimated from sample-to-sample differences of
-//!    the residual of a model with every candidate in, which slow structure barely moves).
+//!    joint's noise level (estimated from sample-to-sample differences of the residual of
+//!    a model with every candidate in, which slow structure barely moves);
+//! 4. its parameters have their physical sign, and an armature or payload is larger than
+//!    the uncertainty of the nominal (CAD) inertials;
+//! 5. inertia-like effects (payload, armature, offset, spring) are not imitated as well by
+//!    per-link scale errors of at most 25 % of the nominal inertials.
 //!
 //! Among the candidates with significant joints, the one that removes most of the
 //! (noise-weighted) residual is added; all parameters are refit; effects that stopped
