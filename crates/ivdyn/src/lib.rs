@@ -18,10 +18,12 @@ pub mod control;
 pub mod error;
 pub mod ident;
 pub mod io;
+pub mod joint_acc;
 pub mod pipeline;
 pub mod repro;
 pub mod robot;
 pub mod signal;
+pub mod stream;
 pub mod urdf;
 
 pub use error::Error;
