@@ -257,6 +257,8 @@ pub struct IdentifyReport {
     pub params: ParamsFile,
     /// Warnings and remarks.
     pub notes: Vec<String>,
+    /// The log was streamed block by block (bounded memory) rather than read whole.
+    pub streamed: bool,
     /// The underlying fit.
     #[serde(skip)]
     pub fit_report: Option<FitReport>,
@@ -769,8 +771,38 @@ pub(crate) fn finish_identify(robot: &Robot, base: &BaseParams, opts: &IdentifyO
         dwh,
         params: ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: full },
         notes,
+        streamed: false,
         fit_report: Some(fit),
     })
+}
+
+/// Writes `log`'s measured torques, the torques predicted by `model` (e.g. the identified
+/// robot) and the residuals to the MCAP file `path`
+/// ([`crate::io::PredictionWriter`]). The samples are the conditioned ones (duplicated
+/// stamps dropped, uneven stamps resampled, as `identify` sees them), the prediction is
+/// `rnea(q, qd, qdd)` of `model` at the smoothed state, the measured copy is the log's
+/// values at those samples (resampled like the torque if the stamps were uneven).
+/// Returns the samples written.
+pub fn write_prediction(path: &std::path::Path, model: &Robot, log: &JointLog, condition: &ConditionOptions) -> Result<usize> {
+    let n = model.dof();
+    let c = signal::condition(log, condition)?;
+    let tau = c.tau.as_ref().ok_or_else(|| err_est("the log has no effort (torque) data"))?;
+    let dd = signal::dedup_stamps(&log.t)?;
+    let t_kept: Vec<f64> = dd.keep.iter().map(|&k| log.t[k]).collect();
+    let measured = |a: &[f64]| -> Result<Vec<f64>> {
+        let kept = signal::take_rows(a, n, &dd.keep);
+        if c.resampled { Ok(signal::resample_uniform(&t_kept, &kept, n, c.dt, condition.interp)?.1) } else { Ok(kept) }
+    };
+    let q_meas = measured(&log.q)?;
+    let qd_meas = log.qd.as_ref().map(|a| measured(a)).transpose()?.unwrap_or_default();
+    let mut pred = vec![0.0; c.d.q.len()];
+    crate::batch::rnea_batch(model, &c.d.q, &c.d.qd, &c.d.qdd, &mut pred)?;
+    let stamps: Vec<i64> = c.t.iter().map(|t| log.t0_ns.saturating_add((t * 1e9).round() as i64)).collect();
+    let mut w = crate::io::PredictionWriter::create(path, &model.joint_names)?;
+    w.write_block(&stamps, &q_meas, &qd_meas, tau, &c.d.q, &c.d.qd, &pred)?;
+    let k = w.samples();
+    w.finish()?;
+    Ok(k)
 }
 
 // ---------------------------------------------------------------------------------------

@@ -99,7 +99,9 @@ impl StreamFiltfilt {
     pub fn push(&mut self, rows: &[f64], out: &mut impl FnMut(usize, &[f64])) {
         let m = self.m;
         debug_assert!(!self.finished && rows.len().is_multiple_of(m));
-        for row in rows.chunks_exact(m) {
+        // only the last `pad + 1` rows can be needed for the end extension
+        let k = rows.len() / m;
+        for row in rows[k.saturating_sub(self.pad + 1) * m..].chunks_exact(m) {
             self.remember(row);
         }
         let mut rest = rows;

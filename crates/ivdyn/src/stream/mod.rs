@@ -48,6 +48,8 @@ pub const DT_PROBE: usize = 10_000;
 const BATCH: usize = 4096;
 /// Rows finished per block by the stream filters.
 const FILTER_BLOCK: usize = 8192;
+/// Samples stacked and filtered at a time.
+const SUB_BLOCK: usize = 2048;
 
 /// Outcome of a streaming run.
 #[derive(Debug)]
@@ -416,8 +418,16 @@ struct Stacker<'a> {
     /// structurally zero.
     packed: Vec<usize>,
     tracker: Option<Tracker>,
-    groups: Vec<(std::ops::Range<usize>, StreamFiltfilt)>,
+    groups: Vec<(std::ops::Range<usize>, StreamFiltfilt, Vec<f64>)>,
     width: usize,
+    /// Index of each packed entry in a sample's full `n x 14n` regressor rows.
+    src: Vec<usize>,
+    checked: bool,
+    /// Work buffers, kept between blocks.
+    full: Vec<f64>,
+    y: Vec<f64>,
+    z: Vec<f64>,
+    wide: Vec<f64>,
 }
 
 /// Entries of the `n x b` base regressor rows that are zero at every one of 32 random
@@ -451,45 +461,47 @@ impl<'a> Stacker<'a> {
             .into_iter()
             .map(|r| {
                 let f = StreamFiltfilt::new(&dec.filter, r.len(), dec.factor, FILTER_BLOCK);
-                (r, f)
+                (r, f, vec![])
             })
             .collect();
-        Ok(Stacker { robot, base, n, packed, tracker: instrument.then(|| Tracker::new(dt)), groups, width })
+        let (p, b) = (robot.num_params(), base.base_count());
+        let src = packed.iter().map(|&k| (k / b) * p + base.independent[k % b]).collect();
+        let tracker = instrument.then(|| Tracker::new(dt));
+        Ok(Stacker { robot, base, n, packed, tracker, groups, width, src, checked: false, full: vec![], y: vec![], z: vec![], wide: vec![] })
     }
 
-    /// Base regressor rows of the samples, packed: `T x C`.
-    fn packed_rows(&self, q: &[f64], qd: &[f64], qdd: &[f64], first: usize) -> Result<Vec<f64>> {
+    /// Base regressor rows of the samples, packed: `T x C`. The entries taken as
+    /// structural zeros are checked on the first block.
+    fn packed_rows(&mut self, q: &[f64], qd: &[f64], qdd: &[f64], first: usize, out: &mut Vec<f64>) -> Result<()> {
         let (n, p, b) = (self.n, self.robot.num_params(), self.base.base_count());
         let t = q.len() / n;
-        let mut full = vec![0.0; t * n * p];
-        crate::batch::regressor_batch(self.robot, q, qd, qdd, &mut full, false).map_err(|e| match e {
+        self.full.resize(t * n * p, 0.0);
+        crate::batch::regressor_batch(self.robot, q, qd, qdd, &mut self.full, false).map_err(|e| match e {
             Error::Sample { index, source } => Error::Sample { index: index + first, source },
             e => e,
         })?;
-        let mut rowb = vec![0.0; n * b];
-        let mut out = Vec::with_capacity(t * self.packed.len());
-        for (k, y) in full.chunks_exact(n * p).enumerate() {
-            for i in 0..n {
-                for (c, &col) in self.base.independent.iter().enumerate() {
-                    rowb[i * b + c] = y[i * p + col];
-                }
-            }
-            let mut at = 0;
-            for (idx, v) in rowb.iter().enumerate() {
-                if at < self.packed.len() && self.packed[at] == idx {
-                    out.push(*v);
-                    at += 1;
-                } else if *v != 0.0 {
-                    return Err(err_est(format!(
-                        "sample {}: regressor entry (joint {}, base parameter {}) taken as structurally zero is {v}",
-                        first + k,
-                        idx / b,
-                        idx % b
-                    )));
+        out.clear();
+        out.reserve(t * self.src.len());
+        for y in self.full.chunks_exact(n * p) {
+            out.extend(self.src.iter().map(|&i| y[i]));
+        }
+        if !self.checked {
+            self.checked = true;
+            for (k, y) in self.full.chunks_exact(n * p).enumerate() {
+                for i in 0..n {
+                    for (c, &col) in self.base.independent.iter().enumerate() {
+                        let v = y[i * p + col];
+                        if v != 0.0 && self.packed.binary_search(&(i * b + c)).is_err() {
+                            return Err(err_est(format!(
+                                "sample {}: regressor entry (joint {i}, base parameter {c}) taken as structurally zero is {v}",
+                                first + k
+                            )));
+                        }
+                    }
                 }
             }
         }
-        Ok(out)
+        Ok(())
     }
 
     /// Filters a conditioned block; decimated rows (`width` wide) with their decimated
@@ -497,26 +509,40 @@ impl<'a> Stacker<'a> {
     fn push(&mut self, blk: &Block, out: &mut Vec<(usize, Vec<f64>)>) -> Result<()> {
         let n = self.n;
         let t = blk.len(n);
-        let (q, qd, qdd) = (&blk.c.q[..t * n], &blk.c.qd[..t * n], &blk.c.qdd[..t * n]);
-        let y = self.packed_rows(q, qd, qdd, blk.first)?;
-        let z = match self.tracker.as_mut() {
+        // sub-blocks keep the work buffers small
+        for s in (0..t).step_by(SUB_BLOCK) {
+            let e = (s + SUB_BLOCK).min(t);
+            let r = s * n..e * n;
+            self.push_rows(blk.first + s, &blk.c.q[r.clone()], &blk.c.qd[r.clone()], &blk.c.qdd[r.clone()], &blk.tau[r], out)?;
+        }
+        Ok(())
+    }
+
+    fn push_rows(&mut self, first: usize, q: &[f64], qd: &[f64], qdd: &[f64], tau: &[f64], out: &mut Vec<(usize, Vec<f64>)>) -> Result<()> {
+        let n = self.n;
+        let t = tau.len() / n;
+        let (mut y, mut z) = (std::mem::take(&mut self.y), std::mem::take(&mut self.z));
+        self.packed_rows(q, qd, qdd, first, &mut y)?;
+        let iv = match self.tracker.as_mut() {
             Some(tr) => {
                 let (qz, qdz, qddz) = tr.run(self.robot, q, qd, qdd)?;
-                Some(self.packed_rows(&qz, &qdz, &qddz, blk.first)?)
+                self.packed_rows(&qz, &qdz, &qddz, first, &mut z)?;
+                true
             }
-            None => None,
+            None => false,
         };
         let c = self.packed.len();
-        let width = self.width;
-        let mut wide = Vec::with_capacity(t * width);
+        let mut wide = std::mem::take(&mut self.wide);
+        wide.clear();
         for k in 0..t {
             wide.extend_from_slice(&y[k * c..(k + 1) * c]);
-            if let Some(z) = &z {
+            if iv {
                 wide.extend_from_slice(&z[k * c..(k + 1) * c]);
             }
-            wide.extend_from_slice(&blk.tau[k * n..(k + 1) * n]);
+            wide.extend_from_slice(&tau[k * n..(k + 1) * n]);
         }
         self.filter(&wide, false, out);
+        (self.y, self.z, self.wide) = (y, z, wide);
         Ok(())
     }
 
@@ -532,10 +558,9 @@ impl<'a> Stacker<'a> {
             let hs: Vec<_> = self
                 .groups
                 .iter_mut()
-                .map(|(r, f)| {
+                .map(|(r, f, cols)| {
                     s.spawn(move || {
-                        let m = r.len();
-                        let mut cols = Vec::with_capacity(t * m);
+                        cols.clear();
                         for k in 0..t {
                             cols.extend_from_slice(&wide[k * width + r.start..k * width + r.end]);
                         }
@@ -544,7 +569,7 @@ impl<'a> Stacker<'a> {
                             idx.push(g);
                             rows.extend_from_slice(row);
                         };
-                        f.push(&cols, &mut take);
+                        f.push(cols, &mut take);
                         if finish {
                             f.finish(&mut take);
                         }
@@ -559,6 +584,7 @@ impl<'a> Stacker<'a> {
         debug_assert_eq!(idx0, idx1);
         let (m0, m1) = (self.groups[0].0.len(), self.groups[1].0.len());
         let factor = self.groups[0].1.factor();
+        debug_assert_eq!(m0 + m1, width);
         for (k, &g) in idx0.iter().enumerate() {
             let mut row = Vec::with_capacity(width);
             row.extend_from_slice(&rows0[k * m0..(k + 1) * m0]);
@@ -748,5 +774,35 @@ pub fn identify_mcap(robot: &Robot, path: &Path, validation: Option<&Path>, read
         idim: None,
         notes,
     };
-    pipeline::finish_identify(robot, &base, opts, data).map(Streamed::Done)
+    let mut rep = pipeline::finish_identify(robot, &base, opts, data)?;
+    rep.streamed = true;
+    Ok(Streamed::Done(rep))
+}
+
+/// [`pipeline::write_prediction`] streamed: reads and conditions the MCAP log at `log`
+/// block by block and writes measured, predicted (`rnea` of `model`) and residual torques
+/// to `out`. Returns the samples written.
+pub fn write_prediction_mcap(out: &Path, model: &Robot, log: &Path, read: &ReadOptions, opts: &IdentifyOptions) -> Result<Streamed<usize>> {
+    if let Some(why) = unsupported(opts, read) {
+        return Ok(Streamed::Unsupported(why));
+    }
+    let n = model.dof();
+    let st = Stage::begin(&opts.progress, "writing the prediction", message_count(log, &read.topic)?.unwrap_or(0) as u64);
+    let mut w = crate::io::PredictionWriter::create(out, &model.joint_names)?;
+    let mut pred = vec![];
+    let pass = conditioned_pass(log, read, opts, Some(&st), |blk, _| {
+        pred.resize(blk.c.q.len(), 0.0);
+        let t = blk.len(n);
+        crate::batch::rnea_batch(model, &blk.c.q[..t * n], &blk.c.qd[..t * n], &blk.c.qdd[..t * n], &mut pred)?;
+        w.write_block(&blk.stamps, &blk.q_raw, &blk.qd_raw, &blk.tau, &blk.c.q[..t * n], &blk.c.qd[..t * n], &pred)
+    })?;
+    match pass {
+        Streamed::Done(_) => {
+            let k = w.samples();
+            w.finish()?;
+            Ok(Streamed::Done(k))
+        }
+        // dropping the writer removes its temporary file
+        Streamed::Unsupported(why) => Ok(Streamed::Unsupported(why)),
+    }
 }
