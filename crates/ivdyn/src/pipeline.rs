@@ -431,25 +431,32 @@ impl Tracker {
         let (kp, kd, dt) = (self.kp, self.kd, self.dt);
         let (mut qs, mut qds) = self.state.take().unwrap_or_else(|| (q[..n].to_vec(), qd[..n].to_vec()));
         let (mut oq, mut oqd, mut oqdd) = (Vec::with_capacity(t * n), Vec::with_capacity(t * n), Vec::with_capacity(t * n));
-        let mut tau = vec![0.0; n];
-        for k in 0..t {
-            let s = self.done + k;
-            let e: Vec<f64> = (0..n).map(|i| kp * (q[k * n + i] - qs[i]) + kd * (qd[k * n + i] - qds[i])).collect();
-            for i in 0..n {
-                tau[i] = ff[k * n + i] + (0..n).map(|j| mm[k * n * n + i * n + j] * e[j]).sum::<f64>();
+        let done = self.done;
+        // one work buffer for the block (the per-call `Robot::forward_dynamics` allocates one)
+        crate::with_model!(&robot.model, m => {
+            let mut data = Box::new(ivdyn_core::Data::new());
+            let mut tau = ivdyn_core::VecN::zeros();
+            for k in 0..t {
+                let s = done + k;
+                let e: Vec<f64> = (0..n).map(|i| kp * (q[k * n + i] - qs[i]) + kd * (qd[k * n + i] - qds[i])).collect();
+                for i in 0..n {
+                    tau[i] = ff[k * n + i] + (0..n).map(|j| mm[k * n * n + i * n + j] * e[j]).sum::<f64>();
+                }
+                let (qv, qdv) = (ivdyn_core::VecN::from_column_slice(&qs), ivdyn_core::VecN::from_column_slice(&qds));
+                let a = ivdyn_core::forward_dynamics(&**m, &mut data, &qv, &qdv, &tau)
+                    .map_err(|e| err_est(format!("instrument: simulating the nominal model failed at sample {s}: {e}")))?;
+                if a.iter().chain(&qs).any(|v| !v.is_finite() || v.abs() > 1e6) {
+                    return Err(err_est(format!("instrument: the simulation of the nominal model diverged at sample {s}")));
+                }
+                oq.extend_from_slice(&qs);
+                oqd.extend_from_slice(&qds);
+                oqdd.extend_from_slice(a.as_slice());
+                for i in 0..n {
+                    qds[i] += a[i] * dt;
+                    qs[i] += qds[i] * dt;
+                }
             }
-            let a = robot.forward_dynamics(&qs, &qds, &tau).map_err(|e| err_est(format!("instrument: simulating the nominal model failed at sample {s}: {e}")))?;
-            if a.iter().chain(&qs).any(|v| !v.is_finite() || v.abs() > 1e6) {
-                return Err(err_est(format!("instrument: the simulation of the nominal model diverged at sample {s}")));
-            }
-            oq.extend_from_slice(&qs);
-            oqd.extend_from_slice(&qds);
-            oqdd.extend_from_slice(&a);
-            for i in 0..n {
-                qds[i] += a[i] * dt;
-                qs[i] += qds[i] * dt;
-            }
-        }
+        });
         self.done += t;
         self.state = Some((qs, qds));
         Ok((oq, oqd, oqdd))

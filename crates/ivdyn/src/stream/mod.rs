@@ -47,7 +47,7 @@ pub const DT_PROBE: usize = 10_000;
 /// Samples per batch from the reader thread, and per conditioned block.
 const BATCH: usize = 4096;
 /// Rows finished per block by the stream filters.
-const FILTER_BLOCK: usize = 8192;
+const FILTER_BLOCK: usize = 16384;
 /// Samples stacked and filtered at a time.
 const SUB_BLOCK: usize = 2048;
 
@@ -420,14 +420,12 @@ struct Stacker<'a> {
     tracker: Option<Tracker>,
     groups: Vec<(std::ops::Range<usize>, StreamFiltfilt, Vec<f64>)>,
     width: usize,
-    /// Index of each packed entry in a sample's full `n x 14n` regressor rows.
-    src: Vec<usize>,
-    checked: bool,
+    /// Packers of the regressor and of the instrument rows (one each: they run in parallel).
+    py: RowPacker<'a>,
+    pz: RowPacker<'a>,
     /// Work buffers, kept between blocks.
-    full: Vec<f64>,
     y: Vec<f64>,
     z: Vec<f64>,
-    wide: Vec<f64>,
 }
 
 /// Entries of the `n x b` base regressor rows that are zero at every one of 32 random
@@ -450,40 +448,37 @@ fn structural_nonzeros(robot: &Robot, base: &BaseParams) -> Result<Vec<usize>> {
     Ok((0..n * b).filter(|&k| nz[k]).collect())
 }
 
-impl<'a> Stacker<'a> {
-    fn new(robot: &'a Robot, base: &'a BaseParams, dt: f64, dec: &signal::Decimator, instrument: bool) -> Result<Self> {
-        let n = robot.dof();
-        let packed = structural_nonzeros(robot, base)?;
-        let c = packed.len();
-        let width = c * if instrument { 2 } else { 1 } + n;
-        let half = width.div_ceil(2);
-        let groups = [0..half, half..width]
-            .into_iter()
-            .map(|r| {
-                let f = StreamFiltfilt::new(&dec.filter, r.len(), dec.factor, FILTER_BLOCK);
-                (r, f, vec![])
-            })
-            .collect();
-        let (p, b) = (robot.num_params(), base.base_count());
-        let src = packed.iter().map(|&k| (k / b) * p + base.independent[k % b]).collect();
-        let tracker = instrument.then(|| Tracker::new(dt));
-        Ok(Stacker { robot, base, n, packed, tracker, groups, width, src, checked: false, full: vec![], y: vec![], z: vec![], wide: vec![] })
-    }
+/// Base regressor rows, packed to the entries that are not structurally zero.
+struct RowPacker<'a> {
+    robot: &'a Robot,
+    base: &'a BaseParams,
+    /// Index of each packed entry in a sample's full `n x 14n` regressor rows.
+    src: Vec<usize>,
+    /// The packed entries as indices into a sample's `n x b` base rows (ascending).
+    packed: Vec<usize>,
+    checked: bool,
+    /// Work buffer (full regressor rows), kept between blocks.
+    full: Vec<f64>,
+}
 
+impl RowPacker<'_> {
     /// Base regressor rows of the samples, packed: `T x C`. The entries taken as
     /// structural zeros are checked on the first block.
-    fn packed_rows(&mut self, q: &[f64], qd: &[f64], qdd: &[f64], first: usize, out: &mut Vec<f64>) -> Result<()> {
-        let (n, p, b) = (self.n, self.robot.num_params(), self.base.base_count());
+    fn rows(&mut self, q: &[f64], qd: &[f64], qdd: &[f64], first: usize, out: &mut Vec<f64>) -> Result<()> {
+        let (n, p, b) = (self.robot.dof(), self.robot.num_params(), self.base.base_count());
         let t = q.len() / n;
         self.full.resize(t * n * p, 0.0);
         crate::batch::regressor_batch(self.robot, q, qd, qdd, &mut self.full, false).map_err(|e| match e {
             Error::Sample { index, source } => Error::Sample { index: index + first, source },
             e => e,
         })?;
+        let c = self.src.len();
         out.clear();
-        out.reserve(t * self.src.len());
-        for y in self.full.chunks_exact(n * p) {
-            out.extend(self.src.iter().map(|&i| y[i]));
+        out.resize(t * c, 0.0);
+        for (o, y) in out.chunks_exact_mut(c).zip(self.full.chunks_exact(n * p)) {
+            for (o, &i) in o.iter_mut().zip(&self.src) {
+                *o = y[i];
+            }
         }
         if !self.checked {
             self.checked = true;
@@ -504,6 +499,30 @@ impl<'a> Stacker<'a> {
         Ok(())
     }
 
+}
+
+impl<'a> Stacker<'a> {
+    fn new(robot: &'a Robot, base: &'a BaseParams, dt: f64, dec: &signal::Decimator, instrument: bool) -> Result<Self> {
+        let n = robot.dof();
+        let packed = structural_nonzeros(robot, base)?;
+        let c = packed.len();
+        let width = c * if instrument { 2 } else { 1 } + n;
+        let half = width.div_ceil(2);
+        let groups = [0..half, half..width]
+            .into_iter()
+            .map(|r| {
+                let f = StreamFiltfilt::new(&dec.filter, r.len(), dec.factor, FILTER_BLOCK);
+                (r, f, vec![])
+            })
+            .collect();
+        let (p, b) = (robot.num_params(), base.base_count());
+        let src: Vec<usize> = packed.iter().map(|&k| (k / b) * p + base.independent[k % b]).collect();
+        let tracker = instrument.then(|| Tracker::new(dt));
+        let py = RowPacker { robot, base, src, packed: packed.clone(), checked: false, full: vec![] };
+        let pz = RowPacker { robot, base, src: py.src.clone(), packed: packed.clone(), checked: false, full: vec![] };
+        Ok(Stacker { robot, base, n, packed, tracker, groups, width, py, pz, y: vec![], z: vec![] })
+    }
+
     /// Filters a conditioned block; decimated rows (`width` wide) with their decimated
     /// index go to `out`.
     fn push(&mut self, blk: &Block, out: &mut Vec<(usize, Vec<f64>)>) -> Result<()> {
@@ -522,47 +541,60 @@ impl<'a> Stacker<'a> {
         let n = self.n;
         let t = tau.len() / n;
         let (mut y, mut z) = (std::mem::take(&mut self.y), std::mem::take(&mut self.z));
-        self.packed_rows(q, qd, qdd, first, &mut y)?;
-        let iv = match self.tracker.as_mut() {
-            Some(tr) => {
-                let (qz, qdz, qddz) = tr.run(self.robot, q, qd, qdd)?;
-                self.packed_rows(&qz, &qdz, &qddz, first, &mut z)?;
-                true
+        let iv = self.tracker.is_some();
+        let robot = self.robot;
+        let (py, pz, tracker) = (&mut self.py, &mut self.pz, self.tracker.as_mut());
+        // the instrument (a sequential simulation) on its own thread, beside the regressor
+        std::thread::scope(|s| -> Result<()> {
+            let zz = &mut z;
+            let hz = tracker.map(|tr| {
+                s.spawn(move || -> Result<()> {
+                    let (qz, qdz, qddz) = tr.run(robot, q, qd, qdd)?;
+                    pz.rows(&qz, &qdz, &qddz, first, zz)
+                })
+            });
+            let ry = py.rows(q, qd, qdd, first, &mut y);
+            if let Some(h) = hz {
+                h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))?;
             }
-            None => false,
-        };
+            ry
+        })?;
         let c = self.packed.len();
-        let mut wide = std::mem::take(&mut self.wide);
-        wide.clear();
-        for k in 0..t {
-            wide.extend_from_slice(&y[k * c..(k + 1) * c]);
-            if iv {
-                wide.extend_from_slice(&z[k * c..(k + 1) * c]);
-            }
-            wide.extend_from_slice(&tau[k * n..(k + 1) * n]);
-        }
-        self.filter(&wide, false, out);
-        (self.y, self.z, self.wide) = (y, z, wide);
+        let parts: [(&[f64], usize); 3] = [(&y, c), (if iv { &z } else { &[] }, if iv { c } else { 0 }), (tau, n)];
+        self.filter(&parts, t, false, out);
+        (self.y, self.z) = (y, z);
         Ok(())
     }
 
     fn finish(&mut self, out: &mut Vec<(usize, Vec<f64>)>) {
-        self.filter(&[], true, out);
+        self.filter(&[], 0, true, out);
     }
 
-    /// Runs the column groups (two threads) and joins their decimated rows.
-    fn filter(&mut self, wide: &[f64], finish: bool, out: &mut Vec<(usize, Vec<f64>)>) {
+    /// Runs the column groups (two threads) on the `t` rows `[part 0 | part 1 | ...]`
+    /// (each part row-major with its width) and joins their decimated rows.
+    fn filter(&mut self, parts: &[(&[f64], usize)], t: usize, finish: bool, out: &mut Vec<(usize, Vec<f64>)>) {
         let width = self.width;
-        let t = wide.len() / width;
         let results: Vec<(Vec<usize>, Vec<f64>)> = std::thread::scope(|s| {
             let hs: Vec<_> = self
                 .groups
                 .iter_mut()
                 .map(|(r, f, cols)| {
                     s.spawn(move || {
+                        // this group's columns of the concatenated rows, straight from the parts
                         cols.clear();
+                        let mut off = 0;
+                        let mut pieces = vec![];
+                        for &(x, w) in parts {
+                            let (a, b) = (r.start.max(off), r.end.min(off + w));
+                            if a < b {
+                                pieces.push((x, w, a - off, b - off));
+                            }
+                            off += w;
+                        }
                         for k in 0..t {
-                            cols.extend_from_slice(&wide[k * width + r.start..k * width + r.end]);
+                            for &(x, w, a, b) in &pieces {
+                                cols.extend_from_slice(&x[k * w + a..k * w + b]);
+                            }
                         }
                         let (mut idx, mut rows) = (vec![], vec![]);
                         let mut take = |g: usize, row: &[f64]| {
