@@ -408,6 +408,8 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
         match ivdyn::stream::identify_mcap(&robot, &a.log, a.validate.as_deref(), &read, &opts) {
             Ok(ivdyn::stream::Streamed::Done(r)) => streamed = Some(r),
             Ok(ivdyn::stream::Streamed::Unsupported(why)) => why_not = Some(why),
+            // reader errors already name the file
+            Err(e @ (ivdyn::Error::Log { .. } | ivdyn::Error::Io { .. })) => return Err(e.to_string()),
             Err(e) => return Err(format!("{}: {e}", a.log.display())),
         }
     }

@@ -695,7 +695,8 @@ struct Accumulated {
     info: PassInfo,
     dec: signal::Decimator,
     decimated: usize,
-    expected: Option<usize>,
+    /// Decimated samples expected from the message count.
+    expected: usize,
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -714,25 +715,19 @@ fn accumulate(
     let Some(hint) = message_count(path, &read.topic)?.map(|c| c as usize) else {
         return Ok(Streamed::Unsupported(format!("{what}: the MCAP file has no summary statistics (message count unknown)")));
     };
-    let hint = Some(hint);
-    let st = Stage::begin(&opts.progress, &format!("{what}: streaming"), hint.unwrap_or(0) as u64);
+    let st = Stage::begin(&opts.progress, &format!("{what}: streaming"), hint as u64);
     let mut state: Option<(Stacker, Route, signal::Decimator)> = None;
     let mut decimated = 0usize;
-    let mut expected = None;
+    let mut expected = 0;
     let pass = conditioned_pass(path, read, opts, Some(&st), |blk, dt| {
         if state.is_none() {
             let dec = pipeline::parallel_filter(opts.decimate, 1.0 / dt, &opts.condition)?;
             let stacker = Stacker::new(robot, base, dt, &dec, instrument)?;
             // the split of the in-memory path, placed from the message count
-            let t = hint.map(|h| h.div_ceil(dec.factor));
-            expected = t;
-            let (edge, cut) = match t {
-                Some(t) => {
-                    let (fit, val) = pipeline::split_ranges(t, &IdentifyOptions { validation_fraction: if holdout { opts.validation_fraction } else { 0.0 }, ..IdentifyOptions::default() });
-                    (fit.start, val.map(|v| v.start))
-                }
-                None => (0, None),
-            };
+            expected = hint.div_ceil(dec.factor);
+            let split = IdentifyOptions { validation_fraction: if holdout { opts.validation_fraction } else { 0.0 }, ..IdentifyOptions::default() };
+            let (fit, val) = pipeline::split_ranges(expected, &split);
+            let (edge, cut) = (fit.start, val.map(|v| v.start));
             let route = Route { edge, cut, pending: VecDeque::new(), fit: JointAccs::new(n, b, instrument), val: cut.map(|_| JointAccs::new(n, b, false)) };
             state = Some((stacker, route, dec));
         }
@@ -761,7 +756,6 @@ pub fn identify_mcap(robot: &Robot, path: &Path, validation: Option<&Path>, read
     if let Some(why) = unsupported(opts, read) {
         return Ok(Streamed::Unsupported(why));
     }
-    let n = robot.dof();
     if read.joint_names != robot.joint_names {
         return Err(err_est(format!("log joints {:?} are not the robot's {:?}", read.joint_names, robot.joint_names)));
     }
@@ -780,10 +774,10 @@ pub fn identify_mcap(robot: &Robot, path: &Path, validation: Option<&Path>, read
     if main.info.duplicates > 0 {
         notes.push(format!("{} samples with a duplicated stamp were dropped", main.info.duplicates));
     }
-    if main.expected != Some(main.decimated) {
+    if main.expected != main.decimated {
         notes.push(format!(
             "the fit/validation split was placed from the message count in the MCAP summary ({} decimated samples expected, {} found)",
-            main.expected.unwrap_or(0),
+            main.expected,
             main.decimated
         ));
     }
@@ -794,7 +788,6 @@ pub fn identify_mcap(robot: &Robot, path: &Path, validation: Option<&Path>, read
         },
         None => main.val.map(|v| (format!("tail {:.0}% of the log", 100.0 * opts.validation_fraction), v)),
     };
-    let _ = n;
     let instrument = Some(pipeline::TRACKING_INSTRUMENT.to_string());
     let data = FitData {
         fit: main.fit,
