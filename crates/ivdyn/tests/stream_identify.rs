@@ -148,3 +148,27 @@ fn streamed_identify_matches_in_memory_identify() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Logs the stream cannot reproduce are handed back (the CLI then reads them into
+/// memory): uneven stamps (they need resampling), and IDIM-IV.
+#[test]
+fn uneven_stamps_and_idim_are_not_streamed() {
+    let dir = std::env::temp_dir().join(format!("ivdyn-stream-uneven-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let robot = ivdyn::Robot::from_urdf(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
+    let mut log = pipeline::simulate(&robot, &Trajectory::Fourier, &SimulateOptions { duration_s: 30.0, noise_tau: 0.05, ..Default::default() }).unwrap();
+    // one interval 30 % long, after the first 10 000 samples
+    for t in log.t.iter_mut().skip(12_000) {
+        *t += 0.3 * 2e-3;
+    }
+    let path = dir.join("uneven.mcap");
+    ivdyn::io::write_mcap(&path, &log, &[]).unwrap();
+    let read = ivdyn::io::ReadOptions::new(&robot.joint_names);
+    match st::identify_mcap(&robot, &path, None, &read, &IdentifyOptions::default()).unwrap() {
+        Streamed::Unsupported(why) => assert!(why.contains("uneven stamps") && why.contains("12000"), "{why}"),
+        Streamed::Done(_) => panic!("an uneven log was streamed"),
+    }
+    let idim = IdentifyOptions { method: pipeline::Method::IdimIv, ..Default::default() };
+    assert!(matches!(st::identify_mcap(&robot, &path, None, &read, &idim).unwrap(), Streamed::Unsupported(_)));
+    let _ = std::fs::remove_dir_all(&dir);
+}
