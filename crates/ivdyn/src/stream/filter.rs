@@ -124,6 +124,36 @@ impl StreamFiltfilt {
         }
     }
 
+    /// [`push`](Self::push) of `t` rows that `fill(k, dst)` appends to `dst` (row `k`, `m`
+    /// values): the rows are built straight in the filter's buffer, without a copy.
+    pub fn push_with(&mut self, t: usize, mut fill: impl FnMut(usize, &mut Vec<f64>), out: &mut impl FnMut(usize, &[f64])) {
+        let m = self.m;
+        if !self.started {
+            let mut rows = Vec::with_capacity(t * m);
+            for k in 0..t {
+                fill(k, &mut rows);
+            }
+            return self.push(&rows, out);
+        }
+        let at = self.buf.len();
+        for k in 0..t {
+            fill(k, &mut self.buf);
+        }
+        debug_assert_eq!(self.buf.len(), at + t * m);
+        // the ring of the last `pad + 1` raw rows, before the forward pass overwrites them
+        let len = self.pad + 1;
+        for r in t.saturating_sub(len)..t {
+            let i = self.ring_next;
+            self.ring[i * m..(i + 1) * m].copy_from_slice(&self.buf[at + r * m..at + (r + 1) * m]);
+            self.ring_next = (i + 1) % len;
+        }
+        self.total += t;
+        forward(&self.filter.sections, &mut self.z, &mut self.buf[at..], m);
+        if self.buf.len() / m >= self.block + self.look {
+            self.flush(out);
+        }
+    }
+
     /// Ends the stream: finishes every remaining row exactly as `filtfilt` on the whole
     /// signal does (for fewer than `padlen + 1` rows in all: `filtfilt` itself).
     pub fn finish(&mut self, out: &mut impl FnMut(usize, &[f64])) {
