@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test venv rust-test nostd py-test fixtures bench bench-anchor clean paper real-data
+.PHONY: demo test venv rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -64,6 +64,21 @@ fixtures: venv
 ## bench: criterion benchmarks (numbers go to benches/README.md by hand)
 bench:
 	$(CARGO) bench -p ivdyn-benches
+
+## bench-hour: a 1-hour, 1 kHz UR5 log (friction, 0.1 N m torque noise; ~610 MB, written
+## once to $(HOUR_LOG), not into the repository) identified end to end by the streaming
+## `ivdyn identify` (read, condition, regressor, parallel filter, WLS + IV/DWH, validation);
+## wall time and peak memory from /usr/bin/time -v (benches/README.md has the numbers)
+HOUR_LOG ?= /tmp/ivdyn-hour.mcap
+bench-hour:
+	$(CARGO) build --release -p ivdyn --bin ivdyn
+	test -f $(HOUR_LOG) || ./target/release/ivdyn simulate --urdf fixtures/ur5.urdf --base base_link --tip tool0 \
+	    --duration 3600 --rate 1000 --fc 2,2,1.5,0.6,0.6,0.4 --fv 0.8,0.8,0.5,0.2,0.2,0.1 --noise 0.1 --seed 1 \
+	    --out $(HOUR_LOG) --quiet
+	uptime
+	/usr/bin/time -v ./target/release/ivdyn identify --urdf fixtures/ur5.urdf --base base_link --tip tool0 \
+	    --log $(HOUR_LOG) --json $(HOUR_LOG).json --quiet 2>&1 | \
+	    grep -E "fit:|validation|Durbin|Elapsed|Maximum resident|User time|System time|Percent of CPU"
 
 clean:
 	$(CARGO) clean

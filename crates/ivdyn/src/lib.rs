@@ -20,12 +20,14 @@ pub mod error;
 pub mod excite;
 pub mod ident;
 pub mod io;
+pub mod joint_acc;
 pub mod pipeline;
 pub mod realdata;
 pub mod repro;
 pub mod robot;
 pub mod signal;
 pub mod transmission;
+pub mod stream;
 pub mod urdf;
 pub mod urdf_write;
 

@@ -32,7 +32,8 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::ident::{self, fit_iv, fit_ls, BaseParams, FitReport, IvAccumulator, LsAccumulator};
+use crate::ident::{self, fit_iv, fit_ls, BaseParams, FitReport, LsAccumulator};
+use crate::joint_acc::JointAccs;
 use crate::io::JointLog;
 use crate::signal::{self, Butterworth, ConditionOptions, Decimator};
 use crate::Robot;
@@ -58,15 +59,15 @@ pub trait Progress: Send + Sync {
 /// Shared progress sink.
 pub type ProgressSink = Option<Arc<dyn Progress>>;
 
-struct Stage<'a>(&'a ProgressSink);
+pub(crate) struct Stage<'a>(&'a ProgressSink);
 impl<'a> Stage<'a> {
-    fn begin(p: &'a ProgressSink, name: &str, total: u64) -> Self {
+    pub(crate) fn begin(p: &'a ProgressSink, name: &str, total: u64) -> Self {
         if let Some(p) = p {
             p.begin(name, total);
         }
         Stage(p)
     }
-    fn advance(&self, n: u64) {
+    pub(crate) fn advance(&self, n: u64) {
         if let Some(p) = self.0 {
             p.advance(n);
         }
@@ -133,6 +134,8 @@ pub struct IdentifyOptions {
     pub idim_max_iter: usize,
     /// IDIM-IV convergence tolerance on the relative change of the estimate.
     pub idim_tol: f64,
+    /// Drive parameters to estimate (default: all of `fc, fv, ia, tau0`).
+    pub drive: DriveTerms,
     /// Progress sink.
     pub progress: ProgressSink,
     /// Also fit physically consistent full parameters ([`ident::consistent`]).
@@ -151,6 +154,7 @@ impl Default for IdentifyOptions {
             seed: 1,
             idim_max_iter: 10,
             idim_tol: 1e-3,
+            drive: DriveTerms::default(),
             progress: None,
             consistent: false,
         }
@@ -224,6 +228,8 @@ pub struct IdentifyReport {
     pub instrument: Option<String>,
     /// Joint names (order of every per-joint list).
     pub joints: Vec<String>,
+    /// Drive parameters estimated per joint (subset of `fc, fv, ia, tau0`).
+    pub drive_terms: Vec<String>,
     /// Sample rate of the data fitted (after decimation), Hz.
     pub sample_rate_hz: f64,
     /// Decimation factor.
@@ -259,6 +265,8 @@ pub struct IdentifyReport {
     /// The fit with physical consistency enforced (`IdentifyOptions::consistent`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub consistent: Option<ident::consistent::ConsistentReport>,
+    /// The log was streamed block by block (bounded memory) rather than read whole.
+    pub streamed: bool,
     /// The underlying fit.
     #[serde(skip)]
     pub fit_report: Option<FitReport>,
@@ -305,7 +313,7 @@ impl Prepared {
     }
 }
 
-fn err_est(msg: impl Into<String>) -> Error {
+pub(crate) fn err_est(msg: impl Into<String>) -> Error {
     Error::Estimation { msg: msg.into() }
 }
 
@@ -365,7 +373,7 @@ fn prepare(robot: &Robot, base: &BaseParams, log: &JointLog, opts: &IdentifyOpti
                 (c.d.q.clone(), c.d.qd.clone(), qh)
             }
             None => {
-                inst_name = Some("regressor on a closed-loop simulation of the nominal model tracking the measured positions (stand-in M-scaled PD, 10 Hz, damping 0.7, plus nominal inverse-dynamics feed-forward; no command topic in the log)".to_string());
+                inst_name = Some(TRACKING_INSTRUMENT.to_string());
                 nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?
             }
         };
@@ -380,39 +388,87 @@ fn prepare(robot: &Robot, base: &BaseParams, log: &JointLog, opts: &IdentifyOpti
     Ok(Prepared { n, dt: c.dt * dec.factor as f64, q, qd, qdd, phi, tau, z, instrument: inst_name, cutoff_hz: dec.filter.cutoff_hz, factor: dec.factor })
 }
 
+/// The instrument without a command topic, in words.
+pub(crate) const TRACKING_INSTRUMENT: &str = "regressor on a closed-loop simulation of the nominal model tracking the measured positions (stand-in M-scaled PD, 10 Hz, damping 0.7, plus nominal inverse-dynamics feed-forward; no command topic in the log)";
+
 /// Closed-loop simulation (semi-implicit Euler at `dt`) of the nominal model tracking the
 /// measured motion: `tau = rnea(q_m, qd_m, qdd_m) + M(q_m) (kp (q_m - q) + kd (qd_m - qd))`.
 /// Returns the simulated `(q, qd, qdd)`.
 fn nominal_tracking(robot: &Robot, q: &[f64], qd: &[f64], qdd: &[f64], dt: f64) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
-    let n = robot.dof();
-    let t = q.len() / n;
-    let mut ff = vec![0.0; t * n];
-    crate::batch::rnea_batch(robot, q, qd, qdd, &mut ff)?;
-    let mut mm = vec![0.0; t * n * n];
-    crate::batch::mass_matrix_batch(robot, q, &mut mm)?;
-    let wn = 2.0 * std::f64::consts::PI * 10.0f64.min(0.05 / dt);
-    let (kp, kd) = (wn * wn, 2.0 * 0.7 * wn);
-    let (mut qs, mut qds) = (q[..n].to_vec(), qd[..n].to_vec());
-    let (mut oq, mut oqd, mut oqdd) = (Vec::with_capacity(t * n), Vec::with_capacity(t * n), Vec::with_capacity(t * n));
-    let mut tau = vec![0.0; n];
-    for k in 0..t {
-        let e: Vec<f64> = (0..n).map(|i| kp * (q[k * n + i] - qs[i]) + kd * (qd[k * n + i] - qds[i])).collect();
-        for i in 0..n {
-            tau[i] = ff[k * n + i] + (0..n).map(|j| mm[k * n * n + i * n + j] * e[j]).sum::<f64>();
-        }
-        let a = robot.forward_dynamics(&qs, &qds, &tau).map_err(|e| err_est(format!("instrument: simulating the nominal model failed at sample {k}: {e}")))?;
-        if a.iter().chain(&qs).any(|v| !v.is_finite() || v.abs() > 1e6) {
-            return Err(err_est(format!("instrument: the simulation of the nominal model diverged at sample {k}")));
-        }
-        oq.extend_from_slice(&qs);
-        oqd.extend_from_slice(&qds);
-        oqdd.extend_from_slice(&a);
-        for i in 0..n {
-            qds[i] += a[i] * dt;
-            qs[i] += qds[i] * dt;
-        }
+    Tracker::new(dt).run(robot, q, qd, qdd)
+}
+
+/// The state of [`nominal_tracking`] between blocks of samples, so that a log can be
+/// simulated block by block (streaming) with the same result as in one piece.
+pub(crate) struct Tracker {
+    dt: f64,
+    kp: f64,
+    kd: f64,
+    /// Simulated `(q, qd)` at the next sample (`None` before the first block: starts at
+    /// the measured state).
+    state: Option<(Vec<f64>, Vec<f64>)>,
+    /// Samples simulated so far (for error messages).
+    done: usize,
+}
+
+impl Tracker {
+    /// PD gains of the stand-in control law at sample time `dt`: 10 Hz bandwidth (at most
+    /// `0.05 / dt` Hz), damping 0.7.
+    pub(crate) fn gains(dt: f64) -> (f64, f64) {
+        let wn = 2.0 * std::f64::consts::PI * 10.0f64.min(0.05 / dt);
+        (wn * wn, 2.0 * 0.7 * wn)
     }
-    Ok((oq, oqd, oqdd))
+
+    pub(crate) fn new(dt: f64) -> Self {
+        let (kp, kd) = Self::gains(dt);
+        Tracker { dt, kp, kd, state: None, done: 0 }
+    }
+
+    /// Simulates the next samples (`T x N` measured `q, qd, qdd`), returns the simulated
+    /// `(q, qd, qdd)` of these samples.
+    pub(crate) fn run(&mut self, robot: &Robot, q: &[f64], qd: &[f64], qdd: &[f64]) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+        let n = robot.dof();
+        let t = q.len() / n;
+        if t == 0 {
+            return Ok((vec![], vec![], vec![]));
+        }
+        let mut ff = vec![0.0; t * n];
+        crate::batch::rnea_batch(robot, q, qd, qdd, &mut ff)?;
+        let mut mm = vec![0.0; t * n * n];
+        crate::batch::mass_matrix_batch(robot, q, &mut mm)?;
+        let (kp, kd, dt) = (self.kp, self.kd, self.dt);
+        let (mut qs, mut qds) = self.state.take().unwrap_or_else(|| (q[..n].to_vec(), qd[..n].to_vec()));
+        let (mut oq, mut oqd, mut oqdd) = (Vec::with_capacity(t * n), Vec::with_capacity(t * n), Vec::with_capacity(t * n));
+        let done = self.done;
+        // one work buffer for the block (the per-call `Robot::forward_dynamics` allocates one)
+        crate::with_model!(&robot.model, m => {
+            let mut data = Box::new(ivdyn_core::Data::new());
+            let mut tau = ivdyn_core::VecN::zeros();
+            for k in 0..t {
+                let s = done + k;
+                let e: Vec<f64> = (0..n).map(|i| kp * (q[k * n + i] - qs[i]) + kd * (qd[k * n + i] - qds[i])).collect();
+                for i in 0..n {
+                    tau[i] = ff[k * n + i] + (0..n).map(|j| mm[k * n * n + i * n + j] * e[j]).sum::<f64>();
+                }
+                let (qv, qdv) = (ivdyn_core::VecN::from_column_slice(&qs), ivdyn_core::VecN::from_column_slice(&qds));
+                let a = ivdyn_core::forward_dynamics(&**m, &mut data, &qv, &qdv, &tau)
+                    .map_err(|e| err_est(format!("instrument: simulating the nominal model failed at sample {s}: {e}")))?;
+                if a.iter().chain(&qs).any(|v| !v.is_finite() || v.abs() > 1e6) {
+                    return Err(err_est(format!("instrument: the simulation of the nominal model diverged at sample {s}")));
+                }
+                oq.extend_from_slice(&qs);
+                oqd.extend_from_slice(&qds);
+                oqdd.extend_from_slice(a.as_slice());
+                for i in 0..n {
+                    qds[i] += a[i] * dt;
+                    qs[i] += qds[i] * dt;
+                }
+            }
+        });
+        self.done += t;
+        self.state = Some((qs, qds));
+        Ok((oq, oqd, oqdd))
+    }
 }
 
 /// Decimation factor chosen by `decimate == 0` ("auto"): the output rate is about 2.5x the
@@ -428,7 +484,7 @@ pub fn auto_decimation(fs: f64, condition: &ConditionOptions) -> usize {
 
 /// The parallel filter: [`Decimator::new`] for a factor > 1 (`0` = [`auto_decimation`]),
 /// else the default differentiation filter alone.
-fn parallel_filter(decimate: usize, fs: f64, condition: &ConditionOptions) -> Result<Decimator> {
+pub(crate) fn parallel_filter(decimate: usize, fs: f64, condition: &ConditionOptions) -> Result<Decimator> {
     let f = if decimate == 0 { auto_decimation(fs, condition) } else { decimate };
     if f > 1 { Decimator::new(f, fs) } else { Decimator::with_filter(1, Butterworth::default_for(fs)?) }
 }
@@ -463,11 +519,10 @@ fn quality(data: String, phi: &[f64], tau: &[f64], theta: &[f64], n: usize) -> Q
     Quality { data, samples: t, rms, r2, tau_rms }
 }
 
-fn per_joint_weights(phi: &[f64], tau: &[f64], theta: &[f64], n: usize, b: usize) -> Vec<f64> {
-    let q = quality(String::new(), phi, tau, theta, n);
-    let _ = b;
-    let floor = q.rms.iter().cloned().fold(0.0, f64::max) * 1e-6 + 1e-12;
-    q.rms.iter().map(|r| 1.0 / (r * r).max(floor * floor)).collect()
+/// Two-step WLS weights: `1 / rms_j^2` per joint (floored at `1e-6` of the largest RMS).
+fn per_joint_weights(rms: &[f64]) -> Vec<f64> {
+    let floor = rms.iter().cloned().fold(0.0, f64::max) * 1e-6 + 1e-12;
+    rms.iter().map(|r| 1.0 / (r * r).max(floor * floor)).collect()
 }
 
 fn row_weights(w: &[f64], rows: usize) -> Vec<f64> {
@@ -479,26 +534,100 @@ fn row_weights(w: &[f64], rows: usize) -> Vec<f64> {
 // identify
 // ---------------------------------------------------------------------------------------
 
-/// Identifies the base parameters of `robot` from `log` (see the module docs).
+/// Which drive (per-joint) parameters [`identify`] estimates. The parameters left out
+/// keep their nominal values (URDF or `--params`; zero unless set) and no base parameter
+/// contains them. Default: all four.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct DriveTerms {
+    /// Coulomb friction `fc` (torque `fc sign(qd)`).
+    pub coulomb: bool,
+    /// Viscous friction `fv` (torque `fv qd`).
+    pub viscous: bool,
+    /// Armature (rotor inertia reflected to the joint) `ia` (torque `ia qdd`).
+    pub armature: bool,
+    /// Constant torque offset `tau0`.
+    pub offset: bool,
+}
+
+impl Default for DriveTerms {
+    fn default() -> Self {
+        DriveTerms { coulomb: true, viscous: true, armature: true, offset: true }
+    }
+}
+
+impl DriveTerms {
+    /// No drive parameter: the rigid-body model only.
+    pub const NONE: DriveTerms = DriveTerms { coulomb: false, viscous: false, armature: false, offset: false };
+
+    /// The per-joint parameter suffixes estimated (`fc`, `fv`, `ia`, `tau0`, in layout order).
+    pub fn names(&self) -> Vec<String> {
+        let on = [self.coulomb, self.viscous, self.armature, self.offset];
+        ["fc", "fv", "ia", "tau0"].iter().zip(on).filter(|(_, o)| *o).map(|(s, _)| s.to_string()).collect()
+    }
+
+    /// Full-parameter indices left out for `n` joints (layout: `10 n` link parameters,
+    /// then per joint `[fc, fv, ia, tau0]`).
+    pub fn excluded_columns(&self, n: usize) -> Vec<usize> {
+        let on = [self.coulomb, self.viscous, self.armature, self.offset];
+        (0..n).flat_map(|j| (0..4).filter(move |&k| !on[k]).map(move |k| LINK_PARAMS * n + 4 * j + k)).collect()
+    }
+}
+
+/// The base parameters [`identify`] fits: [`ident::robot_base_params`] over the inertial
+/// parameters and the drive parameters of `opts.drive`.
+pub fn identify_base(robot: &Robot, opts: &IdentifyOptions) -> Result<BaseParams> {
+    let n = robot.dof();
+    let samples = opts.base_samples.max(2 * robot.num_params() / n.max(1));
+    ident::robot_base_params_excluding(robot, samples, opts.seed, false, &opts.drive.excluded_columns(n))
+}
+
+/// Fit and held-out decimated-sample ranges of a prepared log of `t` samples: 1 % of the
+/// samples (at most 20) dropped at each end (filter edges), the last
+/// `validation_fraction` held out unless a validation log is given.
+pub(crate) fn split_ranges(t: usize, opts: &IdentifyOptions) -> (std::ops::Range<usize>, Option<std::ops::Range<usize>>) {
+    let edge = (t / 100).min(20);
+    if opts.validation_log.is_some() || opts.validation_fraction <= 0.0 {
+        (edge..t - edge, None)
+    } else {
+        let cut = ((1.0 - opts.validation_fraction.min(0.9)) * t as f64) as usize;
+        (edge..cut.max(edge), Some(cut.max(edge)..t - edge))
+    }
+}
+
+/// What [`finish_identify`] needs from a prepared log (in memory or streamed).
+pub(crate) struct FitData {
+    /// Statistics of the fit rows (with instrument sums when an instrument was built).
+    pub fit: JointAccs,
+    /// Held-out statistics and their label.
+    pub validation: Option<(String, JointAccs)>,
+    /// The instrument in words.
+    pub instrument: Option<String>,
+    /// Sample time of the fitted data (after decimation).
+    pub dt: f64,
+    /// Decimation factor.
+    pub factor: usize,
+    /// Cut-off of the parallel filter.
+    pub cutoff_hz: f64,
+    /// The IDIM-IV fit (method `idim-iv`), computed on the arrays.
+    pub idim: Option<FitReport>,
+    /// Remarks so far.
+    pub notes: Vec<String>,
+}
+
+/// Identifies the base parameters of `robot` from `log` (see the module docs). The whole
+/// log is held in memory; [`crate::stream::identify_mcap`] streams a log file instead.
 pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result<IdentifyReport> {
     let n = robot.dof();
     let mut notes = vec![];
     let base = {
         let _st = Stage::begin(&opts.progress, "base parameters", 0);
-        ident::robot_base_params(robot, opts.base_samples.max(2 * robot.num_params() / n.max(1)), opts.seed)?
+        identify_base(robot, opts)?
     };
     let b = base.base_count();
     let want_iv = opts.method != Method::IdimIv;
     let prep = prepare(robot, &base, log, opts, want_iv, "log")?;
     let t = prep.len();
-    // split: fit on the head, validate on the tail (or on the validation log)
-    let edge = (t / 100).min(20);
-    let (fit_range, val_range) = if opts.validation_log.is_some() || opts.validation_fraction <= 0.0 {
-        (edge..t - edge, None)
-    } else {
-        let cut = ((1.0 - opts.validation_fraction.min(0.9)) * t as f64) as usize;
-        (edge..cut, Some(cut..t - edge))
-    };
+    let (fit_range, val_range) = split_ranges(t, opts);
     if fit_range.len() * n < 2 * b {
         return Err(err_est(format!(
             "log too short: {} samples of {n} joints after conditioning for {b} base parameters",
@@ -508,89 +637,102 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
     let w_row = n * b;
     let phi_fit = rows_of(&prep.phi, w_row, fit_range.clone());
     let tau_fit = rows_of(&prep.tau, n, fit_range.clone());
-    let rows = tau_fit.len();
+    let mut fit = JointAccs::new(n, b, prep.z.is_some());
+    fit.add(phi_fit, prep.z.as_ref().map(|z| rows_of(z, w_row, fit_range.clone())), tau_fit)?;
+    let validation = match (&opts.validation_log, val_range) {
+        (Some(vlog), _) => {
+            let vp = prepare(robot, &base, vlog, opts, false, "validation log")?;
+            let t2 = vp.len();
+            let e2 = (t2 / 100).min(20);
+            let mut v = JointAccs::new(n, b, false);
+            v.add(rows_of(&vp.phi, w_row, e2..t2 - e2), None, rows_of(&vp.tau, n, e2..t2 - e2))?;
+            Some(("validation log".to_string(), v))
+        }
+        (None, Some(r)) if r.len() > 1 => {
+            let mut v = JointAccs::new(n, b, false);
+            v.add(rows_of(&prep.phi, w_row, r.clone()), None, rows_of(&prep.tau, n, r))?;
+            Some((format!("tail {:.0}% of the log", 100.0 * opts.validation_fraction), v))
+        }
+        _ => None,
+    };
+    let idim = if opts.method == Method::IdimIv {
+        let r = fit_range.clone();
+        let (q, qd, qdd) = (rows_of(&prep.q, n, r.clone()), rows_of(&prep.qd, n, r.clone()), rows_of(&prep.qdd, n, r.clone()));
+        let tf = r.len();
+        let mut ff = vec![0.0; tf * n];
+        crate::batch::rnea_batch(robot, q, qd, qdd, &mut ff)?;
+        let mut mm = vec![0.0; tf * n * n];
+        crate::batch::mass_matrix_batch(robot, q, &mut mm)?;
+        let (kp, kd) = Tracker::gains(prep.dt);
+        let control = |k: usize, qs: &[f64], qds: &[f64]| -> Vec<f64> {
+            let e: Vec<f64> = (0..n).map(|i| kp * (q[k * n + i] - qs[i]) + kd * (qd[k * n + i] - qds[i])).collect();
+            (0..n).map(|i| ff[k * n + i] + (0..n).map(|j| mm[k * n * n + i * n + j] * e[j]).sum::<f64>()).collect()
+        };
+        let exp = ident::Experiment { dt: prep.dt, q, qd, qdd, tau: tau_fit };
+        let _st = Stage::begin(&opts.progress, "IDIM-IV iterations", 0);
+        let res = ident::idim_iv(robot, &base, &exp, control, opts.idim_max_iter, opts.idim_tol)?;
+        if !res.converged {
+            notes.push(format!("IDIM-IV did not converge in {} iterations", opts.idim_max_iter));
+        }
+        notes.push("IDIM-IV control law: stand-in stiff PD on the measured positions (M-scaled, 10 Hz, damping 0.7) + nominal inverse dynamics feed-forward".into());
+        Some(res.fit)
+    } else {
+        None
+    };
+    if log.truncated {
+        notes.push("the log was truncated; only the samples before the damage were used".into());
+    }
+    let data = FitData { fit, validation, instrument: prep.instrument.clone(), dt: prep.dt, factor: prep.factor, cutoff_hz: prep.cutoff_hz, idim, notes };
+    finish_identify(robot, &base, opts, data)
+}
+
+/// The fits (OLS, two-step WLS, IV), the DWH test, fit quality and validation, from the
+/// per-joint statistics of a prepared log: the part shared by the in-memory and the
+/// streaming `identify`.
+pub(crate) fn finish_identify(robot: &Robot, base: &BaseParams, opts: &IdentifyOptions, d: FitData) -> Result<IdentifyReport> {
+    let n = robot.dof();
+    let b = base.base_count();
+    let mut notes = d.notes;
+    if d.fit.samples() * n < 2 * b {
+        return Err(err_est(format!("log too short: {} samples of {n} joints after conditioning for {b} base parameters", d.fit.samples())));
+    }
     let nominal = robot.params();
     let nom_base = base.project(&nominal)?;
-
-    let st = Stage::begin(&opts.progress, "fitting", 3);
-    let mut acc = LsAccumulator::new(b);
-    acc.add_rows(phi_fit, tau_fit, None)?;
-    let ols = fit_ls(&acc, &base.names)?;
-    st.advance(1);
     let fill = |theta: &[f64]| -> Vec<f64> { theta.iter().zip(&nom_base).map(|(t, nb)| if t.is_finite() { *t } else { *nb }).collect() };
+    let st = Stage::begin(&opts.progress, "fitting", 3);
+    let ones = vec![1.0; n];
+    let ols = fit_ls(&d.fit.ls(&ones)?, &base.names)?;
+    st.advance(1);
     let mut weights = vec![1.0; n];
     let mut iv_fit: Option<std::result::Result<FitReport, Error>> = None;
     let fit = match opts.method {
         Method::Ols => ols.clone(),
         Method::Wls | Method::Iv => {
-            weights = per_joint_weights(phi_fit, tau_fit, &fill(&ols.theta), n, b);
-            let w = row_weights(&weights, rows);
-            let mut acc = LsAccumulator::new(b);
-            acc.add_rows(phi_fit, tau_fit, Some(&w))?;
-            let wls = fit_ls(&acc, &base.names)?;
+            weights = per_joint_weights(&d.fit.quality(String::new(), &fill(&ols.theta)).rms);
+            let wls = fit_ls(&d.fit.ls(&weights)?, &base.names)?;
             st.advance(1);
-            let z = prep.z.as_ref().expect("instrument built");
-            let mut iacc = IvAccumulator::new(b);
-            iacc.add_rows(phi_fit, rows_of(z, w_row, fit_range.clone()), tau_fit, Some(&w))?;
-            let iv = fit_iv(&iacc, &base.names);
+            let iv = d.fit.iv(&weights).map(|acc| acc.and_then(|a| fit_iv(&a, &base.names)));
             st.advance(1);
             if opts.method == Method::Iv {
                 match iv {
-                    Ok(f) => {
+                    Some(Ok(f)) => {
                         iv_fit = Some(Ok(f.clone()));
                         f
                     }
-                    Err(e) => return Err(err_est(format!("IV fit failed ({e}): the instrument is not correlated with the regressor; try --method wls or idim-iv"))),
+                    Some(Err(e)) => return Err(err_est(format!("IV fit failed ({e}): the instrument is not correlated with the regressor; try --method wls or idim-iv"))),
+                    None => return Err(err_est("IV fit: no instrument was built")),
                 }
             } else {
-                iv_fit = Some(iv);
+                iv_fit = iv;
                 wls
             }
         }
-        Method::IdimIv => {
-            drop(st);
-            let r = fit_range.clone();
-            let (q, qd, qdd) = (rows_of(&prep.q, n, r.clone()), rows_of(&prep.qd, n, r.clone()), rows_of(&prep.qdd, n, r.clone()));
-            let tf = r.len();
-            let mut ff = vec![0.0; tf * n];
-            crate::batch::rnea_batch(robot, q, qd, qdd, &mut ff)?;
-            let mut mm = vec![0.0; tf * n * n];
-            crate::batch::mass_matrix_batch(robot, q, &mut mm)?;
-            let wn = 2.0 * std::f64::consts::PI * 10.0f64.min(0.05 / prep.dt);
-            let (kp, kd) = (wn * wn, 2.0 * 0.7 * wn);
-            let control = |k: usize, qs: &[f64], qds: &[f64]| -> Vec<f64> {
-                let e: Vec<f64> = (0..n).map(|i| kp * (q[k * n + i] - qs[i]) + kd * (qd[k * n + i] - qds[i])).collect();
-                (0..n).map(|i| ff[k * n + i] + (0..n).map(|j| mm[k * n * n + i * n + j] * e[j]).sum::<f64>()).collect()
-            };
-            let exp = ident::Experiment { dt: prep.dt, q, qd, qdd, tau: tau_fit };
-            let _st = Stage::begin(&opts.progress, "IDIM-IV iterations", 0);
-            let res = ident::idim_iv(robot, &base, &exp, control, opts.idim_max_iter, opts.idim_tol)?;
-            if !res.converged {
-                notes.push(format!("IDIM-IV did not converge in {} iterations", opts.idim_max_iter));
-            }
-            notes.push("IDIM-IV control law: stand-in stiff PD on the measured positions (M-scaled, 10 Hz, damping 0.7) + nominal inverse dynamics feed-forward".into());
-            res.fit
-        }
+        Method::IdimIv => d.idim.clone().ok_or_else(|| err_est("IDIM-IV: no fit"))?,
     };
+    drop(st);
     let theta = fill(&fit.theta);
-    let fit_q = quality("fit".into(), phi_fit, tau_fit, &theta, n);
-    let validation = match (&opts.validation_log, val_range.clone()) {
-        (Some(vlog), _) => {
-            let vp = prepare(robot, &base, vlog, opts, false, "validation log")?;
-            let t2 = vp.len();
-            let e2 = (t2 / 100).min(20);
-            let r = e2..t2 - e2;
-            Some(quality("validation log".into(), rows_of(&vp.phi, w_row, r.clone()), rows_of(&vp.tau, n, r), &theta, n))
-        }
-        (None, Some(r)) if r.len() > 1 => Some(quality(
-            format!("tail {:.0}% of the log", 100.0 * opts.validation_fraction),
-            rows_of(&prep.phi, w_row, r.clone()),
-            rows_of(&prep.tau, n, r),
-            &theta,
-            n,
-        )),
-        _ => None,
-    };
+    let fit_q = d.fit.quality("fit".into(), &theta);
+    let validation = d.validation.as_ref().map(|(label, v)| v.quality(label.clone(), &theta)).filter(|q| q.samples > 1);
     let dwh_src = match opts.method {
         Method::IdimIv => fit.dwh,
         _ => match &iv_fit {
@@ -620,12 +762,11 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
     let physical = ident::physical::check_robot_params(robot, &full);
     let consistent = if opts.consistent {
         let _st = Stage::begin(&opts.progress, "consistent fit", 0);
-        let mut cacc = LsAccumulator::new(b);
-        cacc.add_rows(phi_fit, tau_fit, Some(&row_weights(&weights, rows)))?;
-        let cf = ident::consistent::fit_consistent(&cacc, &base, &full, &nominal, &robot.link_names, &robot.joint_names, &Default::default())?;
-        let val = val_range.filter(|r| opts.validation_log.is_none() && r.len() > 1).map(|r| quality(format!("tail {:.0}% of the log", 100.0 * opts.validation_fraction), rows_of(&prep.phi, w_row, r.clone()), rows_of(&prep.tau, n, r), &cf.theta_base, n));
+        let cacc = d.fit.ls(&weights)?;
+        let cf = ident::consistent::fit_consistent(&cacc, base, &full, &nominal, &robot.link_names, &robot.joint_names, &Default::default())?;
+        let val = d.validation.as_ref().map(|(label, v)| v.quality(label.clone(), &cf.theta_base)).filter(|q| q.samples > 1);
         Some(ident::consistent::ConsistentReport {
-            fit: quality("fit".into(), phi_fit, tau_fit, &cf.theta_base, n),
+            fit: d.fit.quality("fit".into(), &cf.theta_base),
             validation: val,
             params: ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: cf.theta.clone() },
             result: cf,
@@ -636,20 +777,18 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
     let base_vals = (0..b)
         .map(|i| BaseValue { name: base.names[i].clone(), value: fit.theta[i], std: fit.std[i], rel_std_pct: fit.rel_std_pct[i], nominal: nom_base[i] })
         .collect();
-    if log.truncated {
-        notes.push("the log was truncated; only the samples before the damage were used".into());
-    }
     Ok(IdentifyReport {
         method: opts.method.name().into(),
         instrument: match opts.method {
-            Method::Ols | Method::Wls => prep.instrument.clone().map(|s| format!("(DWH test only) {s}")),
-            Method::Iv => prep.instrument.clone(),
+            Method::Ols | Method::Wls => d.instrument.clone().map(|s| format!("(DWH test only) {s}")),
+            Method::Iv => d.instrument.clone(),
             Method::IdimIv => Some("IDIM-IV closed-loop simulation of the current estimate".into()),
         },
         joints: robot.joint_names.clone(),
-        sample_rate_hz: 1.0 / prep.dt,
-        decimation: prep.factor,
-        filter_cutoff_hz: prep.cutoff_hz,
+        drive_terms: opts.drive.names(),
+        sample_rate_hz: 1.0 / d.dt,
+        decimation: d.factor,
+        filter_cutoff_hz: d.cutoff_hz,
         rows: fit.rows,
         rank: fit.rank,
         condition_number: fit.condition_number,
@@ -664,8 +803,38 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
         notes,
         physical,
         consistent,
+        streamed: false,
         fit_report: Some(fit),
     })
+}
+
+/// Writes `log`'s measured torques, the torques predicted by `model` (e.g. the identified
+/// robot) and the residuals to the MCAP file `path`
+/// ([`crate::io::PredictionWriter`]). The samples are the conditioned ones (duplicated
+/// stamps dropped, uneven stamps resampled, as `identify` sees them), the prediction is
+/// `rnea(q, qd, qdd)` of `model` at the smoothed state, the measured copy is the log's
+/// values at those samples (resampled like the torque if the stamps were uneven).
+/// Returns the samples written.
+pub fn write_prediction(path: &std::path::Path, model: &Robot, log: &JointLog, condition: &ConditionOptions) -> Result<usize> {
+    let n = model.dof();
+    let c = signal::condition(log, condition)?;
+    let tau = c.tau.as_ref().ok_or_else(|| err_est("the log has no effort (torque) data"))?;
+    let dd = signal::dedup_stamps(&log.t)?;
+    let t_kept: Vec<f64> = dd.keep.iter().map(|&k| log.t[k]).collect();
+    let measured = |a: &[f64]| -> Result<Vec<f64>> {
+        let kept = signal::take_rows(a, n, &dd.keep);
+        if c.resampled { Ok(signal::resample_uniform(&t_kept, &kept, n, c.dt, condition.interp)?.1) } else { Ok(kept) }
+    };
+    let q_meas = measured(&log.q)?;
+    let qd_meas = log.qd.as_ref().map(|a| measured(a)).transpose()?.unwrap_or_default();
+    let mut pred = vec![0.0; c.d.q.len()];
+    crate::batch::rnea_batch(model, &c.d.q, &c.d.qd, &c.d.qdd, &mut pred)?;
+    let stamps: Vec<i64> = c.t.iter().map(|t| log.t0_ns.saturating_add((t * 1e9).round() as i64)).collect();
+    let mut w = crate::io::PredictionWriter::create(path, &model.joint_names)?;
+    w.write_block(&stamps, &q_meas, &qd_meas, tau, &c.d.q, &c.d.qd, &pred)?;
+    let k = w.samples();
+    w.finish()?;
+    Ok(k)
 }
 
 // ---------------------------------------------------------------------------------------
@@ -805,7 +974,7 @@ pub fn payload(robot: &Robot, after: &JointLog, before: Option<&JointLog>, opts:
     acc.add_rows(&phib, res, None)?;
     let ols = fit_ls(&acc, &bp.names)?;
     let th0: Vec<f64> = ols.theta.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
-    let w = per_joint_weights(&phib, res, &th0, n, nb);
+    let w = per_joint_weights(&quality(String::new(), &phib, res, &th0, n).rms);
     let mut acc = LsAccumulator::new(nb);
     acc.add_rows(&phib, res, Some(&row_weights(&w, res.len())))?;
     let fit = fit_ls(&acc, &bp.names)?;

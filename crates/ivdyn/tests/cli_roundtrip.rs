@@ -144,3 +144,31 @@ fn cli_identify_methods_and_validation_log() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// The round trip exactly: the torques `identify --out-mcap` predicts with the identified
+/// model are reproduced by `simulate --params <the written parameter file>` along the same
+/// (smoothed) trajectory, to rounding. Reloading the parameters loses nothing.
+#[test]
+fn cli_roundtrip_reloaded_parameters_reproduce_the_identified_torques() {
+    let d = tmpdir("roundtrip_exact");
+    let (log, params, pred, traj, re) = (d.join("log.mcap"), d.join("p.json"), d.join("pred.mcap"), d.join("traj.csv"), d.join("re.csv"));
+    let mut a = with(ur5_args(), &["simulate", "--noise", "0.05", "--duration", "8", "--seed", "13", "--out", &s(&log)]);
+    a.extend(["--fc", "2,2,1.5,0.5,0.5,0.3", "--fv", "3,3,2,0.5,0.5,0.3"].iter().map(|s| s.to_string()));
+    ok(&run(a));
+    ok(&run(with(ur5_args(), &["identify", "--log", &s(&log), "--out-params", &s(&params), "--out-mcap", &s(&pred)])));
+    let robot0 = ivdyn::Robot::from_urdf(fixture("ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
+    let names = robot0.joint_names.clone();
+    let p = ivdyn::io::read_mcap(&pred, &ivdyn::io::ReadOptions::new(&names).topic("/ivdyn/predicted")).unwrap();
+    // the smoothed positions the prediction was made at, as a trajectory file
+    let tr = ivdyn::io::JointLog { joint_names: names.clone(), t0_ns: 0, t: p.t.clone(), q: p.q.clone(), qd: None, tau: None, u: None, truncated: false };
+    ivdyn::io::write_csv(&traj, &tr).unwrap();
+    ok(&run(with(ur5_args(), &["simulate", "--params", &s(&params), "--traj", &s(&traj), "--out", &s(&re)])));
+    let r = ivdyn::io::read_csv(&re, &names).unwrap();
+    let (a, b) = (r.tau.unwrap(), p.tau.unwrap());
+    assert_eq!(a.len(), b.len());
+    let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let worst = a.iter().zip(&b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+    eprintln!("simulate --params vs identify's prediction: worst {worst:.2e} N m (torques up to {scale:.1} N m)");
+    assert!(worst < 1e-9 * scale, "{worst}");
+    let _ = std::fs::remove_dir_all(&d);
+}

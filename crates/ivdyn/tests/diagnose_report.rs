@@ -120,6 +120,8 @@ fn synthetic() -> Diagnosis {
             duration: 0.499,
             rate: 1000.0,
             velocity_in_log: true,
+            cutoff_hz: 20.0,
+            align_samples: 0.0,
         },
     }
 }

@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use ivdyn::io::{self, JointLog};
+use ivdyn::io::{self, JointLog, ReadOptions};
 use ivdyn::pipeline::{self, IdentifyOptions, Method, ParamsFile, PayloadOptions, PayloadSpec, Progress, SimulateOptions, Trajectory};
 use ivdyn::Robot;
 
@@ -110,6 +110,32 @@ struct IdentifyArgs {
     /// Write a copy of the URDF with the identified inertials and friction (+ OUT.json side file).
     #[arg(long)]
     write_urdf: Option<PathBuf>,
+    /// Friction terms to identify: `none`, or a comma list of `coulomb`, `viscous`
+    /// (terms left out keep their nominal values).
+    #[arg(long, value_delimiter = ',', default_value = "coulomb,viscous")]
+    friction: Vec<FrictionArg>,
+    /// Do not identify the armature (rotor inertia) of the joints.
+    #[arg(long)]
+    no_armature: bool,
+    /// Do not identify a constant torque offset per joint.
+    #[arg(long)]
+    no_offset: bool,
+    /// Write the measured torques, the identified model's predicted torques and the
+    /// residuals as JointState topics (/joint_states, /ivdyn/predicted, /ivdyn/residual)
+    /// on the same stamps to this MCAP file.
+    #[arg(long)]
+    out_mcap: Option<PathBuf>,
+    /// Read the whole log into memory instead of streaming it (MCAP logs are streamed
+    /// with bounded memory when the options allow; the numbers are the same to rounding).
+    #[arg(long)]
+    in_memory: bool,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum FrictionArg {
+    None,
+    Coulomb,
+    Viscous,
 }
 
 #[derive(Args)]
@@ -412,11 +438,21 @@ fn fmt_list(v: &[f64], prec: usize) -> String {
 
 // ------------------------------------------------------------------------ identify
 
+fn read_options(robot: &Robot, la: &LogArgs) -> ReadOptions {
+    let mut o = ReadOptions::new(&robot.joint_names).topic(&la.topic);
+    if let Some(c) = &la.command_topic {
+        o = o.command_topic(c);
+    }
+    o.use_log_time = la.log_time;
+    o
+}
+
 fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
-    let log = read_log(&a.log, &robot, &a.log_args, bars)?;
-    let vlog = a.validate.as_ref().map(|p| read_log(p, &robot, &a.log_args, bars)).transpose()?;
-    let opts = IdentifyOptions {
+    if a.friction.contains(&FrictionArg::None) && a.friction.len() > 1 {
+        return Err("--friction none cannot be combined with other terms".into());
+    }
+    let mut opts = IdentifyOptions {
         method: match a.method {
             MethodArg::Ols => Method::Ols,
             MethodArg::Wls => Method::Wls,
@@ -426,12 +462,43 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
         condition: condition_opts(&a.log_args),
         decimate: a.log_args.decimate,
         validation_fraction: a.holdout,
-        validation_log: vlog,
+        drive: pipeline::DriveTerms {
+            coulomb: a.friction.contains(&FrictionArg::Coulomb),
+            viscous: a.friction.contains(&FrictionArg::Viscous),
+            armature: !a.no_armature,
+            offset: !a.no_offset,
+        },
         progress: bars.sink(),
         consistent: a.consistent,
         ..Default::default()
     };
-    let rep = pipeline::identify(&robot, &log, &opts).map_err(|e| format!("{}: {e}", a.log.display()))?;
+    // MCAP logs are streamed (bounded memory) unless the options or the log need memory
+    let mut streamed = None;
+    let mut why_not = None;
+    let streamable = !a.in_memory && ext(&a.log) != "csv" && a.validate.as_ref().is_none_or(|v| ext(v) != "csv");
+    if streamable {
+        let read = read_options(&robot, &a.log_args);
+        match ivdyn::stream::identify_mcap(&robot, &a.log, a.validate.as_deref(), &read, &opts) {
+            Ok(ivdyn::stream::Streamed::Done(r)) => streamed = Some(r),
+            Ok(ivdyn::stream::Streamed::Unsupported(why)) => why_not = Some(why),
+            // reader errors already name the file
+            Err(e @ (ivdyn::Error::Log { .. } | ivdyn::Error::Io { .. })) => return Err(e.to_string()),
+            Err(e) => return Err(format!("{}: {e}", a.log.display())),
+        }
+    }
+    let mut mem_log = None;
+    let rep = match streamed {
+        Some(r) => r,
+        None => {
+            let log = mem_log.insert(read_log(&a.log, &robot, &a.log_args, bars)?);
+            opts.validation_log = a.validate.as_ref().map(|p| read_log(p, &robot, &a.log_args, bars)).transpose()?;
+            let mut r = pipeline::identify(&robot, log, &opts).map_err(|e| format!("{}: {e}", a.log.display()))?;
+            if let Some(w) = why_not {
+                r.notes.push(format!("read into memory (not streamed): {w}"));
+            }
+            r
+        }
+    };
     if let Some(fit) = &rep.fit_report {
         println!("robot '{}', {} joints, {} samples at {:.1} Hz (filter {:.1} Hz), method {}", robot.name, robot.dof(), rep.fit.samples, rep.sample_rate_hz, rep.filter_cutoff_hz, rep.method);
         if let Some(i) = &rep.instrument {
@@ -497,6 +564,29 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
     if let Some(p) = &a.json {
         write_json(p, &rep)?;
         println!("report written to {}", p.display());
+    }
+    if let Some(out) = &a.out_mcap {
+        let mut model = robot.clone();
+        model.set_params(&rep.params.theta).map_err(|e| e.to_string())?;
+        let fail = |e: ivdyn::Error| format!("{}: {e}", out.display());
+        let mut written = None;
+        if mem_log.is_none() {
+            let read = read_options(&robot, &a.log_args);
+            if let ivdyn::stream::Streamed::Done(k) = ivdyn::stream::write_prediction_mcap(out, &model, &a.log, &read, &opts).map_err(fail)? {
+                written = Some(k);
+            }
+        }
+        let k = match written {
+            Some(k) => k,
+            None => {
+                let log = match mem_log.take() {
+                    Some(l) => l,
+                    None => read_log(&a.log, &robot, &a.log_args, bars)?,
+                };
+                pipeline::write_prediction(out, &model, &log, &opts.condition).map_err(fail)?
+            }
+        };
+        println!("measured, predicted and residual torques ({k} samples) written to {} (topics /joint_states, /ivdyn/predicted, /ivdyn/residual)", out.display());
     }
     Ok(ExitCode::SUCCESS)
 }

@@ -304,6 +304,22 @@ impl LsAccumulator {
         Ok(())
     }
 
+    /// The statistics of the same rows with every weight multiplied by `c > 0`
+    /// (`R_aug` scaled by `√c`, `Σ w y²` by `c`; the row count is unchanged). Per-joint
+    /// accumulators combined this way give a weighted fit whose weights are chosen after
+    /// the data has been seen (two-step WLS in one pass over the data).
+    pub fn scaled(&self, c: f64) -> Result<LsAccumulator> {
+        if !(c.is_finite() && c > 0.0) {
+            return Err(non_finite("scale", 0));
+        }
+        let s = c.sqrt();
+        let mut out = self.clone();
+        out.r *= s;
+        out.buf.iter_mut().for_each(|v| *v *= s);
+        out.sum_wyy *= c;
+        Ok(out)
+    }
+
     /// The `(p+1) x (p+1)` upper-triangular factor `R_aug` of `[√W Φ | √W y]`, including
     /// any buffered rows (signs of rows are arbitrary, as in any QR).
     pub fn r_aug(&self) -> DMatrix<f64> {
@@ -449,6 +465,18 @@ impl IvAccumulator {
         self.ztwy += &other.ztwy;
         self.ztwz += &other.ztwz;
         Ok(())
+    }
+
+    /// The statistics of the same rows with every weight multiplied by `c > 0`
+    /// (see [`LsAccumulator::scaled`]; the sums scale by `c`).
+    pub fn scaled(&self, c: f64) -> Result<IvAccumulator> {
+        Ok(IvAccumulator {
+            p: self.p,
+            ls: self.ls.scaled(c)?,
+            ztwphi: &self.ztwphi * c,
+            ztwy: &self.ztwy * c,
+            ztwz: &self.ztwz * c,
+        })
     }
 
     /// Absorbs buffered rows of the inner LS factor.

@@ -307,6 +307,14 @@ pub fn robot_base_params(robot: &crate::Robot, samples: usize, seed: u64) -> Res
 /// [`robot_base_params`] over the `10 N` inertial columns only (`rigid_only`), as a
 /// rigid-body-only fit (e.g. Pinocchio's regressor) uses them, or over all `14 N`.
 pub fn robot_base_params_with(robot: &crate::Robot, samples: usize, seed: u64, rigid_only: bool) -> Result<BaseParams> {
+    robot_base_params_excluding(robot, samples, seed, rigid_only, &[])
+}
+
+/// [`robot_base_params_with`] with the columns `exclude` (full parameter indices) left out
+/// of the model: they are zeroed in the sampled regressor, so they become zero columns
+/// (no base parameter contains them; [`BaseParams::apply`] keeps their nominal values).
+/// Used to fit a chosen subset of the drive parameters (e.g. no Coulomb friction).
+pub fn robot_base_params_excluding(robot: &crate::Robot, samples: usize, seed: u64, rigid_only: bool, exclude: &[usize]) -> Result<BaseParams> {
     let (n, p_all) = (robot.dof(), robot.num_params());
     let p = if rigid_only { ivdyn_core::params::LINK_PARAMS * n } else { p_all };
     if samples * n < p {
@@ -343,6 +351,9 @@ pub fn robot_base_params_with(robot: &crate::Robot, samples: usize, seed: u64, r
                 phi[(s * n + r, c)] = y[r * p_all + c];
             }
         }
+    }
+    for &c in exclude.iter().filter(|&&c| c < p) {
+        phi.column_mut(c).fill(0.0);
     }
     Ok(BaseParams::from_rows(&phi, &robot.param_names()[..p]))
 }

@@ -35,7 +35,7 @@ pub mod physical;
 pub mod stats;
 
 pub use accum::{IvAccumulator, LsAccumulator};
-pub use base::{BaseParams, robot_base_params};
+pub use base::{BaseParams, robot_base_params, robot_base_params_excluding};
 pub use fit::{DwhTest, FitReport, dwh_test, fit_iv, fit_ls};
 pub use idim::{idim_iv, Experiment, IdimIvResult};
 pub use payload::{payload_from_fit, NotIdentifiable, PayloadEstimate};

@@ -78,27 +78,38 @@ impl<'a> Cursor<'a> {
         }
         Ok(n)
     }
-    fn string(&mut self, what: &str) -> Result<String, String> {
+    fn string_into(&mut self, what: &str, out: &mut String) -> Result<(), String> {
+        out.clear();
         let n = self.count(what, 1)?;
         if n == 0 {
-            return Ok(String::new()); // some writers emit 0 for an empty string
+            return Ok(()); // some writers emit 0 for an empty string
         }
         let b = self.take(n)?;
         let b = b.strip_suffix(&[0]).unwrap_or(b);
-        String::from_utf8(b.to_vec()).map_err(|_| format!("CDR {what}: string is not UTF-8"))
+        out.push_str(std::str::from_utf8(b).map_err(|_| format!("CDR {what}: string is not UTF-8"))?);
+        Ok(())
     }
-    fn f64_seq(&mut self, what: &str) -> Result<Vec<f64>, String> {
+    fn f64_seq_into(&mut self, what: &str, v: &mut Vec<f64>) -> Result<(), String> {
+        v.clear();
         let n = self.count(what, 8)?;
-        let mut v = Vec::with_capacity(n);
+        v.reserve(n);
         for _ in 0..n {
             v.push(self.f64()?);
         }
-        Ok(v)
+        Ok(())
     }
 }
 
 /// Decodes a CDR-serialised JointState (with its encapsulation header).
 pub fn decode_joint_state(buf: &[u8]) -> Result<JointState, String> {
+    let mut m = JointState::default();
+    decode_joint_state_into(buf, &mut m)?;
+    Ok(m)
+}
+
+/// [`decode_joint_state`] into `m`, reusing its allocations (strings and arrays are
+/// overwritten in place: a stream of messages is decoded without allocating).
+pub fn decode_joint_state_into(buf: &[u8], m: &mut JointState) -> Result<(), String> {
     if buf.len() < 4 {
         return Err(format!("CDR message of {} bytes has no encapsulation header", buf.len()));
     }
@@ -108,18 +119,18 @@ pub fn decode_joint_state(buf: &[u8]) -> Result<JointState, String> {
         (a, b) => return Err(format!("unsupported CDR encapsulation {a:02x} {b:02x} (expected 00 01 or 00 00)")),
     };
     let mut c = Cursor { buf, pos: 4, le };
-    let sec = c.u32()? as i32;
-    let nanosec = c.u32()?;
-    let frame_id = c.string("header.frame_id")?;
+    m.sec = c.u32()? as i32;
+    m.nanosec = c.u32()?;
+    c.string_into("header.frame_id", &mut m.frame_id)?;
     let n = c.count("name", 4)?;
-    let mut name = Vec::with_capacity(n);
-    for _ in 0..n {
-        name.push(c.string("name")?);
+    m.name.resize_with(n, String::new);
+    for s in m.name.iter_mut() {
+        c.string_into("name", s)?;
     }
-    let position = c.f64_seq("position")?;
-    let velocity = c.f64_seq("velocity")?;
-    let effort = c.f64_seq("effort")?;
-    Ok(JointState { sec, nanosec, frame_id, name, position, velocity, effort })
+    c.f64_seq_into("position", &mut m.position)?;
+    c.f64_seq_into("velocity", &mut m.velocity)?;
+    c.f64_seq_into("effort", &mut m.effort)?;
+    Ok(())
 }
 
 /// Encodes a JointState as little-endian CDR with its encapsulation header `00 01 00 00`.

@@ -17,7 +17,7 @@ use ::mcap::records::Record;
 use ::mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use ::mcap::McapError;
 
-use super::cdr::{decode_joint_state, JointState};
+use super::cdr::{decode_joint_state_into, JointState};
 use super::{name_list, JointLog};
 use crate::error::{Error, Result};
 
@@ -316,6 +316,8 @@ where
         states.push(TopicState::new(c, Source::Command, n));
     }
     let mut summary = StreamSummary::default();
+    // one decoded message, overwritten in place by each message (no allocation per message)
+    let mut msg = JointState::default();
     let mut offset: u64 = 0;
     let mut records: u64 = 0;
     let size_note = size.map(|s| format!(" of {s}")).unwrap_or_default();
@@ -387,16 +389,17 @@ where
                     Record::Message { header, data } => {
                         let Some(&Some(w)) = channels.get(&header.channel_id) else { continue };
                         let st = &mut states[w];
-                        let m = decode_joint_state(&data).map_err(|e| {
+                        decode_joint_state_into(&data, &mut msg).map_err(|e| {
                             err(format!("topic {}, sample {}: bad message: {e}", st.topic, st.count))
                         })?;
+                        let m = &msg;
                         let stamp = if opts.use_log_time {
                             i64::try_from(header.log_time).unwrap_or(i64::MAX)
                         } else {
                             m.stamp_ns()
                         };
-                        st.load(&m, stamp, &opts.joint_names).map_err(err)?;
-                        f(&st.sample(stamp, &m))?;
+                        st.load(m, stamp, &opts.joint_names).map_err(err)?;
+                        f(&st.sample(stamp, m))?;
                         st.count += 1;
                     }
                     _ => {}

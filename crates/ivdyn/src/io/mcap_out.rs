@@ -202,3 +202,68 @@ pub fn write_mcap(path: impl AsRef<Path>, log: &JointLog, extra: &[(&str, &[f64]
     }
     w.finish()
 }
+
+/// Topic of the model's predicted torques written by `identify --out-mcap`.
+pub const PREDICTED_TOPIC: &str = "/ivdyn/predicted";
+/// Topic of the residuals (measured - predicted) written by `identify --out-mcap`.
+pub const RESIDUAL_TOPIC: &str = "/ivdyn/residual";
+/// Topic of the measured copy written by `identify --out-mcap`.
+pub const MEASURED_TOPIC: &str = "/joint_states";
+
+/// Writes, sample by sample on the same stamps, the measured JointState
+/// ([`MEASURED_TOPIC`]: position, velocity if measured, effort), the model's prediction
+/// ([`PREDICTED_TOPIC`]: the smoothed position and velocity the model was evaluated at,
+/// effort = predicted torque) and the residual ([`RESIDUAL_TOPIC`]: effort = measured -
+/// predicted, computed here so that it is exactly the difference of the two written
+/// values). Temporary file + rename as [`McapWriter`].
+#[derive(Debug)]
+pub struct PredictionWriter {
+    w: McapWriter,
+    ids: [TopicId; 3],
+    names: Vec<String>,
+    samples: usize,
+}
+
+impl PredictionWriter {
+    /// Starts the file for these joints.
+    pub fn create(path: impl AsRef<Path>, names: &[String]) -> Result<Self> {
+        let mut w = McapWriter::create(path)?;
+        let ids = [w.add_joint_state_topic(MEASURED_TOPIC)?, w.add_joint_state_topic(PREDICTED_TOPIC)?, w.add_joint_state_topic(RESIDUAL_TOPIC)?];
+        Ok(PredictionWriter { w, ids, names: names.to_vec(), samples: 0 })
+    }
+
+    /// Writes `T` samples (`stamps` in ns; arrays `T x N`; `qd_meas` may be empty).
+    #[allow(clippy::too_many_arguments)]
+    pub fn write_block(&mut self, stamps: &[i64], q_meas: &[f64], qd_meas: &[f64], tau_meas: &[f64], q_model: &[f64], qd_model: &[f64], tau_pred: &[f64]) -> Result<()> {
+        let n = self.names.len();
+        let t = stamps.len();
+        for (what, a, need) in [("q", q_meas, true), ("qd", qd_meas, false), ("tau", tau_meas, true), ("q model", q_model, true), ("qd model", qd_model, true), ("prediction", tau_pred, true)] {
+            if (need || !a.is_empty()) && a.len() != t * n {
+                return Err(Error::Dimension { what: format!("PredictionWriter {what} (T x N)"), expected: t * n, got: a.len() });
+            }
+        }
+        let mut res = vec![0.0; n];
+        for k in 0..t {
+            let r = k * n..(k + 1) * n;
+            let qd = if qd_meas.is_empty() { &[][..] } else { &qd_meas[r.clone()] };
+            self.w.write(self.ids[0], stamps[k], &self.names, &q_meas[r.clone()], qd, &tau_meas[r.clone()])?;
+            self.w.write(self.ids[1], stamps[k], &self.names, &q_model[r.clone()], &qd_model[r.clone()], &tau_pred[r.clone()])?;
+            for (j, v) in res.iter_mut().enumerate() {
+                *v = tau_meas[k * n + j] - tau_pred[k * n + j];
+            }
+            self.w.write(self.ids[2], stamps[k], &self.names, &[], &[], &res)?;
+        }
+        self.samples += t;
+        Ok(())
+    }
+
+    /// Samples written.
+    pub fn samples(&self) -> usize {
+        self.samples
+    }
+
+    /// Finishes the file (summary, rename).
+    pub fn finish(self) -> Result<PathBuf> {
+        self.w.finish()
+    }
+}

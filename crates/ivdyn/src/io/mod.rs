@@ -34,7 +34,7 @@ pub use self::csv::{read_csv, write_csv};
 pub use self::mcap::{
     for_each_sample, read_mcap, CommandAlign, CommandField, ReadOptions, Sample, Source, StreamSummary,
 };
-pub use self::mcap_out::{write_mcap, Compression, McapWriter, TopicId};
+pub use self::mcap_out::{write_mcap, Compression, McapWriter, PredictionWriter, TopicId, MEASURED_TOPIC, PREDICTED_TOPIC, RESIDUAL_TOPIC};
 
 use crate::error::{Error, Result};
 

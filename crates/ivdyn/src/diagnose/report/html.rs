@@ -214,6 +214,12 @@ fn header(o: &mut String, d: &Diagnosis, title: &str) {
         esc(&d.json.joints.join(", ")),
         vel
     );
+    let _ = writeln!(
+        o,
+        "<p class=\"sub\">Accelerations from a zero-phase low-pass at {} Hz (chosen from the data unless given), torque aligned to the motion by {} samples; the first and last samples (filter edges) are left out.</p>",
+        fmt_num(i.cutoff_hz),
+        fmt_num(i.align_samples)
+    );
 }
 
 /// Column label of the model after step `i` (0 = nominal).
