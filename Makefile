@@ -27,6 +27,9 @@ demo:
 	./target/release/ivdyn payload --urdf fixtures/ur5.urdf --base base_link --tip tool0 \
 	    --log $(DEMO)/ur5_payload.mcap --before $(DEMO)/ur5_unloaded.mcap --json $(DEMO)/payload.json
 	@echo "demo outputs in $(DEMO)/ (JSON reports, logs); truth: 2 kg at (0.01, -0.02, 0.05) m"
+	./target/release/ivdyn diagnose --urdf fixtures/ur5.urdf --base base_link --tip tool0 \
+	    --log fixtures/diagnose/viscous_payload.mcap --out $(DEMO)/diagnose
+	@echo "diagnosis of a MuJoCo log (truth: 1.2 kg payload, viscous friction on shoulder_lift and wrist_1): $(DEMO)/diagnose/report.html"
 
 ## test: every Rust test, the no_std/no-alloc proof, and the Python suites
 test: rust-test nostd py-test
