@@ -14,7 +14,7 @@ from typing_extensions import Self
 __all__ = [
     "Robot", "FitReport", "BaseParams", "Rls", "Riv", "PaperSim", "fit_ls", "fit_iv", "base_params",
     "fit_robot", "payload_from_fit", "read_joint_states", "paper_estimators", "terminal_base",
-    "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "simulate",
+    "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "simulate", "diagnose",
     "batch_threads", "__version__", "MAX_DOF",
 ]
 

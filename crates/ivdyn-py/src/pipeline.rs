@@ -216,17 +216,34 @@ fn identify(
     }
     let r = robot_with_params(&robot.inner, params_json)?;
     let src = LogSource { topic, command_topic, log_time };
-    let log = joint_log(py, &r, log, &src, "log")?;
-    let vlog = validate.map(|v| joint_log(py, &r, v, &src, "validation log")).transpose()?;
-    let opts = IdentifyOptions {
-        method,
-        condition: condition(cutoff)?,
-        decimate,
-        validation_fraction: holdout,
-        validation_log: vlog,
-        ..Default::default()
+    let mut opts = IdentifyOptions { method, condition: condition(cutoff)?, decimate, validation_fraction: holdout, ..Default::default() };
+    // an MCAP path is streamed (bounded memory) as the command line does, when the
+    // options allow; otherwise (arrays, CSV, options that need memory) read whole
+    let path_of = |x: &Bound<'_, PyAny>| -> Option<PathBuf> {
+        x.extract::<PathBuf>().ok().filter(|p| !p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")))
     };
-    let rep = run(py, progress, |p| pipeline::identify(&r, &log, &IdentifyOptions { progress: p, ..opts }))?;
+    let mut why_not = None;
+    if let (Some(lp), true) = (path_of(log), validate.is_none_or(|v| path_of(v).is_some())) {
+        let vp = validate.and_then(path_of);
+        let mut read = ivdyn::io::ReadOptions::new(&r.joint_names).topic(topic);
+        if let Some(c) = command_topic {
+            read = read.command_topic(c);
+        }
+        read.use_log_time = log_time;
+        let o2 = opts.clone();
+        match run(py, progress.as_ref().map(|p| p.clone_ref(py)), |p| {
+            ivdyn::stream::identify_mcap(&r, &lp, vp.as_deref(), &read, &IdentifyOptions { progress: p, ..o2 })
+        })? {
+            ivdyn::stream::Streamed::Done(rep) => return json(&rep),
+            ivdyn::stream::Streamed::Unsupported(why) => why_not = Some(why),
+        }
+    }
+    let log = joint_log(py, &r, log, &src, "log")?;
+    opts.validation_log = validate.map(|v| joint_log(py, &r, v, &src, "validation log")).transpose()?;
+    let mut rep = run(py, progress, |p| pipeline::identify(&r, &log, &IdentifyOptions { progress: p, ..opts }))?;
+    if let Some(w) = why_not {
+        rep.notes.push(format!("read into memory (not streamed): {w}"));
+    }
     json(&rep)
 }
 
