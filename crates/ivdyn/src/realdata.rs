@@ -9,7 +9,10 @@
 //!   and offset per motor) is built there, and torque and regressor go through the same
 //!   decimating filter (parallel filtering) down to 100 Hz.
 //! * [`identify_lwr`]: KUKA LWR4+, joint torques, runs already filtered by their
-//!   authors: the joint-torque regressor on the given states, every `step`-th sample.
+//!   authors: the joint-torque regressor (velocities and accelerations recomputed, every
+//!   column through the authors' torque filter) plus a position-dependent torque `k_j q_j`
+//!   per joint, every `step`-th sample; settings chosen by [`lwr_cross_validation`]
+//!   within the fitted runs.
 //!
 //! Both fit the base parameters with [`Estimator::Ols`] or [`Estimator::Wls`] (per-joint
 //! weights `1/σ_j²` from the OLS residuals, the `ivdyn identify --method wls` rule) and
