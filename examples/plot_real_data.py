@@ -21,6 +21,8 @@ def plot(rep, path):
     t = np.asarray(s["t"])
     meas = np.asarray(s["measured"]).reshape(len(t), n)
     pred = np.asarray(s["predicted"]).reshape(len(t), n)
+    cons = s.get("predicted_consistent")
+    cons = None if cons is None else np.asarray(cons).reshape(len(t), n)
     cols = 2
     rows = (n + 1) // cols
     fig, axes = plt.subplots(rows, cols, figsize=(11, 2.3 * rows), sharex=True)
@@ -29,10 +31,13 @@ def plot(rep, path):
             ax.axis("off")
             continue
         ax.plot(t, meas[:, j], "k-", lw=1.0, label="measured")
-        ax.plot(t, pred[:, j], "C1--", lw=1.0, label="predicted")
+        ax.plot(t, pred[:, j], "C1--", lw=1.0, label=f"predicted ({rep['method']})")
+        if cons is not None:
+            ax.plot(t, cons[:, j], "C2:", lw=1.2, label="predicted, physically consistent")
         ax.set_title(
             f"{rep['joints'][j]}: R² {rep['validation']['r2'][j]:.3f} (floor {rep['floor_r2'][j]:.2f}), "
-            f"RMS {rep['validation']['rms'][j]:.2f} N m",
+            f"RMS {rep['validation']['rms'][j]:.2f} N m"
+            + ("" if cons is None else f"; consistent R² {rep['consistent']['validation']['r2'][j]:.3f}"),
             fontsize=9,
         )
         ax.set_ylabel("N m", fontsize=8)

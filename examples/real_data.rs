@@ -5,14 +5,16 @@
 //!     .venv/bin/python examples/plot_real_data.py --in out/real --out docs/figures
 //!
 //! DATA_ROOT defaults to `../shared/data/real` next to the repository. Writes
-//! `DIR/tx40.json`, `DIR/lwr.json` (the chosen settings: parameters, validation, series)
-//! and `DIR/variants.json` (validation R² of the other settings tried, for the doc's
-//! sensitivity table). Default DIR: `out/real`.
+//! `DIR/tx40.json`, `DIR/lwr.json` (the chosen settings: parameters, validation, series,
+//! the physically consistent fit), `DIR/variants.json` (validation R² of the other
+//! settings tried, for the doc's sensitivity tables) and `DIR/lwr_selection.json` (the
+//! cross-validation within the LWR's fitted runs that chose its settings). Default DIR:
+//! `out/real`.
 
 use std::path::PathBuf;
 
 use ivdyn::io::real::{load_lwr_robot, load_lwr_run, load_tx40};
-use ivdyn::realdata::{identify_lwr, identify_tx40, Estimator, LwrOptions, RealReport, Tx40Options};
+use ivdyn::realdata::{butterworth_settling_s, identify_lwr, identify_tx40, lwr_cross_validation, Estimator, LwrOptions, RealReport, Tx40Options};
 
 fn main() {
     if let Err(e) = run() {
@@ -43,11 +45,27 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         for i in 0..r.joints.len() {
             println!("  {:<14} {:>8.3} {:>8.2} {:>9.3} {:>9.3}", r.joints[i], r.validation.r2[i], r.floor_r2[i], r.validation.rms[i], r.validation.tau_rms[i]);
         }
+        if let Some(c) = &r.consistent {
+            println!("  physically consistent fit (log-Cholesky, friction and armature >= 0): {} LM iterations (converged: {}), {} directions unseen by the data", c.iterations, c.converged, c.regularised_directions);
+            println!("    weighted RSS of the fitted rows {:.6e} -> {:.6e} ({:+.2} %)", c.rss_ls, c.rss, 100.0 * c.rss_increase);
+            println!("    LS estimate (nominal + base correction): {} violations", c.ls_violations.len());
+            for v in &c.ls_violations {
+                println!("      {v}");
+            }
+            println!("    consistent parameters: {} violations{}", c.violations.len(), if c.violations.is_empty() { " (physically valid)" } else { "" });
+            for v in &c.violations {
+                println!("      {v}");
+            }
+            println!("    {:<14} {:>8} {:>8} {:>9} {:>9}", "joint", "R2 LS", "R2 cons", "RMS LS", "RMS cons");
+            for i in 0..r.joints.len() {
+                println!("    {:<14} {:>8.3} {:>8.3} {:>9.3} {:>9.3}", r.joints[i], r.validation.r2[i], c.validation.r2[i], r.validation.rms[i], c.validation.rms[i]);
+            }
+        }
     };
     let mut variants = vec![];
 
     let tx = load_tx40(&root)?;
-    let rep = identify_tx40(&tx, &Tx40Options::default(), None)?;
+    let rep = identify_tx40(&tx, &Tx40Options { consistent: true, ..Default::default() })?;
     summary(&rep);
     std::fs::write(out.join("tx40.json"), serde_json::to_string_pretty(&rep)?)?;
     let tx_variants: Vec<(&str, Tx40Options)> = vec![
@@ -58,27 +76,47 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         ("OLS, position filter 200 Hz", Tx40Options { cutoff_hz: 200.0, ..Default::default() }),
         ("OLS, parallel filter 20 Hz (50 Hz rows)", Tx40Options { decimate_parallel: 10, ..Default::default() }),
         ("OLS, parallel filter 40 Hz (100 Hz rows)", Tx40Options { decimate_parallel: 5, ..Default::default() }),
+        ("OLS, smooth Coulomb tanh(qd_m / v0), v0 = 3x velocity noise", Tx40Options { smooth_coulomb: true, ..Default::default() }),
+        ("OLS, standstill rows dropped (fit and validation)", Tx40Options { exclude_standstill: true, ..Default::default() }),
     ];
     for (name, o) in tx_variants {
-        let r = identify_tx40(&tx, &o, None)?;
-        variants.push(serde_json::json!({"dataset": "tx40", "variant": name, "r2": r.validation.r2, "rms": r.validation.rms}));
+        let r = identify_tx40(&tx, &o)?;
+        variants.push(serde_json::json!({"dataset": "tx40", "variant": name, "r2": r.validation.r2, "rms": r.validation.rms, "r2_all": r.validation_all.as_ref().map(|q| q.r2.clone()), "preprocessing": r.preprocessing}));
     }
 
     let robot = load_lwr_robot(&root)?;
     let runs = (1..=3).map(|k| load_lwr_run(&root, k)).collect::<Result<Vec<_>, _>>()?;
-    let rep = identify_lwr(&robot, &[&runs[0], &runs[2]], &runs[1], &LwrOptions::default(), None)?;
+    let rep = identify_lwr(&robot, &[&runs[0], &runs[2]], &runs[1], &LwrOptions { consistent: true, ..Default::default() })?;
     summary(&rep);
     std::fs::write(out.join("lwr.json"), serde_json::to_string_pretty(&rep)?)?;
-    let lwr_variants: Vec<(&str, LwrOptions)> = vec![
-        ("OLS", LwrOptions { estimator: Estimator::Ols, ..Default::default() }),
-        ("WLS, the data's velocities and accelerations", LwrOptions { matched_filter_hz: None, ..Default::default() }),
-        ("OLS, the data's velocities and accelerations", LwrOptions { matched_filter_hz: None, estimator: Estimator::Ols, ..Default::default() }),
-    ];
-    for (name, o) in lwr_variants {
-        let r = identify_lwr(&robot, &[&runs[0], &runs[2]], &runs[1], &o, None)?;
-        variants.push(serde_json::json!({"dataset": "lwr", "variant": name, "r2": r.validation.r2, "rms": r.validation.rms}));
+    // How the LWR settings were chosen: cross-validation within the fitted runs (fit run 1,
+    // predict run 3 and the reverse), mean held-out R² over joints and both folds; the
+    // validation run's R² is listed next to it but was not used for the choice.
+    let mut selection = vec![];
+    println!("LWR settings by cross-validation within runs 1 + 3 (held-out R2 mean over joints and folds), and validation on run 2:");
+    for edge_s in [0.0, butterworth_settling_s(6, 2.0)] {
+        for springs in [vec![], vec![6], (0..7).collect::<Vec<_>>()] {
+            for matched_filter_hz in [Some(2.0), None] {
+                for estimator in [Estimator::Ols, Estimator::Wls] {
+                    let o = LwrOptions { edge_s, springs: springs.clone(), matched_filter_hz, estimator, ..Default::default() };
+                    let cv = lwr_cross_validation(&robot, &[&runs[0], &runs[2]], &o)?;
+                    let cv_mean = cv.iter().flatten().sum::<f64>() / (cv.len() * cv[0].len()) as f64;
+                    let r = identify_lwr(&robot, &[&runs[0], &runs[2]], &runs[1], &o)?;
+                    let f = |v: &[f64]| v.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(" ");
+                    println!(
+                        "  edge {edge_s:.2} s, springs {springs:?}, {}, {}: CV mean {cv_mean:.3} | validation [{}] whole run [{}]",
+                        if matched_filter_hz.is_some() { "matched filter" } else { "data's qd/qdd" },
+                        estimator.name(),
+                        f(&r.validation.r2),
+                        f(&r.validation_all.as_ref().map_or(vec![], |q| q.r2.clone()))
+                    );
+                    selection.push(serde_json::json!({"edge_s": edge_s, "springs": springs, "matched_filter_hz": matched_filter_hz, "estimator": estimator.name(), "cv_r2": cv, "cv_mean": cv_mean, "validation_r2": r.validation.r2, "validation_all_r2": r.validation_all.map(|q| q.r2)}));
+                }
+            }
+        }
     }
+    std::fs::write(out.join("lwr_selection.json"), serde_json::to_string_pretty(&selection)?)?;
     std::fs::write(out.join("variants.json"), serde_json::to_string_pretty(&variants)?)?;
-    println!("wrote {}/tx40.json, lwr.json, variants.json", out.display());
+    println!("wrote {}/tx40.json, lwr.json, variants.json, lwr_selection.json", out.display());
     Ok(())
 }
