@@ -936,38 +936,7 @@ pub fn design(robot: &Robot, opts: &ExciteOptions) -> Result<ExciteReport> {
 /// `docs/logs.md` naming; `io::read_csv` reads `t`, `q`, `qd` and ignores `qdd`), shortest
 /// round-trip decimals, via a temporary file renamed on success.
 pub fn write_csv(path: &Path, joints: &[String], s: &Samples) -> Result<()> {
-    use std::fmt::Write as _;
-    use std::io::Write as _;
-    let n = joints.len();
-    let fname = path.file_name().map(|x| x.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{fname}.{}.tmp", std::process::id()));
-    let io = |e: std::io::Error| Error::Io { file: tmp.clone(), source: e };
-    let res = (|| -> Result<()> {
-        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp).map_err(io)?);
-        let mut head = vec!["t".to_string()];
-        for f in ["q", "qd", "qdd"] {
-            head.extend(joints.iter().map(|j| format!("{j}.{f}")));
-        }
-        writeln!(w, "# t0_ns: 0").map_err(io)?;
-        writeln!(w, "{}", head.join(",")).map_err(io)?;
-        let mut line = String::new();
-        for k in 0..s.t.len() {
-            line.clear();
-            let _ = write!(line, "{:?}", s.t[k]);
-            for a in [&s.q, &s.qd, &s.qdd] {
-                for v in &a[k * n..(k + 1) * n] {
-                    let _ = write!(line, ",{v:?}");
-                }
-            }
-            writeln!(w, "{line}").map_err(io)?;
-        }
-        w.into_inner().map_err(|e| io(e.into_error()))?.sync_all().map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })
-    })();
-    if res.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    res
+    crate::io::csv::write_columns(path, 0, joints, &s.t, &[("q", &s.q), ("qd", &s.qd), ("qdd", &s.qdd)])
 }
 
 /// Writes the trajectory as MCAP `/joint_states` (position and velocity; no effort) for a

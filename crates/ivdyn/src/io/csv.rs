@@ -125,30 +125,41 @@ pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Res
 /// `.tau`, `.u` when present), with a `# t0_ns: ...` comment line first. Written to a
 /// temporary file and renamed on success.
 pub fn write_csv(path: impl AsRef<Path>, log: &JointLog) -> Result<()> {
-    let path = path.as_ref();
     log.check_shapes()?;
+    let arrays: Vec<(&str, &[f64])> = [("q", Some(&log.q)), ("qd", log.qd.as_ref()), ("tau", log.tau.as_ref()), ("u", log.u.as_ref())]
+        .into_iter()
+        .filter_map(|(f, a)| a.map(|a| (f, a.as_slice())))
+        .collect();
+    write_columns(path.as_ref(), log.t0_ns, &log.joint_names, &log.t, &arrays)
+}
+
+/// Writes CSV columns `t`, then `<joint>.<field>` for every joint of every `(field, T x N
+/// array)` in order, shortest round-trip decimals, after a `# t0_ns: ...` comment line;
+/// via a temporary file renamed on success (no partial file on error).
+pub fn write_columns(path: &Path, t0_ns: i64, joints: &[String], t: &[f64], arrays: &[(&str, &[f64])]) -> Result<()> {
+    let n = joints.len();
+    for (f, a) in arrays {
+        if a.len() != t.len() * n {
+            return Err(Error::Dimension { what: format!("CSV column block {f}"), expected: t.len() * n, got: a.len() });
+        }
+    }
     let fname = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = path.with_file_name(format!(".{fname}.{}.tmp", std::process::id()));
     let io = |e: std::io::Error| Error::Io { file: tmp.clone(), source: e };
     let res = (|| -> Result<()> {
         let mut w = BufWriter::new(File::create(&tmp).map_err(io)?);
-        let n = log.dof();
-        let arrays: Vec<(&str, &Vec<f64>)> = [("q", Some(&log.q)), ("qd", log.qd.as_ref()), ("tau", log.tau.as_ref()), ("u", log.u.as_ref())]
-            .into_iter()
-            .filter_map(|(f, a)| a.map(|a| (f, a)))
-            .collect();
-        writeln!(w, "# t0_ns: {}", log.t0_ns).map_err(io)?;
+        writeln!(w, "# t0_ns: {t0_ns}").map_err(io)?;
         let mut head = vec!["t".to_string()];
-        for (f, _) in &arrays {
-            head.extend(log.joint_names.iter().map(|j| format!("{j}.{f}")));
+        for (f, _) in arrays {
+            head.extend(joints.iter().map(|j| format!("{j}.{f}")));
         }
         writeln!(w, "{}", head.join(",")).map_err(io)?;
         let mut line = String::new();
-        for k in 0..log.len() {
+        for k in 0..t.len() {
             use std::fmt::Write as _;
             line.clear();
-            let _ = write!(line, "{:?}", log.t[k]);
-            for (_, a) in &arrays {
+            let _ = write!(line, "{:?}", t[k]);
+            for (_, a) in arrays {
                 for v in &a[k * n..(k + 1) * n] {
                     let _ = write!(line, ",{v:?}");
                 }
