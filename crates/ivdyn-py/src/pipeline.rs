@@ -225,11 +225,7 @@ fn identify(
     let mut why_not = None;
     if let (Some(lp), true) = (path_of(log), validate.is_none_or(|v| path_of(v).is_some())) {
         let vp = validate.and_then(path_of);
-        let mut read = ivdyn::io::ReadOptions::new(&r.joint_names).topic(topic);
-        if let Some(c) = command_topic {
-            read = read.command_topic(c);
-        }
-        read.use_log_time = log_time;
+        let read = ivdyn::io::ReadOptions::new(&r.joint_names).topic(topic).command_topic_opt(command_topic).log_time(log_time);
         let o2 = opts.clone();
         match run(py, progress.as_ref().map(|p| p.clone_ref(py)), |p| {
             ivdyn::stream::identify_mcap(&r, &lp, vp.as_deref(), &read, &IdentifyOptions { progress: p, ..o2 })

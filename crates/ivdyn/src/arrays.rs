@@ -258,13 +258,7 @@ pub fn read_joint_log(
     let path = path.as_ref();
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
     match ext.as_deref() {
-        Some("mcap") => {
-            let mut opts = ReadOptions::new(joint_names).topic(topic);
-            if let Some(c) = command_topic {
-                opts = opts.command_topic(c);
-            }
-            read_mcap(path, &opts)
-        }
+        Some("mcap") => read_mcap(path, &ReadOptions::new(joint_names).topic(topic).command_topic_opt(command_topic)),
         Some("csv") => read_csv(path, joint_names),
         _ => Err(Error::Log {
             file: path.to_path_buf(),
@@ -313,12 +307,7 @@ pub fn read_pipeline_log(
     let log = if ext.as_deref() == Some("csv") {
         read_csv(path, joint_names)?
     } else {
-        let mut o = ReadOptions::new(joint_names).topic(topic);
-        if let Some(c) = command_topic {
-            o = o.command_topic(c);
-        }
-        o.use_log_time = use_log_time;
-        read_mcap(path, &o)?
+        read_mcap(path, &ReadOptions::new(joint_names).topic(topic).command_topic_opt(command_topic).log_time(use_log_time))?
     };
     check_pipeline_log(&log, path, topic)?;
     Ok(log)

@@ -439,12 +439,7 @@ fn fmt_list(v: &[f64], prec: usize) -> String {
 // ------------------------------------------------------------------------ identify
 
 fn read_options(robot: &Robot, la: &LogArgs) -> ReadOptions {
-    let mut o = ReadOptions::new(&robot.joint_names).topic(&la.topic);
-    if let Some(c) = &la.command_topic {
-        o = o.command_topic(c);
-    }
-    o.use_log_time = la.log_time;
-    o
+    ReadOptions::new(&robot.joint_names).topic(&la.topic).command_topic_opt(la.command_topic.as_deref()).log_time(la.log_time)
 }
 
 fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {

@@ -96,6 +96,16 @@ impl ReadOptions {
         self.command_topic = Some(topic.into());
         self
     }
+    /// Sets (or clears) the command topic.
+    pub fn command_topic_opt(mut self, topic: Option<&str>) -> Self {
+        self.command_topic = topic.map(Into::into);
+        self
+    }
+    /// Stamps from the MCAP log times instead of the headers ([`ReadOptions::use_log_time`]).
+    pub fn log_time(mut self, yes: bool) -> Self {
+        self.use_log_time = yes;
+        self
+    }
 }
 
 /// Which topic a streamed [`Sample`] comes from.
