@@ -39,8 +39,11 @@
 //! lies on the boundary: a mass distribution flattened to a plane or a line), each link is
 //! `J = U U^T + MARGIN diag(m L^2, m L^2, m L^2, m)` in the nominal scales ([`MARGIN`] `= 1e-6`).
 //! Solved by Levenberg-Marquardt (Marquardt's diagonal damping, numerical Jacobian of the
-//! per-link map), stopped when the cost fell by less than `1e-8` of itself over 20
-//! iterations, starting from the LS full parameters projected onto the consistent set
+//! per-link map) by continuation in the weight: stages at `1e-4`, `1e-6`, `1e-8`, then
+//! `REG_WEIGHT`, each warm-started from the last (started at the tiny final weight, LM
+//! can drift along unidentifiable directions into the boundary and crawl there); the
+//! last stage stops when the cost fell by less than `1e-8` of itself over 20
+//! iterations (earlier ones at `1e-4`), starting from the LS full parameters projected onto the consistent set
 //! (pseudo-inertia eigenvalues raised to [`START_FLOOR`] `= 1e-2` of the largest, negative
 //! friction and armature set to ~0).
 
@@ -64,6 +67,13 @@ pub const START_FLOOR: f64 = 1e-2;
 /// Relative weight of the pull toward the nominal parameters on the unidentifiable directions.
 pub const REG_WEIGHT: f64 = 1e-10;
 
+/// Singular values of `R P S` below this fraction of the largest span the directions the
+/// data do not see (module docs).
+pub const NULL_TOL: f64 = 1e-9;
+
+/// First weight of the continuation down to [`REG_WEIGHT`] (see [`fit_consistent`]).
+pub const CONTINUATION_START: f64 = 1e-4;
+
 /// Result of [`fit_consistent`].
 #[derive(Debug, Clone, Serialize)]
 pub struct ConsistentFit {
@@ -83,7 +93,7 @@ pub struct ConsistentFit {
     pub rss: f64,
     /// `rss / rss_ls - 1`: relative degradation of the fit.
     pub rss_increase: f64,
-    /// Levenberg-Marquardt iterations.
+    /// Levenberg-Marquardt iterations, all stages.
     pub iterations: usize,
     /// Whether LM met its tolerance.
     pub converged: bool,
@@ -107,7 +117,7 @@ pub struct ConsistentReport {
 /// Options of [`fit_consistent`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ConsistentOptions {
-    /// Maximum LM iterations.
+    /// Maximum LM iterations per continuation stage (four stages at the defaults).
     pub max_iter: usize,
     /// Stop when the cost decreased by less than this fraction over the last 20 iterations
     /// (or when no damping gives a decrease).
@@ -278,23 +288,18 @@ pub fn fit_consistent(
     let a = &r * &pm; // b x p
     let s = scales(theta_nom, n);
     let as_ = DMatrix::from_fn(b, p, |i, j| a[(i, j)] * s[j]);
-    // null space of A S via the eigenvectors of (A S)^T (A S) (p x p)
-    let g = as_.tr_mul(&as_);
-    let eig = g.symmetric_eigen();
-    let top = eig.eigenvalues.max().max(0.0);
-    let null: Vec<usize> = (0..p).filter(|&k| !(eig.eigenvalues[k] > 1e-18 * top)).collect();
-    let lambda = opts.reg_weight * as_.norm_squared() / p as f64;
-    let sl = lambda.sqrt();
-    let nt = DMatrix::from_fn(null.len(), p, |r_, c| eig.eigenvectors[(c, null[r_])] / s[c] * sl); // sqrt(lambda) N^T S^-1
+    // null space of A S from its SVD (padded to p x p rows so that V^T is complete). Not
+    // from the eigenvalues of (A S)^T (A S): squared, a 1e-9 singular-value ratio is 1e-18,
+    // below the eigenvalues' rounding (~1e-16 of the largest), and which directions counted
+    // as null then changed with the last bits of the data.
+    let mut padded = DMatrix::zeros(p.max(b), p);
+    padded.rows_mut(0, b).copy_from(&as_);
+    let svd = padded.svd(false, true);
+    let vt = svd.v_t.as_ref().ok_or_else(|| bad("consistent fit: SVD failed".to_string()))?;
+    let top = svd.singular_values.max().max(0.0);
+    let null: Vec<usize> = (0..vt.nrows()).filter(|&k| !(svd.singular_values[k] > NULL_TOL * top)).collect();
+    let nt0 = DMatrix::from_fn(null.len(), p, |r_, c| vt[(null[r_], c)] / s[c]); // N^T S^-1
     let rows = b + null.len();
-    let resid = |th: &[f64]| -> DVector<f64> {
-        let thv = DVector::from_column_slice(th);
-        let mut out = DVector::zeros(rows);
-        out.rows_mut(0, b).copy_from(&(&a * &thv - &qty));
-        let d = DVector::from_iterator(p, th.iter().zip(theta_nom).map(|(x, y)| x - y));
-        out.rows_mut(b, null.len()).copy_from(&(&nt * d));
-        out
-    };
 
     // start: the LS full parameters projected onto the consistent set
     let ls_check = check_params(theta_ls, links, joints);
@@ -323,56 +328,94 @@ pub fn fit_consistent(
         x[o + 3] = theta_ls[drive_col(n, j, TAU0)];
     }
 
-    // Levenberg-Marquardt (Marquardt's diagonal scaling)
-    let mut th = theta_of(&x, n, &margins);
-    let mut rv = resid(&th);
-    let mut cost = rv.norm_squared();
-    let mut mu = 1e-3;
-    let (mut it, mut converged) = (0, false);
-    let mut history = vec![cost];
-    while it < opts.max_iter {
-        it += 1;
-        let jr = DMatrix::from_fn(rows, p, |i, j| if i < b { a[(i, j)] } else { nt[(i - b, j)] }) * jac_theta(&x, n, &margins);
-        let jtj = jr.tr_mul(&jr);
-        let jtr = jr.tr_mul(&rv);
-        let mut step_taken = false;
-        for _ in 0..30 {
-            let mut m = jtj.clone();
-            for k in 0..p {
-                m[(k, k)] += mu * jtj[(k, k)].max(1e-12 * jtj.diagonal().max());
-            }
-            let Some(ch) = m.cholesky() else {
-                mu *= 10.0;
-                continue;
-            };
-            let dx = ch.solve(&(-&jtr));
-            let xn: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, d)| a + d).collect();
-            let thn = theta_of(&xn, n, &margins);
-            let rn = resid(&thn);
-            let cn = rn.norm_squared();
-            if cn.is_finite() && cn < cost {
-                x = xn;
-                th = thn;
-                rv = rn;
-                cost = cn;
-                mu = (mu / 3.0).max(1e-12);
-                step_taken = true;
-                break;
-            }
-            mu *= 4.0;
-        }
-        history.push(cost);
-        if history.len() > 20 && history[history.len() - 21] - cost <= opts.tol * history[history.len() - 21] {
-            converged = true;
-        }
-        if !step_taken {
-            // no decrease possible at any damping: a (local) minimum to rounding
-            converged = true;
-        }
-        if converged {
-            break;
-        }
+    // Levenberg-Marquardt (Marquardt's diagonal scaling) from two paths, keeping the one
+    // that ends at the lower cost (both end on the same objective, at `reg_weight`):
+    // - direct, at `reg_weight` only;
+    // - by continuation in the weight: a strong pull toward the nominal parameters first,
+    //   then weaker ones (x100 each) down to `reg_weight`, each warm-started from the last.
+    // Direct, LM can wander along the unidentifiable directions into the boundary of the
+    // consistent set (a link's pseudo-inertia near singular), where the log-Cholesky
+    // variables run off to -inf and LM crawls: on exact UR5 data it stalled at a relative
+    // RSS of 1.5e-9 (continuation: 1e-27). On the real arms' data the direct path ends
+    // lower (continuation holds the parameters near the nominal ones it started from).
+    let mut weights = vec![opts.reg_weight];
+    while weights.last().is_some_and(|w| *w < CONTINUATION_START) {
+        let w = weights.last().map_or(CONTINUATION_START, |w| w * 100.0);
+        weights.push(w.min(CONTINUATION_START));
     }
+    weights.reverse();
+    let norm_as = as_.norm_squared() / p as f64;
+    let lm = |mut x: Vec<f64>, weights: &[f64]| -> (Vec<f64>, f64, usize, bool) {
+        let mut th = theta_of(&x, n, &margins);
+        let (mut it, mut converged, mut cost) = (0, false, f64::INFINITY);
+        for (stage, w) in weights.iter().enumerate() {
+            let nt = &nt0 * (w * norm_as).sqrt(); // sqrt(lambda) N^T S^-1
+            let resid = |th: &[f64]| -> DVector<f64> {
+                let thv = DVector::from_column_slice(th);
+                let mut out = DVector::zeros(rows);
+                out.rows_mut(0, b).copy_from(&(&a * &thv - &qty));
+                let d = DVector::from_iterator(p, th.iter().zip(theta_nom).map(|(x, y)| x - y));
+                out.rows_mut(b, null.len()).copy_from(&(&nt * d));
+                out
+            };
+            let mut rv = resid(&th);
+            cost = rv.norm_squared();
+            let mut mu = 1e-3;
+            let mut history = vec![cost];
+            let (mut sit, last) = (0, stage + 1 == weights.len());
+            converged = false;
+            while sit < opts.max_iter {
+                sit += 1;
+                let jr = DMatrix::from_fn(rows, p, |i, j| if i < b { a[(i, j)] } else { nt[(i - b, j)] }) * jac_theta(&x, n, &margins);
+                let jtj = jr.tr_mul(&jr);
+                let jtr = jr.tr_mul(&rv);
+                let mut step_taken = false;
+                for _ in 0..30 {
+                    let mut m = jtj.clone();
+                    for k in 0..p {
+                        m[(k, k)] += mu * jtj[(k, k)].max(1e-12 * jtj.diagonal().max());
+                    }
+                    let Some(ch) = m.cholesky() else {
+                        mu *= 10.0;
+                        continue;
+                    };
+                    let dx = ch.solve(&(-&jtr));
+                    let xn: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, d)| a + d).collect();
+                    let thn = theta_of(&xn, n, &margins);
+                    let rn = resid(&thn);
+                    let cn = rn.norm_squared();
+                    if cn.is_finite() && cn < cost {
+                        x = xn;
+                        th = thn;
+                        rv = rn;
+                        cost = cn;
+                        mu = (mu / 3.0).max(1e-12);
+                        step_taken = true;
+                        break;
+                    }
+                    mu *= 4.0;
+                }
+                history.push(cost);
+                // earlier stages only need to get close: a looser stopping rule
+                let tol = if last { opts.tol } else { opts.tol.max(1e-4) };
+                if history.len() > 20 && history[history.len() - 21] - cost <= tol * history[history.len() - 21] {
+                    converged = true;
+                }
+                if !step_taken {
+                    // no decrease possible at any damping: a (local) minimum to rounding
+                    converged = true;
+                }
+                if converged {
+                    break;
+                }
+            }
+            it += sit;
+        }
+        (th, cost, it, converged)
+    };
+    let direct = lm(x.clone(), &weights[weights.len() - 1..]);
+    let cont = lm(x, &weights);
+    let (th, _, it, converged) = if cont.1 < direct.1 { cont } else { direct };
     let theta_base = base.project(&th)?;
     let rss_of = |t: &[f64]| -> Result<f64> { Ok(rss_min + (&r * DVector::from_vec(base.project(t)?) - &qty).norm_squared()) };
     let rss = rss_of(&th)?;
