@@ -12,12 +12,12 @@ pub fn mass_matrix<'d, const N: usize>(
     data: &'d mut Data<N>,
     q: &VecN<N>,
 ) -> &'d MatN<N> {
-    joint_transforms(model, data, q);
+    joint_transforms(model, &mut data.kin, q);
     // composite inertia, outermost first: IC_i = I_i + X_{i+1} IC_{i+1}
     for i in (0..N).rev() {
         let mut ic = model.inertia[i];
         if i + 1 < N {
-            let x = Transform::new(data.rot[i + 1], data.pos[i + 1]);
+            let x = Transform::new(data.kin.rot[i + 1], data.kin.pos[i + 1]);
             ic = ic.add(&data.ic[i + 1].transformed(&x));
         }
         data.ic[i] = ic;
@@ -33,9 +33,9 @@ pub fn mass_matrix<'d, const N: usize>(
         data.m[(i, i)] = proj(model, i, &n, &f) + model.drive[i].ia;
         // carry F inward and project on each inner joint
         for j in (0..i).rev() {
-            let r = &data.rot[j + 1];
+            let r = &data.kin.rot[j + 1];
             f = r * f;
-            n = r * n + data.pos[j + 1].cross(&f);
+            n = r * n + data.kin.pos[j + 1].cross(&f);
             let mij = proj(model, j, &n, &f);
             data.m[(i, j)] = mij;
             data.m[(j, i)] = mij;

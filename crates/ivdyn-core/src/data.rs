@@ -1,6 +1,7 @@
 //! Work buffers of the algorithms, allocated once by the caller.
 
 use crate::inertia::LinkInertia;
+use crate::kinematics::Kinematics;
 use crate::regressor::Regressor;
 use crate::{Mat3, MatN, Vec3, VecN};
 
@@ -9,17 +10,9 @@ use crate::{Mat3, MatN, Vec3, VecN};
 /// references into it.
 #[derive(Debug, Clone)]
 pub struct Data<const N: usize> {
-    /// Link `i` axes in link `i-1` coordinates (`R_i`, parent <- child); filled by every
-    /// algorithm's kinematic pass.
-    pub rot: [Mat3; N],
-    /// Origin of link `i` in link `i-1` coordinates (includes prismatic displacement).
-    pub pos: [Vec3; N],
-    /// Angular velocity of link `i` (link `i` coords), paper eq (2).
-    pub w: [Vec3; N],
-    /// Angular acceleration of link `i`, paper eq (3).
-    pub wd: [Vec3; N],
-    /// Linear acceleration of link `i`'s origin, gravity included as `-g`, paper eq (4).
-    pub acc: [Vec3; N],
+    /// Link kinematics (`rot`, `pos`, `w`, `wd`, `acc`), paper eqs (2)-(4); filled by
+    /// every algorithm's kinematic pass.
+    pub kin: Kinematics<f64, N>,
     /// Force on link `i` from link `i-1` (link `i` coords), paper eq (6).
     pub f: [Vec3; N],
     /// Moment on link `i` from link `i-1` about link `i`'s origin, paper eq (7).
@@ -49,11 +42,7 @@ impl<const N: usize> Data<N> {
     pub fn new() -> Self {
         let z3 = Vec3::zeros();
         Self {
-            rot: [Mat3::identity(); N],
-            pos: [z3; N],
-            w: [z3; N],
-            wd: [z3; N],
-            acc: [z3; N],
+            kin: Kinematics::new(),
             f: [z3; N],
             n: [z3; N],
             tau: VecN::<N>::zeros(),

@@ -8,21 +8,21 @@ use crate::{Vec3, VecN};
 /// Kinetic energy `1/2 qd^T M(q) qd` computed from link velocities, including the
 /// armature's `1/2 ia qd^2`.
 pub fn kinetic_energy<const N: usize>(model: &Model<N>, data: &mut Data<N>, q: &VecN<N>, qd: &VecN<N>) -> f64 {
-    joint_transforms(model, data, q);
+    joint_transforms(model, &mut data.kin, q);
     let mut w = Vec3::zeros();
     let mut v = Vec3::zeros();
     let mut ke = 0.0;
     for i in 0..N {
-        let r = &data.rot[i];
+        let r = &data.kin.rot[i];
         let a = model.joints[i].axis;
         // velocity of the new origin: v + w x p, then rotate into link i
-        v = r.tr_mul(&(v + w.cross(&data.pos[i])));
+        v = r.tr_mul(&(v + w.cross(&data.kin.pos[i])));
         w = r.tr_mul(&w);
         match model.joints[i].kind {
             JointKind::Revolute => w += a * qd[i],
             JointKind::Prismatic => v += a * qd[i],
         }
-        data.w[i] = w;
+        data.kin.w[i] = w;
         data.v[i] = v;
         let p = &model.inertia[i];
         // T = 1/2 (m v.v + 2 v.(w x h) + w.I_o w)

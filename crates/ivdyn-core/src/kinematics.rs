@@ -1,27 +1,66 @@
 //! Kinematic passes shared by the dynamics algorithms.
+//!
+//! [`joint_transforms`] and [`forward_pass`] are written once for any [`Lanes`] scalar:
+//! `f64` (one sample, as on a controller) or a SIMD pack such as simba's `AutoF64x4`
+//! (four samples in lock step, as in `ivdyn`'s batch kernels). The model stays `f64`;
+//! its constants are broadcast with `splat`, a no-op for `f64`.
 
-use crate::data::Data;
 use crate::model::{JointKind, Model};
 use crate::spatial::axis_angle_sc;
-use crate::Mat3;
-#[allow(unused_imports)] // needed without std (libm-backed trig), unused when std is unified in
-use nalgebra::ComplexField;
-use crate::{Vec3, VecN};
+use crate::{Data, Lanes, Mat3, Vec3, VecN};
+use nalgebra::{Matrix3, SVector, Vector3};
 
-/// Joint placements at `q`: `data.rot[i]`, `data.pos[i]` (link `i` in link `i-1`).
-#[inline]
-pub fn joint_transforms<const N: usize>(model: &Model<N>, data: &mut Data<N>, q: &VecN<N>) {
+/// Link kinematics at one sample (`T = f64`) or a pack of samples: filled by
+/// [`joint_transforms`] and [`forward_pass`], read by RNEA, CRBA and the regressor.
+#[derive(Debug, Clone)]
+pub struct Kinematics<T: nalgebra::Scalar, const N: usize> {
+    /// Link `i` axes in link `i-1` coordinates (`R_i`, parent <- child); filled by every
+    /// algorithm's kinematic pass.
+    pub rot: [Matrix3<T>; N],
+    /// Origin of link `i` in link `i-1` coordinates (includes prismatic displacement).
+    pub pos: [Vector3<T>; N],
+    /// Angular velocity of link `i` (link `i` coords), paper eq (2).
+    pub w: [Vector3<T>; N],
+    /// Angular acceleration of link `i`, paper eq (3).
+    pub wd: [Vector3<T>; N],
+    /// Linear acceleration of link `i`'s origin, gravity included as `-g`, paper eq (4).
+    pub acc: [Vector3<T>; N],
+}
+
+impl<T: Lanes, const N: usize> Kinematics<T, N> {
+    /// Identity rotations, zero vectors.
+    pub fn new() -> Self {
+        let z3 = Vector3::<T>::zeros();
+        Self { rot: [Matrix3::<T>::identity(); N], pos: [z3; N], w: [z3; N], wd: [z3; N], acc: [z3; N] }
+    }
+}
+
+impl<T: Lanes, const N: usize> Default for Kinematics<T, N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// `v` broadcast to every lane of `T`.
+#[inline(always)]
+pub fn splat3<T: Lanes>(v: &Vec3) -> Vector3<T> {
+    Vector3::new(T::splat(v.x), T::splat(v.y), T::splat(v.z))
+}
+
+/// Joint placements at `q`: `kin.rot[i]`, `kin.pos[i]` (link `i` in link `i-1`).
+#[inline(always)]
+pub fn joint_transforms<T: Lanes, const N: usize>(model: &Model<N>, kin: &mut Kinematics<T, N>, q: &SVector<T, N>) {
     for i in 0..N {
         let x = &model.x_tree[i];
         let j = &model.joints[i];
         match j.kind {
             JointKind::Revolute => {
-                data.rot[i] = rotate_about(&x.rot, &j.axis, q[i]);
-                data.pos[i] = x.trans;
+                kin.rot[i] = rotate_about(&x.rot, &j.axis, q[i]);
+                kin.pos[i] = splat3(&x.trans);
             }
             JointKind::Prismatic => {
-                data.rot[i] = x.rot;
-                data.pos[i] = x.trans + x.rot * (j.axis * q[i]);
+                kin.rot[i] = x.rot.map(T::splat);
+                kin.pos[i] = splat3::<T>(&x.trans) + x.rot.map(T::splat) * (splat3::<T>(&j.axis) * q[i]);
             }
         }
     }
@@ -29,18 +68,18 @@ pub fn joint_transforms<const N: usize>(model: &Model<N>, data: &mut Data<N>, q:
 
 /// `e * Rot(axis, angle)`, with a cheap path for the common axes `+-x, +-y, +-z`
 /// (only two columns of `e` mix), as Pinocchio's RX/RY/RZ joints do.
-#[inline]
-pub fn rotate_about(e: &Mat3, axis: &Vec3, angle: f64) -> Mat3 {
-    let (s, c) = angle.sin_cos();
+#[inline(always)]
+pub fn rotate_about<T: Lanes>(e: &Mat3, axis: &Vec3, angle: T) -> Matrix3<T> {
+    let (s, c) = crate::trig::sin_cos(angle);
     // Rot(+-k, q) = Rot(k, +-q): fold the axis sign into the sine
     let (k, s) = if axis.x == 0.0 && axis.y == 0.0 {
-        (2, s * axis.z.signum())
+        (2, s * T::splat(axis.z.signum()))
     } else if axis.x == 0.0 && axis.z == 0.0 {
-        (1, s * axis.y.signum())
+        (1, s * T::splat(axis.y.signum()))
     } else if axis.y == 0.0 && axis.z == 0.0 {
-        (0, s * axis.x.signum())
+        (0, s * T::splat(axis.x.signum()))
     } else {
-        return e * axis_angle_sc(axis, s, c);
+        return e.map(T::splat) * axis_angle_sc(axis, s, c);
     };
     // columns (a, b) rotate in their plane: Rot(z) = [[c, -s], [s, c]] on (x, y), etc.
     let (a, b) = match k {
@@ -48,8 +87,8 @@ pub fn rotate_about(e: &Mat3, axis: &Vec3, angle: f64) -> Mat3 {
         1 => (2, 0),
         _ => (0, 1),
     };
-    let mut r = *e;
-    let (ca, cb) = (e.column(a).into_owned(), e.column(b).into_owned());
+    let mut r = e.map(T::splat);
+    let (ca, cb) = (splat3::<T>(&e.column(a).into_owned()), splat3::<T>(&e.column(b).into_owned()));
     r.set_column(a, &(ca * c + cb * s));
     r.set_column(b, &(cb * c - ca * s));
     r
@@ -58,20 +97,20 @@ pub fn rotate_about(e: &Mat3, axis: &Vec3, angle: f64) -> Mat3 {
 /// Forward recursion of the Newton-Euler method, paper eqs (2)-(4) generalised to any
 /// joint axis and to prismatic joints; fills `w`, `wd`, `acc` (gravity as base
 /// acceleration `-g`). Needs `joint_transforms` first.
-#[inline]
-pub fn forward_pass<const N: usize>(
+#[inline(always)]
+pub fn forward_pass<T: Lanes, const N: usize>(
     model: &Model<N>,
-    data: &mut Data<N>,
-    qd: &VecN<N>,
-    qdd: &VecN<N>,
+    kin: &mut Kinematics<T, N>,
+    qd: &SVector<T, N>,
+    qdd: &SVector<T, N>,
 ) {
-    let mut w = Vec3::zeros();
-    let mut wd = Vec3::zeros();
-    let mut acc = -model.gravity;
+    let mut w = Vector3::<T>::zeros();
+    let mut wd = Vector3::<T>::zeros();
+    let mut acc = splat3::<T>(&-model.gravity);
     for i in 0..N {
-        let r = &data.rot[i];
-        let p = &data.pos[i];
-        let a = &model.joints[i].axis;
+        let r = &kin.rot[i];
+        let p = &kin.pos[i];
+        let a = splat3::<T>(&model.joints[i].axis);
         // acc of the new origin, in parent coords: acc + wd x p + w x (w x p)   (eq 4)
         let acc_p = acc + wd.cross(p) + w.cross(&w.cross(p));
         let w_p = r.tr_mul(&w);
@@ -82,30 +121,30 @@ pub fn forward_pass<const N: usize>(
                 // w_i = R^T w_{i-1} + a qd                        (eq 2)
                 // wd_i = R^T wd_{i-1} + a qdd + (R^T w_{i-1}) x a qd (eq 3)
                 w = w_p + a * qd[i];
-                wd = wd_p + a * qdd[i] + w_p.cross(a) * qd[i];
+                wd = wd_p + a * qdd[i] + w_p.cross(&a) * qd[i];
             }
             JointKind::Prismatic => {
                 // the joint adds a qdd and the Coriolis term 2 w x a qd to the origin
                 w = w_p;
                 wd = wd_p;
-                acc += a * qdd[i] + 2.0 * w.cross(a) * qd[i];
+                acc += a * qdd[i] + w.cross(&a) * (T::splat(2.0) * qd[i]);
             }
         }
-        data.w[i] = w;
-        data.wd[i] = wd;
-        data.acc[i] = acc;
+        kin.w[i] = w;
+        kin.wd[i] = wd;
+        kin.acc[i] = acc;
     }
 }
 
 /// Placement of every link in the base frame at `q`: fills `o_rot`, `o_pos` (and
 /// `rot`, `pos`).
 pub fn forward_kinematics<const N: usize>(model: &Model<N>, data: &mut Data<N>, q: &VecN<N>) {
-    joint_transforms(model, data, q);
+    joint_transforms(model, &mut data.kin, q);
     let mut r = crate::Mat3::identity();
     let mut p = Vec3::zeros();
     for i in 0..N {
-        p += r * data.pos[i];
-        r *= data.rot[i];
+        p += r * data.kin.pos[i];
+        r *= data.kin.rot[i];
         data.o_rot[i] = r;
         data.o_pos[i] = p;
     }

@@ -68,6 +68,7 @@ pub mod rnea;
 pub mod sim;
 pub mod spatial;
 pub mod trajectory;
+pub mod trig;
 
 pub use crba::mass_matrix;
 pub use data::Data;
@@ -85,6 +86,15 @@ pub use nalgebra;
 
 /// Scalar type used everywhere.
 pub type Real = f64;
+
+/// A real number, or a pack of real numbers computed in lock step (one sample per lane):
+/// `f64` on a controller, simba's `AutoF64x4` in `ivdyn`'s batch kernels. The kinematic
+/// passes and the regressor ([`kinematics`], [`regressor`]) are written once for any such
+/// `T`, so the batch path runs the same arithmetic in the same order as the single-sample
+/// path (results agree bit for bit; the joint angles' sines and cosines come from
+/// [`trig::sin_cos`] on both).
+pub trait Lanes: nalgebra::SimdRealField<Element = f64> + Copy {}
+impl<T: nalgebra::SimdRealField<Element = f64> + Copy> Lanes for T {}
 /// 3-vector.
 pub type Vec3 = nalgebra::Vector3<f64>;
 /// 3x3 matrix.

@@ -17,20 +17,30 @@
 //! `O(N^2)` small dot products rather than transforming 6x10 blocks inward.
 
 use crate::data::Data;
-use crate::kinematics::{forward_pass, joint_transforms};
+use crate::kinematics::{forward_pass, joint_transforms, splat3, Kinematics};
 use crate::model::{JointKind, Model};
-use crate::params::{sign, DRIVE_PARAMS, LINK_PARAMS, PARAMS_PER_JOINT};
-use crate::{Vec3, VecN};
+use crate::params::{DRIVE_PARAMS, LINK_PARAMS, PARAMS_PER_JOINT};
+use crate::{Lanes, VecN};
+use nalgebra::{SVector, Vector3};
 
 /// Joint-torque regressor of an `N`-joint chain, stored by blocks: `link[i][j]` is row
 /// `i`'s 10 entries for link `j` (zero for `j < i`), `drive[i]` row `i`'s 4 entries for
-/// joint `i`'s drive parameters (the other drive columns of row `i` are zero).
+/// joint `i`'s drive parameters (the other drive columns of row `i` are zero). `T` is
+/// `f64`, or a pack of samples for the batch kernels (see [`regressor_links`]).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Regressor<const N: usize> {
+pub struct Regressor<const N: usize, T = f64> {
     /// Inertial blocks, `link[row][link]`.
-    pub link: [[[f64; LINK_PARAMS]; N]; N],
+    pub link: [[[T; LINK_PARAMS]; N]; N],
     /// Drive blocks `[sign(qd), qd, qdd, 1]` per row.
-    pub drive: [[f64; DRIVE_PARAMS]; N],
+    pub drive: [[T; DRIVE_PARAMS]; N],
+}
+
+impl<const N: usize, T: Lanes> Regressor<N, T> {
+    /// All zero, for any lane type.
+    pub fn zeros() -> Self {
+        let z = T::splat(0.0);
+        Self { link: [[[z; LINK_PARAMS]; N]; N], drive: [[z; DRIVE_PARAMS]; N] }
+    }
 }
 
 impl<const N: usize> Default for Regressor<N> {
@@ -116,7 +126,7 @@ impl<const N: usize> Regressor<N> {
 
 /// Fills one 10-entry block: joint motion `(sw, sv)` against link kinematics `(w, wd, acc)`.
 #[inline(always)]
-fn block(out: &mut [f64; LINK_PARAMS], sw: &Vec3, sv: &Vec3, w: &Vec3, wd: &Vec3, acc: &Vec3) {
+fn block<T: Lanes>(out: &mut [T; LINK_PARAMS], sw: &Vector3<T>, sv: &Vector3<T>, w: &Vector3<T>, wd: &Vector3<T>, acc: &Vector3<T>) {
     // Y[m] = sv . acc
     out[0] = sv.dot(acc);
     // Y[h] = acc x sw + sv x wd + w x (w x sv)
@@ -137,21 +147,50 @@ fn block(out: &mut [f64; LINK_PARAMS], sw: &Vec3, sv: &Vec3, w: &Vec3, wd: &Vec3
 
 /// Unit motion of joint `i` in its own link frame: `(angular, linear)`.
 #[inline(always)]
-fn joint_motion<const N: usize>(model: &Model<N>, i: usize) -> (Vec3, Vec3) {
-    let a = model.joints[i].axis;
+fn joint_motion<T: Lanes, const N: usize>(model: &Model<N>, i: usize) -> (Vector3<T>, Vector3<T>) {
+    let a = splat3::<T>(&model.joints[i].axis);
     match model.joints[i].kind {
-        JointKind::Revolute => (a, Vec3::zeros()),
-        JointKind::Prismatic => (Vec3::zeros(), a),
+        JointKind::Revolute => (a, Vector3::zeros()),
+        JointKind::Prismatic => (Vector3::zeros(), a),
     }
 }
 
 /// Carries a unit joint motion from link `j-1`'s frame into link `j`'s frame:
 /// `sv' = R^T (sv + sw x p)`, `sw' = R^T sw`.
 #[inline(always)]
-fn carry<const N: usize>(data: &Data<N>, j: usize, sw: &mut Vec3, sv: &mut Vec3) {
-    let r = &data.rot[j];
-    *sv = r.tr_mul(&(*sv + sw.cross(&data.pos[j])));
+fn carry<T: Lanes, const N: usize>(kin: &Kinematics<T, N>, j: usize, sw: &mut Vector3<T>, sv: &mut Vector3<T>) {
+    let r = &kin.rot[j];
+    *sv = r.tr_mul(&(*sv + sw.cross(&kin.pos[j])));
     *sw = r.tr_mul(sw);
+}
+
+/// The inertial blocks `y.link` of the regressor at `(q, qd, qdd)` (the drive blocks are
+/// left alone): the recursion behind [`regressor`], written once for `f64` and for packs
+/// of samples (`T` = simba's `AutoF64x4`: four samples per call, in the batch kernels).
+#[inline(always)]
+pub fn regressor_links<T: Lanes, const N: usize>(
+    model: &Model<N>,
+    kin: &mut Kinematics<T, N>,
+    y: &mut Regressor<N, T>,
+    q: &SVector<T, N>,
+    qd: &SVector<T, N>,
+    qdd: &SVector<T, N>,
+) {
+    joint_transforms(model, kin, q);
+    forward_pass(model, kin, qd, qdd);
+    let zero = [T::splat(0.0); LINK_PARAMS];
+    for i in 0..N {
+        let (mut sw, mut sv) = joint_motion::<T, N>(model, i);
+        for j in 0..i {
+            y.link[i][j] = zero;
+        }
+        for j in i..N {
+            if j > i {
+                carry(kin, j, &mut sw, &mut sv);
+            }
+            block(&mut y.link[i][j], &sw, &sv, &kin.w[j], &kin.wd[j], &kin.acc[j]);
+        }
+    }
 }
 
 /// The joint-torque regressor at `(q, qd, qdd)`; `regressor(..).mul(theta) == rnea(..)`
@@ -163,21 +202,9 @@ pub fn regressor<'d, const N: usize>(
     qd: &VecN<N>,
     qdd: &VecN<N>,
 ) -> &'d Regressor<N> {
-    joint_transforms(model, data, q);
-    forward_pass(model, data, qd, qdd);
+    regressor_links(model, &mut data.kin, &mut data.y, q, qd, qdd);
     for i in 0..N {
-        let (mut sw, mut sv) = joint_motion(model, i);
-        for j in 0..i {
-            data.y.link[i][j] = [0.0; LINK_PARAMS];
-        }
-        for j in i..N {
-            if j > i {
-                carry(data, j, &mut sw, &mut sv);
-            }
-            let (w, wd, acc) = (data.w[j], data.wd[j], data.acc[j]);
-            block(&mut data.y.link[i][j], &sw, &sv, &w, &wd, &acc);
-        }
-        data.y.drive[i] = [sign(qd[i]), qd[i], qdd[i], 1.0];
+        data.y.drive[i] = crate::params::DriveParams::regressor(qd[i], qdd[i]);
     }
     &data.y
 }
@@ -189,23 +216,23 @@ pub fn gravity_regressor<'d, const N: usize>(
     data: &'d mut Data<N>,
     q: &VecN<N>,
 ) -> &'d Regressor<N> {
-    joint_transforms(model, data, q);
+    joint_transforms(model, &mut data.kin, q);
     // acc_i = R_i^T acc_{i-1}, acc_0 = -g (no motion)
     let mut acc = -model.gravity;
     for i in 0..N {
-        acc = data.rot[i].tr_mul(&acc);
-        data.acc[i] = acc;
+        acc = data.kin.rot[i].tr_mul(&acc);
+        data.kin.acc[i] = acc;
     }
     for i in 0..N {
-        let (mut sw, mut sv) = joint_motion(model, i);
+        let (mut sw, mut sv) = joint_motion::<f64, N>(model, i);
         for j in 0..i {
             data.y.link[i][j] = [0.0; LINK_PARAMS];
         }
         for j in i..N {
             if j > i {
-                carry(data, j, &mut sw, &mut sv);
+                carry(&data.kin, j, &mut sw, &mut sv);
             }
-            let acc = &data.acc[j];
+            let acc = &data.kin.acc[j];
             let yh = acc.cross(&sw);
             data.y.link[i][j] = [sv.dot(acc), yh.x, yh.y, yh.z, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         }

@@ -15,8 +15,8 @@ pub fn rnea<'d, const N: usize>(
     qd: &VecN<N>,
     qdd: &VecN<N>,
 ) -> &'d VecN<N> {
-    joint_transforms(model, data, q);
-    forward_pass(model, data, qd, qdd);
+    joint_transforms(model, &mut data.kin, q);
+    forward_pass(model, &mut data.kin, qd, qdd);
     backward_pass(model, data);
     for i in 0..N {
         data.tau[i] += model.drive[i].torque(qd[i], qdd[i]);
@@ -32,8 +32,8 @@ pub fn rnea_rigid<'d, const N: usize>(
     qd: &VecN<N>,
     qdd: &VecN<N>,
 ) -> &'d VecN<N> {
-    joint_transforms(model, data, q);
-    forward_pass(model, data, qd, qdd);
+    joint_transforms(model, &mut data.kin, q);
+    forward_pass(model, &mut data.kin, qd, qdd);
     backward_pass(model, data);
     &data.tau
 }
@@ -55,7 +55,7 @@ pub(crate) fn backward_pass<const N: usize>(model: &Model<N>, data: &mut Data<N>
     let mut n_c = Vec3::zeros(); // moment of the child about this link's origin
     for i in (0..N).rev() {
         let p = &model.inertia[i];
-        let (w, wd, acc) = (&data.w[i], &data.wd[i], &data.acc[i]);
+        let (w, wd, acc) = (&data.kin.w[i], &data.kin.wd[i], &data.kin.acc[i]);
         let m = p.mass();
         let h = p.first_moment();
         let i_o = p.inertia_origin();
@@ -72,8 +72,8 @@ pub(crate) fn backward_pass<const N: usize>(model: &Model<N>, data: &mut Data<N>
             JointKind::Prismatic => a.dot(&f),
         };
         // express this link's force and moment in the parent's frame
-        let r = &data.rot[i];
+        let r = &data.kin.rot[i];
         f_c = r * f;
-        n_c = r * n + data.pos[i].cross(&f_c);
+        n_c = r * n + data.kin.pos[i].cross(&f_c);
     }
 }

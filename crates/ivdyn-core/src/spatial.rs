@@ -64,12 +64,12 @@ pub fn axis_angle(axis: &Vec3, angle: f64) -> Mat3 {
     axis_angle_sc(axis, s, c)
 }
 
-/// [`axis_angle`] with sine and cosine given.
+/// [`axis_angle`] with sine and cosine given (per lane for a pack of samples).
 #[inline]
-pub fn axis_angle_sc(a: &Vec3, s: f64, c: f64) -> Mat3 {
-    let t = 1.0 - c;
-    let (x, y, z) = (a.x, a.y, a.z);
-    Mat3::new(
+pub fn axis_angle_sc<T: crate::Lanes>(a: &Vec3, s: T, c: T) -> nalgebra::Matrix3<T> {
+    let t = T::splat(1.0) - c;
+    let (x, y, z) = (T::splat(a.x), T::splat(a.y), T::splat(a.z));
+    nalgebra::Matrix3::new(
         c + t * x * x,
         t * x * y - s * z,
         t * x * z + s * y,

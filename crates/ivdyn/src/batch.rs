@@ -20,7 +20,9 @@
 use crate::error::Error;
 use crate::robot::{Robot, MAX_DOF};
 use ivdyn_core::dh::{model_from_dh, DhRow};
-use ivdyn_core::params::{LINK_PARAMS, PARAMS_PER_JOINT};
+use ivdyn_core::params::{DRIVE_PARAMS, LINK_PARAMS, PARAMS_PER_JOINT};
+use nalgebra::SVector;
+use simba::simd::SimdValue;
 use ivdyn_core::{self as core_, Data, Model, VecN};
 
 /// Below this many samples per thread, spawning threads costs more than it saves.
@@ -166,17 +168,130 @@ fn regressor_n<const N: usize>(
     out: &mut [f64],
     rigid_only: bool,
 ) -> BatchResult<()> {
-    let cols = if rigid_only { LINK_PARAMS * N } else { PARAMS_PER_JOINT * N };
-    run::<N, _>(t, out, N * cols, |data, s, o| {
-        let (q, qd, qdd) = (row::<N>("q", q, s)?, row::<N>("qd", qd, s)?, row::<N>("qdd", qdd, s)?);
-        let y = core_::regressor(m, data, &q, &qd, &qdd);
-        if rigid_only {
-            y.write_rigid_row_major(o);
-        } else {
-            y.write_row_major(o);
+    let row_len = N * if rigid_only { LINK_PARAMS * N } else { PARAMS_PER_JOINT * N };
+    run_packs(t, out, row_len, |first, o| regressor_chunk(m, first, q, qd, qdd, o, rigid_only))
+}
+
+/// Samples computed in lock step by the pack kernels (one per SIMD lane).
+pub const LANES: usize = 4;
+type Pack = simba::simd::AutoF64x4;
+
+/// Like [`run`], for kernels that take whole chunks: `f(first_sample, out_chunk)` on
+/// [`threads_for`] threads, every chunk but the last a multiple of [`LANES`] samples, so
+/// a sample lands in the same pack (and gets the same bits) whatever the thread count.
+fn run_packs<F>(t: usize, out: &mut [f64], out_row: usize, f: F) -> BatchResult<()>
+where
+    F: Fn(usize, &mut [f64]) -> BatchResult<()> + Sync,
+{
+    if t == 0 || out_row == 0 {
+        return Ok(());
+    }
+    let nthreads = threads_for(t);
+    if nthreads == 1 {
+        return f(0, out);
+    }
+    let per = t.div_ceil(nthreads).next_multiple_of(LANES);
+    let results: Vec<BatchResult<()>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = out
+            .chunks_mut(per * out_row)
+            .enumerate()
+            .map(|(c, o)| {
+                let f = &f;
+                scope.spawn(move || f(c * per, o))
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))).collect()
+    });
+    results.into_iter().collect()
+}
+
+/// Regressors of the samples `first..` that fill `out` (whole rows), four at a time.
+/// With AVX2 the same generic code is compiled for 256-bit registers (one pack = one
+/// register); the arithmetic and its order are the same on both paths (no FMA
+/// contraction in Rust), so the results are too.
+fn regressor_chunk<const N: usize>(
+    m: &Model<N>,
+    first: usize,
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+    out: &mut [f64],
+    rigid_only: bool,
+) -> BatchResult<()> {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (checked just above).
+        return unsafe { regressor_chunk_avx2(m, first, q, qd, qdd, out, rigid_only) };
+    }
+    regressor_chunk_packs(m, first, q, qd, qdd, out, rigid_only)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn regressor_chunk_avx2<const N: usize>(
+    m: &Model<N>,
+    first: usize,
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+    out: &mut [f64],
+    rigid_only: bool,
+) -> BatchResult<()> {
+    regressor_chunk_packs(m, first, q, qd, qdd, out, rigid_only)
+}
+
+#[inline(always)]
+fn regressor_chunk_packs<const N: usize>(
+    m: &Model<N>,
+    first: usize,
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+    out: &mut [f64],
+    rigid_only: bool,
+) -> BatchResult<()> {
+    let lc = LINK_PARAMS * N;
+    let cols = if rigid_only { lc } else { PARAMS_PER_JOINT * N };
+    let row_len = N * cols;
+    let count = out.len() / row_len;
+    let mut kin = Box::new(core_::kinematics::Kinematics::<Pack, N>::new());
+    let mut y = Box::new(core_::Regressor::<N, Pack>::zeros());
+    let zero = Pack::splat(0.0);
+    let (mut qp, mut qdp, mut qddp) = (SVector::<Pack, N>::repeat(zero), SVector::<Pack, N>::repeat(zero), SVector::<Pack, N>::repeat(zero));
+    for p0 in (0..count).step_by(LANES) {
+        let valid = LANES.min(count - p0);
+        // a short last pack repeats its last sample in the spare lanes
+        for k in 0..LANES {
+            let s = first + p0 + k.min(valid - 1);
+            let at = |e: core_::Error| Error::Sample { index: s, source: e };
+            let (qs, qds, qdds) = (row::<N>("q", q, s).map_err(at)?, row::<N>("qd", qd, s).map_err(at)?, row::<N>("qdd", qdd, s).map_err(at)?);
+            for j in 0..N {
+                qp[j].0[k] = qs[j];
+                qdp[j].0[k] = qds[j];
+                qddp[j].0[k] = qdds[j];
+            }
         }
-        Ok(())
-    })
+        core_::regressor::regressor_links(m, &mut kin, &mut y, &qp, &qdp, &qddp);
+        for k in 0..valid {
+            let o = &mut out[(p0 + k) * row_len..(p0 + k + 1) * row_len];
+            for i in 0..N {
+                let oi = &mut o[i * cols..(i + 1) * cols];
+                // fixed-size blocks: unrolled stores, no per-entry bounds checks
+                let (links, _) = oi.as_chunks_mut::<LINK_PARAMS>();
+                for (j, blk) in links[..N].iter_mut().enumerate() {
+                    *blk = if j < i { [0.0; LINK_PARAMS] } else { core::array::from_fn(|c| y.link[i][j][c].0[k]) };
+                }
+                if !rigid_only {
+                    // drive columns: joint i's [sign(qd), qd, qdd, 1], zero elsewhere
+                    let d = &mut oi[lc..];
+                    d.fill(0.0);
+                    let (v, a) = (qdp[i].0[k], qddp[i].0[k]);
+                    d[DRIVE_PARAMS * i..DRIVE_PARAMS * (i + 1)].copy_from_slice(&core_::params::DriveParams::regressor(v, a));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Mass matrices (with armature) for `T` samples. `q`: `T x N`, `out`: `T x N x N`.
@@ -372,6 +487,18 @@ mod tests {
         assert_eq!(e.to_string(), "sample 700: non-finite value in q[2]");
         let e = forward_dynamics_batch(&robot, &q, &qd, &qdd, &mut out).unwrap_err();
         assert_eq!(e.to_string(), "sample 613: non-finite value in tau[5]");
+        // the regressor's pack kernel: 700 and 613 sit in different packs of four
+        let mut y = vec![0.0; t * 6 * 60];
+        let e = regressor_batch(&robot, &q, &qd, &qdd, &mut y, true).unwrap_err();
+        assert_eq!(e.to_string(), "sample 613: non-finite value in qdd[5]");
+        // the last, short pack (999 = 4 * 249 + 3 samples) repeats its last sample in the
+        // spare lane: a bad last sample is named once, as itself
+        let (t, mut q) = (999, samples(999 * 6, 5));
+        q[6 * 998] = f64::NAN;
+        let (qd, qdd) = (samples(t * 6, 6), samples(t * 6, 7));
+        let mut y = vec![0.0; t * 6 * 84];
+        let e = regressor_batch(&robot, &q, &qd, &qdd, &mut y, false).unwrap_err();
+        assert_eq!(e.to_string(), "sample 998: non-finite value in q[0]");
     }
 
     #[test]
