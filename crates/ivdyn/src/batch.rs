@@ -169,6 +169,20 @@ fn regressor_n<const N: usize>(
     rigid_only: bool,
 ) -> BatchResult<()> {
     let row_len = N * if rigid_only { LINK_PARAMS * N } else { PARAMS_PER_JOINT * N };
+    if t < LANES {
+        // fewer samples than a pack (e.g. one sample from Python): the f64 path, which
+        // gives the same bits without the pack buffers' set-up
+        return run::<N, _>(t, out, row_len, |data, s, o| {
+            let (q, qd, qdd) = (row::<N>("q", q, s)?, row::<N>("qd", qd, s)?, row::<N>("qdd", qdd, s)?);
+            let y = core_::regressor(m, data, &q, &qd, &qdd);
+            if rigid_only {
+                y.write_rigid_row_major(o);
+            } else {
+                y.write_row_major(o);
+            }
+            Ok(())
+        });
+    }
     run_packs(t, out, row_len, |first, o| regressor_chunk(m, first, q, qd, qdd, o, rigid_only))
 }
 
@@ -421,6 +435,12 @@ mod tests {
             regressor_batch(&robot, &q, &qd, &qdd, &mut y, false).unwrap();
             let mut yr = vec![f64::NAN; T * n * 10 * n];
             regressor_batch(&robot, &q, &qd, &qdd, &mut yr, true).unwrap();
+            // fewer samples than a pack take the f64 path: same bits
+            for t in [1, 3, 5] {
+                let mut ys = vec![f64::NAN; t * n * 14 * n];
+                regressor_batch(&robot, &q[..t * n], &qd[..t * n], &qdd[..t * n], &mut ys, false).unwrap();
+                assert_eq!(ys, y[..t * n * 14 * n]);
+            }
             let mut mm = vec![0.0; T * n * n];
             mass_matrix_batch(&robot, &q, &mut mm).unwrap();
             let mut fd = vec![0.0; T * n];
