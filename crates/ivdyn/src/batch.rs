@@ -87,34 +87,42 @@ fn run<const N: usize, F>(t: usize, out: &mut [f64], out_row: usize, f: F) -> Ba
 where
     F: Fn(&mut Data<N>, usize, &mut [f64]) -> Result<(), core_::Error> + Sync,
 {
-    let chunk_rows = |first: usize, out: &mut [f64]| -> BatchResult<()> {
+    run_chunks(t, out, out_row, 1, |first, out| {
         let mut data = Box::new(Data::<N>::new());
-        for (k, o) in out.chunks_exact_mut(out_row.max(1)).enumerate() {
+        for (k, o) in out.chunks_exact_mut(out_row).enumerate() {
             let s = first + k;
             f(&mut data, s, o).map_err(|source| Error::Sample { index: s, source })?;
         }
         Ok(())
-    };
+    })
+}
+
+/// Runs `f(first_sample, out_chunk)` over contiguous chunks of whole rows on
+/// [`threads_for`] threads, every chunk but the last a multiple of `align` samples.
+/// Chunks are in sample order, so the first error returned is the lowest failing sample's.
+fn run_chunks<F>(t: usize, out: &mut [f64], out_row: usize, align: usize, f: F) -> BatchResult<()>
+where
+    F: Fn(usize, &mut [f64]) -> BatchResult<()> + Sync,
+{
     if t == 0 || out_row == 0 {
         return Ok(());
     }
     let nthreads = threads_for(t);
     if nthreads == 1 {
-        return chunk_rows(0, out);
+        return f(0, out);
     }
-    let per = t.div_ceil(nthreads);
+    let per = t.div_ceil(nthreads).next_multiple_of(align);
     let results: Vec<BatchResult<()>> = std::thread::scope(|scope| {
         let handles: Vec<_> = out
             .chunks_mut(per * out_row)
             .enumerate()
             .map(|(c, o)| {
-                let chunk_rows = &chunk_rows;
-                scope.spawn(move || chunk_rows(c * per, o))
+                let f = &f;
+                scope.spawn(move || f(c * per, o))
             })
             .collect();
         handles.into_iter().map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))).collect()
     });
-    // chunks are in sample order, so the first error is the lowest failing sample
     results.into_iter().collect()
 }
 
@@ -183,87 +191,47 @@ fn regressor_n<const N: usize>(
             Ok(())
         });
     }
-    run_packs(t, out, row_len, |first, o| regressor_chunk(m, first, q, qd, qdd, o, rigid_only))
+    // chunks of whole packs: a sample lands in the same pack (same bits) whatever the
+    // thread count
+    let x = States { q, qd, qdd, rigid_only };
+    run_chunks(t, out, row_len, LANES, |first, o| regressor_chunk(m, first, &x, o))
+}
+
+/// The inputs of a regressor batch (`T x N` each) and which columns to write.
+#[derive(Clone, Copy)]
+struct States<'a> {
+    q: &'a [f64],
+    qd: &'a [f64],
+    qdd: &'a [f64],
+    rigid_only: bool,
 }
 
 /// Samples computed in lock step by the pack kernels (one per SIMD lane).
 pub const LANES: usize = 4;
 type Pack = simba::simd::AutoF64x4;
 
-/// Like [`run`], for kernels that take whole chunks: `f(first_sample, out_chunk)` on
-/// [`threads_for`] threads, every chunk but the last a multiple of [`LANES`] samples, so
-/// a sample lands in the same pack (and gets the same bits) whatever the thread count.
-fn run_packs<F>(t: usize, out: &mut [f64], out_row: usize, f: F) -> BatchResult<()>
-where
-    F: Fn(usize, &mut [f64]) -> BatchResult<()> + Sync,
-{
-    if t == 0 || out_row == 0 {
-        return Ok(());
-    }
-    let nthreads = threads_for(t);
-    if nthreads == 1 {
-        return f(0, out);
-    }
-    let per = t.div_ceil(nthreads).next_multiple_of(LANES);
-    let results: Vec<BatchResult<()>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = out
-            .chunks_mut(per * out_row)
-            .enumerate()
-            .map(|(c, o)| {
-                let f = &f;
-                scope.spawn(move || f(c * per, o))
-            })
-            .collect();
-        handles.into_iter().map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))).collect()
-    });
-    results.into_iter().collect()
-}
-
 /// Regressors of the samples `first..` that fill `out` (whole rows), four at a time.
 /// With AVX2 the same generic code is compiled for 256-bit registers (one pack = one
 /// register); the arithmetic and its order are the same on both paths (no FMA
 /// contraction in Rust), so the results are too.
-fn regressor_chunk<const N: usize>(
-    m: &Model<N>,
-    first: usize,
-    q: &[f64],
-    qd: &[f64],
-    qdd: &[f64],
-    out: &mut [f64],
-    rigid_only: bool,
-) -> BatchResult<()> {
+fn regressor_chunk<const N: usize>(m: &Model<N>, first: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { regressor_chunk_avx2(m, first, q, qd, qdd, out, rigid_only) };
+        return unsafe { regressor_chunk_avx2(m, first, x, out) };
     }
-    regressor_chunk_packs(m, first, q, qd, qdd, out, rigid_only)
+    regressor_chunk_packs(m, first, x, out)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn regressor_chunk_avx2<const N: usize>(
-    m: &Model<N>,
-    first: usize,
-    q: &[f64],
-    qd: &[f64],
-    qdd: &[f64],
-    out: &mut [f64],
-    rigid_only: bool,
-) -> BatchResult<()> {
-    regressor_chunk_packs(m, first, q, qd, qdd, out, rigid_only)
+unsafe fn regressor_chunk_avx2<const N: usize>(m: &Model<N>, first: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
+    regressor_chunk_packs(m, first, x, out)
 }
 
 #[inline(always)]
-fn regressor_chunk_packs<const N: usize>(
-    m: &Model<N>,
-    first: usize,
-    q: &[f64],
-    qd: &[f64],
-    qdd: &[f64],
-    out: &mut [f64],
-    rigid_only: bool,
-) -> BatchResult<()> {
+fn regressor_chunk_packs<const N: usize>(m: &Model<N>, first: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
+    let States { q, qd, qdd, rigid_only } = *x;
     let lc = LINK_PARAMS * N;
     let cols = if rigid_only { lc } else { PARAMS_PER_JOINT * N };
     let row_len = N * cols;
