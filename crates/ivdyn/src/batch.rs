@@ -459,6 +459,25 @@ mod tests {
     }
 
     #[test]
+    fn pack_kernel_without_avx2_gives_the_same_bits() {
+        // the portable build of the pack kernel (what a CPU without AVX2 runs) against the
+        // dispatched one and the f64 path
+        let robot = Robot::from_urdf(fixtures().join("ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
+        let (t, n) = (37, 6);
+        let (q, qd, qdd) = (samples(t * n, 11), samples(t * n, 12), samples(t * n, 13));
+        let mut y = vec![f64::NAN; t * n * 84];
+        regressor_batch(&robot, &q, &qd, &qdd, &mut y, false).unwrap();
+        let mut yp = vec![f64::NAN; t * n * 84];
+        let x = States { q: &q, qd: &qd, qdd: &qdd, rigid_only: false };
+        crate::with_model!(&robot.model, m => regressor_chunk_packs(&**m, 0, &x, &mut yp)).unwrap();
+        assert_eq!(y, yp);
+        for s in 0..t {
+            let r = |v: &[f64]| v[n * s..n * (s + 1)].to_vec();
+            assert_eq!(robot.regressor(&r(&q), &r(&qd), &r(&qdd)).unwrap(), y[84 * n * s..84 * n * (s + 1)]);
+        }
+    }
+
+    #[test]
     fn non_finite_names_the_sample() {
         let robot = Robot::paper();
         let t = 1000;
