@@ -15,11 +15,17 @@
 //! modify, and distribute this software is freely granted, provided that this notice
 //! is preserved.").
 
+#![allow(clippy::excessive_precision)]
+
 use crate::Lanes;
 
+// The constants are fdlibm's decimal literals verbatim (they parse to fdlibm's bit
+// patterns, e.g. P1 = 0x3FF921FB54400000, S1 = 0xBFC5555555555549, C6 = 0xBDA8FAE9BE8838D4):
+// more digits than a double holds, on purpose (hence the allow at the top).
+
+const INV_PIO2: f64 = core::f64::consts::FRAC_2_PI;
 // pi/2 = P1 + P2 + P3 + P3T; P1..P3 have 33 significant bits, so n * Pk is exact for
 // |n| < 2^20 (fdlibm's pio2_1, pio2_2, pio2_3, pio2_3t)
-const INV_PIO2: f64 = 6.366_197_723_675_813_824_33e-1;
 const P1: f64 = 1.570_796_326_734_125_614_17e0;
 const P2: f64 = 6.077_100_506_303_965_976_60e-11;
 const P3: f64 = 2.022_266_248_711_166_455_80e-21;
