@@ -1,9 +1,10 @@
 //! Recursive Newton-Euler inverse dynamics, paper eqs (2)-(8).
 
 use crate::data::Data;
-use crate::kinematics::{forward_pass, joint_transforms};
+use crate::kinematics::{forward_pass, joint_transforms, splat3, Kinematics};
 use crate::model::{JointKind, Model};
-use crate::{Vec3, VecN};
+use crate::{Lanes, VecN};
+use nalgebra::{SVector, Vector3};
 
 /// Inverse dynamics `tau = M(q) qdd + C(q, qd) qd + g(q) + tau_drive(qd, qdd)`, with the
 /// drive terms `fc sign(qd) + fv qd + ia qdd + tau0` of each joint. Returns
@@ -51,29 +52,43 @@ pub fn gravity<'d, const N: usize>(
 /// Backward recursion, paper eqs (6)-(8): link forces from the kinematics in `data`.
 #[inline]
 pub(crate) fn backward_pass<const N: usize>(model: &Model<N>, data: &mut Data<N>) {
-    let mut f_c = Vec3::zeros(); // force of the child on this link, in this link's coords
-    let mut n_c = Vec3::zeros(); // moment of the child about this link's origin
+    backward_pass_in(model, &data.kin, &mut data.f, &mut data.n, &mut data.tau);
+}
+
+/// [`backward_pass`] for one sample or a pack of samples ([`Lanes`]): from the link
+/// kinematics `kin` to the link forces `f`, moments `n` and the rigid-body joint torques
+/// `tau` (no drive terms). Written once for both.
+#[inline(always)]
+pub fn backward_pass_in<T: Lanes, const N: usize>(
+    model: &Model<N>,
+    kin: &Kinematics<T, N>,
+    f_out: &mut [Vector3<T>; N],
+    n_out: &mut [Vector3<T>; N],
+    tau: &mut SVector<T, N>,
+) {
+    let mut f_c = Vector3::<T>::zeros(); // force of the child on this link, in this link's coords
+    let mut n_c = Vector3::<T>::zeros(); // moment of the child about this link's origin
     for i in (0..N).rev() {
         let p = &model.inertia[i];
-        let (w, wd, acc) = (&data.kin.w[i], &data.kin.wd[i], &data.kin.acc[i]);
-        let m = p.mass();
-        let h = p.first_moment();
-        let i_o = p.inertia_origin();
+        let (w, wd, acc) = (&kin.w[i], &kin.wd[i], &kin.acc[i]);
+        let m = T::splat(p.mass());
+        let h = splat3::<T>(&p.first_moment());
+        let i_o = p.inertia_origin().map(T::splat);
         // f_i = m acc + wd x h + w x (w x h) + R_{i+1} f_{i+1}                    (eq 6)
-        let f = m * acc + wd.cross(&h) + w.cross(&w.cross(&h)) + f_c;
+        let f = acc * m + wd.cross(&h) + w.cross(&w.cross(&h)) + f_c;
         // n_i = I_o wd + w x (I_o w) + h x acc + R_{i+1} n_{i+1} + p_{i+1} x (R_{i+1} f_{i+1}) (eq 7)
         let n = i_o * wd + w.cross(&(i_o * w)) + h.cross(acc) + n_c;
-        data.f[i] = f;
-        data.n[i] = n;
-        let a = &model.joints[i].axis;
+        f_out[i] = f;
+        n_out[i] = n;
+        let a = splat3::<T>(&model.joints[i].axis);
         // tau_i = axis . n_i (revolute) or axis . f_i (prismatic)                  (eq 8)
-        data.tau[i] = match model.joints[i].kind {
+        tau[i] = match model.joints[i].kind {
             JointKind::Revolute => a.dot(&n),
             JointKind::Prismatic => a.dot(&f),
         };
         // express this link's force and moment in the parent's frame
-        let r = &data.kin.rot[i];
+        let r = &kin.rot[i];
         f_c = r * f;
-        n_c = r * n + data.kin.pos[i].cross(&f_c);
+        n_c = r * n + kin.pos[i].cross(&f_c);
     }
 }

@@ -21,7 +21,7 @@ use crate::error::Error;
 use crate::robot::{Robot, MAX_DOF};
 use ivdyn_core::dh::{model_from_dh, DhRow};
 use ivdyn_core::params::{DRIVE_PARAMS, LINK_PARAMS, PARAMS_PER_JOINT};
-use nalgebra::SVector;
+use nalgebra::{SVector, Vector3};
 use simba::simd::SimdValue;
 use ivdyn_core::{self as core_, Data, Model, VecN};
 
@@ -135,11 +135,15 @@ pub fn rnea_batch(robot: &Robot, q: &[f64], qd: &[f64], qdd: &[f64], out: &mut [
 }
 
 fn rnea_n<const N: usize>(m: &Model<N>, t: usize, q: &[f64], qd: &[f64], qdd: &[f64], out: &mut [f64]) -> BatchResult<()> {
-    run::<N, _>(t, out, N, |data, s, o| {
-        let (q, qd, qdd) = (row::<N>("q", q, s)?, row::<N>("qd", qd, s)?, row::<N>("qdd", qdd, s)?);
-        o.copy_from_slice(core_::rnea(m, data, &q, &qd, &qdd).as_slice());
-        Ok(())
-    })
+    if t < LANES {
+        return run::<N, _>(t, out, N, |data, s, o| {
+            let (q, qd, qdd) = (row::<N>("q", q, s)?, row::<N>("qd", qd, s)?, row::<N>("qdd", qdd, s)?);
+            o.copy_from_slice(core_::rnea(m, data, &q, &qd, &qdd).as_slice());
+            Ok(())
+        });
+    }
+    let x = States { q, qd: Some(qd), qdd: Some(qdd), what: What::Rnea { drive: true } };
+    run_chunks(t, out, N, LANES, |first, o| packs_chunk(m, first, &x, o))
 }
 
 /// Gravity torques (no drive terms) for `T` samples. `q`, `out`: `T x N`.
@@ -150,11 +154,15 @@ pub fn gravity_batch(robot: &Robot, q: &[f64], out: &mut [f64]) -> BatchResult<(
 }
 
 fn gravity_n<const N: usize>(m: &Model<N>, t: usize, q: &[f64], out: &mut [f64]) -> BatchResult<()> {
-    run::<N, _>(t, out, N, |data, s, o| {
-        let q = row::<N>("q", q, s)?;
-        o.copy_from_slice(core_::gravity(m, data, &q).as_slice());
-        Ok(())
-    })
+    if t < LANES {
+        return run::<N, _>(t, out, N, |data, s, o| {
+            let q = row::<N>("q", q, s)?;
+            o.copy_from_slice(core_::gravity(m, data, &q).as_slice());
+            Ok(())
+        });
+    }
+    let x = States { q, qd: None, qdd: None, what: What::Rnea { drive: false } };
+    run_chunks(t, out, N, LANES, |first, o| packs_chunk(m, first, &x, o))
 }
 
 /// Joint-torque regressors for `T` samples, row-major `T x N x 14N` (the full regressor,
@@ -193,82 +201,114 @@ fn regressor_n<const N: usize>(
     }
     // chunks of whole packs: a sample lands in the same pack (same bits) whatever the
     // thread count
-    let x = States { q, qd, qdd, rigid_only };
-    run_chunks(t, out, row_len, LANES, |first, o| regressor_chunk(m, first, &x, o))
+    let x = States { q, qd: Some(qd), qdd: Some(qdd), what: What::Regressor { rigid_only } };
+    run_chunks(t, out, row_len, LANES, |first, o| packs_chunk(m, first, &x, o))
 }
 
-/// The inputs of a regressor batch (`T x N` each) and which columns to write.
+/// What a pack kernel computes per sample.
+#[derive(Clone, Copy)]
+enum What {
+    /// The regressor, `N x 14N` (or `N x 10N` when `rigid_only`).
+    Regressor { rigid_only: bool },
+    /// Inverse dynamics, `N` torques, with or without the drive terms.
+    Rnea { drive: bool },
+}
+
+/// The inputs of a pack kernel (`T x N` each; `qd`, `qdd` zero when absent) and its output.
 #[derive(Clone, Copy)]
 struct States<'a> {
     q: &'a [f64],
-    qd: &'a [f64],
-    qdd: &'a [f64],
-    rigid_only: bool,
+    qd: Option<&'a [f64]>,
+    qdd: Option<&'a [f64]>,
+    what: What,
 }
 
 /// Samples computed in lock step by the pack kernels (one per SIMD lane).
 pub const LANES: usize = 4;
 type Pack = simba::simd::AutoF64x4;
 
-/// Regressors of the samples `first..` that fill `out` (whole rows), four at a time.
-/// With AVX2 the same generic code is compiled for 256-bit registers (one pack = one
-/// register); the arithmetic and its order are the same on both paths (no FMA
-/// contraction in Rust), so the results are too.
-fn regressor_chunk<const N: usize>(m: &Model<N>, first: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
+/// The samples `first..` that fill `out` (whole rows), four at a time. With AVX2 the same
+/// generic code is compiled for 256-bit registers (one pack = one register); the
+/// arithmetic and its order are the same on both paths (no FMA contraction in Rust), so
+/// the results are too.
+fn packs_chunk<const N: usize>(m: &Model<N>, first: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (checked just above).
-        return unsafe { regressor_chunk_avx2(m, first, x, out) };
+        return unsafe { packs_chunk_avx2(m, first, x, out) };
     }
-    regressor_chunk_packs(m, first, x, out)
+    packs_chunk_portable(m, first, x, out)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn regressor_chunk_avx2<const N: usize>(m: &Model<N>, first: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
-    regressor_chunk_packs(m, first, x, out)
+unsafe fn packs_chunk_avx2<const N: usize>(m: &Model<N>, first: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
+    packs_chunk_portable(m, first, x, out)
 }
 
 #[inline(always)]
-fn regressor_chunk_packs<const N: usize>(m: &Model<N>, first: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
-    let States { q, qd, qdd, rigid_only } = *x;
+fn packs_chunk_portable<const N: usize>(m: &Model<N>, first: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
     let lc = LINK_PARAMS * N;
-    let cols = if rigid_only { lc } else { PARAMS_PER_JOINT * N };
+    let cols = match x.what {
+        What::Regressor { rigid_only: true } => lc,
+        What::Regressor { rigid_only: false } => PARAMS_PER_JOINT * N,
+        What::Rnea { .. } => 1,
+    };
     let row_len = N * cols;
     let count = out.len() / row_len;
     let mut kin = Box::new(core_::kinematics::Kinematics::<Pack, N>::new());
     let mut y = Box::new(core_::Regressor::<N, Pack>::zeros());
     let zero = Pack::splat(0.0);
-    let (mut qp, mut qdp, mut qddp) = (SVector::<Pack, N>::repeat(zero), SVector::<Pack, N>::repeat(zero), SVector::<Pack, N>::repeat(zero));
+    let (mut f, mut n, mut tau) = ([Vector3::<Pack>::zeros(); N], [Vector3::<Pack>::zeros(); N], SVector::<Pack, N>::repeat(zero));
+    let mut ins = [SVector::<Pack, N>::repeat(zero); 3];
+    let arrays = [("q", Some(x.q)), ("qd", x.qd), ("qdd", x.qdd)];
     for p0 in (0..count).step_by(LANES) {
         let valid = LANES.min(count - p0);
         // a short last pack repeats its last sample in the spare lanes
         for k in 0..LANES {
             let s = first + p0 + k.min(valid - 1);
-            let at = |e: core_::Error| Error::Sample { index: s, source: e };
-            let (qs, qds, qdds) = (row::<N>("q", q, s).map_err(at)?, row::<N>("qd", qd, s).map_err(at)?, row::<N>("qdd", qdd, s).map_err(at)?);
-            for j in 0..N {
-                qp[j].0[k] = qs[j];
-                qdp[j].0[k] = qds[j];
-                qddp[j].0[k] = qdds[j];
+            for ((name, a), v) in arrays.iter().zip(ins.iter_mut()) {
+                if let Some(a) = a {
+                    let r = row::<N>(name, a, s).map_err(|e| Error::Sample { index: s, source: e })?;
+                    for j in 0..N {
+                        v[j].0[k] = r[j];
+                    }
+                }
             }
         }
-        core_::regressor::regressor_links(m, &mut kin, &mut y, &qp, &qdp, &qddp);
-        for k in 0..valid {
-            let o = &mut out[(p0 + k) * row_len..(p0 + k + 1) * row_len];
-            for i in 0..N {
-                let oi = &mut o[i * cols..(i + 1) * cols];
-                // fixed-size blocks: unrolled stores, no per-entry bounds checks
-                let (links, _) = oi.as_chunks_mut::<LINK_PARAMS>();
-                for (j, blk) in links[..N].iter_mut().enumerate() {
-                    *blk = if j < i { [0.0; LINK_PARAMS] } else { core::array::from_fn(|c| y.link[i][j][c].0[k]) };
+        let [qp, qdp, qddp] = &ins;
+        match x.what {
+            What::Regressor { rigid_only } => {
+                core_::regressor::regressor_links(m, &mut kin, &mut y, qp, qdp, qddp);
+                for k in 0..valid {
+                    let o = &mut out[(p0 + k) * row_len..(p0 + k + 1) * row_len];
+                    for i in 0..N {
+                        let oi = &mut o[i * cols..(i + 1) * cols];
+                        // fixed-size blocks: unrolled stores, no per-entry bounds checks
+                        let (links, _) = oi.as_chunks_mut::<LINK_PARAMS>();
+                        for (j, blk) in links[..N].iter_mut().enumerate() {
+                            *blk = if j < i { [0.0; LINK_PARAMS] } else { core::array::from_fn(|c| y.link[i][j][c].0[k]) };
+                        }
+                        if !rigid_only {
+                            // drive columns: joint i's [sign(qd), qd, qdd, 1], zero elsewhere
+                            let d = &mut oi[lc..];
+                            d.fill(0.0);
+                            let (v, a) = (qdp[i].0[k], qddp[i].0[k]);
+                            d[DRIVE_PARAMS * i..DRIVE_PARAMS * (i + 1)].copy_from_slice(&core_::params::DriveParams::regressor(v, a));
+                        }
+                    }
                 }
-                if !rigid_only {
-                    // drive columns: joint i's [sign(qd), qd, qdd, 1], zero elsewhere
-                    let d = &mut oi[lc..];
-                    d.fill(0.0);
-                    let (v, a) = (qdp[i].0[k], qddp[i].0[k]);
-                    d[DRIVE_PARAMS * i..DRIVE_PARAMS * (i + 1)].copy_from_slice(&core_::params::DriveParams::regressor(v, a));
+            }
+            What::Rnea { drive } => {
+                core_::kinematics::joint_transforms(m, &mut kin, qp);
+                core_::kinematics::forward_pass(m, &mut kin, qdp, qddp);
+                core_::rnea::backward_pass_in(m, &kin, &mut f, &mut n, &mut tau);
+                for k in 0..valid {
+                    let o = &mut out[(p0 + k) * N..(p0 + k + 1) * N];
+                    for i in 0..N {
+                        // as core_::rnea: the rigid-body torque, then the drive terms added
+                        o[i] = if drive { tau[i].0[k] + m.drive[i].torque(qdp[i].0[k], qddp[i].0[k]) } else { tau[i].0[k] };
+                    }
                 }
             }
         }
@@ -459,7 +499,7 @@ mod tests {
     }
 
     #[test]
-    fn pack_kernel_without_avx2_gives_the_same_bits() {
+    fn pack_kernels_without_avx2_give_the_same_bits() {
         // the portable build of the pack kernel (what a CPU without AVX2 runs) against the
         // dispatched one and the f64 path
         let robot = Robot::from_urdf(fixtures().join("ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
@@ -468,12 +508,19 @@ mod tests {
         let mut y = vec![f64::NAN; t * n * 84];
         regressor_batch(&robot, &q, &qd, &qdd, &mut y, false).unwrap();
         let mut yp = vec![f64::NAN; t * n * 84];
-        let x = States { q: &q, qd: &qd, qdd: &qdd, rigid_only: false };
-        crate::with_model!(&robot.model, m => regressor_chunk_packs(&**m, 0, &x, &mut yp)).unwrap();
+        let x = States { q: &q, qd: Some(&qd), qdd: Some(&qdd), what: What::Regressor { rigid_only: false } };
+        crate::with_model!(&robot.model, m => packs_chunk_portable(&**m, 0, &x, &mut yp)).unwrap();
         assert_eq!(y, yp);
+        let mut tau = vec![f64::NAN; t * n];
+        rnea_batch(&robot, &q, &qd, &qdd, &mut tau).unwrap();
+        let mut taup = vec![f64::NAN; t * n];
+        let x = States { q: &q, qd: Some(&qd), qdd: Some(&qdd), what: What::Rnea { drive: true } };
+        crate::with_model!(&robot.model, m => packs_chunk_portable(&**m, 0, &x, &mut taup)).unwrap();
+        assert_eq!(tau, taup);
         for s in 0..t {
             let r = |v: &[f64]| v[n * s..n * (s + 1)].to_vec();
             assert_eq!(robot.regressor(&r(&q), &r(&qd), &r(&qdd)).unwrap(), y[84 * n * s..84 * n * (s + 1)]);
+            assert_eq!(robot.rnea(&r(&q), &r(&qd), &r(&qdd)).unwrap(), r(&tau));
         }
     }
 
