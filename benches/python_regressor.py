@@ -156,6 +156,26 @@ def main():
               f"{tmin / b_min:6.3f}x | {vs_c:>7} |")
     print()
     print("ratio = min time / min time of the reference row (lower is faster).")
+
+    # inverse dynamics of the same samples: ivdyn batched vs a Python loop over pin.rnea
+    # (Pinocchio's model has no friction or armature, nor has the UR5 URDF: same torques)
+    tau_buf = np.empty((t, n))
+    r_min, r_med, tau_iv = timed(lambda: robot.rnea(q, qd, qdd, out=tau_buf), repeats)
+
+    def pin_rnea():
+        out = np.empty((t, n))
+        for k in range(t):
+            out[k] = pin.rnea(model, data, q[k], qd[k], qdd[k])
+        return out
+
+    p_min, p_med, tau_pin = timed(pin_rnea, repeats)
+    rnea_err = np.abs(tau_iv - tau_pin).max() / np.abs(tau_pin).max()
+    print()
+    print(f"inverse dynamics, {t} samples (max rel. difference {rnea_err:.1e}):")
+    print(f"| {'method':<48} | {'min s':>8} | {'median s':>8} | {'speed-up':>8} |")
+    print(f"|{'-' * 50}|{'-' * 10}:|{'-' * 10}:|{'-' * 10}:|")
+    print(f"| {'Pinocchio Python loop over pin.rnea':<48} | {p_min:8.4f} | {p_med:8.4f} | {'1.00x':>8} |")
+    print(f"| {'ivdyn robot.rnea(Q, QD, QDD, out=)':<48} | {r_min:8.4f} | {r_med:8.4f} | {p_min / r_min:7.1f}x |")
     if rust is None:
         print(f"(c) skipped: {why}")
     # whole fit: regressor + least squares of the rigid-body parameters
