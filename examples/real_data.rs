@@ -46,8 +46,8 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
             println!("  {:<14} {:>8.3} {:>8.2} {:>9.3} {:>9.3}", r.joints[i], r.validation.r2[i], r.floor_r2[i], r.validation.rms[i], r.validation.tau_rms[i]);
         }
         if let Some(c) = &r.consistent {
-            println!("  physically consistent fit (log-Cholesky, friction and armature >= 0): {} LM iterations (converged: {}), {} directions unseen by the data", c.iterations, c.converged, c.regularised_directions);
-            println!("    weighted RSS of the fitted rows {:.6e} -> {:.6e} ({:+.2} %)", c.rss_ls, c.rss, 100.0 * c.rss_increase);
+            println!("  physically consistent fit (log-Cholesky, friction and armature >= 0): {} LM iterations (converged: {}), {} directions unseen by the data", c.cost.iterations, c.cost.converged, c.cost.regularised_directions);
+            println!("    weighted RSS of the fitted rows {:.6e} -> {:.6e} ({:+.2} %)", c.cost.rss_ls, c.cost.rss, 100.0 * c.cost.rss_increase);
             println!("    LS estimate (nominal + base correction): {} violations", c.ls_violations.len());
             for v in &c.ls_violations {
                 println!("      {v}");

@@ -135,15 +135,7 @@ pub fn rnea_batch(robot: &Robot, q: &[f64], qd: &[f64], qdd: &[f64], out: &mut [
 }
 
 fn rnea_n<const N: usize>(m: &Model<N>, t: usize, q: &[f64], qd: &[f64], qdd: &[f64], out: &mut [f64]) -> BatchResult<()> {
-    if t < LANES {
-        return run::<N, _>(t, out, N, |data, s, o| {
-            let (q, qd, qdd) = (row::<N>("q", q, s)?, row::<N>("qd", qd, s)?, row::<N>("qdd", qdd, s)?);
-            o.copy_from_slice(core_::rnea(m, data, &q, &qd, &qdd).as_slice());
-            Ok(())
-        });
-    }
-    let x = States { q, qd: Some(qd), qdd: Some(qdd), what: What::Rnea { drive: true } };
-    run_chunks(t, out, N, LANES, |first, o| packs_chunk(m, first, &x, o))
+    packs_n(m, t, &States { q, qd: Some(qd), qdd: Some(qdd), what: What::Rnea { drive: true } }, out)
 }
 
 /// Gravity torques (no drive terms) for `T` samples. `q`, `out`: `T x N`.
@@ -154,15 +146,7 @@ pub fn gravity_batch(robot: &Robot, q: &[f64], out: &mut [f64]) -> BatchResult<(
 }
 
 fn gravity_n<const N: usize>(m: &Model<N>, t: usize, q: &[f64], out: &mut [f64]) -> BatchResult<()> {
-    if t < LANES {
-        return run::<N, _>(t, out, N, |data, s, o| {
-            let q = row::<N>("q", q, s)?;
-            o.copy_from_slice(core_::gravity(m, data, &q).as_slice());
-            Ok(())
-        });
-    }
-    let x = States { q, qd: None, qdd: None, what: What::Rnea { drive: false } };
-    run_chunks(t, out, N, LANES, |first, o| packs_chunk(m, first, &x, o))
+    packs_n(m, t, &States { q, qd: None, qdd: None, what: What::Rnea { drive: false } }, out)
 }
 
 /// Joint-torque regressors for `T` samples, row-major `T x N x 14N` (the full regressor,
@@ -184,25 +168,19 @@ fn regressor_n<const N: usize>(
     out: &mut [f64],
     rigid_only: bool,
 ) -> BatchResult<()> {
-    let row_len = N * if rigid_only { LINK_PARAMS * N } else { PARAMS_PER_JOINT * N };
+    packs_n(m, t, &States { q, qd: Some(qd), qdd: Some(qdd), what: What::Regressor { rigid_only } }, out)
+}
+
+/// Runs the pack kernel over `T` samples in chunks of whole packs, so that a sample lands
+/// in the same pack (and gets the same bits) whatever the thread count. Fewer samples than
+/// a pack (e.g. one sample from Python) take the f64 path, which gives the same bits
+/// without the pack buffers' set-up.
+fn packs_n<const N: usize>(m: &Model<N>, t: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
+    let row_len = N * x.what.cols::<N>();
     if t < LANES {
-        // fewer samples than a pack (e.g. one sample from Python): the f64 path, which
-        // gives the same bits without the pack buffers' set-up
-        return run::<N, _>(t, out, row_len, |data, s, o| {
-            let (q, qd, qdd) = (row::<N>("q", q, s)?, row::<N>("qd", qd, s)?, row::<N>("qdd", qdd, s)?);
-            let y = core_::regressor(m, data, &q, &qd, &qdd);
-            if rigid_only {
-                y.write_rigid_row_major(o);
-            } else {
-                y.write_row_major(o);
-            }
-            Ok(())
-        });
+        return run::<N, _>(t, out, row_len, |data, s, o| x.sample(m, data, s, o));
     }
-    // chunks of whole packs: a sample lands in the same pack (same bits) whatever the
-    // thread count
-    let x = States { q, qd: Some(qd), qdd: Some(qdd), what: What::Regressor { rigid_only } };
-    run_chunks(t, out, row_len, LANES, |first, o| packs_chunk(m, first, &x, o))
+    run_chunks(t, out, row_len, LANES, |first, o| packs_chunk(m, first, x, o))
 }
 
 /// What a pack kernel computes per sample.
@@ -214,6 +192,17 @@ enum What {
     Rnea { drive: bool },
 }
 
+impl What {
+    /// Output columns per joint row.
+    fn cols<const N: usize>(self) -> usize {
+        match self {
+            What::Regressor { rigid_only: true } => LINK_PARAMS * N,
+            What::Regressor { rigid_only: false } => PARAMS_PER_JOINT * N,
+            What::Rnea { .. } => 1,
+        }
+    }
+}
+
 /// The inputs of a pack kernel (`T x N` each; `qd`, `qdd` zero when absent) and its output.
 #[derive(Clone, Copy)]
 struct States<'a> {
@@ -221,6 +210,27 @@ struct States<'a> {
     qd: Option<&'a [f64]>,
     qdd: Option<&'a [f64]>,
     what: What,
+}
+
+impl States<'_> {
+    /// Sample `s` on the f64 path (the same bits as in a pack).
+    fn sample<const N: usize>(&self, m: &Model<N>, data: &mut Data<N>, s: usize, o: &mut [f64]) -> Result<(), core_::Error> {
+        let input = |name, a: Option<&[f64]>| a.map_or(Ok(VecN::<N>::zeros()), |a| row::<N>(name, a, s));
+        let (q, qd, qdd) = (input("q", Some(self.q))?, input("qd", self.qd)?, input("qdd", self.qdd)?);
+        match self.what {
+            What::Regressor { rigid_only } => {
+                let y = core_::regressor(m, data, &q, &qd, &qdd);
+                if rigid_only {
+                    y.write_rigid_row_major(o);
+                } else {
+                    y.write_row_major(o);
+                }
+            }
+            What::Rnea { drive: true } => o.copy_from_slice(core_::rnea(m, data, &q, &qd, &qdd).as_slice()),
+            What::Rnea { drive: false } => o.copy_from_slice(core_::rnea::rnea_rigid(m, data, &q, &qd, &qdd).as_slice()),
+        }
+        Ok(())
+    }
 }
 
 /// Samples computed in lock step by the pack kernels (one per SIMD lane).
@@ -249,11 +259,7 @@ unsafe fn packs_chunk_avx2<const N: usize>(m: &Model<N>, first: usize, x: &State
 #[inline(always)]
 fn packs_chunk_portable<const N: usize>(m: &Model<N>, first: usize, x: &States, out: &mut [f64]) -> BatchResult<()> {
     let lc = LINK_PARAMS * N;
-    let cols = match x.what {
-        What::Regressor { rigid_only: true } => lc,
-        What::Regressor { rigid_only: false } => PARAMS_PER_JOINT * N,
-        What::Rnea { .. } => 1,
-    };
+    let cols = x.what.cols::<N>();
     let row_len = N * cols;
     let count = out.len() / row_len;
     let mut kin = Box::new(core_::kinematics::Kinematics::<Pack, N>::new());

@@ -268,18 +268,9 @@ pub struct ConsistentPart {
     pub ls_violations: Vec<String>,
     /// Problems of the consistent parameters (empty when they are physically valid).
     pub violations: Vec<String>,
-    /// Weighted residual sum of squares of the fitted rows: LS, consistent, relative increase.
-    pub rss_ls: f64,
-    /// See `rss_ls`.
-    pub rss: f64,
-    /// `rss / rss_ls - 1`.
-    pub rss_increase: f64,
-    /// Levenberg-Marquardt iterations, and whether its stopping rule was met.
-    pub iterations: usize,
-    /// See `iterations`.
-    pub converged: bool,
-    /// Full-parameter directions the data do not see (pulled toward the URDF values).
-    pub regularised_directions: usize,
+    /// The cost of consistency and the solver's figures (flattened into the JSON).
+    #[serde(flatten)]
+    pub cost: crate::ident::consistent::ConsistentCost,
     /// Parameter names and the consistent full parameters (TX40: joint-side links, then
     /// motor-side `fc, fv, ia, tau0` per motor).
     pub names: Vec<String>,
@@ -588,12 +579,7 @@ fn consistent_part(cf: &ConsistentFit, names: Vec<String>, fit: Quality, validat
     ConsistentPart {
         ls_violations: cf.ls_check.lines(),
         violations: cf.check.lines(),
-        rss_ls: cf.rss_ls,
-        rss: cf.rss,
-        rss_increase: cf.rss_increase,
-        iterations: cf.iterations,
-        converged: cf.converged,
-        regularised_directions: cf.regularised_directions,
+        cost: cf.cost,
         names,
         theta: cf.theta.clone(),
         fit,

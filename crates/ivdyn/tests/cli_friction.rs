@@ -4,25 +4,13 @@
 mod util;
 use util::*;
 
-fn run(args: Vec<String>) -> std::process::Output {
-    let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
-    ivdyn(&a)
-}
-
-fn cmd(sub: &str, rest: &[&str]) -> Vec<String> {
-    let mut v = vec![sub.to_string()];
-    v.extend(ur5_args());
-    v.extend(rest.iter().map(|s| s.to_string()));
-    v
-}
-
 /// Identifies `log` with `flags`; returns (base parameter names, drive_terms, worst
 /// validation RMS, the parameter file).
 fn identify(d: &std::path::Path, log: &std::path::Path, tag: &str, flags: &[&str]) -> (Vec<String>, Vec<String>, f64, ivdyn::pipeline::ParamsFile) {
     let (rep, par) = (d.join(format!("{tag}.json")), d.join(format!("{tag}.params.json")));
     let mut a = vec!["--log", log.to_str().unwrap(), "--json", rep.to_str().unwrap(), "--out-params", par.to_str().unwrap()];
     a.extend_from_slice(flags);
-    ok(&run(cmd("identify", &a)));
+    ok(&run(ur5_cmd("identify", &a)));
     let r = json(&rep);
     let names = r["base"].as_array().unwrap().iter().map(|b| b["name"].as_str().unwrap().to_string()).collect();
     let terms = r["drive_terms"].as_array().unwrap().iter().map(|t| t.as_str().unwrap().to_string()).collect();
@@ -40,8 +28,8 @@ fn friction_flags_choose_the_drive_parameters() {
     let d = tmpdir("friction");
     let (clean, rough) = (d.join("clean.mcap"), d.join("rough.mcap"));
     // the URDF has no friction: `clean` is rigid-body only; `rough` adds Coulomb and viscous
-    ok(&run(cmd("simulate", &["--noise", "0.05", "--duration", "12", "--seed", "8", "--out", clean.to_str().unwrap()])));
-    ok(&run(cmd("simulate", &["--noise", "0.05", "--duration", "12", "--seed", "8", "--fc", "2,2,1.5,0.6,0.6,0.4", "--fv", "0.8,0.8,0.5,0.2,0.2,0.1", "--out", rough.to_str().unwrap()])));
+    ok(&run(ur5_cmd("simulate", &["--noise", "0.05", "--duration", "12", "--seed", "8", "--out", clean.to_str().unwrap()])));
+    ok(&run(ur5_cmd("simulate", &["--noise", "0.05", "--duration", "12", "--seed", "8", "--fc", "2,2,1.5,0.6,0.6,0.4", "--fv", "0.8,0.8,0.5,0.2,0.2,0.1", "--out", rough.to_str().unwrap()])));
 
     let rigid = ["--friction", "none", "--no-armature", "--no-offset"];
     let (names, terms, worst_clean_none, pf) = identify(&d, &clean, "clean_none", &rigid);
@@ -79,7 +67,7 @@ fn friction_flags_choose_the_drive_parameters() {
     assert!((pf_all.theta[k] - 2.0).abs() < 0.05, "fc = {}", pf_all.theta[k]);
 
     // bad combinations are refused
-    let out = run(cmd("identify", &["--log", clean.to_str().unwrap(), "--friction", "none,coulomb"]));
+    let out = run(ur5_cmd("identify", &["--log", clean.to_str().unwrap(), "--friction", "none,coulomb"]));
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("--friction none"));
     let _ = std::fs::remove_dir_all(&d);

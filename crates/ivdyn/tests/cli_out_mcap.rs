@@ -7,18 +7,6 @@ mod util;
 use ivdyn::io::{read_mcap, ReadOptions};
 use util::*;
 
-fn run(args: Vec<String>) -> std::process::Output {
-    let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
-    ivdyn(&a)
-}
-
-fn cmd(sub: &str, rest: &[&str]) -> Vec<String> {
-    let mut v = vec![sub.to_string()];
-    v.extend(ur5_args());
-    v.extend(rest.iter().map(|s| s.to_string()));
-    v
-}
-
 struct Out {
     measured: ivdyn::io::JointLog,
     predicted: ivdyn::io::JointLog,
@@ -38,11 +26,11 @@ fn read_out(path: &std::path::Path, names: &[String]) -> Out {
 fn identify_out_mcap_measured_predicted_residual() {
     let d = tmpdir("out_mcap");
     let (log, params, pred_s, pred_m) = (d.join("log.mcap"), d.join("params.json"), d.join("pred_stream.mcap"), d.join("pred_memory.mcap"));
-    ok(&run(cmd("simulate", &["--noise", "0.05", "--duration", "12", "--seed", "9", "--fc", "2,2,1.5,0.6,0.6,0.4", "--fv", "0.8,0.8,0.5,0.2,0.2,0.1", "--out", log.to_str().unwrap()])));
+    ok(&run(ur5_cmd("simulate", &["--noise", "0.05", "--duration", "12", "--seed", "9", "--fc", "2,2,1.5,0.6,0.6,0.4", "--fv", "0.8,0.8,0.5,0.2,0.2,0.1", "--out", log.to_str().unwrap()])));
     let rep = d.join("rep.json");
-    ok(&run(cmd("identify", &["--log", log.to_str().unwrap(), "--out-params", params.to_str().unwrap(), "--out-mcap", pred_s.to_str().unwrap(), "--json", rep.to_str().unwrap()])));
+    ok(&run(ur5_cmd("identify", &["--log", log.to_str().unwrap(), "--out-params", params.to_str().unwrap(), "--out-mcap", pred_s.to_str().unwrap(), "--json", rep.to_str().unwrap()])));
     assert_eq!(json(&rep)["streamed"], true);
-    ok(&run(cmd("identify", &["--log", log.to_str().unwrap(), "--in-memory", "--out-mcap", pred_m.to_str().unwrap()])));
+    ok(&run(ur5_cmd("identify", &["--log", log.to_str().unwrap(), "--in-memory", "--out-mcap", pred_m.to_str().unwrap()])));
     // only the finished files, no temporary ones
     assert_eq!(files_in(&d), ["log.mcap", "params.json", "pred_memory.mcap", "pred_stream.mcap", "rep.json"]);
 

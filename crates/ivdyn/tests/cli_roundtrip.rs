@@ -3,11 +3,6 @@
 mod util;
 use util::*;
 
-fn run(args: Vec<String>) -> std::process::Output {
-    let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
-    ivdyn(&a)
-}
-
 /// `[sub] + base + rest` for `extra = [sub, rest..]`.
 fn with(base: Vec<String>, extra: &[&str]) -> Vec<String> {
     let mut v = vec![extra[0].to_string()];

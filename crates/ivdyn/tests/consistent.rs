@@ -136,7 +136,7 @@ fn consistent_fit_recovers_a_valid_robot() {
     assert_physical(&robot, &cf.theta);
     // recovered: the fit reproduces the data to 10 ppm (relative RMS), and the true torques
     // at other states to 10 ppm of their RMS
-    assert!(cf.rss <= 1e-10 * cf.sum_wyy, "rss {} of sum y^2 {}", cf.rss, cf.sum_wyy);
+    assert!(cf.cost.rss <= 1e-10 * cf.sum_wyy, "rss {} of sum y^2 {}", cf.cost.rss, cf.sum_wyy);
     let mut fitted = robot.clone();
     fitted.set_params(&cf.theta).unwrap();
     let mut rng = Rng::new(77);
@@ -177,5 +177,5 @@ fn infeasible_estimate_is_flagged_and_the_enforced_fit_is_physical() {
     assert!(cf.check.consistent, "{:?}", cf.check.lines());
     assert_physical(&robot, &cf.theta);
     // the data cannot be fitted exactly any more: the degradation is reported
-    assert!(cf.rss > cf.rss_ls && cf.rss_increase > 0.0);
+    assert!(cf.cost.rss > cf.cost.rss_ls && cf.cost.rss_increase > 0.0);
 }

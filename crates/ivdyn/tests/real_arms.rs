@@ -71,7 +71,7 @@ fn check_consistent(what: &str, rep: &RealReport, n: usize) {
     // the LS estimate does violate consistency (otherwise the constrained fit is moot)
     assert!(!c.ls_violations.is_empty(), "{what}: LS estimate already consistent");
     // constrained: never better than LS on the fitted rows
-    assert!(c.rss >= c.rss_ls * (1.0 - 1e-9), "{what}: consistent RSS {} below the LS minimum {}", c.rss, c.rss_ls);
+    assert!(c.cost.rss >= c.cost.rss_ls * (1.0 - 1e-9), "{what}: consistent RSS {} below the LS minimum {}", c.cost.rss, c.cost.rss_ls);
     assert_eq!(c.validation.r2.len(), n);
 }
 
@@ -81,7 +81,7 @@ fn check_consistent(what: &str, rep: &RealReport, n: usize) {
 fn check_rss_direct(what: &str, rep: &RealReport, n: usize) {
     let c = rep.consistent.as_ref().unwrap();
     let direct: f64 = (0..n).map(|j| rep.weights[j] * c.fit.rms[j].powi(2) * c.fit.samples as f64).sum();
-    assert!((direct - c.rss).abs() <= 1e-6 * c.rss, "{what}: RSS {} reported, {direct} on the fitted rows", c.rss);
+    assert!((direct - c.cost.rss).abs() <= 1e-6 * c.cost.rss, "{what}: RSS {} reported, {direct} on the fitted rows", c.cost.rss);
 }
 
 #[test]

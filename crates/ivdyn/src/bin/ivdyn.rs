@@ -534,9 +534,9 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
     }
     let mut params = &rep.params;
     if let Some(c) = &rep.consistent {
-        let r = &c.result;
-        println!("consistent fit ({} LM iterations{}): weighted RSS {:.6e} -> {:.6e} (+{:.3}%), {}", r.iterations, if r.converged { "" } else { ", NOT converged" }, r.rss_ls, r.rss, 100.0 * r.rss_increase, if r.check.consistent { "physically consistent".to_string() } else { format!("still inconsistent: {}", r.check.lines().join("; ")) });
-        println!("  {} unidentifiable directions pulled toward the nominal parameters", r.regularised_directions);
+        let (r, k) = (&c.result, &c.result.cost);
+        println!("consistent fit ({} LM iterations{}): weighted RSS {:.6e} -> {:.6e} (+{:.3}%), {}", k.iterations, if k.converged { "" } else { ", NOT converged" }, k.rss_ls, k.rss, 100.0 * k.rss_increase, if r.check.consistent { "physically consistent".to_string() } else { format!("still inconsistent: {}", r.check.lines().join("; ")) });
+        println!("  {} unidentifiable directions pulled toward the nominal parameters", k.regularised_directions);
         println!("fit quality per joint with the consistent parameters:");
         print_quality(&rep.joints, &c.fit);
         if let Some(v) = &c.validation {

@@ -87,17 +87,25 @@ pub struct ConsistentFit {
     pub check: PhysicalCheck,
     /// `sum w y^2` of the data (for relative residuals).
     pub sum_wyy: f64,
+    /// What consistency cost and how the solver went (flattened into the JSON).
+    #[serde(flatten)]
+    pub cost: ConsistentCost,
+}
+
+/// The cost of consistency and the solver's figures, as the reports show them.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct ConsistentCost {
     /// Weighted residual sum of squares of the LS fit.
     pub rss_ls: f64,
     /// Weighted residual sum of squares with the consistent parameters.
     pub rss: f64,
     /// `rss / rss_ls - 1`: relative degradation of the fit.
     pub rss_increase: f64,
-    /// Levenberg-Marquardt iterations, all stages.
+    /// Levenberg-Marquardt iterations, all stages of the path kept.
     pub iterations: usize,
     /// Whether LM met its tolerance.
     pub converged: bool,
-    /// Number of full-parameter directions pulled toward the nominal values.
+    /// Number of full-parameter directions the data do not see, pulled toward the nominal values.
     pub regularised_directions: usize,
 }
 
@@ -426,12 +434,14 @@ pub fn fit_consistent(
         ls_check,
         check,
         sum_wyy: acc.sum_wyy(),
-        rss_ls,
-        rss,
-        rss_increase: if rss_ls > 0.0 { rss / rss_ls - 1.0 } else { f64::NAN },
-        iterations: it,
-        converged,
-        regularised_directions: null.len(),
+        cost: ConsistentCost {
+            rss_ls,
+            rss,
+            rss_increase: if rss_ls > 0.0 { rss / rss_ls - 1.0 } else { f64::NAN },
+            iterations: it,
+            converged,
+            regularised_directions: null.len(),
+        },
         theta: th,
     })
 }

@@ -50,3 +50,17 @@ pub fn files_in(d: &Path) -> Vec<String> {
 pub fn ur5_args() -> Vec<String> {
     vec!["--urdf".into(), fixture("ur5.urdf"), "--base".into(), "base_link".into(), "--tip".into(), "tool0".into()]
 }
+
+/// Runs `ivdyn` with owned arguments.
+pub fn run(args: Vec<String>) -> Output {
+    let a: Vec<&str> = args.iter().map(|s| s.as_str()).collect();
+    ivdyn(&a)
+}
+
+/// `sub`, the UR5 fixture's `--urdf --base --tip`, then `rest`.
+pub fn ur5_cmd(sub: &str, rest: &[&str]) -> Vec<String> {
+    let mut v = vec![sub.to_string()];
+    v.extend(ur5_args());
+    v.extend(rest.iter().map(|s| s.to_string()));
+    v
+}
