@@ -14,7 +14,7 @@ export CARGO_TERM_COLOR ?= never
 ## and `ivdyn payload` (log after the grasp, with the unloaded log as the before-log)
 DEMO := out/demo
 demo:
-	$(CARGO) build --release -p ivdyn --bin ivdyn --example demo
+	$(CARGO) build --release -p ivdyn-cli --bin ivdyn -p ivdyn --example demo
 	./target/release/examples/demo
 	mkdir -p $(DEMO)
 	./target/release/ivdyn simulate --urdf fixtures/ur5.urdf --base base_link --tip tool0 \
@@ -58,7 +58,7 @@ nostd:
 py-test: venv
 	@test -x $(VENV)/bin/maturin || $(VENV)/bin/pip install -q maturin==1.16.0
 	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/pip install -q --no-build-isolation .
-	$(PY) -m pytest -q python
+	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q python
 
 ## fixtures: regenerate fixtures/ from Pinocchio and the NumPy reference
 fixtures: venv
@@ -74,7 +74,7 @@ bench:
 ## wall time and peak memory from /usr/bin/time -v (benches/README.md has the numbers)
 HOUR_LOG ?= /tmp/ivdyn-hour.mcap
 bench-hour:
-	$(CARGO) build --release -p ivdyn --bin ivdyn
+	$(CARGO) build --release -p ivdyn-cli --bin ivdyn
 	test -f $(HOUR_LOG) || ./target/release/ivdyn simulate --urdf fixtures/ur5.urdf --base base_link --tip tool0 \
 	    --duration 3600 --rate 1000 --fc 2,2,1.5,0.6,0.6,0.4 --fv 0.8,0.8,0.5,0.2,0.2,0.1 --noise 0.1 --seed 1 \
 	    --out $(HOUR_LOG) --quiet
@@ -89,12 +89,12 @@ clean:
 
 ## paper: reproduce the paper's Figs 2-3 and the Monte Carlo study (docs/paper-reproduction.md)
 paper: venv
-	$(CARGO) run --release -p ivdyn --example paper_reproduction -- --seeds 20 --n-max 1000000 --out out/paper
+	$(CARGO) run --release -p ivdyn-lab --example paper_reproduction -- --seeds 20 --n-max 1000000 --out out/paper
 	$(PY) examples/plot_paper.py --in out/paper --out docs/figures
 
 ## real-data: identification on the real TX40 and LWR4+ recordings in ../shared/data/real
 ## (docs/real-data.md); DATA=path overrides the data folder
 DATA ?= ../shared/data/real
 real-data: venv
-	$(CARGO) run --release -p ivdyn --example real_data -- $(DATA) --out out/real
+	$(CARGO) run --release -p ivdyn-lab --example real_data -- $(DATA) --out out/real
 	$(PY) examples/plot_real_data.py --in out/real --out docs/figures

@@ -7,7 +7,7 @@
 //!     cargo run --release -p ivdyn --example control_fig5 -- [--out out/control] [--duration 10]
 //!     .venv/bin/python examples/plot_control.py out/control docs/figures
 
-use ivdyn::control::{EstimatorKind, Experiment, Instrument, RunLog, Scheme};
+use ivdyn_lab::control::{EstimatorKind, Experiment, Instrument, RunLog, Scheme};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 

@@ -7,8 +7,8 @@
 use std::path::PathBuf;
 
 use ivdyn::diagnose::{self, DiagnoseOptions};
-use ivdyn::io::real::{load_lwr_robot, load_lwr_run};
-use ivdyn::io::JointLog;
+use ivdyn_lab::real::{load_lwr_robot, load_lwr_run};
+use ivdyn::log::JointLog;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();

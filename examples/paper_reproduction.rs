@@ -6,7 +6,7 @@
 //! See `docs/paper-reproduction.md` for the set-up and the results.
 
 use indicatif::{ProgressBar, ProgressStyle};
-use ivdyn::repro::{batch_estimates, recursive_traces, Estimator, PaperSim};
+use ivdyn_lab::repro::{batch_estimates, recursive_traces, Estimator, PaperSim};
 use serde_json::json;
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -37,7 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (i, n) in sim.base.names.iter().enumerate() {
         println!("  [{i:2}] {n:<48} truth {:+.6e}", sim.truth_base[i]);
     }
-    let all_names = ivdyn::repro::terminal_names(&sim.spec, 6);
+    let all_names = ivdyn_lab::repro::terminal_names(&sim.spec, 6);
     println!(
         "no effect on joints 5-6 at all (zero columns): {:?}",
         sim.base.zero_columns.iter().map(|&c| all_names[c].as_str()).collect::<Vec<_>>()

@@ -13,8 +13,8 @@
 
 use std::path::PathBuf;
 
-use ivdyn::io::real::{load_lwr_robot, load_lwr_run, load_tx40};
-use ivdyn::realdata::{butterworth_settling_s, identify_lwr, identify_tx40, lwr_cross_validation, Estimator, LwrOptions, RealReport, Tx40Options};
+use ivdyn_lab::real::{load_lwr_robot, load_lwr_run, load_tx40};
+use ivdyn_lab::realdata::{butterworth_settling_s, identify_lwr, identify_tx40, lwr_cross_validation, Estimator, LwrOptions, RealReport, Tx40Options};
 
 fn main() {
     if let Err(e) = run() {

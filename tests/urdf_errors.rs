@@ -1,6 +1,6 @@
 //! Bad input fails with a message naming the problem, never a panic.
 
-use ivdyn::{urdf::load_str, Error, Robot};
+use ivdyn::{robot::urdf::load_str, Error, Robot};
 use std::path::Path;
 
 fn link(name: &str) -> String {

@@ -5,7 +5,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use ivdyn::ident::{base::robot_base_params, fit_ls, LsAccumulator};
-use ivdyn::repro::{Estimator, PaperSim};
+use ivdyn_lab::repro::{Estimator, PaperSim};
 use ivdyn::Robot;
 use ivdyn_core::estim::terminal::{Method, TerminalLink};
 use ivdyn_core::estim::{Riv, Rls};
@@ -111,7 +111,7 @@ fn batch_fit(c: &mut Criterion) {
             black_box(fit_ls(&acc, &base.names).unwrap().theta[0])
         })
     });
-    // the fused, multi-threaded path (ivdyn::batch::fit_ls_batch): full base set and the
+    // the fused, multi-threaded path (ivdyn::ident::fit_ls_batch): full base set and the
     // rigid-body base set (36 of 60 columns, as the Pinocchio + numpy anchor fits)
     let (mut q, mut qd, mut qdd) = (vec![], vec![], vec![]);
     for (a, b, c) in &states {
@@ -125,7 +125,7 @@ fn batch_fit(c: &mut Criterion) {
         out
     };
     g.bench_function("ur5_100k_fused_fit_ls_batch_full_base", |bch| {
-        bch.iter(|| black_box(ivdyn::batch::fit_ls_batch(&robot, &base, &q, &qd, &qdd, &tau, None).unwrap().theta[0]))
+        bch.iter(|| black_box(ivdyn::ident::fit_ls_batch(&robot, &base, &q, &qd, &qdd, &tau, None).unwrap().theta[0]))
     });
     let rigid = {
         let mut phi = nalgebra::DMatrix::<f64>::zeros(6 * 200, 60);
@@ -142,7 +142,7 @@ fn batch_fit(c: &mut Criterion) {
     };
     assert_eq!(rigid.base_count(), 36);
     g.bench_function("ur5_100k_fused_fit_ls_batch_rigid_base_36", |bch| {
-        bch.iter(|| black_box(ivdyn::batch::fit_ls_batch(&robot, &rigid, &q, &qd, &qdd, &tau, None).unwrap().theta[0]))
+        bch.iter(|| black_box(ivdyn::ident::fit_ls_batch(&robot, &rigid, &q, &qd, &qdd, &tau, None).unwrap().theta[0]))
     });
     g.finish();
 }

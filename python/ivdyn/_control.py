@@ -1,9 +1,9 @@
 """Terminal-link (payload) estimation and closed-loop simulation from NumPy.
 
 Wrappers over the native module: inputs are checked and converted to C-contiguous float64
-here; the work is done in Rust (``ivdyn::arrays::terminal_link_run`` over the core's
+here; the work is done in Rust (``ivdyn::ident::arrays::terminal_link_run`` over the core's
 ``TerminalLink``, the core's ``Simulator`` with its ``ComputedTorque`` / ``Pd``
-controllers, ``ivdyn::control::Experiment``) with the GIL released.
+controllers, ``ivdyn_lab::control::Experiment``) with the GIL released.
 """
 from __future__ import annotations
 
@@ -180,7 +180,7 @@ def control_experiment(scheme: str, robot: str = "paper", *, urdf: Union[str, No
                        estimator: str = "iv", instrument: str = "planned", delay: int = 3,
                        p0: Optional[float] = None, switch_error_tol: Optional[float] = None,
                        record_every: Optional[int] = None) -> Dict[str, Any]:
-    """One run of the paper's Fig. 5 experiment (``ivdyn::control::Experiment``,
+    """One run of the paper's Fig. 5 experiment (``ivdyn_lab::control::Experiment``,
     ``docs/control.md``): an arm tracks a periodic trajectory at 1 kHz; at ``grasp_time``
     (default 2 s) a payload is added to the true last link; the controller is one of
     ``SCHEMES``: ``"pd"``, ``"pd_gravity"``, ``"ct_nominal"`` (computed torque, unloaded

@@ -265,7 +265,7 @@ def control_experiment(scheme: str, robot: str = "paper", urdf: Optional[Union[s
                        estimator: str = "iv", instrument: str = "planned", delay: int = 3,
                        p0: Optional[float] = None, switch_error_tol: Optional[float] = None,
                        record_every: Optional[int] = None) -> Dict[str, Any]:
-    """One Fig. 5 run (``ivdyn::control::Experiment``)."""
+    """One Fig. 5 run (``ivdyn_lab::control::Experiment``)."""
 
 # ---------------------------------------------------------------- pipelines
 # (wrapped by python/ivdyn/_pipeline.py; they return the command line's --json text)

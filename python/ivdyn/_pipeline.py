@@ -1,5 +1,5 @@
 """The command line's pipelines from Python: :func:`identify`, :func:`payload`,
-:func:`simulate` run ``ivdyn::pipeline`` (the code behind ``ivdyn identify / payload /
+:func:`simulate` run ``ivdyn::app`` (the code behind ``ivdyn identify / payload /
 simulate``) and return the same content as the command's ``--json`` file, as a dict.
 
 Long calls release the GIL and report progress: ``progress=callable(done, total)`` is

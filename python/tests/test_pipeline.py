@@ -25,12 +25,9 @@ RTOL = 1e-9
 
 
 @pytest.fixture(scope="module")
-def cli():
-    """Path of the `ivdyn` binary (cargo keeps it up to date)."""
-    r = subprocess.run(["cargo", "build", "-q", "-p", "ivdyn", "--bin", "ivdyn"], cwd=ROOT,
-                       capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    return os.path.join(ROOT, "target", "debug", "ivdyn")
+def cli(ivdyn_bin):
+    """Path of the `ivdyn` binary (python/conftest.py)."""
+    return ivdyn_bin
 
 
 def run_cli(cli, *args, code=0):

@@ -10,7 +10,6 @@ formula ivdyn's conditioning uses).
 """
 import json
 import os
-import shutil
 import subprocess
 import sys
 
@@ -28,13 +27,6 @@ UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")
 CHAIN = ["--urdf", UR5, "--base", "base_link", "--tip", "tool0"]
 
 
-def ivdyn_exe():
-    exe = os.path.join(ROOT, "target", "debug", "ivdyn")
-    if not os.path.exists(exe):
-        cargo = shutil.which("cargo")
-        assert cargo is not None, "cargo must be on PATH to build the ivdyn binary"
-        subprocess.run([cargo, "build", "-q", "-p", "ivdyn", "--bin", "ivdyn"], cwd=ROOT, check=True)
-    return exe
 
 
 def read_topics(path):
@@ -51,8 +43,8 @@ def read_topics(path):
     return schemas, out
 
 
-def test_out_mcap_read_by_python(tmp_path):
-    exe = ivdyn_exe()
+def test_out_mcap_read_by_python(tmp_path, ivdyn_bin):
+    exe = ivdyn_bin
     log, params, pred = tmp_path / "log.mcap", tmp_path / "params.json", tmp_path / "pred.mcap"
     subprocess.run([exe, "simulate", *CHAIN, "--duration", "6", "--seed", "12", "--noise", "0.05",
                     "--fc", "2,2,1.5,0.6,0.6,0.4", "--fv", "0.8,0.8,0.5,0.2,0.2,0.1",

@@ -8,7 +8,6 @@ side file must carry the parameter file's friction, armature and offsets.
 """
 import json
 import os
-import shutil
 import subprocess
 import xml.etree.ElementTree as ET
 
@@ -20,26 +19,18 @@ ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")
 
 
-def ivdyn(*args):
-    # `make test` runs `cargo test --workspace` first, which builds the binary; reuse it
-    exe = os.path.join(ROOT, "target", "debug", "ivdyn")
-    if os.path.exists(exe):
-        cmd = [exe]
-    else:
-        cargo = shutil.which("cargo")
-        assert cargo is not None, "cargo must be on PATH to build the ivdyn binary"
-        cmd = [cargo, "run", "-q", "-p", "ivdyn", "--bin", "ivdyn", "--"]
-    subprocess.run(cmd + list(args) + ["--quiet"], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+def ivdyn(exe, *args):
+    subprocess.run([exe, *args, "--quiet"], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
 
 
 @pytest.fixture(scope="module")
-def written(tmp_path_factory):
+def written(tmp_path_factory, ivdyn_bin):
     d = tmp_path_factory.mktemp("wb")
     log, out, params = d / "log.mcap", d / "out.urdf", d / "params.json"
     chain = ["--urdf", UR5, "--base", "base_link", "--tip", "tool0"]
-    ivdyn("simulate", *chain, "--duration", "10", "--rate", "200", "--fc", "2,2,1.5,0.6,0.6,0.4",
+    ivdyn(ivdyn_bin, "simulate", *chain, "--duration", "10", "--rate", "200", "--fc", "2,2,1.5,0.6,0.6,0.4",
           "--fv", "0.8,0.8,0.5,0.2,0.2,0.1", "--noise", "0.05", "--out", str(log))
-    ivdyn("identify", *chain, "--log", str(log), "--consistent", "--write-urdf", str(out),
+    ivdyn(ivdyn_bin, "identify", *chain, "--log", str(log), "--consistent", "--write-urdf", str(out),
           "--out-params", str(params))
     with open(params) as f:
         p = json.load(f)

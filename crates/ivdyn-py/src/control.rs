@@ -1,6 +1,6 @@
 //! Closed-loop simulation from Python: the core's `Simulator` driven by its
 //! `ComputedTorque` or `Pd` controller along a reference given as arrays
-//! (`closed_loop`), and the Fig. 5 payload experiments of `ivdyn::control::Experiment`
+//! (`closed_loop`), and the Fig. 5 payload experiments of `ivdyn_lab::control::Experiment`
 //! (`control_experiment`). Glue only, GIL released; the Python wrapper
 //! (`python/ivdyn/_control.py`) documents the API.
 
@@ -8,7 +8,7 @@ use std::any::Any;
 
 use crate::error::to_py;
 use crate::PyRobot;
-use ivdyn::control::{EstimatorKind, Experiment, Instrument, RunLog, Scheme};
+use ivdyn_lab::control::{EstimatorKind, Experiment, Instrument, RunLog, Scheme};
 use ivdyn::core::control::{ComputedTorque, CoulombVelocity, Gains, Pd, Reference};
 use ivdyn::core::sim::{Integrator, SimConfig, Simulator};
 use ivdyn::core::{mass_matrix, Data, Model, VecN};
@@ -110,7 +110,7 @@ fn closed_loop_n<const N: usize>(
         ct.coulomb = CoulombVelocity::Reference;
     }
     // PD gains in torque units: the acceleration gains times the controller model's
-    // M_ii at the mean reference pose (as `ivdyn::control::Experiment`)
+    // M_ii at the mean reference pose (as `ivdyn_lab::control::Experiment`)
     let mut mean = VecN::<N>::zeros();
     for k in 0..t {
         mean += v(q_des, k);

@@ -1,6 +1,6 @@
 //! Identification bindings: batch fits, base parameters, payload, recursive estimators,
 //! log reading and the paper reproduction. Glue only: the work is in `ivdyn::ident`,
-//! `ivdyn::arrays`, `ivdyn::io` and `ivdyn::repro`, called with the GIL released.
+//! `ivdyn::ident::arrays`, `ivdyn::log` and `ivdyn_lab::repro`, called with the GIL released.
 //! Inputs are C-contiguous float64 arrays (the Python wrapper converts); shapes are
 //! checked here and reported as `ValueError`.
 
@@ -8,9 +8,9 @@ use std::borrow::Cow;
 
 use crate::error::to_py;
 use crate::PyRobot;
-use ivdyn::arrays::{self, RecursiveIv, RecursiveLs};
+use ivdyn::ident::arrays::{self, RecursiveIv, RecursiveLs};
 use ivdyn::ident::{BaseParams, FitReport};
-use ivdyn::repro::{self, Estimator, PaperSim};
+use ivdyn_lab::repro::{self, Estimator, PaperSim};
 use nalgebra::DMatrix;
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArray3, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -287,7 +287,7 @@ fn fit_robot(
     let (qd, qdd, tau) = (mat(&qd, "qd", Some(t), Some(n))?, mat(&qdd, "qdd", Some(t), Some(n))?, mat(&tau, "tau", Some(t), Some(n))?);
     let w = joint_weight.as_ref().map(|w| vec1(w, "joint_weight", Some(n))).transpose()?;
     let (r, b) = (&robot.inner, &base.inner);
-    let inner = py.detach(|| ivdyn::batch::fit_ls_batch(r, b, &q, &qd, &qdd, &tau, w.as_deref())).map_err(to_py)?;
+    let inner = py.detach(|| ivdyn::ident::fit_ls_batch(r, b, &q, &qd, &qdd, &tau, w.as_deref())).map_err(to_py)?;
     Ok(PyFitReport { inner })
 }
 
@@ -473,7 +473,7 @@ fn read_joint_states<'py>(
     if joint_names.is_empty() {
         return Err(PyValueError::new_err("joint_names must not be empty"));
     }
-    let log = py.detach(|| arrays::read_joint_log(&path, &joint_names, topic, command_topic)).map_err(to_py)?;
+    let log = py.detach(|| ivdyn::log::read_joint_log(&path, &joint_names, topic, command_topic)).map_err(to_py)?;
     let (t, n) = (log.len(), log.dof());
     let as2 = |v: Option<Vec<f64>>| -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
         v.map(|v| {

@@ -1,4 +1,4 @@
-//! The command line's pipelines from Python: `ivdyn::pipeline::{identify, payload,
+//! The command line's pipelines from Python: `ivdyn::app::{identify, payload,
 //! simulate}` on a robot and a log (a file, or arrays), returning the JSON document the
 //! command line writes with `--json` (as a string; the Python wrapper parses it), with the
 //! GIL released.
@@ -17,9 +17,12 @@ use std::sync::{Arc, Mutex};
 
 use crate::error::to_py;
 use crate::PyRobot;
-use ivdyn::io::JointLog;
-use ivdyn::pipeline::{self, IdentifyOptions, Method, ParamsFile, PayloadOptions, PayloadSpec, Progress, SimulateOptions, Trajectory};
-use ivdyn::signal::{ConditionOptions, DiffMethod, DEFAULT_ORDER};
+use ivdyn::log::JointLog;
+use ivdyn::app::{self, IdentifyOptions, Method, PayloadOptions, SimulateOptions, Trajectory};
+use ivdyn::progress::Progress;
+use ivdyn::report::{ParamsFile, PayloadSpec};
+use ivdyn::dsp::{DiffMethod, DEFAULT_ORDER};
+use ivdyn::prep::ConditionOptions;
 use ivdyn::Robot;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -79,7 +82,7 @@ impl Progress for PyProgress {
 
 /// Runs `f` (a pipeline) with the GIL released and `progress` as its sink; turns an abort
 /// from the callback back into its Python exception.
-fn run<T: Send>(py: Python<'_>, callback: Option<Py<PyAny>>, f: impl FnOnce(pipeline::ProgressSink) -> ivdyn::error::Result<T> + Send) -> PyResult<T> {
+fn run<T: Send>(py: Python<'_>, callback: Option<Py<PyAny>>, f: impl FnOnce(ivdyn::progress::ProgressSink) -> ivdyn::error::Result<T> + Send) -> PyResult<T> {
     let sink = Arc::new(PyProgress { callback, state: Mutex::new((String::new(), 0, 0)), failed: Mutex::new(None) });
     let s2: Arc<dyn Progress> = sink.clone();
     let r = py.detach(|| catch_unwind(AssertUnwindSafe(|| f(Some(s2)))));
@@ -97,7 +100,7 @@ fn robot_with_params(robot: &Robot, params_json: Option<&str>) -> PyResult<Robot
     let mut r = robot.clone();
     if let Some(js) = params_json {
         let pf: ParamsFile = serde_json::from_str(js).map_err(|e| PyValueError::new_err(format!("params: not a parameter file: {e}")))?;
-        pipeline::load_params(&mut r, &pf).map_err(|e| PyValueError::new_err(format!("params: {e}")))?;
+        ivdyn::robot::load::load_params(&mut r, &pf).map_err(|e| PyValueError::new_err(format!("params: {e}")))?;
     }
     Ok(r)
 }
@@ -160,11 +163,11 @@ fn joint_log(py: Python<'_>, robot: &Robot, log: &Bound<'_, PyAny>, src: &LogSou
             u: f64_2d(d, "u", len, n)?,
             truncated: false,
         };
-        ivdyn::arrays::check_pipeline_log(&jl, Path::new(what), "(arrays)").map_err(to_py)?;
+        ivdyn::log::check_pipeline_log(&jl, Path::new(what), "(arrays)").map_err(to_py)?;
         return Ok(jl);
     }
     let path: PathBuf = log.extract().map_err(|_| PyValueError::new_err(format!("{what} must be a path (str or os.PathLike) or a dict of arrays")))?;
-    py.detach(|| ivdyn::arrays::read_pipeline_log(&path, &robot.joint_names, src.topic, src.command_topic, src.log_time)).map_err(to_py)
+    py.detach(|| ivdyn::log::read_pipeline_log(&path, &robot.joint_names, src.topic, src.command_topic, src.log_time)).map_err(to_py)
 }
 
 fn condition(cutoff: Option<f64>) -> PyResult<ConditionOptions> {
@@ -225,18 +228,18 @@ fn identify(
     let mut why_not = None;
     if let (Some(lp), true) = (path_of(log), validate.is_none_or(|v| path_of(v).is_some())) {
         let vp = validate.and_then(path_of);
-        let read = ivdyn::io::ReadOptions::new(&r.joint_names).topic(topic).command_topic_opt(command_topic).log_time(log_time);
+        let read = ivdyn::log::ReadOptions::new(&r.joint_names).topic(topic).command_topic_opt(command_topic).log_time(log_time);
         let o2 = opts.clone();
         match run(py, progress.as_ref().map(|p| p.clone_ref(py)), |p| {
-            ivdyn::stream::identify_mcap(&r, &lp, vp.as_deref(), &read, &IdentifyOptions { progress: p, ..o2 })
+            ivdyn::app::stream::identify_mcap(&r, &lp, vp.as_deref(), &read, &IdentifyOptions { progress: p, ..o2 })
         })? {
-            ivdyn::stream::Streamed::Done(rep) => return json(&rep),
-            ivdyn::stream::Streamed::Unsupported(why) => why_not = Some(why),
+            ivdyn::app::stream::Streamed::Done(rep) => return json(&rep),
+            ivdyn::app::stream::Streamed::Unsupported(why) => why_not = Some(why),
         }
     }
     let log = joint_log(py, &r, log, &src, "log")?;
     opts.validation_log = validate.map(|v| joint_log(py, &r, v, &src, "validation log")).transpose()?;
-    let mut rep = run(py, progress, |p| pipeline::identify(&r, &log, &IdentifyOptions { progress: p, ..opts }))?;
+    let mut rep = run(py, progress, |p| app::identify(&r, &log, &IdentifyOptions { progress: p, ..opts }))?;
     if let Some(w) = why_not {
         rep.notes.push(format!("read into memory (not streamed): {w}"));
     }
@@ -269,7 +272,7 @@ fn payload(
     let mut opts = PayloadOptions { condition: condition(cutoff)?, decimate, ..Default::default() };
     opts.before.condition = opts.condition.clone();
     opts.before.decimate = opts.decimate;
-    let rep = run(py, progress, |p| pipeline::payload(&r, &after, before.as_ref(), &PayloadOptions { progress: p, ..opts }))?;
+    let rep = run(py, progress, |p| app::payload(&r, &after, before.as_ref(), &PayloadOptions { progress: p, ..opts }))?;
     json(&rep)
 }
 
@@ -366,16 +369,16 @@ fn simulate<'py>(
     };
     let (log, truth) = py
         .detach(|| -> ivdyn::error::Result<_> {
-            let log = pipeline::simulate(&r, &traj, &opts)?;
-            let truth = pipeline::true_robot(&r, &opts)?;
+            let log = app::simulate(&r, &traj, &opts)?;
+            let truth = app::true_robot(&r, &opts)?;
             if let Some(p) = &out {
                 // as the command line: a temporary file renamed on success, never a partial one
                 let name = p.file_name().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "out".into());
                 let tmp = p.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
                 let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
                 let written = match ext.as_str() {
-                    "csv" => ivdyn::io::write_csv(&tmp, &log),
-                    "mcap" => ivdyn::io::write_mcap(&tmp, &log, &[]).map(|_| ()),
+                    "csv" => ivdyn::log::write_csv(&tmp, &log),
+                    "mcap" => ivdyn::log::write_mcap(&tmp, &log, &[]).map(|_| ()),
                     e => Err(ivdyn::Error::Log { file: p.clone(), msg: format!("unknown output format '.{e}' (use .mcap or .csv)") }),
                 }
                 .and_then(|_| std::fs::rename(&tmp, p).map_err(|source| ivdyn::Error::Io { file: p.clone(), source }));

@@ -1,12 +1,12 @@
-//! Terminal-link (payload) estimation over arrays: `ivdyn::arrays::terminal_link_run`
-//! (the core's `TerminalLink`, paper eqs 38-54) and `ivdyn::arrays::terminal_base`, with
+//! Terminal-link (payload) estimation over arrays: `ivdyn::ident::arrays::terminal_link_run`
+//! (the core's `TerminalLink`, paper eqs 38-54) and `ivdyn::ident::arrays::terminal_base`, with
 //! the GIL released. Glue only; the Python wrapper (`python/ivdyn/_control.py`) converts
 //! the arrays and documents the API.
 
 use crate::error::to_py;
 use crate::ident::PyBaseParams;
 use crate::PyRobot;
-use ivdyn::arrays::{self, TerminalInstrument, TerminalOptions};
+use ivdyn::ident::arrays::{self, TerminalInstrument, TerminalOptions};
 use ivdyn::core::estim::TerminalSpec;
 use ivdyn::core::params::DRIVE_PARAMS;
 use numpy::ndarray::Array2;
@@ -40,7 +40,7 @@ fn spec(n: usize, k: Option<usize>, drive: &[String], first_row: Option<usize>) 
     Ok(TerminalSpec { k, drive: drive_flags(drive)?, first_row })
 }
 
-/// Identifiable columns of the terminal problem (`ivdyn::arrays::terminal_base`).
+/// Identifiable columns of the terminal problem (`ivdyn::ident::arrays::terminal_base`).
 #[pyfunction]
 #[pyo3(signature = (robot, k=None, drive=Vec::new(), first_row=None, samples=200, seed=42))]
 fn terminal_base(

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use ivdyn::diagnose::{diagnose, DiagnoseOptions};
-use ivdyn::io::{read_mcap, ReadOptions};
+use ivdyn::log::{read_mcap, ReadOptions};
 use ivdyn::Robot;
 use serde_json::Value;
 

@@ -1,6 +1,22 @@
 //! `ivdyn`: robot-arm dynamics identification on the desktop. The std side of the
 //! project: URDF loading, runtime-sized robots (dispatching to the const-generic
-//! `ivdyn-core`), and (as they land) log I/O, batch identification and diagnosis.
+//! `ivdyn-core`), log I/O, signal conditioning, batch identification, excitation design,
+//! the model-gap diagnosis, and the one orchestration ([`app`]) that the command line
+//! (`crates/ivdyn-cli`) and the Python package (`crates/ivdyn-py`) both call.
+//!
+//! Layers, bottom to top; a module imports only from the layers below it
+//! (`docs/architecture.md`):
+//!
+//! | layer | modules |
+//! |---|---|
+//! | shared types | [`error`], [`report`], [`progress`] |
+//! | model | [`robot`] (URDF, the one loading path, write-back, physical checks) |
+//! | signals | [`dsp`] (filters and derivatives on slices), then [`log`] (joint logs, readers, writers) |
+//! | conditioning | [`prep`] (the one conditioning policy, and its streaming twin) |
+//! | dynamics | [`batch`] (batched, multi-threaded, SIMD packs) |
+//! | estimation | [`ident`] |
+//! | uses | [`excite`], [`diagnose`] |
+//! | orchestration | [`app`] |
 //!
 //! ```no_run
 //! let robot = ivdyn::Robot::from_urdf("ur5.urdf", None, Some("tool0")).unwrap();
@@ -12,24 +28,25 @@
 // `!(x > 0.0)` is deliberate throughout: it is true for NaN, which must be rejected too.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod arrays;
-pub mod batch;
-pub mod control;
-pub mod diagnose;
 pub mod error;
-pub mod excite;
-pub mod ident;
-pub mod io;
-pub mod joint_acc;
-pub mod pipeline;
-pub mod realdata;
-pub mod repro;
+pub mod progress;
+pub mod report;
+
 pub mod robot;
-pub mod signal;
-pub mod transmission;
-pub mod stream;
-pub mod urdf;
-pub mod urdf_write;
+
+pub mod dsp;
+pub mod log;
+
+pub mod prep;
+
+pub mod batch;
+
+pub mod ident;
+
+pub mod diagnose;
+pub mod excite;
+
+pub mod app;
 
 pub use error::Error;
 pub use ivdyn_core as core;

@@ -200,7 +200,7 @@ fn fused_multithreaded_fit_equals_sequential() {
         qdd.extend_from_slice(c);
         tau.extend(robot.rnea(a, b, c).unwrap().iter().map(|t| t + 0.1 * rng.normal()));
     }
-    let fused = ivdyn::batch::fit_ls_batch(&robot, &base, &q, &qd, &qdd, &tau, None).unwrap();
+    let fused = ivdyn::ident::fit_ls_batch(&robot, &base, &q, &qd, &qdd, &tau, None).unwrap();
     let seq = {
         let mut acc = LsAccumulator::new(base.base_count());
         let (n, p) = (6, robot.num_params());

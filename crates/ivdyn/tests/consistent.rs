@@ -4,7 +4,7 @@
 //! are positive definite (eigenvalues computed here, independently of the module).
 
 use ivdyn::ident::consistent::{fit_consistent, link_from_log_cholesky, log_cholesky_from_link, ConsistentOptions};
-use ivdyn::ident::physical::{check_link, check_robot_params};
+use ivdyn::robot::physical::{check_link, check_robot_params};
 use ivdyn::ident::{fit_ls, robot_base_params, LsAccumulator};
 use ivdyn::Robot;
 use ivdyn_core::params::{drive_col, link_col, FC, FV, IA, TAU0};

@@ -13,8 +13,8 @@ use ivdyn::diagnose::report::{self, write_html, write_mcap_stamped};
 use ivdyn::diagnose::{
     CandidateScore, Diagnosis, DiagnosisJson, EffectJson, EffectKind, JointScore, LogInfo, Regimes, Step, Traces,
 };
-use ivdyn::io::mcap::list_topics;
-use ivdyn::io::{for_each_sample, ReadOptions, Source};
+use ivdyn::log::mcap::list_topics;
+use ivdyn::log::{for_each_sample, ReadOptions, Source};
 
 const T: usize = 500;
 const N: usize = 2;
@@ -330,7 +330,7 @@ fn mcap_reads_back_on_every_topic() {
     let stamp = |k: usize| t0 + (tr.t[k] * 1e9).round() as i64;
     let residual = |p: &[f64]| -> Vec<f64> { tr.tau.iter().zip(p).map(|(a, b)| a - b).collect() };
     // measured: q, qd, tau
-    let log = ivdyn::io::read_mcap(&path, &ReadOptions::new(&d.json.joints)).unwrap();
+    let log = ivdyn::log::read_mcap(&path, &ReadOptions::new(&d.json.joints)).unwrap();
     assert_eq!(log.t0_ns, t0);
     assert_eq!(log.q, tr.q);
     assert_eq!(log.qd.as_deref(), Some(&tr.qd[..]));

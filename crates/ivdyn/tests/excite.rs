@@ -115,10 +115,10 @@ fn csv_and_mcap_outputs_read_back() {
     let text = std::fs::read_to_string(&csv).unwrap();
     let header = text.lines().nth(1).unwrap();
     assert!(header.starts_with("t,shoulder_pan_joint.q,") && header.ends_with("wrist_3_joint.qdd"), "{header}");
-    let log = ivdyn::io::read_csv(&csv, &robot.joint_names).unwrap();
+    let log = ivdyn::log::read_csv(&csv, &robot.joint_names).unwrap();
     assert_eq!(log.q, rep.trajectory.q);
     assert_eq!(log.qd.as_ref().unwrap(), &rep.trajectory.qd);
-    let m = ivdyn::io::read_mcap(&mcap, &ivdyn::io::ReadOptions::new(&robot.joint_names)).unwrap();
+    let m = ivdyn::log::read_mcap(&mcap, &ivdyn::log::ReadOptions::new(&robot.joint_names)).unwrap();
     assert_eq!(m.q, rep.trajectory.q);
     assert_eq!(m.qd.as_ref().unwrap(), &rep.trajectory.qd);
     assert!(m.tau.is_none());

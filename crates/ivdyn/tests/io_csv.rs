@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use ivdyn::io::{read_csv, write_csv, JointLog};
+use ivdyn::log::{read_csv, write_csv, JointLog};
 use ivdyn::Error;
 
 const UR5: [&str; 6] =

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use ivdyn::io::{
+use ivdyn::log::{
     self, for_each_sample, read_mcap, CommandAlign, CommandField, Compression, JointLog, McapWriter, ReadOptions,
     Source,
 };
@@ -151,7 +151,7 @@ fn streaming_callback() {
         if s.index == 10 { Err(Error::Signal { msg: "stop".into() }) } else { Ok(()) }
     });
     assert!(matches!(r, Err(Error::Signal { .. })));
-    let listed = io::mcap::list_topics(fixture("ur5_500hz.mcap")).unwrap();
+    let listed = log::mcap::list_topics(fixture("ur5_500hz.mcap")).unwrap();
     assert!(listed.contains(&("/tf".to_string(), "tf2_msgs/msg/TFMessage".to_string(), 100)));
 }
 
@@ -289,8 +289,8 @@ fn write_mcap_with_predicted_and_residual() {
     let pred: Vec<f64> = log.tau.as_ref().unwrap().iter().map(|v| v * 0.9).collect();
     let res: Vec<f64> = log.tau.as_ref().unwrap().iter().zip(&pred).map(|(a, b)| a - b).collect();
     let p = tmp("with_model.mcap");
-    io::write_mcap(&p, &log, &[("/ivdyn/predicted", &pred), ("/ivdyn/residual", &res)]).unwrap();
-    let topics = io::mcap::list_topics(&p).unwrap();
+    log::write_mcap(&p, &log, &[("/ivdyn/predicted", &pred), ("/ivdyn/residual", &res)]).unwrap();
+    let topics = log::mcap::list_topics(&p).unwrap();
     let tn: Vec<(&str, usize)> = topics.iter().map(|t| (t.0.as_str(), t.2)).collect();
     assert_eq!(tn, [("/joint_states", 50), ("/ivdyn/predicted", 50), ("/ivdyn/residual", 50), ("/ivdyn/command", 50)]);
     // position is empty on /ivdyn/residual: it cannot be the measured topic
@@ -301,7 +301,7 @@ fn write_mcap_with_predicted_and_residual() {
     let back = read_mcap(&p, &o).unwrap();
     assert_eq!(back.u.as_ref().unwrap(), &res);
     // shapes are checked
-    let e = io::write_mcap(tmp("bad.mcap"), &log, &[("/x", &pred[..10])]).unwrap_err();
+    let e = log::write_mcap(tmp("bad.mcap"), &log, &[("/x", &pred[..10])]).unwrap_err();
     assert!(matches!(e, Error::Dimension { .. }));
 }
 

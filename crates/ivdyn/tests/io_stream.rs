@@ -1,7 +1,7 @@
 //! Streaming: a log larger than the memory the reader may use is read with bounded
 //! memory (resident set measured from /proc/self/status while the callback runs).
 
-use ivdyn::io::{for_each_sample, Compression, McapWriter, ReadOptions};
+use ivdyn::log::{for_each_sample, Compression, McapWriter, ReadOptions};
 
 fn rss_kib() -> Option<u64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;

@@ -136,31 +136,3 @@ fn payload_uncertainty_covers_the_truth() {
     assert!((0.90..=0.99).contains(&rm) && (0.90..=0.99).contains(&rc), "mass {rm} com {rc}");
 }
 
-/// On the paper's robot the k = 5 problem cannot see the payload mass: the conversion
-/// refuses and names where the parameters went.
-#[test]
-fn unidentifiable_payload_is_reported_not_invented() {
-    let sim = ivdyn::repro::PaperSim::new(0).unwrap();
-    let names = ivdyn::repro::terminal_names(&sim.spec, 6);
-    let fit = ivdyn::ident::FitReport {
-        method: "LS".into(),
-        names: sim.base.names.clone(),
-        theta: sim.truth_base.clone(),
-        std: vec![0.0; sim.base.base_count()],
-        rel_std_pct: vec![0.0; sim.base.base_count()],
-        covariance: DMatrix::zeros(sim.base.base_count(), sim.base.base_count()),
-        sigma2: 0.0,
-        rows: 0,
-        rank: sim.base.base_count(),
-        condition_number: 1.0,
-        unexcited: vec![],
-        dwh: None,
-        theta_ls: None,
-    };
-    let link6: [usize; 10] = core::array::from_fn(|k| 12 + k); // link 6's 10 columns follow link 5's 12
-    assert_eq!(names[12], "link6.m");
-    let r = payload_from_fit(&sim.base, &fit, &link6, &names).unwrap().unwrap_err();
-    assert!(r.parameters.contains(&"link6.m".to_string()));
-    let i = r.parameters.iter().position(|p| p == "link6.m").unwrap();
-    assert_eq!(r.combined_in[i], "no effect on the data");
-}

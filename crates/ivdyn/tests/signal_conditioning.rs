@@ -4,8 +4,9 @@
 
 use std::f64::consts::{PI, SQRT_2};
 
-use ivdyn::io::JointLog;
-use ivdyn::signal::*;
+use ivdyn::log::JointLog;
+use ivdyn::dsp::*;
+use ivdyn::prep::{condition, ConditionOptions};
 
 fn sine(fs: f64, f: f64, t: usize, phase: f64) -> Vec<f64> {
     (0..t).map(|k| (2.0 * PI * f * k as f64 / fs + phase).sin()).collect()

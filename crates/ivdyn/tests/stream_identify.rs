@@ -1,14 +1,14 @@
 //! The streaming identification path against the in-memory one: the block-wise
 //! zero-phase filter against `filtfilt` on the whole signal, the streamed conditioning
-//! against `signal::differentiate`, and `stream::identify_mcap` against
-//! `pipeline::identify` on the same log.
+//! against `dsp::differentiate`, and `stream::identify_mcap` against
+//! `app::identify` on the same log.
 
 use ivdyn::core::rng::Rng;
-use ivdyn::pipeline::{self, IdentifyOptions, SimulateOptions, Trajectory};
-use ivdyn::signal::{self, Butterworth, Decimator};
-use ivdyn::stream::condition::{CondRows, StreamCondition};
-use ivdyn::stream::filter::StreamFiltfilt;
-use ivdyn::stream::{self as st, Streamed};
+use ivdyn::app::{self, IdentifyOptions, SimulateOptions, Trajectory};
+use ivdyn::dsp::{self, Butterworth, Decimator};
+use ivdyn::prep::stream::{CondRows, StreamCondition};
+use ivdyn::prep::filtfilt::StreamFiltfilt;
+use ivdyn::app::stream::{self as st, Streamed};
 
 /// `T x m` test signal: slow sines (robot motion) plus white noise (a noisy torque).
 fn signal(t: usize, m: usize, seed: u64) -> Vec<f64> {
@@ -75,7 +75,7 @@ fn block_filtfilt_matches_whole_signal_filtfilt() {
 fn streamed_conditioning_matches_differentiate() {
     let (t, n, dt) = (25_000, 3, 1e-3);
     let q = signal(t, n, 3);
-    let whole = signal::differentiate(&q, n, dt, &signal::DiffMethod::default()).unwrap();
+    let whole = dsp::differentiate(&q, n, dt, &dsp::DiffMethod::default()).unwrap();
     let f = Butterworth::default_for(1.0 / dt).unwrap();
     let mut c = StreamCondition::new(&f, n, dt, 4096);
     let mut out = CondRows::default();
@@ -103,9 +103,9 @@ fn ur5_log(dir: &std::path::Path) -> (ivdyn::Robot, std::path::PathBuf) {
         noise_tau: 0.1,
         ..Default::default()
     };
-    let log = pipeline::simulate(&robot, &Trajectory::Fourier, &o).unwrap();
+    let log = app::simulate(&robot, &Trajectory::Fourier, &o).unwrap();
     let path = dir.join("ur5.mcap");
-    ivdyn::io::write_mcap(&path, &log, &[]).unwrap();
+    ivdyn::log::write_mcap(&path, &log, &[]).unwrap();
     (robot, path)
 }
 
@@ -114,10 +114,10 @@ fn streamed_identify_matches_in_memory_identify() {
     let dir = std::env::temp_dir().join(format!("ivdyn-stream-id-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (robot, path) = ur5_log(&dir);
-    let read = ivdyn::io::ReadOptions::new(&robot.joint_names);
-    let log = ivdyn::io::read_mcap(&path, &read).unwrap();
+    let read = ivdyn::log::ReadOptions::new(&robot.joint_names);
+    let log = ivdyn::log::read_mcap(&path, &read).unwrap();
     let opts = IdentifyOptions::default();
-    let mem = pipeline::identify(&robot, &log, &opts).unwrap();
+    let mem = app::identify(&robot, &log, &opts).unwrap();
     let Streamed::Done(s) = st::identify_mcap(&robot, &path, None, &read, &opts).unwrap() else { panic!("not streamed") };
     assert_eq!(s.base.len(), mem.base.len());
     assert_eq!((s.rows, s.rank, s.decimation), (mem.rows, mem.rank, mem.decimation));
@@ -156,19 +156,19 @@ fn uneven_stamps_and_idim_are_not_streamed() {
     let dir = std::env::temp_dir().join(format!("ivdyn-stream-uneven-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let robot = ivdyn::Robot::from_urdf(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
-    let mut log = pipeline::simulate(&robot, &Trajectory::Fourier, &SimulateOptions { duration_s: 30.0, noise_tau: 0.05, ..Default::default() }).unwrap();
+    let mut log = app::simulate(&robot, &Trajectory::Fourier, &SimulateOptions { duration_s: 30.0, noise_tau: 0.05, ..Default::default() }).unwrap();
     // one interval 30 % long, after the first 10 000 samples
     for t in log.t.iter_mut().skip(12_000) {
         *t += 0.3 * 2e-3;
     }
     let path = dir.join("uneven.mcap");
-    ivdyn::io::write_mcap(&path, &log, &[]).unwrap();
-    let read = ivdyn::io::ReadOptions::new(&robot.joint_names);
+    ivdyn::log::write_mcap(&path, &log, &[]).unwrap();
+    let read = ivdyn::log::ReadOptions::new(&robot.joint_names);
     match st::identify_mcap(&robot, &path, None, &read, &IdentifyOptions::default()).unwrap() {
         Streamed::Unsupported(why) => assert!(why.contains("uneven stamps") && why.contains("12000"), "{why}"),
         Streamed::Done(_) => panic!("an uneven log was streamed"),
     }
-    let idim = IdentifyOptions { method: pipeline::Method::IdimIv, ..Default::default() };
+    let idim = IdentifyOptions { method: app::Method::IdimIv, ..Default::default() };
     assert!(matches!(st::identify_mcap(&robot, &path, None, &read, &idim).unwrap(), Streamed::Unsupported(_)));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -2,7 +2,7 @@
 //! path, recovery of simulated coupled-wrist data, and drive gains from a known payload.
 
 use ivdyn::ident::{fit_ls, LsAccumulator};
-use ivdyn::transmission::{fit_drive_gains, motor_torque, CurrentLog, MotorRegressor, Transmission};
+use ivdyn::ident::transmission::{fit_drive_gains, motor_torque, CurrentLog, MotorRegressor, Transmission};
 use ivdyn::Robot;
 use ivdyn_core::params::{DriveParams, FC, FV, IA};
 use ivdyn_core::rng::Rng;

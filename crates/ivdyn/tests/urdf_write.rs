@@ -1,8 +1,10 @@
 //! URDF write-back: identify -> write URDF (+ side file) -> reload -> predict reproduces
 //! the identified torques to 1e-9; the rest of the XML is kept; payloads as a link or merged.
 
-use ivdyn::pipeline::{self, IdentifyOptions, PayloadSpec, SimulateOptions, Trajectory};
-use ivdyn::urdf_write::{side_path, write_back, write_files, PayloadMode};
+use ivdyn::app::{self, IdentifyOptions, SimulateOptions, Trajectory};
+use ivdyn::report::PayloadSpec;
+use ivdyn::robot::load::side_path;
+use ivdyn::robot::write::{write_back, write_files, PayloadMode};
 use ivdyn::Robot;
 use ivdyn_core::rng::Rng;
 use std::path::{Path, PathBuf};
@@ -38,7 +40,7 @@ fn write_and_reload(input: &Path, robot: &Robot, theta: Option<&[f64]>, payload:
     let wb = write_back(&text, input, robot, theta, payload, vec![]).unwrap();
     write_files(out, &wb).unwrap();
     assert!(side_path(out).exists());
-    Robot::from_urdf_with_side(out, Some(&robot.base_link), Some(&robot.tip_link)).unwrap()
+    Robot::from_urdf(out, Some(&robot.base_link), Some(&robot.tip_link)).unwrap()
 }
 
 /// Lines of the input that must survive unchanged (everything but inertials and dynamics).
@@ -50,8 +52,8 @@ fn kept_lines(text: &str) -> Vec<&str> {
 fn identify_write_reload_reproduces_the_identified_torques() {
     let robot = Robot::from_urdf(UR5, Some("base_link"), Some("tool0")).unwrap();
     let sim = SimulateOptions { duration_s: 10.0, rate_hz: 200.0, fc: Some(vec![2.0, 2.0, 1.5, 0.6, 0.6, 0.4]), fv: Some(vec![0.8, 0.8, 0.5, 0.2, 0.2, 0.1]), noise_tau: 0.05, ..Default::default() };
-    let log = pipeline::simulate(&robot, &Trajectory::Fourier, &sim).unwrap();
-    let rep = pipeline::identify(&robot, &log, &IdentifyOptions { consistent: true, ..Default::default() }).unwrap();
+    let log = app::simulate(&robot, &Trajectory::Fourier, &sim).unwrap();
+    let rep = app::identify(&robot, &log, &IdentifyOptions { consistent: true, ..Default::default() }).unwrap();
     let c = rep.consistent.as_ref().unwrap();
     assert!(c.result.check.consistent, "{:?}", c.result.check.lines());
     for (what, theta) in [("consistent", &c.params.theta), ("least squares", &rep.params.theta)] {
@@ -76,7 +78,7 @@ fn identify_write_reload_reproduces_the_identified_torques() {
 fn payload_as_link_or_merged_reloads_to_the_loaded_arm() {
     let robot = Robot::from_urdf(UR5, Some("base_link"), Some("tool0")).unwrap();
     let spec = PayloadSpec { mass: 2.0, com: [0.01, -0.02, 0.05], inertia: [0.003, 0.0001, -0.0002, 0.004, 0.0003, 0.002] };
-    let truth = pipeline::true_robot(&robot, &SimulateOptions { payload: Some(spec), ..Default::default() }).unwrap();
+    let truth = app::true_robot(&robot, &SimulateOptions { payload: Some(spec), ..Default::default() }).unwrap();
     for mode in [PayloadMode::Link, PayloadMode::Merge] {
         let out = tmp(&format!("ur5_payload_{mode:?}.urdf"));
         let back = write_and_reload(Path::new(UR5), &robot, None, Some((&spec, mode)), &out);
@@ -114,6 +116,6 @@ fn fused_links_keep_their_inertials_on_the_panda() {
     let hand = |t: &str| t.split("<link name=\"panda_hand\">").nth(1).unwrap().split("</link>").next().unwrap().to_string();
     assert_eq!(hand(&text), hand(&orig));
     // without the side file the armature and offsets are missing (so it is needed)
-    let no_side = Robot::from_urdf(&out, Some("panda_link0"), Some("panda_hand")).unwrap();
+    let no_side = ivdyn::robot::urdf::load(&out, Some("panda_link0"), Some("panda_hand")).unwrap();
     assert!(max_torque_diff(&identified, &no_side) > 1e-3);
 }

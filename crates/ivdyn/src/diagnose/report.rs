@@ -16,7 +16,7 @@ pub use html::{fmt_num, fmt_p, fmt_pct};
 
 use super::Diagnosis;
 use crate::error::{Error, Result};
-use crate::io::McapWriter;
+use crate::log::McapWriter;
 use plots::{StateAxis, Trace};
 
 /// File name of the page written by [`write_html`].

@@ -42,8 +42,9 @@ use super::{CandidateScore, Diagnosis, DiagnosisJson, EffectJson, EffectKind, Jo
 use crate::batch;
 use crate::error::{Error, Result};
 use crate::ident::stats::f_sf;
-use crate::io::JointLog;
-use crate::signal::{self, Butterworth};
+use crate::log::JointLog;
+use crate::dsp::{self, Butterworth};
+use crate::prep;
 use crate::Robot;
 
 /// Options of [`diagnose`].
@@ -229,12 +230,12 @@ fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) -> Result<S
     let n = log.dof();
     let tau = log.tau.as_ref().ok_or_else(|| bad("the log has no effort (torque) values: nothing to compare the model with"))?;
     let use_qd = log.qd.is_some() && !opts.ignore_log_velocity;
-    let copts = signal::ConditionOptions {
-        diff: signal::DiffMethod::Butterworth { order: 4, cutoff_hz: Some(cutoff_hz) },
+    let copts = prep::ConditionOptions {
+        diff: dsp::DiffMethod::Butterworth { order: 4, cutoff_hz: Some(cutoff_hz) },
         ..Default::default()
     };
     // resampling, duplicates, and q-derived derivatives
-    let c = signal::condition(log, &copts)?;
+    let c = prep::condition(log, &copts)?;
     let t_len = c.t.len();
     if t_len < 50 {
         return Err(bad(format!("the log has {t_len} usable samples; the diagnosis needs at least 50")));
@@ -251,7 +252,7 @@ fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) -> Result<S
             return Err(bad(format!("sample {}, joint {}: velocity is {}", i / n, log.joint_names[i % n], qd_raw[i])));
         }
         let qd = f.filtfilt_columns(qd_raw, n)?;
-        let qdd = signal::central_diff(&qd, n, c.dt)?;
+        let qdd = dsp::central_diff(&qd, n, c.dt)?;
         (c.d.q.clone(), qd, qdd)
     } else {
         (c.d.q.clone(), c.d.qd.clone(), c.d.qdd.clone())
@@ -1065,7 +1066,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
         Some(c) => vec![c],
         None => CUTOFF_GRID.iter().copied().filter(|&c| c <= 0.25 * fs).collect(),
     };
-    let cutoffs = if cutoffs.is_empty() { vec![signal::default_cutoff(fs)] } else { cutoffs };
+    let cutoffs = if cutoffs.is_empty() { vec![dsp::default_cutoff(fs)] } else { cutoffs };
     let mut best: Option<(f64, Prepared)> = None;
     for &c in &cutoffs {
         let p = prepare(robot, log, opts, c, None)?;

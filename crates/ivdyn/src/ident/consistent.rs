@@ -52,7 +52,7 @@ use serde::Serialize;
 
 use super::accum::LsAccumulator;
 use super::base::BaseParams;
-use super::physical::{check_params, from_pseudo_inertia, pseudo_inertia, PhysicalCheck};
+use crate::robot::physical::{check_params, from_pseudo_inertia, pseudo_inertia, PhysicalCheck};
 use crate::error::{Error, Result};
 use ivdyn_core::params::{drive_col, link_col, FC, FV, IA, LINK_PARAMS, TAU0};
 
@@ -115,11 +115,11 @@ pub struct ConsistentReport {
     /// The fit (parameters, checks, weighted RSS before and after).
     pub result: ConsistentFit,
     /// Per-joint quality of the consistent parameters on the fitted data.
-    pub fit: crate::pipeline::Quality,
+    pub fit: crate::report::Quality,
     /// On the held-out tail (`null` with a separate validation log).
-    pub validation: Option<crate::pipeline::Quality>,
+    pub validation: Option<crate::report::Quality>,
     /// The consistent full parameters, reloadable with `--params`.
-    pub params: crate::pipeline::ParamsFile,
+    pub params: crate::report::ParamsFile,
 }
 
 /// Options of [`fit_consistent`].

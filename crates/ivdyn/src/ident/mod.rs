@@ -11,8 +11,13 @@
 //! - [`base`]: [`BaseParams`], the identifiable parameter combinations found numerically,
 //!   and [`robot_base_params`];
 //! - [`stats`]: chi-square, F and normal distributions;
-//! - [`physical`]: physical-consistency checks per link and joint; [`consistent`]: the LS
-//!   fit with consistency enforced (log-Cholesky parametrisation);
+//! - [`consistent`]: the LS fit with physical consistency enforced (log-Cholesky
+//!   parametrisation; the checks are [`crate::robot::physical`]);
+//! - [`joint_acc`]: per-joint statistics from which OLS, two-step WLS, IV and per-joint
+//!   quality follow without the data; [`drive`]: which drive terms are fitted;
+//! - [`instrument`]: the tracking-simulation instrument; [`batch_fit`]: LS straight from
+//!   states; [`arrays`]: fits and recursive estimators on plain arrays (Python's entry);
+//! - [`transmission`]: motor-side regressors, gear ratios, drive gains;
 //!
 //! ```
 //! use ivdyn::ident::{fit_ls, LsAccumulator};
@@ -26,16 +31,24 @@
 //! ```
 
 pub mod accum;
+pub mod arrays;
 pub mod base;
+pub mod batch_fit;
 pub mod consistent;
+pub mod drive;
 pub mod fit;
 pub mod idim;
+pub mod instrument;
+pub mod joint_acc;
 pub mod payload;
-pub mod physical;
 pub mod stats;
+pub mod transmission;
+pub mod wls;
 
 pub use accum::{IvAccumulator, LsAccumulator};
 pub use base::{BaseParams, robot_base_params, robot_base_params_excluding};
 pub use fit::{DwhTest, FitReport, dwh_test, fit_iv, fit_ls};
 pub use idim::{idim_iv, Experiment, IdimIvResult};
 pub use payload::{payload_from_fit, NotIdentifiable, PayloadEstimate};
+pub use drive::DriveTerms;
+pub use batch_fit::fit_ls_batch;

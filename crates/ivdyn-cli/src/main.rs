@@ -1,0 +1,774 @@
+//! The `ivdyn` command line: `identify`, `payload`, `simulate` (see `docs/cli.md`).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use ivdyn::log::{self, JointLog, ReadOptions};
+use ivdyn::app::{self, IdentifyOptions, Method, PayloadOptions, SimulateOptions, Trajectory};
+use ivdyn::progress::Progress;
+use ivdyn::report::{ParamsFile, PayloadSpec};
+use ivdyn::Robot;
+
+#[derive(Parser)]
+#[command(name = "ivdyn", version, about = "Robot-arm dynamics identification from motion logs")]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+    /// No progress bars.
+    #[arg(long, global = true)]
+    quiet: bool,
+}
+
+#[derive(Subcommand)]
+enum Cmd {
+    /// Identify base parameters from a log (MCAP or CSV) with measured torques.
+    Identify(IdentifyArgs),
+    /// Estimate a payload on the last link from a log after the grasp.
+    Payload(PayloadArgs),
+    /// Write a synthetic log (inverse dynamics along a trajectory, with noise).
+    Simulate(SimulateArgs),
+    /// Find what the nominal model misses in a log, name it, add it (docs/diagnose.md).
+    Diagnose(diagnose_cmd::DiagnoseArgs),
+    /// Design an excitation trajectory (finite Fourier series, optimised base regressor).
+    Excite(ExciteArgs),
+}
+
+#[derive(Args)]
+struct RobotArgs {
+    /// URDF file.
+    #[arg(long)]
+    urdf: PathBuf,
+    /// Base link of the chain (default: the URDF's root).
+    #[arg(long)]
+    base: Option<String>,
+    /// Tip link of the chain (default: the end of an unbranched chain).
+    #[arg(long)]
+    tip: Option<String>,
+    /// Parameter file (written by `identify --out-params`) replacing the URDF's values.
+    #[arg(long)]
+    params: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct LogArgs {
+    /// JointState topic of MCAP logs.
+    #[arg(long, default_value = "/joint_states")]
+    topic: String,
+    /// Optional JointState topic carrying the actuator command u (its effort field).
+    #[arg(long)]
+    command_topic: Option<String>,
+    /// Use MCAP log times instead of header stamps.
+    #[arg(long)]
+    log_time: bool,
+    /// Zero-phase cut-off (Hz) of the differentiation filter (default: 20 Hz, at most 0.2 fs).
+    #[arg(long)]
+    cutoff: Option<f64>,
+    /// Decimation factor after the parallel filter (0: automatic, output rate ~2.5x the cut-off; 1: none).
+    #[arg(long, default_value_t = 0)]
+    decimate: usize,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum MethodArg {
+    Ols,
+    Wls,
+    Iv,
+    #[value(name = "idim-iv")]
+    IdimIv,
+}
+
+#[derive(Args)]
+struct IdentifyArgs {
+    #[command(flatten)]
+    robot: RobotArgs,
+    /// Log file (.mcap or .csv).
+    #[arg(long)]
+    log: PathBuf,
+    #[command(flatten)]
+    log_args: LogArgs,
+    /// Estimation method.
+    #[arg(long, value_enum, default_value = "wls")]
+    method: MethodArg,
+    /// Validation log (default: the last --holdout fraction of the log).
+    #[arg(long)]
+    validate: Option<PathBuf>,
+    /// Fraction of the log held out for validation when no --validate log is given.
+    #[arg(long, default_value_t = 0.25)]
+    holdout: f64,
+    /// JSON report.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Identified full parameters (JSON, reloadable with --params).
+    #[arg(long)]
+    out_params: Option<PathBuf>,
+    /// Also fit physically consistent parameters (log-Cholesky); --out-params and --write-urdf then use them.
+    #[arg(long)]
+    consistent: bool,
+    /// Write a copy of the URDF with the identified inertials and friction (+ OUT.json side file).
+    #[arg(long)]
+    write_urdf: Option<PathBuf>,
+    /// Friction terms to identify: `none`, or a comma list of `coulomb`, `viscous`
+    /// (terms left out keep their nominal values).
+    #[arg(long, value_delimiter = ',', default_value = "coulomb,viscous")]
+    friction: Vec<FrictionArg>,
+    /// Do not identify the armature (rotor inertia) of the joints.
+    #[arg(long)]
+    no_armature: bool,
+    /// Do not identify a constant torque offset per joint.
+    #[arg(long)]
+    no_offset: bool,
+    /// Write the measured torques, the identified model's predicted torques and the
+    /// residuals as JointState topics (/joint_states, /ivdyn/predicted, /ivdyn/residual)
+    /// on the same stamps to this MCAP file.
+    #[arg(long)]
+    out_mcap: Option<PathBuf>,
+    /// Read the whole log into memory instead of streaming it (MCAP logs are streamed
+    /// with bounded memory when the options allow; the numbers are the same to rounding).
+    #[arg(long)]
+    in_memory: bool,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum FrictionArg {
+    None,
+    Coulomb,
+    Viscous,
+}
+
+#[derive(Args)]
+struct PayloadArgs {
+    #[command(flatten)]
+    robot: RobotArgs,
+    /// Log after the grasp.
+    #[arg(long)]
+    log: PathBuf,
+    /// Log before the grasp (same arm without payload): cancels nominal-model errors.
+    #[arg(long)]
+    before: Option<PathBuf>,
+    #[command(flatten)]
+    log_args: LogArgs,
+    /// JSON report.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Write a copy of the URDF with the payload (+ OUT.json side file).
+    #[arg(long)]
+    write_urdf: Option<PathBuf>,
+    /// How the payload goes into the URDF: a fixed child link of the tip, or merged into it.
+    #[arg(long, value_enum, default_value = "link")]
+    payload_as: PayloadAsArg,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum PayloadAsArg {
+    Link,
+    Merge,
+}
+
+#[derive(Args)]
+struct SimulateArgs {
+    #[command(flatten)]
+    robot: RobotArgs,
+    /// Trajectory CSV (columns t, <joint>.q; uniform times). Default: random Fourier excitation.
+    #[arg(long)]
+    traj: Option<PathBuf>,
+    /// Duration of the built-in excitation (s).
+    #[arg(long, default_value_t = 20.0)]
+    duration: f64,
+    /// Sample rate of the built-in excitation (Hz).
+    #[arg(long, default_value_t = 500.0)]
+    rate: f64,
+    /// Seed of the excitation and the noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Peak amplitude of the excitation per joint (rad).
+    #[arg(long, default_value_t = 0.8)]
+    amplitude: f64,
+    /// Output log (.mcap or .csv).
+    #[arg(long)]
+    out: PathBuf,
+    /// Payload mass (kg) on the last link.
+    #[arg(long)]
+    payload_mass: Option<f64>,
+    /// Payload COM x,y,z (m) in the last link's frame.
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    payload_com: Option<Vec<f64>>,
+    /// Payload inertia about its COM Ixx,Ixy,Ixz,Iyy,Iyz,Izz (kg m^2).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    payload_inertia: Option<Vec<f64>>,
+    /// Coulomb friction per joint (comma separated).
+    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
+    fc: Option<Vec<f64>>,
+    /// Viscous friction per joint (comma separated).
+    #[arg(long, value_delimiter = ',')]
+    fv: Option<Vec<f64>>,
+    /// Torque noise standard deviation (N m).
+    #[arg(long, default_value_t = 0.0)]
+    noise: f64,
+    /// Position noise standard deviation (rad).
+    #[arg(long, default_value_t = 0.0)]
+    noise_q: f64,
+    /// Encoder resolution in bits per turn (position quantisation).
+    #[arg(long)]
+    encoder_bits: Option<u32>,
+    /// Torque quantisation step (N m).
+    #[arg(long)]
+    tau_resolution: Option<f64>,
+    /// Leave the velocity arrays empty (as drives that publish positions only).
+    #[arg(long)]
+    no_velocity: bool,
+    /// Record the noise-free torque as the actuator command (MCAP topic /ivdyn/command, CSV <joint>.u).
+    #[arg(long)]
+    command: bool,
+    /// JSON summary of what was simulated.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+#[path = "cmd/diagnose.rs"]
+mod diagnose_cmd;
+#[derive(Args)]
+struct ExciteArgs {
+    #[command(flatten)]
+    robot: RobotArgs,
+    /// Duration of the written trajectory (s).
+    #[arg(long, default_value_t = 20.0)]
+    duration: f64,
+    /// Number of harmonics (>= 2).
+    #[arg(long, default_value_t = 5)]
+    harmonics: usize,
+    /// Fundamental frequency (Hz); the trajectory repeats every 1/f0 s.
+    #[arg(long, default_value_t = 0.1)]
+    f0: f64,
+    /// Sample rate of the written trajectory (Hz).
+    #[arg(long, default_value_t = 100.0)]
+    rate: f64,
+    /// Criterion: minimise the condition number, or maximise log det of the information matrix.
+    #[arg(long, value_enum, default_value = "cond")]
+    criterion: CriterionArg,
+    /// Acceleration limit (rad/s^2), one value or one per joint (URDF has none).
+    #[arg(long, value_delimiter = ',', default_value = "5")]
+    acc_limit: Vec<f64>,
+    /// Velocity limit (rad/s) replacing the URDF's, one value or one per joint.
+    #[arg(long, value_delimiter = ',')]
+    vel_limit: Option<Vec<f64>>,
+    /// Safety margin: fraction by which every limit is shrunk.
+    #[arg(long, default_value_t = 0.01)]
+    margin: f64,
+    /// Random starts of the optimiser.
+    #[arg(long, default_value_t = 6)]
+    starts: usize,
+    /// L-BFGS iterations per start.
+    #[arg(long, default_value_t = 150)]
+    iterations: usize,
+    /// Random trajectories for the comparison.
+    #[arg(long, default_value_t = 20)]
+    random: usize,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output CSV (t, <joint>.q, .qd, .qdd).
+    #[arg(long)]
+    out: PathBuf,
+    /// Output MCAP (/joint_states: position and velocity).
+    #[arg(long)]
+    out_mcap: Option<PathBuf>,
+    /// JSON report (criteria, random comparison, coefficients).
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum CriterionArg {
+    Cond,
+    Logdet,
+}
+
+type R<T> = Result<T, String>;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let bars = Bars::new(cli.quiet);
+    let r = match cli.cmd {
+        Cmd::Identify(a) => identify(a, &bars),
+        Cmd::Payload(a) => payload(a, &bars),
+        Cmd::Simulate(a) => simulate(a, &bars),
+        Cmd::Diagnose(a) => diagnose_cmd::run(a, &bars),
+        Cmd::Excite(a) => excite(a, &bars),
+    };
+    match r {
+        Ok(code) => code,
+        Err(e) => {
+            let line = e.replace('\n', " ");
+            eprintln!("ivdyn: error: {line}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+// ------------------------------------------------------------------------ progress
+
+#[derive(Clone)]
+struct Bars {
+    quiet: bool,
+    cur: Arc<Mutex<Option<ProgressBar>>>,
+}
+
+impl Bars {
+    fn new(quiet: bool) -> Self {
+        Bars { quiet, cur: Arc::new(Mutex::new(None)) }
+    }
+    fn sink(&self) -> ivdyn::progress::ProgressSink {
+        if self.quiet { None } else { Some(Arc::new(self.clone())) }
+    }
+    fn spinner(&self, msg: &str) -> Option<ProgressBar> {
+        if self.quiet {
+            return None;
+        }
+        let pb = ProgressBar::new_spinner();
+        pb.set_message(msg.to_string());
+        pb.enable_steady_tick(std::time::Duration::from_millis(120));
+        Some(pb)
+    }
+}
+
+impl Progress for Bars {
+    fn begin(&self, stage: &str, total: u64) {
+        let pb = if total > 0 {
+            let pb = ProgressBar::new(total);
+            pb.set_style(
+                ProgressStyle::with_template("{msg:24} [{bar:30}] {pos}/{len} samples ({per_sec}, eta {eta})")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar())
+                    .progress_chars("=> "),
+            );
+            pb
+        } else {
+            let pb = ProgressBar::new_spinner();
+            pb.enable_steady_tick(std::time::Duration::from_millis(120));
+            pb
+        };
+        pb.set_message(stage.to_string());
+        if let Ok(mut c) = self.cur.lock() {
+            *c = Some(pb);
+        }
+    }
+    fn advance(&self, n: u64) {
+        if let Ok(c) = self.cur.lock()
+            && let Some(pb) = c.as_ref()
+        {
+            pb.inc(n);
+        }
+    }
+    fn end(&self) {
+        if let Ok(mut c) = self.cur.lock()
+            && let Some(pb) = c.take()
+        {
+            pb.finish_and_clear();
+        }
+    }
+}
+
+// ------------------------------------------------------------------------ helpers
+
+fn load_robot(a: &RobotArgs) -> R<Robot> {
+    let mut robot = Robot::from_urdf(&a.urdf, a.base.as_deref(), a.tip.as_deref()).map_err(|e| e.to_string())?;
+    if let Some(p) = &a.params {
+        let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
+        let pf: ParamsFile = serde_json::from_str(&text).map_err(|e| format!("{}: not a parameter file: {e}", p.display()))?;
+        ivdyn::robot::load::load_params(&mut robot, &pf).map_err(|e| format!("{}: {e}", p.display()))?;
+    } else {
+        // armature and offsets of a URDF written by --write-urdf
+        let side = ivdyn::robot::load::side_path(&a.urdf);
+        if side.exists() {
+            robot.apply_side_file(&side).map_err(|e| e.to_string())?;
+            eprintln!("note: applied the side file {}", side.display());
+        }
+    }
+    Ok(robot)
+}
+
+fn ext(p: &Path) -> String {
+    p.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase()
+}
+
+fn read_log(path: &Path, robot: &Robot, la: &LogArgs, bars: &Bars) -> R<JointLog> {
+    let pb = bars.spinner(&format!("reading {}", path.display()));
+    let r = ivdyn::log::read_pipeline_log(path, &robot.joint_names, &la.topic, la.command_topic.as_deref(), la.log_time);
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    r.map_err(|e| e.to_string())
+}
+
+fn condition_opts(la: &LogArgs) -> ivdyn::prep::ConditionOptions {
+    let mut c = ivdyn::prep::ConditionOptions::default();
+    if let Some(fc) = la.cutoff {
+        c.diff = ivdyn::dsp::DiffMethod::Butterworth { order: ivdyn::dsp::DEFAULT_ORDER, cutoff_hz: Some(fc) };
+    }
+    c
+}
+
+/// A temporary path in the same directory as `path` (renamed over it on success).
+fn tmp_path(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "out".into());
+    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+}
+
+fn write_json<T: serde::Serialize>(path: &Path, v: &T) -> R<()> {
+    let tmp = tmp_path(path);
+    let res = (|| -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        serde_json::to_writer_pretty(&mut f, v).map_err(std::io::Error::other)?;
+        f.write_all(b"\n")?;
+        f.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if let Err(e) = res {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(format!("{}: cannot write: {e}", path.display()));
+    }
+    Ok(())
+}
+
+fn fmt_list(v: &[f64], prec: usize) -> String {
+    v.iter().map(|x| format!("{x:.prec$}")).collect::<Vec<_>>().join(", ")
+}
+
+// ------------------------------------------------------------------------ identify
+
+fn read_options(robot: &Robot, la: &LogArgs) -> ReadOptions {
+    ReadOptions::new(&robot.joint_names).topic(&la.topic).command_topic_opt(la.command_topic.as_deref()).log_time(la.log_time)
+}
+
+fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
+    let robot = load_robot(&a.robot)?;
+    if a.friction.contains(&FrictionArg::None) && a.friction.len() > 1 {
+        return Err("--friction none cannot be combined with other terms".into());
+    }
+    let mut opts = IdentifyOptions {
+        method: match a.method {
+            MethodArg::Ols => Method::Ols,
+            MethodArg::Wls => Method::Wls,
+            MethodArg::Iv => Method::Iv,
+            MethodArg::IdimIv => Method::IdimIv,
+        },
+        condition: condition_opts(&a.log_args),
+        decimate: a.log_args.decimate,
+        validation_fraction: a.holdout,
+        drive: ivdyn::ident::DriveTerms {
+            coulomb: a.friction.contains(&FrictionArg::Coulomb),
+            viscous: a.friction.contains(&FrictionArg::Viscous),
+            armature: !a.no_armature,
+            offset: !a.no_offset,
+        },
+        progress: bars.sink(),
+        consistent: a.consistent,
+        ..Default::default()
+    };
+    // MCAP logs are streamed (bounded memory) unless the options or the log need memory
+    let mut streamed = None;
+    let mut why_not = None;
+    let streamable = !a.in_memory && ext(&a.log) != "csv" && a.validate.as_ref().is_none_or(|v| ext(v) != "csv");
+    if streamable {
+        let read = read_options(&robot, &a.log_args);
+        match ivdyn::app::stream::identify_mcap(&robot, &a.log, a.validate.as_deref(), &read, &opts) {
+            Ok(ivdyn::app::stream::Streamed::Done(r)) => streamed = Some(r),
+            Ok(ivdyn::app::stream::Streamed::Unsupported(why)) => why_not = Some(why),
+            // reader errors already name the file
+            Err(e @ (ivdyn::Error::Log { .. } | ivdyn::Error::Io { .. })) => return Err(e.to_string()),
+            Err(e) => return Err(format!("{}: {e}", a.log.display())),
+        }
+    }
+    let mut mem_log = None;
+    let rep = match streamed {
+        Some(r) => r,
+        None => {
+            let log = mem_log.insert(read_log(&a.log, &robot, &a.log_args, bars)?);
+            opts.validation_log = a.validate.as_ref().map(|p| read_log(p, &robot, &a.log_args, bars)).transpose()?;
+            let mut r = app::identify(&robot, log, &opts).map_err(|e| format!("{}: {e}", a.log.display()))?;
+            if let Some(w) = why_not {
+                r.notes.push(format!("read into memory (not streamed): {w}"));
+            }
+            r
+        }
+    };
+    if let Some(fit) = &rep.fit_report {
+        println!("robot '{}', {} joints, {} samples at {:.1} Hz (filter {:.1} Hz), method {}", robot.name, robot.dof(), rep.fit.samples, rep.sample_rate_hz, rep.filter_cutoff_hz, rep.method);
+        if let Some(i) = &rep.instrument {
+            println!("instrument: {i}");
+        }
+        println!();
+        println!("{} fit: {} rows, rank {}/{}, sigma2 = {:.4e}, cond = {:.3e}", fit.method, fit.rows, fit.rank, fit.theta.len(), fit.sigma2, fit.condition_number);
+        println!("  {:>3}  {:>13}  {:>10}  {:>8}  {:>13}  base parameter", "#", "value", "std", "rel %", "nominal");
+        for (i, b) in rep.base.iter().enumerate() {
+            let name = if b.name.chars().count() > 70 { format!("{}...", b.name.chars().take(67).collect::<String>()) } else { b.name.clone() };
+            println!("  {i:>3}  {:>13.6e}  {:>10.3e}  {:>8.2}  {:>13.6e}  {name}", b.value, b.std, b.rel_std_pct, b.nominal);
+        }
+        if !rep.unexcited.is_empty() {
+            println!("  not excited (left at nominal): {}", rep.unexcited.join(", "));
+        }
+    }
+    println!();
+    println!("fit quality per joint ({}):", rep.fit.data);
+    print_quality(&rep.joints, &rep.fit);
+    if let Some(v) = &rep.validation {
+        println!("validation ({}, {} samples):", v.data, v.samples);
+        print_quality(&rep.joints, v);
+    }
+    match &rep.dwh {
+        Some(d) => println!("LS vs IV (Durbin-Wu-Hausman): H = {:.3}, dof {}: {}", d.statistic, d.dof, d.verdict),
+        None => println!("LS vs IV: not tested"),
+    }
+    for n in &rep.notes {
+        println!("note: {n}");
+    }
+    if rep.physical.consistent {
+        println!("identified full parameters (nominal + base correction) are physically consistent");
+    } else {
+        println!("identified full parameters (nominal + base correction) are NOT physically consistent:");
+        for l in rep.physical.lines() {
+            println!("  {l}");
+        }
+    }
+    let mut params = &rep.params;
+    if let Some(c) = &rep.consistent {
+        let (r, k) = (&c.result, &c.result.cost);
+        println!("consistent fit ({} LM iterations{}): weighted RSS {:.6e} -> {:.6e} (+{:.3}%), {}", k.iterations, if k.converged { "" } else { ", NOT converged" }, k.rss_ls, k.rss, 100.0 * k.rss_increase, if r.check.consistent { "physically consistent".to_string() } else { format!("still inconsistent: {}", r.check.lines().join("; ")) });
+        println!("  {} unidentifiable directions pulled toward the nominal parameters", k.regularised_directions);
+        println!("fit quality per joint with the consistent parameters:");
+        print_quality(&rep.joints, &c.fit);
+        if let Some(v) = &c.validation {
+            println!("validation with the consistent parameters ({}):", v.data);
+            print_quality(&rep.joints, v);
+        }
+        params = &c.params;
+    }
+    if let Some(p) = &a.out_params {
+        write_json(p, params)?;
+        println!("parameters written to {}", p.display());
+    }
+    if let Some(out) = &a.write_urdf {
+        let source = if rep.consistent.is_some() { "ivdyn identify --consistent: physically consistent full parameters" } else { "ivdyn identify: nominal parameters corrected in the identifiable directions (BaseParams::apply)" };
+        let text = std::fs::read_to_string(&a.robot.urdf).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
+        let wb = ivdyn::robot::write::write_back(&text, &a.robot.urdf, &robot, Some(&params.theta), None, vec![source.to_string()]).map_err(|e| e.to_string())?;
+        ivdyn::robot::write::write_files(out, &wb).map_err(|e| e.to_string())?;
+        println!("URDF written to {} (armature and offsets in {})", out.display(), ivdyn::robot::load::side_path(out).display());
+    }
+    if let Some(p) = &a.json {
+        write_json(p, &rep)?;
+        println!("report written to {}", p.display());
+    }
+    if let Some(out) = &a.out_mcap {
+        let mut model = robot.clone();
+        model.set_params(&rep.params.theta).map_err(|e| e.to_string())?;
+        let fail = |e: ivdyn::Error| format!("{}: {e}", out.display());
+        let mut written = None;
+        if mem_log.is_none() {
+            let read = read_options(&robot, &a.log_args);
+            if let ivdyn::app::stream::Streamed::Done(k) = ivdyn::app::stream::write_prediction_mcap(out, &model, &a.log, &read, &opts).map_err(fail)? {
+                written = Some(k);
+            }
+        }
+        let k = match written {
+            Some(k) => k,
+            None => {
+                let log = match mem_log.take() {
+                    Some(l) => l,
+                    None => read_log(&a.log, &robot, &a.log_args, bars)?,
+                };
+                app::write_prediction(out, &model, &log, &opts.condition).map_err(fail)?
+            }
+        };
+        println!("measured, predicted and residual torques ({k} samples) written to {} (topics /joint_states, /ivdyn/predicted, /ivdyn/residual)", out.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_quality(joints: &[String], q: &ivdyn::report::Quality) {
+    let w = joints.iter().map(|j| j.len()).max().unwrap_or(5).max(5);
+    println!("  {:<w$}  {:>12}  {:>12}  {:>8}", "joint", "rms [N m]", "tau rms", "R^2");
+    for (i, j) in joints.iter().enumerate() {
+        println!("  {:<w$}  {:>12.4e}  {:>12.4e}  {:>8.5}", j, q.rms[i], q.tau_rms[i], q.r2[i]);
+    }
+}
+
+// ------------------------------------------------------------------------ payload
+
+fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
+    let robot = load_robot(&a.robot)?;
+    let after = read_log(&a.log, &robot, &a.log_args, bars)?;
+    let before = a.before.as_ref().map(|p| read_log(p, &robot, &a.log_args, bars)).transpose()?;
+    let mut opts = PayloadOptions { condition: condition_opts(&a.log_args), decimate: a.log_args.decimate, progress: bars.sink(), ..Default::default() };
+    opts.before.condition = opts.condition.clone();
+    opts.before.decimate = opts.decimate;
+    let rep = app::payload(&robot, &after, before.as_ref(), &opts).map_err(|e| format!("{}: {e}", a.log.display()))?;
+    println!("payload on link '{}' (COM and inertia in its frame), nominal model: {}, {} samples", rep.link, rep.nominal, rep.samples);
+    if rep.identifiable {
+        let (m, ms) = (rep.mass.unwrap_or(f64::NAN), rep.mass_std.unwrap_or(f64::NAN));
+        let (c, cs) = (rep.com.unwrap_or([f64::NAN; 3]), rep.com_std.unwrap_or([f64::NAN; 3]));
+        let (i, is) = (rep.inertia.unwrap_or([f64::NAN; 6]), rep.inertia_std.unwrap_or([f64::NAN; 6]));
+        println!("  mass     {m:.4} kg  (std {ms:.2e})");
+        println!("  com      [{}] m  (std [{}])", fmt_list(&c, 4), cs.iter().map(|x| format!("{x:.1e}")).collect::<Vec<_>>().join(", "));
+        println!("  inertia  [{}] kg m^2 about the COM (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)", fmt_list(&i, 5));
+        println!("           std [{}]", fmt_list(&is, 5));
+    } else {
+        println!("  the payload is NOT identifiable from this log:");
+        for h in &rep.not_identifiable {
+            println!("    {} (part of: {})", h.parameter, h.combined_in);
+        }
+    }
+    println!("  residual rms per joint before [{}] N m, after [{}] N m", fmt_list(&rep.rms_before, 4), fmt_list(&rep.rms_after, 4));
+    for n in &rep.notes {
+        println!("note: {n}");
+    }
+    if let Some(p) = &a.json {
+        write_json(p, &rep)?;
+        println!("report written to {}", p.display());
+    }
+    if let (Some(out), true) = (&a.write_urdf, rep.identifiable) {
+        let spec = PayloadSpec { mass: rep.mass.unwrap_or(f64::NAN), com: rep.com.unwrap_or([f64::NAN; 3]), inertia: rep.inertia.unwrap_or([f64::NAN; 6]) };
+        let mode = match a.payload_as {
+            PayloadAsArg::Link => ivdyn::robot::write::PayloadMode::Link,
+            PayloadAsArg::Merge => ivdyn::robot::write::PayloadMode::Merge,
+        };
+        let text = std::fs::read_to_string(&a.robot.urdf).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
+        let theta = robot.params();
+        let wb = ivdyn::robot::write::write_back(&text, &a.robot.urdf, &robot, Some(&theta), Some((&spec, mode)), vec!["ivdyn payload: the arm as loaded (URDF, --params or side file) plus the identified payload".into()]).map_err(|e| e.to_string())?;
+        ivdyn::robot::write::write_files(out, &wb).map_err(|e| e.to_string())?;
+        println!("URDF with the payload written to {}", out.display());
+    }
+    if !rep.identifiable {
+        let names: Vec<&str> = rep.not_identifiable.iter().map(|h| h.parameter.as_str()).collect();
+        eprintln!("ivdyn: error: payload not identifiable from {}: {}", a.log.display(), names.join(", "));
+        return Ok(ExitCode::from(2));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+// ------------------------------------------------------------------------ simulate
+
+fn simulate(a: SimulateArgs, bars: &Bars) -> R<ExitCode> {
+    let robot = load_robot(&a.robot)?;
+    let payload = match (a.payload_mass, &a.payload_com, &a.payload_inertia) {
+        (None, None, None) => None,
+        (Some(m), c, i) => {
+            if !(m.is_finite() && m > 0.0) {
+                return Err(format!("--payload-mass must be positive, got {m}"));
+            }
+            if c.as_ref().is_some_and(|c| c.len() != 3) {
+                return Err("--payload-com needs 3 values x,y,z".into());
+            }
+            if i.as_ref().is_some_and(|i| i.len() != 6) {
+                return Err("--payload-inertia needs 6 values Ixx,Ixy,Ixz,Iyy,Iyz,Izz".into());
+            }
+            let com = c.as_ref().map(|c| [c[0], c[1], c[2]]).unwrap_or([0.0; 3]);
+            let inertia = i.as_ref().map(|i| [i[0], i[1], i[2], i[3], i[4], i[5]]).unwrap_or([0.0; 6]);
+            Some(PayloadSpec { mass: m, com, inertia })
+        }
+        (None, _, _) => return Err("--payload-com/--payload-inertia need --payload-mass".into()),
+    };
+    let opts = SimulateOptions {
+        rate_hz: a.rate,
+        duration_s: a.duration,
+        seed: a.seed,
+        amplitude: a.amplitude,
+        payload,
+        fc: a.fc.clone(),
+        fv: a.fv.clone(),
+        noise_tau: a.noise,
+        noise_q: a.noise_q,
+        encoder_bits: a.encoder_bits,
+        tau_resolution: a.tau_resolution,
+        write_velocity: !a.no_velocity,
+        write_command: a.command,
+        ..Default::default()
+    };
+    let traj = match &a.traj {
+        None => Trajectory::Fourier,
+        Some(p) => {
+            let l = log::read_csv(p, &robot.joint_names).map_err(|e| e.to_string())?;
+            l.validate(p).map_err(|e| e.to_string())?;
+            Trajectory::Samples { t: l.t, q: l.q }
+        }
+    };
+    let pb = bars.spinner("simulating");
+    let log = app::simulate(&robot, &traj, &opts).map_err(|e| e.to_string());
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    let log = log?;
+    let tmp = tmp_path(&a.out);
+    let res = match ext(&a.out).as_str() {
+        "csv" => log::write_csv(&tmp, &log).map(|_| ()),
+        "mcap" => log::write_mcap(&tmp, &log, &[]).map(|_| ()),
+        e => return Err(format!("{}: unknown output format '.{e}' (use .mcap or .csv)", a.out.display())),
+    };
+    if let Err(e) = res.map_err(|e| e.to_string()).and_then(|_| std::fs::rename(&tmp, &a.out).map_err(|e| format!("{}: {e}", a.out.display()))) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
+    println!("wrote {} samples of {} joints ({:.2} s) to {}", log.len(), log.dof(), log.t.last().copied().unwrap_or(0.0), a.out.display());
+    if let Some(p) = &a.json {
+        #[derive(serde::Serialize)]
+        struct SimJson<'a> {
+            out: String,
+            samples: usize,
+            joints: &'a [String],
+            options: &'a SimulateOptions,
+            true_params: ParamsFile,
+        }
+        let truth = app::true_robot(&robot, &opts).map_err(|e| e.to_string())?;
+        let tp = ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: truth.params() };
+        write_json(p, &SimJson { out: a.out.display().to_string(), samples: log.len(), joints: &robot.joint_names, options: &opts, true_params: tp })?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+// ------------------------------------------------------------------------ excite
+
+fn excite(a: ExciteArgs, bars: &Bars) -> R<ExitCode> {
+    use ivdyn::excite::{self, Criterion, ExciteOptions};
+    let robot = load_robot(&a.robot)?;
+    let opts = ExciteOptions {
+        duration_s: a.duration,
+        harmonics: a.harmonics,
+        f0_hz: a.f0,
+        rate_hz: a.rate,
+        criterion: match a.criterion {
+            CriterionArg::Cond => Criterion::Cond,
+            CriterionArg::Logdet => Criterion::Logdet,
+        },
+        acc_limit: a.acc_limit.clone(),
+        vel_limit: a.vel_limit.clone(),
+        margin: a.margin,
+        starts: a.starts,
+        iterations: a.iterations,
+        random_draws: a.random,
+        seed: a.seed,
+        progress: bars.sink(),
+        ..Default::default()
+    };
+    let rep = excite::design(&robot, &opts).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
+    excite::write_csv(&a.out, &rep.joints, &rep.trajectory).map_err(|e| e.to_string())?;
+    if let Some(p) = &a.out_mcap {
+        excite::write_mcap(p, &rep.joints, &rep.trajectory).map_err(|e| e.to_string())?;
+    }
+    println!("robot '{}', {} joints, {} base parameters, {} harmonics of {} Hz, {} s at {} Hz", rep.robot, rep.joints.len(), rep.base_count, rep.harmonics, rep.f0_hz, rep.duration_s, rep.rate_hz);
+    println!("  optimised ({:?}): cond = {:.4e}, log det = {:.4}", rep.criterion, rep.optimised.cond, rep.optimised.logdet);
+    println!("  random Fourier ({} draws, same harmonics and bounds): median cond = {:.4e} (best {:.4e}), median log det = {:.4}", rep.random.draws, rep.random.cond_median, rep.random.cond_min, rep.random.logdet_median);
+    println!("  condition number {:.1}x better than the random median", rep.cond_improvement);
+    println!("  peak |qd| / limit per joint [{}], peak |qdd| / limit [{}]", fmt_list(&rep.velocity_use, 3), fmt_list(&rep.acceleration_use, 3));
+    for n in &rep.notes {
+        println!("note: {n}");
+    }
+    println!("trajectory written to {}{}", a.out.display(), a.out_mcap.as_ref().map(|p| format!(" and {}", p.display())).unwrap_or_default());
+    if let Some(p) = &a.json {
+        write_json(p, &rep)?;
+        println!("report written to {}", p.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,653 @@
+//! Closed-loop simulation and the computed-torque experiments (paper Fig. 5).
+//!
+//! An arm tracks a smooth periodic trajectory; at `grasp_time` a payload is added to the
+//! last link of the TRUE model (the simulator's); from then on an online estimator of the
+//! change of the last link ([`ivdyn_core::control::PayloadEstimator`], recursive IV or
+//! LS, rows = every joint, unknowns = the identifiable entries of the last link's 10
+//! inertial parameters found by [`ivdyn::ident::BaseParams`]) runs at the control rate
+//! on the measured data (encoder positions differentiated, noisy torque). The
+//! computed-torque controller of scheme [`Scheme::CtEstimated`] uses the nominal model
+//! until the estimated mass's standard deviation falls below `switch_rel_std` of the
+//! estimate, then nominal + estimate (refreshed every step).
+//!
+//! The nominal model is either the unloaded arm exactly (`Experiment::paper()`, so that
+//! every difference between the schemes comes from the payload), or, as in the paper's
+//! experiment, the unloaded arm *identified* first from an unloaded run starting from a
+//! wrong prior ([`Experiment::with_identified_nominal`]): then `truth` (what the simulator
+//! runs) and `nominal` (what the controllers and the estimator use) differ.
+//!
+//! ```no_run
+//! use ivdyn_lab::control::{Experiment, Scheme};
+//! let exp = Experiment::paper().unwrap();
+//! let run = exp.run(Scheme::CtEstimated).unwrap();
+//! let (rms, peak) = run.rms_peak(run.switch_time.unwrap_or(exp.grasp_time));
+//! println!("{rms:?} {peak:?}");
+//! ```
+
+use ivdyn::error::{Error, Result};
+use ivdyn::ident::BaseParams;
+use ivdyn_core::control::{ComputedTorque, CoulombVelocity, Gains, Pd, PayloadEstimator, Reference};
+use ivdyn_core::estim::terminal::Method;
+use ivdyn_core::estim::{InstrumentModel, Riv, Rls};
+use ivdyn_core::params::{LINK_PARAMS, LINK_PARAM_NAMES};
+use ivdyn_core::sim::{IdSample, SimConfig, Simulator};
+use ivdyn_core::trajectory::Fourier;
+use ivdyn_core::{mass_matrix, regressor, Data, LinkInertia, Mat3, Model, Vec3, VecN};
+use nalgebra::{DMatrix, DVector, Dyn};
+use std::collections::VecDeque;
+
+/// Tolerance of the physical-consistency test of the estimated last link (kg m^2 scale):
+/// far below any real link's inertia, so only clearly impossible estimates are refused.
+pub const CONSISTENCY_TOL: f64 = 1e-12;
+
+/// A rigid payload fused to the last link.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Payload {
+    /// Mass (kg).
+    pub mass: f64,
+    /// Centre of mass in the last link's frame (m).
+    pub com: Vec3,
+    /// Inertia about the centre of mass, last-link axes (kg m^2).
+    pub inertia_com: Mat3,
+}
+
+impl Payload {
+    /// A solid cube of side `side` (m) centred at `com`.
+    pub fn cube(mass: f64, com: Vec3, side: f64) -> Self {
+        Self { mass, com, inertia_com: Mat3::identity() * (mass * side * side / 6.0) }
+    }
+
+    /// Its 10 standard parameters about the last link's origin.
+    pub fn inertia(&self) -> LinkInertia {
+        LinkInertia::from_mass_com_inertia(self.mass, &self.com, &Mat3::identity(), &self.inertia_com)
+    }
+
+    /// `model` with the payload added to its last link.
+    pub fn attach<const N: usize>(&self, model: &Model<N>) -> Model<N> {
+        let mut m = model.clone();
+        m.inertia[N - 1] = m.inertia[N - 1].add(&self.inertia());
+        m
+    }
+}
+
+/// The controllers compared in Fig. 5.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scheme {
+    /// (a) PD feedback only (the paper's position/velocity feedback).
+    Pd,
+    /// (a') PD plus the nominal (unloaded) model's gravity.
+    PdGravity,
+    /// (b) computed torque with the nominal (unloaded) model.
+    CtNominal,
+    /// (c) computed torque, switched online to nominal + payload estimate.
+    CtEstimated,
+    /// (d) computed torque with the true (loaded) parameters from the grasp on.
+    CtTrue,
+}
+
+impl Scheme {
+    /// All schemes, in table order.
+    pub const ALL: [Scheme; 5] = [Scheme::Pd, Scheme::PdGravity, Scheme::CtNominal, Scheme::CtEstimated, Scheme::CtTrue];
+
+    /// Short label.
+    pub fn label(&self) -> &'static str {
+        match self {
+            Scheme::Pd => "a: PD",
+            Scheme::PdGravity => "a': PD + nominal gravity",
+            Scheme::CtNominal => "b: CT nominal",
+            Scheme::CtEstimated => "c: CT + IVM estimate",
+            Scheme::CtTrue => "d: CT true",
+        }
+    }
+
+    /// Key for file names and JSON.
+    pub fn key(&self) -> &'static str {
+        match self {
+            Scheme::Pd => "pd",
+            Scheme::PdGravity => "pd_gravity",
+            Scheme::CtNominal => "ct_nominal",
+            Scheme::CtEstimated => "ct_estimated",
+            Scheme::CtTrue => "ct_true",
+        }
+    }
+}
+
+/// Which instrument the IV estimator uses.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Instrument {
+    /// The planned acceleration `qdd_d(t)` of the trajectory: noise free, exact, free.
+    Planned,
+    /// The paper's eq-35 model driven by the commanded torque `u`, with `b0 = 1 / M_ii` and
+    /// `a = fv / M_ii` of the nominal model at the trajectory's mean pose, fed with the
+    /// input and velocity `delay` samples earlier. In closed loop `u` is computed from the
+    /// same encoder readings whose quantisation noise is in the measured acceleration, so
+    /// an undelayed `u` is correlated with the equation error (a closed-loop IV bias);
+    /// `delay >= 2` decorrelates it.
+    Eq35 {
+        /// Delay in samples.
+        delay: usize,
+    },
+}
+
+/// The online estimator's method.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum EstimatorKind {
+    /// Recursive IV with this instrument (the paper's IVM).
+    Iv(Instrument),
+    /// Recursive least squares (the paper's LSM, biased by the acceleration noise).
+    Ls,
+}
+
+/// An experiment: truth, trajectory, controller gains, sensors, estimator settings.
+#[derive(Debug, Clone)]
+pub struct Experiment<const N: usize> {
+    /// Name (for reports).
+    pub name: String,
+    /// The unloaded arm as the controllers and the estimator know it.
+    pub nominal: Model<N>,
+    /// The unloaded arm as the simulator runs it (the truth before the grasp).
+    pub truth: Model<N>,
+    /// The payload grasped at `grasp_time`.
+    pub payload: Payload,
+    /// Reference trajectory.
+    pub traj: Fourier<N, 2>,
+    /// Length of the run (s).
+    pub duration: f64,
+    /// Grasp instant (s).
+    pub grasp_time: f64,
+    /// Closed-loop natural frequency (rad/s), every joint, critically damped. The PD gains
+    /// are the same acceleration gains times the nominal `M_ii` at the mean pose.
+    pub wn: f64,
+    /// Coulomb compensation velocity of the computed-torque controllers.
+    pub coulomb: CoulombVelocity,
+    /// Simulator and sensors.
+    pub sim: SimConfig<N>,
+    /// Estimator kind.
+    pub estimator: EstimatorKind,
+    /// Initial covariance scale `P0 = p0 I` of the estimator.
+    pub p0: f64,
+    /// Rows of joints slower than this are skipped (rad/s).
+    pub min_speed: f64,
+    /// Switch when `std(dm) < switch_rel_std |dm|` ...
+    pub switch_rel_std: f64,
+    /// ... and the tracking error the estimate's uncertainty would cause,
+    /// `max_i torque_std_i / (M_ii Kp)` ([`PayloadEstimator::torque_std`], nominal `M_ii`
+    /// at the mean pose), is below this (rad) ...
+    pub switch_error_tol: f64,
+    /// ... and at least this long after the grasp (s).
+    pub switch_min_time: f64,
+    /// Estimated entries of the last link's inertial block (from [`BaseParams`]).
+    pub columns: Vec<usize>,
+    /// Their names.
+    pub column_names: Vec<String>,
+    /// Record every this many control steps.
+    pub record_every: usize,
+}
+
+/// One recorded estimator state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EstimatePoint {
+    /// Time (s).
+    pub t: f64,
+    /// Estimated changes of `columns`.
+    pub theta: Vec<f64>,
+    /// Standard deviation of the mass estimate (from `P`), NaN if the mass is not estimated.
+    pub mass_std: f64,
+    /// Tracking error the estimate's uncertainty would cause (rad), max over joints.
+    pub err_std: f64,
+}
+
+/// Record of one closed-loop run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunLog {
+    /// The scheme.
+    pub scheme: Scheme,
+    /// Time (s) of each record.
+    pub t: Vec<f64>,
+    /// Desired positions (rad), one row per record.
+    pub q_des: Vec<Vec<f64>>,
+    /// True positions (rad).
+    pub q: Vec<Vec<f64>>,
+    /// Applied torques (N m).
+    pub tau: Vec<Vec<f64>>,
+    /// Tracking error `q_des - q_true` at EVERY control step (rad), one row per step.
+    pub err_all: Vec<Vec<f64>>,
+    /// Time of every control step.
+    pub t_all: Vec<f64>,
+    /// Estimator trace (only [`Scheme::CtEstimated`]).
+    pub estimates: Vec<EstimatePoint>,
+    /// When the controller switched to the estimate.
+    pub switch_time: Option<f64>,
+    /// Control steps with a saturated command.
+    pub saturated_steps: usize,
+    /// Wall-clock microseconds per control step (controller + estimator), mean.
+    pub step_us: f64,
+}
+
+impl RunLog {
+    /// RMS and peak absolute tracking error per joint over `t >= from` (rad).
+    pub fn rms_peak(&self, from: f64) -> (Vec<f64>, Vec<f64>) {
+        let n = self.err_all.first().map_or(0, |r| r.len());
+        let (mut ss, mut pk, mut cnt) = (vec![0.0; n], vec![0.0f64; n], 0usize);
+        for (t, e) in self.t_all.iter().zip(&self.err_all) {
+            if *t >= from {
+                cnt += 1;
+                for i in 0..n {
+                    ss[i] += e[i] * e[i];
+                    pk[i] = pk[i].max(e[i].abs());
+                }
+            }
+        }
+        (ss.iter().map(|s| (s / cnt.max(1) as f64).sqrt()).collect(), pk)
+    }
+
+    /// Final estimate (empty if none).
+    pub fn final_estimate(&self) -> Vec<f64> {
+        self.estimates.last().map(|e| e.theta.clone()).unwrap_or_default()
+    }
+}
+
+/// A Fourier reference `q_i(t) = q0_i + A_i [sin(w t + phi_i) + 0.3 sin(2 w t + 2 phi_i)]`
+/// with `phi_i = 0.3 i`: every joint on a similar trajectory, slightly shifted.
+pub fn similar_trajectories<const N: usize>(q0: [f64; N], amp: [f64; N], omega: f64) -> Fourier<N, 2> {
+    let mut f = Fourier { omega, q0, a: [[0.0; 2]; N], b: [[0.0; 2]; N] };
+    for i in 0..N {
+        let phi = 0.3 * i as f64;
+        for (l, (k, ph)) in [(1.0, phi), (0.3, 2.0 * phi)].into_iter().enumerate() {
+            // (a sin - b cos) / (l w) = k A sin(l w t + ph) with a = k A l w cos ph, b = -k A l w sin ph
+            let lw = (l + 1) as f64 * omega;
+            f.a[i][l] = k * amp[i] * lw * ph.cos();
+            f.b[i][l] = -k * amp[i] * lw * ph.sin();
+        }
+    }
+    f
+}
+
+/// Names of the last link's 10 inertial entries, e.g. `"link6.m*cx"`.
+fn last_link_names<const N: usize>() -> Vec<String> {
+    LINK_PARAM_NAMES.iter().map(|p| format!("link{N}.{p}")).collect()
+}
+
+/// The identifiable entries of the last link's inertial block seen from ALL joints, from
+/// the regressor sampled at `samples` random states ([`BaseParams::from_rows`]).
+pub fn last_link_base<const N: usize>(model: &Model<N>, samples: usize, seed: u64) -> BaseParams {
+    let mut rng = ivdyn_core::rng::Rng::new(seed);
+    let mut data = Data::<N>::new();
+    let mut phi = DMatrix::<f64>::zeros(samples * N, LINK_PARAMS);
+    for s in 0..samples {
+        let mut r = |scale: f64| VecN::<N>::from_fn(|_, _| scale * rng.uniform(-1.0, 1.0));
+        let (q, qd, qdd) = (r(std::f64::consts::PI), r(1.0), r(1.0));
+        let y = regressor(model, &mut data, &q, &qd, &qdd);
+        for i in 0..N {
+            for c in 0..LINK_PARAMS {
+                phi[(s * N + i, c)] = y.link[i][N - 1][c];
+            }
+        }
+    }
+    BaseParams::from_rows(&phi, &last_link_names::<N>())
+}
+
+impl Experiment<6> {
+    /// The paper's robot, 250 g payload (a 4 cm cube 3 cm out along the last link's z
+    /// and 2 cm along x), 10 s run, grasp at 2 s, period-2 s trajectories of 0.5 rad,
+    /// 1 kHz, 18-bit encoders, torque noise 0.01 N m, `wn = 20 rad/s`, IV with the planned
+    /// acceleration.
+    pub fn paper() -> Result<Self> {
+        let nominal = ivdyn_core::paper::robot();
+        let payload = Payload::cube(0.25, Vec3::new(0.02, 0.0, 0.03), 0.04);
+        let traj = similar_trajectories([0.0, 0.8, -1.2, 0.6, 0.5, 0.0], [0.5; 6], std::f64::consts::PI);
+        let mut sim = SimConfig::<6>::ideal().with_encoder_bits(18);
+        sim.tau_noise = VecN::<6>::repeat(0.01);
+        sim.tau_limit = VecN::<6>::repeat(20.0);
+        Self::new("paper", nominal, payload, traj, sim)
+    }
+}
+
+impl Experiment<7> {
+    /// The Panda (`fixtures/panda.urdf`, panda_link0 -> panda_hand), 2 kg payload (a 10 cm
+    /// cube 10 cm beyond the hand's tool origin on its z axis), torque noise 0.1 N m, URDF
+    /// effort limits; otherwise as [`Experiment::paper`].
+    pub fn panda(urdf: impl AsRef<std::path::Path>) -> Result<Self> {
+        let robot = ivdyn::Robot::from_urdf(urdf, Some("panda_link0"), Some("panda_hand"))?;
+        let nominal = match robot.model {
+            ivdyn::DynModel::N7(m) => *m,
+            _ => return Err(Error::Dimension { what: "panda chain dof".into(), expected: 7, got: robot.dof() }),
+        };
+        let tool = nominal.tool;
+        let com = tool.rot * Vec3::new(0.0, 0.0, 0.10) + tool.trans;
+        let payload = Payload::cube(2.0, com, 0.10);
+        let traj = similar_trajectories([0.0, -0.3, 0.0, -2.0, 0.0, 1.8, 0.8], [0.5; 7], std::f64::consts::PI);
+        let mut sim = SimConfig::<7>::ideal().with_encoder_bits(18);
+        sim.tau_noise = VecN::<7>::repeat(0.1);
+        sim.tau_limit = VecN::<7>::from_fn(|i, _| nominal.limits[i].effort);
+        Self::new("panda", nominal, payload, traj, sim)
+    }
+}
+
+impl<const N: usize> Experiment<N> {
+    /// An experiment with default settings (see [`Experiment::paper`]); the estimated
+    /// columns come from [`last_link_base`].
+    pub fn new(name: &str, nominal: Model<N>, payload: Payload, traj: Fourier<N, 2>, sim: SimConfig<N>) -> Result<Self> {
+        let base = last_link_base(&nominal, 40, 7);
+        Ok(Self {
+            name: name.to_string(),
+            truth: nominal.clone(),
+            nominal,
+            payload,
+            traj,
+            duration: 10.0,
+            grasp_time: 2.0,
+            wn: 20.0,
+            coulomb: CoulombVelocity::Reference,
+            sim,
+            estimator: EstimatorKind::Iv(Instrument::Planned),
+            p0: 1e3,
+            min_speed: 0.2,
+            switch_rel_std: 0.05,
+            switch_error_tol: 5e-3,
+            switch_min_time: 0.2,
+            columns: base.independent.clone(),
+            column_names: base.independent.iter().map(|&c| base_name(&base, c)).collect(),
+            record_every: 5,
+        })
+    }
+
+    /// The truth after the grasp.
+    pub fn loaded(&self) -> Model<N> {
+        self.payload.attach(&self.truth)
+    }
+
+    /// The true change of the estimated columns (the payload's parameters).
+    pub fn truth_columns(&self) -> Vec<f64> {
+        let p = self.payload.inertia();
+        self.columns.iter().map(|&c| p.0[c]).collect()
+    }
+
+    /// Mean pose of the trajectory.
+    fn mean_pose(&self) -> VecN<N> {
+        VecN::<N>::from_column_slice(&self.traj.q0)
+    }
+
+    /// Row weights `1 / var(row error)`: torque noise plus the acceleration noise of the
+    /// central second difference of quantised positions (`0.71 res / dt^2` per joint)
+    /// through the nominal mass matrix at the mean pose (a first-order model of each row's
+    /// equation-error variance).
+    fn row_weights(&self) -> [f64; N] {
+        let mut data = Data::<N>::new();
+        let m = *mass_matrix(&self.nominal, &mut data, &self.mean_pose());
+        let dt2 = self.sim.dt * self.sim.dt;
+        let sq = |x: f64| x * x;
+        let mut w = [0.0; N];
+        for i in 0..N {
+            let mut v = sq(self.sim.tau_noise[i]);
+            for j in 0..N {
+                let s_qdd = (0.5f64.sqrt() * self.sim.encoder_resolution[j]).hypot(6f64.sqrt() * self.sim.q_noise[j]) / dt2;
+                v += sq(m[(i, j)] * s_qdd);
+            }
+            w[i] = 1.0 / v.max(1e-12);
+        }
+        w
+    }
+
+    /// A fresh online estimator (no allocation in its update for a fixed column count;
+    /// here `Dyn` since the count is found at run time).
+    pub fn make_estimator(&self) -> Result<PayloadEstimator<N, Dyn>> {
+        let b = self.columns.len();
+        let method = match self.estimator {
+            EstimatorKind::Iv(_) => Method::Iv(Riv::new(DVector::zeros(b), self.p0)),
+            EstimatorKind::Ls => Method::Ls(Rls::new(DVector::zeros(b), self.p0)),
+        };
+        Ok(PayloadEstimator::new(
+            self.nominal.clone(),
+            DVector::from_vec(self.columns.clone()),
+            self.row_weights(),
+            self.min_speed,
+            method,
+        )?)
+    }
+
+    /// Runs one scheme.
+    pub fn run(&self, scheme: Scheme) -> Result<RunLog> {
+        let loaded = self.loaded();
+        let (r0q, r0qd, _) = self.traj.eval(0.0);
+        let mut sim = Simulator::new(self.truth.clone(), self.sim, &r0q, &r0qd)?;
+        let mut data = Data::<N>::new();
+        let m0 = *mass_matrix(&self.nominal, &mut data, &self.mean_pose());
+        let gains = Gains::<N>::critically_damped(self.wn);
+        let mut ct = ComputedTorque::new(gains);
+        ct.coulomb = self.coulomb;
+        let pd = Pd { gains: gains.scaled(&m0.diagonal()), tau_limit: VecN::<N>::repeat(f64::INFINITY), gravity: scheme == Scheme::PdGravity };
+        let mut ctrl_model = self.nominal.clone();
+        let mut est = self.make_estimator()?;
+        let instr = InstrumentModel::from_nominal(&self.nominal, &mut data, &self.mean_pose());
+        let mut history: VecDeque<IdSample<N>> = VecDeque::new();
+        let mass_col = est.column_of(0);
+        let steps = (self.duration / self.sim.dt).round() as usize;
+        let mut log = RunLog {
+            scheme,
+            t: vec![],
+            q_des: vec![],
+            q: vec![],
+            tau: vec![],
+            err_all: Vec::with_capacity(steps),
+            t_all: Vec::with_capacity(steps),
+            estimates: vec![],
+            switch_time: None,
+            saturated_steps: 0,
+            step_us: 0.0,
+        };
+        let mut grasped = false;
+        let mut tstd = VecN::<N>::zeros();
+        let mut busy = std::time::Duration::ZERO;
+        for k in 0..steps {
+            let t = k as f64 * self.sim.dt;
+            if !grasped && t >= self.grasp_time {
+                grasped = true;
+                sim.set_model(loaded.clone());
+                if scheme == Scheme::CtTrue {
+                    ctrl_model = loaded.clone();
+                }
+            }
+            let r = Reference::from_tuple(self.traj.eval(t));
+            let s = *sim.sensors();
+            let t0 = std::time::Instant::now();
+            let u = match scheme {
+                Scheme::Pd | Scheme::PdGravity => *pd.torque(&self.nominal, &mut data, &s.q, &s.qd, &r)?,
+                _ => *ct.torque(&ctrl_model, &mut data, &s.q, &s.qd, &r)?,
+            };
+            busy += t0.elapsed();
+            let e: Vec<f64> = (0..N).map(|i| r.q[i] - sim.q[i]).collect();
+            if k % self.record_every == 0 {
+                log.t.push(t);
+                log.q_des.push(r.q.as_slice().to_vec());
+                log.q.push(sim.q.as_slice().to_vec());
+                log.tau.push(sim.tau_applied.as_slice().to_vec());
+            }
+            log.t_all.push(t);
+            log.err_all.push(e);
+            let sample = sim.step(&u)?;
+            if sim.saturated {
+                log.saturated_steps += 1;
+            }
+            // online estimation from the grasp on (the controller knows when it closes
+            // its gripper), one sample late (central differences)
+            if scheme == Scheme::CtEstimated {
+                let Some(smp) = sample else { continue };
+                history.push_back(smp);
+                if history.len() > 8 {
+                    history.pop_front();
+                }
+                if smp.t < self.grasp_time {
+                    continue;
+                }
+                let t1 = std::time::Instant::now();
+                let zacc = match self.estimator {
+                    EstimatorKind::Iv(Instrument::Planned) | EstimatorKind::Ls => self.traj.eval(smp.t).2,
+                    EstimatorKind::Iv(Instrument::Eq35 { delay }) => {
+                        let n = history.len();
+                        if n < delay + 2 {
+                            continue;
+                        }
+                        let (uu, prev) = (&history[n - 1 - delay], &history[n - 2 - delay]);
+                        instr.qdd_hat(&uu.u, &prev.x.qd)
+                    }
+                };
+                // a degenerate row leaves the estimator unchanged: skip it
+                let _ = est.update(&smp.x.q, &smp.x.qd, &smp.x.qdd, &smp.tau, &zacc);
+                let mass_std = mass_col.map_or(f64::NAN, |b| est.variance(b).max(0.0).sqrt());
+                let mut err_std = f64::NAN;
+                if log.switch_time.is_none() {
+                    est.torque_std(&mut tstd);
+                    err_std = (0..N).map(|i| tstd[i] / (m0[(i, i)] * gains.kp[i])).fold(0.0, f64::max);
+                    if let Some(b) = mass_col {
+                        let dm = est.theta()[b];
+                        if smp.t - self.grasp_time >= self.switch_min_time
+                            && mass_std < self.switch_rel_std * dm.abs()
+                            && err_std < self.switch_error_tol
+                            && est.write_model_if_consistent(&mut ctrl_model, CONSISTENCY_TOL)
+                        {
+                            log.switch_time = Some(t + self.sim.dt);
+                        }
+                    }
+                } else {
+                    // refresh every step; an inconsistent estimate keeps the last good one
+                    est.write_model_if_consistent(&mut ctrl_model, CONSISTENCY_TOL);
+                }
+                busy += t1.elapsed();
+                if k % self.record_every == 0 {
+                    log.estimates.push(EstimatePoint { t: smp.t, theta: est.theta().iter().copied().collect(), mass_std, err_std });
+                }
+            }
+        }
+        log.step_us = busy.as_secs_f64() * 1e6 / steps.max(1) as f64;
+        Ok(log)
+    }
+}
+
+/// What [`Experiment::with_identified_nominal`] found.
+#[derive(Debug, Clone)]
+pub struct NominalIdentification {
+    /// The batch IV fit of the unloaded arm's base parameters.
+    pub fit: ivdyn::ident::FitReport,
+    /// Rows used.
+    pub rows: usize,
+    /// RMS over one period of the reference trajectory of the torque difference to the
+    /// true unloaded arm (simulation only: the truth is known), per joint (N m), for the
+    /// prior model.
+    pub rms_prior: Vec<f64>,
+    /// The same for the identified model.
+    pub rms_identified: Vec<f64>,
+}
+
+impl<const N: usize> Experiment<N> {
+    /// The paper's experiment: identify the unloaded arm first. Starting from `prior` (a
+    /// wrong model), the TRUE unloaded arm tracks the trajectory for `seconds` under computed
+    /// torque with the prior; its base parameters (all links, Coulomb and viscous friction)
+    /// are fitted by batch IV (instrument: the planned acceleration; rows of joints slower
+    /// than `min_speed` skipped), and the nominal model becomes
+    /// `prior + to_full(theta_base - project(prior))`: the prior with its identifiable part
+    /// replaced. The payload is then estimated against that model.
+    pub fn with_identified_nominal(mut self, prior: Model<N>, seconds: f64) -> Result<(Self, NominalIdentification)> {
+        use ivdyn::ident::{fit_iv, IvAccumulator};
+        use ivdyn_core::params::{param_count, DRIVE_PARAM_NAMES};
+        let p = param_count(N);
+        let names: Vec<String> = (0..p)
+            .map(|c| {
+                if c < LINK_PARAMS * N {
+                    format!("link{}.{}", c / LINK_PARAMS + 1, LINK_PARAM_NAMES[c % LINK_PARAMS])
+                } else {
+                    let d = c - LINK_PARAMS * N;
+                    format!("joint{}.{}", d / 4 + 1, DRIVE_PARAM_NAMES[d % 4])
+                }
+            })
+            .collect();
+        // base parameters of the whole arm (inertial + drive) at random states
+        let mut rng = ivdyn_core::rng::Rng::new(11);
+        let mut data = Data::<N>::new();
+        let samples = 12 * p / N + 20;
+        let mut phi_r = DMatrix::<f64>::zeros(samples * N, p);
+        let mut row = vec![0.0; N * p];
+        for s in 0..samples {
+            let mut r = |scale: f64| VecN::<N>::from_fn(|_, _| scale * rng.uniform(-1.0, 1.0));
+            let (q, qd, qdd) = (r(std::f64::consts::PI), r(1.0), r(1.0));
+            regressor(&prior, &mut data, &q, &qd, &qdd).write_row_major(&mut row);
+            for i in 0..N {
+                for c in 0..p {
+                    phi_r[(s * N + i, c)] = row[i * p + c];
+                }
+            }
+        }
+        let base = BaseParams::from_rows(&phi_r, &names);
+        let b = base.base_count();
+        // the unloaded run under computed torque with the prior
+        let (r0q, r0qd, _) = self.traj.eval(0.0);
+        let mut sim = Simulator::new(self.truth.clone(), self.sim, &r0q, &r0qd)?;
+        let gains = Gains::<N>::critically_damped(self.wn);
+        let mut ct = ComputedTorque::new(gains);
+        ct.coulomb = self.coulomb;
+        let mut acc = IvAccumulator::new(b);
+        let (mut phi, mut z, mut y) = (vec![], vec![], vec![]);
+        let mut rb = vec![0.0; b];
+        let mut dz = Data::<N>::new();
+        let steps = (seconds / self.sim.dt).round() as usize;
+        for k in 0..steps {
+            let r = Reference::from_tuple(self.traj.eval(k as f64 * self.sim.dt));
+            let s = *sim.sensors();
+            let u = *ct.torque(&prior, &mut data, &s.q, &s.qd, &r)?;
+            let Some(smp) = sim.step(&u)? else { continue };
+            if smp.t < 0.5 {
+                continue; // start-up transient
+            }
+            regressor(&prior, &mut data, &smp.x.q, &smp.x.qd, &smp.x.qdd).write_row_major(&mut row);
+            let zacc = self.traj.eval(smp.t).2;
+            let mut zrow = vec![0.0; N * p];
+            regressor(&prior, &mut dz, &smp.x.q, &smp.x.qd, &zacc).write_row_major(&mut zrow);
+            for i in 0..N {
+                if smp.x.qd[i].abs() < self.min_speed {
+                    continue;
+                }
+                base.select_row(&row[i * p..(i + 1) * p], &mut rb)?;
+                phi.extend_from_slice(&rb);
+                base.select_row(&zrow[i * p..(i + 1) * p], &mut rb)?;
+                z.extend_from_slice(&rb);
+                y.push(smp.tau[i]);
+            }
+        }
+        acc.add_rows(&phi, &z, &y, None)?;
+        let fit = fit_iv(&acc, &base.names)?;
+        if !fit.unexcited.is_empty() {
+            return Err(Error::Estimation { msg: format!("unloaded-arm identification: not excited by the trajectory: {:?}", fit.unexcited) });
+        }
+        let mut theta_prior = vec![0.0; p];
+        prior.params_to_slice(&mut theta_prior)?;
+        let full = base.apply(&fit.theta, &theta_prior, 1.0)?;
+        let mut identified = prior.clone();
+        identified.set_params_from_slice(&full)?;
+        // model error along one period of the reference, prior vs identified
+        let rms = |m: &Model<N>| -> Vec<f64> {
+            let (mut d1, mut d2) = (Data::<N>::new(), Data::<N>::new());
+            let mut s2 = vec![0.0; N];
+            let n = 2000;
+            for k in 0..n {
+                let (q, qd, qdd) = self.traj.eval(k as f64 * self.traj.period() / n as f64);
+                let a = *ivdyn_core::rnea(m, &mut d1, &q, &qd, &qdd);
+                let t = *ivdyn_core::rnea(&self.truth, &mut d2, &q, &qd, &qdd);
+                for i in 0..N {
+                    s2[i] += (a[i] - t[i]).powi(2);
+                }
+            }
+            s2.iter().map(|v| (v / n as f64).sqrt()).collect()
+        };
+        let info = NominalIdentification { rows: y.len(), rms_prior: rms(&prior), rms_identified: rms(&identified), fit };
+        let lb = last_link_base(&identified, 40, 7);
+        self.columns = lb.independent.clone();
+        self.column_names = lb.independent.iter().map(|&c| base_name(&lb, c)).collect();
+        self.nominal = identified;
+        Ok((self, info))
+    }
+}
+
+/// Name of full column `c` in `base` (the base parameter built on it).
+fn base_name(base: &BaseParams, c: usize) -> String {
+    base.independent.iter().position(|&i| i == c).map(|j| base.names[j].clone()).unwrap_or_else(|| format!("theta[{c}]"))
+}

@@ -1,0 +1,536 @@
+//! End-to-end pipelines behind the `ivdyn` command line (and, later, the Python
+//! bindings): [`identify`], [`payload`] and [`simulate`]. Each takes a [`Robot`] and
+//! in-memory logs and returns a serialisable report; the command line only adds file
+//! handling, progress bars and printing.
+//!
+//! Choices made here (documented in `docs/cli.md`):
+//!
+//! * conditioning: [`dsp::condition`] (duplicate stamps dropped, uneven stamps
+//!   resampled, `q` smoothed and differentiated: zero-phase Butterworth + central
+//!   differences; the log's own velocities are not used);
+//! * **parallel filtering**: the measured torque and every column of the stacked base
+//!   regressor go through the same zero-phase low-pass ([`dsp::Decimator`], default
+//!   factor 1: the default differentiation filter), then are decimated by the same factor;
+//! * `iv` instrument: with a command topic (`u`), the regressor at `(q, qd, qdd_hat)` with
+//!   `qdd_hat = FD_nominal(q, qd, u)` (the nominal model's forward dynamics driven by the
+//!   command, which carries no torque-measurement noise). The paper's per-joint LTI model
+//!   eq (35) was tried first and is a poor instrument on a UR5 (the command is dominated by
+//!   gravity, which a per-joint LTI model ignores: validation RMS 0.17 N m against 0.016 for
+//!   WLS). Without a command: the regressor on a closed-loop simulation of the nominal model
+//!   tracking the measured positions (the stand-in control law of `idim-iv`). The
+//!   pointwise "forward dynamics driven by the measured torque" instrument was also tried
+//!   and rejected: it shares the torque noise with the output (biased, DWH always rejects);
+//! * `idim-iv`: [`ident::idim_iv`] with a stand-in control law, a stiff PD on the measured
+//!   positions scaled by the nominal mass matrix plus the nominal inverse dynamics of the
+//!   measured motion as feed-forward (10 Hz bandwidth, damping 0.7);
+//! * [`simulate`]: inverse dynamics (`rnea`) of the true model along the trajectory (exact
+//!   torques, no integration), then noise and quantisation on the recorded signals.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+use crate::ident::instrument::{nominal_tracking, TRACKING_INSTRUMENT};
+use crate::ident::joint_acc::JointAccs;
+use crate::batch::stack_rows;
+use crate::ident::wls::per_joint_weights;
+use crate::ident::{self, fit_iv, fit_ls, BaseParams, DriveTerms, FitReport};
+use crate::dsp;
+use crate::log::JointLog;
+use crate::prep::{self, parallel_filter, ConditionOptions};
+use crate::progress::{ProgressSink, Stage};
+use crate::report::{BaseValue, Dwh, ParamsFile, Quality};
+use crate::ident::instrument::Tracker;
+use crate::robot::physical;
+use crate::Robot;
+
+
+// ---------------------------------------------------------------------------------------
+// Options and reports
+// ---------------------------------------------------------------------------------------
+
+/// Estimation method of [`identify`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// Ordinary least squares.
+    Ols,
+    /// Two-step weighted LS: OLS, then weights = 1 / (per-joint residual variance).
+    Wls,
+    /// Instrumental variables (weighted as WLS); see the module docs for the instrument.
+    Iv,
+    /// IDIM-IV: the instrument is the regressor on a closed-loop simulation.
+    IdimIv,
+}
+
+impl Method {
+    /// The name used on the command line and in JSON.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::Ols => "ols",
+            Method::Wls => "wls",
+            Method::Iv => "iv",
+            Method::IdimIv => "idim-iv",
+        }
+    }
+}
+
+/// Options of [`identify`].
+#[derive(Clone)]
+pub struct IdentifyOptions {
+    /// Estimation method (default WLS).
+    pub method: Method,
+    /// Conditioning (resampling, differentiation).
+    pub condition: ConditionOptions,
+    /// Decimation factor after the parallel filter (default 0: automatic, see
+    /// [`auto_decimation`]; 1: filter only).
+    pub decimate: usize,
+    /// Fraction of the log (its tail) held out for validation when no validation log is
+    /// given (default 0.25; 0 disables validation).
+    pub validation_fraction: f64,
+    /// A second log for validation (then the whole first log is used for the fit).
+    pub validation_log: Option<JointLog>,
+    /// Random states used to find the base parameters (default 200) and their seed.
+    pub base_samples: usize,
+    /// Seed of the base-parameter states.
+    pub seed: u64,
+    /// IDIM-IV iterations and relative tolerance.
+    pub idim_max_iter: usize,
+    /// IDIM-IV convergence tolerance on the relative change of the estimate.
+    pub idim_tol: f64,
+    /// Drive parameters to estimate (default: all of `fc, fv, ia, tau0`).
+    pub drive: DriveTerms,
+    /// Progress sink.
+    pub progress: ProgressSink,
+    /// Also fit physically consistent full parameters ([`ident::consistent`]).
+    pub consistent: bool,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        IdentifyOptions {
+            method: Method::Wls,
+            condition: ConditionOptions::default(),
+            decimate: 0,
+            validation_fraction: 0.25,
+            validation_log: None,
+            base_samples: 200,
+            seed: 1,
+            idim_max_iter: 10,
+            idim_tol: 1e-3,
+            drive: DriveTerms::default(),
+            progress: None,
+            consistent: false,
+        }
+    }
+}
+
+/// Result of [`identify`].
+#[derive(Debug, Clone, Serialize)]
+pub struct IdentifyReport {
+    /// Method used.
+    pub method: String,
+    /// The instrument (IV methods), in words; `null` for LS.
+    pub instrument: Option<String>,
+    /// Joint names (order of every per-joint list).
+    pub joints: Vec<String>,
+    /// Drive parameters estimated per joint (subset of `fc, fv, ia, tau0`).
+    pub drive_terms: Vec<String>,
+    /// Sample rate of the data fitted (after decimation), Hz.
+    pub sample_rate_hz: f64,
+    /// Decimation factor.
+    pub decimation: usize,
+    /// Zero-phase cut-off of the parallel filter, Hz.
+    pub filter_cutoff_hz: f64,
+    /// Rows (samples x joints) in the fit.
+    pub rows: usize,
+    /// Numerical rank.
+    pub rank: usize,
+    /// Condition number of the (scaled) regressor.
+    pub condition_number: f64,
+    /// Residual variance (weighted units).
+    pub sigma2: f64,
+    /// Per-joint weights (1 for OLS).
+    pub weights: Vec<f64>,
+    /// Base parameters.
+    pub base: Vec<BaseValue>,
+    /// Base parameters not excited by the data (left at their nominal values).
+    pub unexcited: Vec<String>,
+    /// Fit quality on the fitted data.
+    pub fit: Quality,
+    /// Validation on held-out data (`null` when disabled).
+    pub validation: Option<Quality>,
+    /// LS-vs-IV test (`null` when no instrument could be built).
+    pub dwh: Option<Dwh>,
+    /// Identified full parameters (nominal + base correction).
+    pub params: ParamsFile,
+    /// Warnings and remarks.
+    pub notes: Vec<String>,
+    /// Physical consistency of `params` ([`ident::physical`]).
+    pub physical: physical::PhysicalCheck,
+    /// The fit with physical consistency enforced (`IdentifyOptions::consistent`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub consistent: Option<ident::consistent::ConsistentReport>,
+    /// The log was streamed block by block (bounded memory) rather than read whole.
+    pub streamed: bool,
+    /// The underlying fit.
+    #[serde(skip)]
+    pub fit_report: Option<FitReport>,
+}
+
+
+// ---------------------------------------------------------------------------------------
+// Preparation: conditioning, regressor stacking, parallel filtering
+// ---------------------------------------------------------------------------------------
+
+struct Prepared {
+    n: usize,
+    dt: f64,
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    qdd: Vec<f64>,
+    /// `T x n x b`
+    phi: Vec<f64>,
+    /// `T x n`
+    tau: Vec<f64>,
+    /// `T x n x b` instrument rows.
+    z: Option<Vec<f64>>,
+    instrument: Option<String>,
+    cutoff_hz: f64,
+    factor: usize,
+}
+
+impl Prepared {
+    fn len(&self) -> usize {
+        self.tau.len() / self.n
+    }
+}
+
+pub(crate) fn err_est(msg: impl Into<String>) -> Error {
+    Error::Estimation { msg: msg.into() }
+}
+
+
+fn prepare(robot: &Robot, base: &BaseParams, log: &JointLog, opts: &IdentifyOptions, instrument: bool, what: &str) -> Result<Prepared> {
+    let n = robot.dof();
+    if log.dof() != n || log.joint_names != robot.joint_names {
+        return Err(err_est(format!("{what}: log joints {:?} are not the robot's {:?}", log.joint_names, robot.joint_names)));
+    }
+    if log.tau.is_none() {
+        return Err(err_est(format!("{what}: the log has no effort (torque) data; identification needs measured torques")));
+    }
+    let c = prep::condition(log, &opts.condition)?;
+    let fs = 1.0 / c.dt;
+    let dec = parallel_filter(opts.decimate, fs, &opts.condition)?;
+    let tau_raw = c.tau.clone().expect("checked");
+    let t = c.t.len();
+    let b = base.base_count();
+    let st = Stage::begin(&opts.progress, &format!("{what}: regressor"), t as u64);
+    let phi_raw = stack_rows(robot, &base.independent, &c.d.q, &c.d.qd, &c.d.qdd, Some(&st))?;
+    drop(st);
+    let _st = Stage::begin(&opts.progress, &format!("{what}: filtering"), 0);
+    let phi = dec.apply(&phi_raw, n * b)?;
+    drop(phi_raw);
+    let tau = dec.apply(&tau_raw, n)?;
+    let mut inst_name = None;
+    let z = if instrument {
+        let (qz, qdz, qddz) = match &c.u {
+            Some(u) => {
+                inst_name = Some("nominal model's forward dynamics at the (filtered) measured state driven by the command u: qdd_hat = FD_nom(q, qd, u)".to_string());
+                let mut qh = vec![0.0; t * n];
+                crate::batch::forward_dynamics_batch(robot, &c.d.q, &c.d.qd, u, &mut qh)?;
+                (c.d.q.clone(), c.d.qd.clone(), qh)
+            }
+            None => {
+                inst_name = Some(TRACKING_INSTRUMENT.to_string());
+                nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?
+            }
+        };
+        let z_raw = stack_rows(robot, &base.independent, &qz, &qdz, &qddz, None)?;
+        Some(dec.apply(&z_raw, n * b)?)
+    } else {
+        None
+    };
+    let q = dec.apply(&c.d.q, n)?;
+    let qd = dec.apply(&c.d.qd, n)?;
+    let qdd = dec.apply(&c.d.qdd, n)?;
+    Ok(Prepared { n, dt: c.dt * dec.factor as f64, q, qd, qdd, phi, tau, z, instrument: inst_name, cutoff_hz: dec.filter.cutoff_hz, factor: dec.factor })
+}
+
+
+
+pub(crate) fn rows_of(x: &[f64], width: usize, r: std::ops::Range<usize>) -> &[f64] {
+    &x[r.start * width..r.end * width]
+}
+
+
+
+// ---------------------------------------------------------------------------------------
+// identify
+// ---------------------------------------------------------------------------------------
+
+
+/// The base parameters [`identify`] fits: [`ident::robot_base_params`] over the inertial
+/// parameters and the drive parameters of `opts.drive`.
+pub fn identify_base(robot: &Robot, opts: &IdentifyOptions) -> Result<BaseParams> {
+    let n = robot.dof();
+    let samples = opts.base_samples.max(2 * robot.num_params() / n.max(1));
+    ident::robot_base_params_excluding(robot, samples, opts.seed, false, &opts.drive.excluded_columns(n))
+}
+
+/// Fit and held-out decimated-sample ranges of a prepared log of `t` samples: 1 % of the
+/// samples (at most 20) dropped at each end (filter edges), the last
+/// `validation_fraction` held out unless a validation log is given.
+pub(crate) fn split_ranges(t: usize, opts: &IdentifyOptions) -> (std::ops::Range<usize>, Option<std::ops::Range<usize>>) {
+    let edge = (t / 100).min(20);
+    if opts.validation_log.is_some() || opts.validation_fraction <= 0.0 {
+        (edge..t - edge, None)
+    } else {
+        let cut = ((1.0 - opts.validation_fraction.min(0.9)) * t as f64) as usize;
+        (edge..cut.max(edge), Some(cut.max(edge)..t - edge))
+    }
+}
+
+/// What [`finish_identify`] needs from a prepared log (in memory or streamed).
+pub(crate) struct FitData {
+    /// Statistics of the fit rows (with instrument sums when an instrument was built).
+    pub fit: JointAccs,
+    /// Held-out statistics and their label.
+    pub validation: Option<(String, JointAccs)>,
+    /// The instrument in words.
+    pub instrument: Option<String>,
+    /// Sample time of the fitted data (after decimation).
+    pub dt: f64,
+    /// Decimation factor.
+    pub factor: usize,
+    /// Cut-off of the parallel filter.
+    pub cutoff_hz: f64,
+    /// The IDIM-IV fit (method `idim-iv`), computed on the arrays.
+    pub idim: Option<FitReport>,
+    /// Remarks so far.
+    pub notes: Vec<String>,
+}
+
+/// Identifies the base parameters of `robot` from `log` (see the module docs). The whole
+/// log is held in memory; [`crate::app::stream::identify_mcap`] streams a log file instead.
+pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result<IdentifyReport> {
+    let n = robot.dof();
+    let mut notes = vec![];
+    let base = {
+        let _st = Stage::begin(&opts.progress, "base parameters", 0);
+        identify_base(robot, opts)?
+    };
+    let b = base.base_count();
+    let want_iv = opts.method != Method::IdimIv;
+    let prep = prepare(robot, &base, log, opts, want_iv, "log")?;
+    let t = prep.len();
+    let (fit_range, val_range) = split_ranges(t, opts);
+    if fit_range.len() * n < 2 * b {
+        return Err(err_est(format!(
+            "log too short: {} samples of {n} joints after conditioning for {b} base parameters",
+            fit_range.len()
+        )));
+    }
+    let w_row = n * b;
+    let phi_fit = rows_of(&prep.phi, w_row, fit_range.clone());
+    let tau_fit = rows_of(&prep.tau, n, fit_range.clone());
+    let mut fit = JointAccs::new(n, b, prep.z.is_some());
+    fit.add(phi_fit, prep.z.as_ref().map(|z| rows_of(z, w_row, fit_range.clone())), tau_fit)?;
+    let validation = match (&opts.validation_log, val_range) {
+        (Some(vlog), _) => {
+            let vp = prepare(robot, &base, vlog, opts, false, "validation log")?;
+            let t2 = vp.len();
+            let e2 = (t2 / 100).min(20);
+            let mut v = JointAccs::new(n, b, false);
+            v.add(rows_of(&vp.phi, w_row, e2..t2 - e2), None, rows_of(&vp.tau, n, e2..t2 - e2))?;
+            Some(("validation log".to_string(), v))
+        }
+        (None, Some(r)) if r.len() > 1 => {
+            let mut v = JointAccs::new(n, b, false);
+            v.add(rows_of(&prep.phi, w_row, r.clone()), None, rows_of(&prep.tau, n, r))?;
+            Some((format!("tail {:.0}% of the log", 100.0 * opts.validation_fraction), v))
+        }
+        _ => None,
+    };
+    let idim = if opts.method == Method::IdimIv {
+        let r = fit_range.clone();
+        let (q, qd, qdd) = (rows_of(&prep.q, n, r.clone()), rows_of(&prep.qd, n, r.clone()), rows_of(&prep.qdd, n, r.clone()));
+        let tf = r.len();
+        let mut ff = vec![0.0; tf * n];
+        crate::batch::rnea_batch(robot, q, qd, qdd, &mut ff)?;
+        let mut mm = vec![0.0; tf * n * n];
+        crate::batch::mass_matrix_batch(robot, q, &mut mm)?;
+        let (kp, kd) = Tracker::gains(prep.dt);
+        let control = |k: usize, qs: &[f64], qds: &[f64]| -> Vec<f64> {
+            let e: Vec<f64> = (0..n).map(|i| kp * (q[k * n + i] - qs[i]) + kd * (qd[k * n + i] - qds[i])).collect();
+            (0..n).map(|i| ff[k * n + i] + (0..n).map(|j| mm[k * n * n + i * n + j] * e[j]).sum::<f64>()).collect()
+        };
+        let exp = ident::Experiment { dt: prep.dt, q, qd, qdd, tau: tau_fit };
+        let _st = Stage::begin(&opts.progress, "IDIM-IV iterations", 0);
+        let res = ident::idim_iv(robot, &base, &exp, control, opts.idim_max_iter, opts.idim_tol)?;
+        if !res.converged {
+            notes.push(format!("IDIM-IV did not converge in {} iterations", opts.idim_max_iter));
+        }
+        notes.push("IDIM-IV control law: stand-in stiff PD on the measured positions (M-scaled, 10 Hz, damping 0.7) + nominal inverse dynamics feed-forward".into());
+        Some(res.fit)
+    } else {
+        None
+    };
+    if log.truncated {
+        notes.push("the log was truncated; only the samples before the damage were used".into());
+    }
+    let data = FitData { fit, validation, instrument: prep.instrument.clone(), dt: prep.dt, factor: prep.factor, cutoff_hz: prep.cutoff_hz, idim, notes };
+    finish_identify(robot, &base, opts, data)
+}
+
+/// The fits (OLS, two-step WLS, IV), the DWH test, fit quality and validation, from the
+/// per-joint statistics of a prepared log: the part shared by the in-memory and the
+/// streaming `identify`.
+pub(crate) fn finish_identify(robot: &Robot, base: &BaseParams, opts: &IdentifyOptions, d: FitData) -> Result<IdentifyReport> {
+    let n = robot.dof();
+    let b = base.base_count();
+    let mut notes = d.notes;
+    if d.fit.samples() * n < 2 * b {
+        return Err(err_est(format!("log too short: {} samples of {n} joints after conditioning for {b} base parameters", d.fit.samples())));
+    }
+    let nominal = robot.params();
+    let nom_base = base.project(&nominal)?;
+    let fill = |theta: &[f64]| -> Vec<f64> { theta.iter().zip(&nom_base).map(|(t, nb)| if t.is_finite() { *t } else { *nb }).collect() };
+    let st = Stage::begin(&opts.progress, "fitting", 3);
+    let ones = vec![1.0; n];
+    let ols = fit_ls(&d.fit.ls(&ones)?, &base.names)?;
+    st.advance(1);
+    let mut weights = vec![1.0; n];
+    let mut iv_fit: Option<std::result::Result<FitReport, Error>> = None;
+    let fit = match opts.method {
+        Method::Ols => ols.clone(),
+        Method::Wls | Method::Iv => {
+            weights = per_joint_weights(&d.fit.quality(String::new(), &fill(&ols.theta)).rms);
+            let wls = fit_ls(&d.fit.ls(&weights)?, &base.names)?;
+            st.advance(1);
+            let iv = d.fit.iv(&weights).map(|acc| acc.and_then(|a| fit_iv(&a, &base.names)));
+            st.advance(1);
+            if opts.method == Method::Iv {
+                match iv {
+                    Some(Ok(f)) => {
+                        iv_fit = Some(Ok(f.clone()));
+                        f
+                    }
+                    Some(Err(e)) => return Err(err_est(format!("IV fit failed ({e}): the instrument is not correlated with the regressor; try --method wls or idim-iv"))),
+                    None => return Err(err_est("IV fit: no instrument was built")),
+                }
+            } else {
+                iv_fit = iv;
+                wls
+            }
+        }
+        Method::IdimIv => d.idim.clone().ok_or_else(|| err_est("IDIM-IV: no fit"))?,
+    };
+    drop(st);
+    let theta = fill(&fit.theta);
+    let fit_q = d.fit.quality("fit".into(), &theta);
+    let validation = d.validation.as_ref().map(|(label, v)| v.quality(label.clone(), &theta)).filter(|q| q.samples > 1);
+    let dwh_src = match opts.method {
+        Method::IdimIv => fit.dwh,
+        _ => match &iv_fit {
+            Some(Ok(f)) => f.dwh,
+            Some(Err(e)) => {
+                notes.push(format!("no LS-vs-IV test: the IV fit failed ({e})"));
+                None
+            }
+            None => None,
+        },
+    };
+    let dwh = dwh_src.map(|d| Dwh {
+        statistic: d.statistic,
+        dof: d.dof,
+        p_value: d.p_value,
+        ls_biased: d.ls_biased,
+        verdict: if d.dof == 0 {
+            "not tested: the data fit exactly".into()
+        } else if d.ls_biased {
+            format!("LS is biased (p = {:.2e} < 0.01): prefer an IV estimate", d.p_value)
+        } else {
+            format!("no evidence of LS bias (p = {:.3})", d.p_value)
+        },
+    });
+    // full parameters: nominal + base correction
+    let full = base.apply(&theta, &nominal, 1.0)?;
+    let physical = physical::check_robot_params(robot, &full);
+    let consistent = if opts.consistent {
+        let _st = Stage::begin(&opts.progress, "consistent fit", 0);
+        let cacc = d.fit.ls(&weights)?;
+        let cf = ident::consistent::fit_consistent(&cacc, base, &full, &nominal, &robot.link_names, &robot.joint_names, &Default::default())?;
+        let val = d.validation.as_ref().map(|(label, v)| v.quality(label.clone(), &cf.theta_base)).filter(|q| q.samples > 1);
+        Some(ident::consistent::ConsistentReport {
+            fit: d.fit.quality("fit".into(), &cf.theta_base),
+            validation: val,
+            params: ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: cf.theta.clone() },
+            result: cf,
+        })
+    } else {
+        None
+    };
+    let base_vals = (0..b)
+        .map(|i| BaseValue { name: base.names[i].clone(), value: fit.theta[i], std: fit.std[i], rel_std_pct: fit.rel_std_pct[i], nominal: nom_base[i] })
+        .collect();
+    Ok(IdentifyReport {
+        method: opts.method.name().into(),
+        instrument: match opts.method {
+            Method::Ols | Method::Wls => d.instrument.clone().map(|s| format!("(DWH test only) {s}")),
+            Method::Iv => d.instrument.clone(),
+            Method::IdimIv => Some("IDIM-IV closed-loop simulation of the current estimate".into()),
+        },
+        joints: robot.joint_names.clone(),
+        drive_terms: opts.drive.names(),
+        sample_rate_hz: 1.0 / d.dt,
+        decimation: d.factor,
+        filter_cutoff_hz: d.cutoff_hz,
+        rows: fit.rows,
+        rank: fit.rank,
+        condition_number: fit.condition_number,
+        sigma2: fit.sigma2,
+        weights,
+        base: base_vals,
+        unexcited: fit.unexcited.clone(),
+        fit: fit_q,
+        validation,
+        dwh,
+        params: ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: full },
+        notes,
+        physical,
+        consistent,
+        streamed: false,
+        fit_report: Some(fit),
+    })
+}
+
+/// Writes `log`'s measured torques, the torques predicted by `model` (e.g. the identified
+/// robot) and the residuals to the MCAP file `path`
+/// ([`crate::log::PredictionWriter`]). The samples are the conditioned ones (duplicated
+/// stamps dropped, uneven stamps resampled, as `identify` sees them), the prediction is
+/// `rnea(q, qd, qdd)` of `model` at the smoothed state, the measured copy is the log's
+/// values at those samples (resampled like the torque if the stamps were uneven).
+/// Returns the samples written.
+pub fn write_prediction(path: &std::path::Path, model: &Robot, log: &JointLog, condition: &ConditionOptions) -> Result<usize> {
+    let n = model.dof();
+    let c = prep::condition(log, condition)?;
+    let tau = c.tau.as_ref().ok_or_else(|| err_est("the log has no effort (torque) data"))?;
+    let dd = dsp::dedup_stamps(&log.t)?;
+    let t_kept: Vec<f64> = dd.keep.iter().map(|&k| log.t[k]).collect();
+    let measured = |a: &[f64]| -> Result<Vec<f64>> {
+        let kept = dsp::take_rows(a, n, &dd.keep);
+        if c.resampled { Ok(dsp::resample_uniform(&t_kept, &kept, n, c.dt, condition.interp)?.1) } else { Ok(kept) }
+    };
+    let q_meas = measured(&log.q)?;
+    let qd_meas = log.qd.as_ref().map(|a| measured(a)).transpose()?.unwrap_or_default();
+    let mut pred = vec![0.0; c.d.q.len()];
+    crate::batch::rnea_batch(model, &c.d.q, &c.d.qd, &c.d.qdd, &mut pred)?;
+    let stamps: Vec<i64> = c.t.iter().map(|t| log.t0_ns.saturating_add((t * 1e9).round() as i64)).collect();
+    let mut w = crate::log::PredictionWriter::create(path, &model.joint_names)?;
+    w.write_block(&stamps, &q_meas, &qd_meas, tau, &c.d.q, &c.d.qd, &pred)?;
+    let k = w.samples();
+    w.finish()?;
+    Ok(k)
+}
+
+

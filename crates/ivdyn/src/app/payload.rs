@@ -1,0 +1,234 @@
+//! `payload`: the payload on the last link from a log after the grasp, with the unloaded
+//! arm identified first on a before-log when one is given (see `docs/cli.md`).
+
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+use super::identify::{identify, rows_of, IdentifyOptions, Method};
+use crate::batch::stack_rows;
+use crate::ident::wls::{per_joint_weights, row_weights};
+use crate::report::quality;
+use crate::error::{Error, Result};
+use crate::ident::{self, fit_ls, BaseParams, LsAccumulator};
+use crate::log::JointLog;
+use crate::prep::{self, parallel_filter, ConditionOptions};
+use crate::progress::{ProgressSink, Stage};
+use crate::Robot;
+use ivdyn_core::estim::TerminalSpec;
+use ivdyn_core::params::LINK_PARAMS;
+use ivdyn_core::rng::Rng;
+
+fn err_est(msg: impl Into<String>) -> Error {
+    Error::Estimation { msg: msg.into() }
+}
+
+// ---------------------------------------------------------------------------------------
+// payload
+// ---------------------------------------------------------------------------------------
+
+/// Options of [`payload`].
+#[derive(Clone)]
+pub struct PayloadOptions {
+    /// Conditioning.
+    pub condition: ConditionOptions,
+    /// Decimation factor after the parallel filter (0: automatic).
+    pub decimate: usize,
+    /// Random states for the payload's base columns, and their seed.
+    pub base_samples: usize,
+    /// Seed.
+    pub seed: u64,
+    /// Options for identifying the unloaded arm on the `before` log.
+    pub before: IdentifyOptions,
+    /// Progress sink.
+    pub progress: ProgressSink,
+}
+
+impl Default for PayloadOptions {
+    fn default() -> Self {
+        PayloadOptions {
+            condition: ConditionOptions::default(),
+            decimate: 0,
+            base_samples: 200,
+            seed: 2,
+            before: IdentifyOptions { validation_fraction: 0.0, method: Method::Wls, ..Default::default() },
+            progress: None,
+        }
+    }
+}
+
+/// A payload parameter that the data cannot give alone.
+#[derive(Debug, Clone, Serialize)]
+pub struct Hidden {
+    /// Payload parameter.
+    pub parameter: String,
+    /// The base combination it is part of.
+    pub combined_in: String,
+}
+
+/// Result of [`payload`].
+#[derive(Debug, Clone, Serialize)]
+pub struct PayloadReport {
+    /// Link carrying the payload (the last movable link; COM and inertia in its frame).
+    pub link: String,
+    /// Whether every payload parameter is identifiable from this data.
+    pub identifiable: bool,
+    /// Mass (kg); `null` when not identifiable.
+    pub mass: Option<f64>,
+    /// Centre of mass in the link frame (m).
+    pub com: Option<[f64; 3]>,
+    /// Inertia about the COM, `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]` (kg m^2).
+    pub inertia: Option<[f64; 6]>,
+    /// Standard deviation of the mass.
+    pub mass_std: Option<f64>,
+    /// Standard deviations of the COM.
+    pub com_std: Option<[f64; 3]>,
+    /// Standard deviations of the inertia entries.
+    pub inertia_std: Option<[f64; 6]>,
+    /// The 10 standard parameters about the link origin `[m, mcx, mcy, mcz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`.
+    pub params: Option<[f64; 10]>,
+    /// Parameters that are not identifiable, with the combination hiding them.
+    pub not_identifiable: Vec<Hidden>,
+    /// What the residual is taken against: `"urdf"` or `"before log"`.
+    pub nominal: String,
+    /// Joint names.
+    pub joints: Vec<String>,
+    /// Samples used.
+    pub samples: usize,
+    /// RMS of the residual (measured - nominal) per joint before the payload fit (N m).
+    pub rms_before: Vec<f64>,
+    /// RMS after subtracting the fitted payload's torques (N m).
+    pub rms_after: Vec<f64>,
+    /// Remarks.
+    pub notes: Vec<String>,
+}
+
+/// Estimates the payload on the last link from `after` (see the module docs); with
+/// `before`, the unloaded arm is identified on it first and used as the nominal model.
+pub fn payload(robot: &Robot, after: &JointLog, before: Option<&JointLog>, opts: &PayloadOptions) -> Result<PayloadReport> {
+    let n = robot.dof();
+    let mut notes = vec![];
+    let mut nom = robot.clone();
+    let nominal = if let Some(b) = before {
+        let mut o = opts.before.clone();
+        o.progress = opts.progress.clone();
+        let rep = identify(robot, b, &o)?;
+        nom.set_params(&rep.params.theta)?;
+        "before log".to_string()
+    } else {
+        "urdf".to_string()
+    };
+    let spec = TerminalSpec::payload(n);
+    let cols: Vec<usize> = (0..spec.cols(n)).map(|c| spec.theta_index(n, c)).collect();
+    debug_assert_eq!(cols.len(), LINK_PARAMS);
+    let all_names = robot.param_names();
+    let names10: Vec<String> = cols.iter().map(|&c| all_names[c].clone()).collect();
+    // payload base columns from random states
+    let bp = {
+        let _st = Stage::begin(&opts.progress, "payload base columns", 0);
+        let rows = random_rows(robot, &cols, opts.base_samples, opts.seed)?;
+        BaseParams::from_rows(&rows, &names10)
+    };
+    if after.tau.is_none() {
+        return Err(err_est("the log has no effort (torque) data; payload estimation needs measured torques"));
+    }
+    if after.joint_names != robot.joint_names {
+        return Err(err_est(format!("log joints {:?} are not the robot's {:?}", after.joint_names, robot.joint_names)));
+    }
+    let c = prep::condition(after, &opts.condition)?;
+    let fs = 1.0 / c.dt;
+    let dec = parallel_filter(opts.decimate, fs, &opts.condition)?;
+    let t = c.t.len();
+    let mut tau_nom = vec![0.0; t * n];
+    crate::batch::rnea_batch(&nom, &c.d.q, &c.d.qd, &c.d.qdd, &mut tau_nom)?;
+    let res: Vec<f64> = c.tau.as_ref().expect("checked").iter().zip(&tau_nom).map(|(a, b)| a - b).collect();
+    let st = Stage::begin(&opts.progress, "payload regressor", t as u64);
+    let phi10 = stack_rows(robot, &cols, &c.d.q, &c.d.qd, &c.d.qdd, Some(&st))?;
+    drop(st);
+    let _st = Stage::begin(&opts.progress, "filtering and fitting", 0);
+    let phi10 = dec.apply(&phi10, n * 10)?;
+    let res = dec.apply(&res, n)?;
+    let tt = res.len() / n;
+    let edge = (tt / 100).min(20);
+    let r = edge..tt - edge;
+    let phi10 = rows_of(&phi10, n * 10, r.clone());
+    let res = rows_of(&res, n, r.clone());
+    let phib = bp.select_rows(phi10, res.len())?;
+    let nb = bp.base_count();
+    // 2-step WLS
+    let mut acc = LsAccumulator::new(nb);
+    acc.add_rows(&phib, res, None)?;
+    let ols = fit_ls(&acc, &bp.names)?;
+    let th0: Vec<f64> = ols.theta.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
+    let w = per_joint_weights(&quality(String::new(), &phib, res, &th0, n).rms);
+    let mut acc = LsAccumulator::new(nb);
+    acc.add_rows(&phib, res, Some(&row_weights(&w, res.len())))?;
+    let fit = fit_ls(&acc, &bp.names)?;
+    let thf: Vec<f64> = fit.theta.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
+    let zero = vec![0.0; nb];
+    let before_q = quality(String::new(), &phib, res, &zero, n);
+    let after_q = quality(String::new(), &phib, res, &thf, n);
+    let idx: [usize; 10] = std::array::from_fn(|k| k);
+    let est = ident::payload_from_fit(&bp, &fit, &idx, &names10)?;
+    if after.truncated {
+        notes.push("the log was truncated; only the samples before the damage were used".into());
+    }
+    let mut rep = PayloadReport {
+        link: robot.link_names[n - 1].clone(),
+        identifiable: false,
+        mass: None,
+        com: None,
+        inertia: None,
+        mass_std: None,
+        com_std: None,
+        inertia_std: None,
+        params: None,
+        not_identifiable: vec![],
+        nominal,
+        joints: robot.joint_names.clone(),
+        samples: res.len() / n,
+        rms_before: before_q.rms,
+        rms_after: after_q.rms,
+        notes,
+    };
+    match est {
+        Ok(e) => {
+            rep.identifiable = true;
+            rep.mass = Some(e.mass);
+            rep.com = Some(e.com);
+            rep.inertia = Some(e.inertia);
+            rep.mass_std = Some(e.mass_std);
+            rep.com_std = Some(e.com_std);
+            rep.inertia_std = Some(e.inertia_std);
+            rep.params = Some(e.params);
+        }
+        Err(ni) => {
+            rep.not_identifiable = ni.parameters.into_iter().zip(ni.combined_in).map(|(parameter, combined_in)| Hidden { parameter, combined_in }).collect();
+        }
+    }
+    Ok(rep)
+}
+
+/// Regressor columns `cols` at `samples` random states (as [`ident::robot_base_params`]).
+fn random_rows(robot: &Robot, cols: &[usize], samples: usize, seed: u64) -> Result<DMatrix<f64>> {
+    let (n, p) = (robot.dof(), robot.num_params());
+    let limits = crate::with_model!(&robot.model, m => m.limits.to_vec());
+    let mut rng = Rng::new(seed);
+    let mut phi = DMatrix::zeros(samples * n, cols.len());
+    let (mut q, mut qd, mut qdd) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    for s in 0..samples {
+        for j in 0..n {
+            let l = &limits[j];
+            let (lo, hi) = if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower { (l.lower, l.upper) } else { (-std::f64::consts::PI, std::f64::consts::PI) };
+            q[j] = rng.uniform(lo, hi);
+            qd[j] = rng.uniform(-1.0, 1.0);
+            qdd[j] = rng.uniform(-2.0, 2.0);
+        }
+        let y = robot.regressor(&q, &qd, &qdd)?;
+        for r in 0..n {
+            for (c, &col) in cols.iter().enumerate() {
+                phi[(s * n + r, c)] = y[r * p + col];
+            }
+        }
+    }
+    Ok(phi)
+}

@@ -1,0 +1,222 @@
+//! `simulate`: a synthetic log, the true model's inverse dynamics (`rnea`, exact torques,
+//! no integration) along a trajectory, then noise and quantisation of the recorded signals.
+
+use nalgebra::{Matrix3, Vector3};
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::dsp;
+use crate::log::JointLog;
+use crate::report::PayloadSpec;
+use crate::Robot;
+use ivdyn_core::params::LINK_PARAMS;
+use ivdyn_core::rng::Rng;
+use ivdyn_core::LinkInertia;
+
+fn err_est(msg: impl Into<String>) -> Error {
+    Error::Estimation { msg: msg.into() }
+}
+
+// ---------------------------------------------------------------------------------------
+// simulate
+// ---------------------------------------------------------------------------------------
+
+
+/// The trajectory to simulate.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Trajectory {
+    /// Built-in random Fourier excitation (options in [`SimulateOptions`]).
+    Fourier,
+    /// Given positions `T x N` at times `t` (velocity and acceleration by central
+    /// differences).
+    Samples {
+        /// Times (s), increasing.
+        t: Vec<f64>,
+        /// Positions `T x N`.
+        q: Vec<f64>,
+    },
+}
+
+/// Options of [`simulate`].
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SimulateOptions {
+    /// Sample rate (Hz) of the Fourier trajectory (default 500).
+    pub rate_hz: f64,
+    /// Duration (s) of the Fourier trajectory (default 20).
+    pub duration_s: f64,
+    /// Seed of the trajectory and the noise.
+    pub seed: u64,
+    /// Fourier: fundamental frequency (Hz, default 0.1) and harmonics (default 5).
+    pub base_freq_hz: f64,
+    /// Number of harmonics.
+    pub harmonics: usize,
+    /// Fourier: peak amplitude per joint (rad or m, default 0.8), capped to 40 % of the
+    /// joint range.
+    pub amplitude: f64,
+    /// Payload on the last link.
+    pub payload: Option<PayloadSpec>,
+    /// Coulomb friction per joint (replaces the model's).
+    pub fc: Option<Vec<f64>>,
+    /// Viscous friction per joint.
+    pub fv: Option<Vec<f64>>,
+    /// Standard deviation of white noise on the recorded torque (N m).
+    pub noise_tau: f64,
+    /// Standard deviation of white noise on the recorded position.
+    pub noise_q: f64,
+    /// Encoder resolution: positions rounded to `2 pi / 2^bits`.
+    pub encoder_bits: Option<u32>,
+    /// Torque resolution (N m): recorded torques rounded to multiples of it.
+    pub tau_resolution: Option<f64>,
+    /// Write the exact velocities in the log (default true).
+    pub write_velocity: bool,
+    /// Record the noise-free true torque as the actuator command `u` (MCAP topic
+    /// `/ivdyn/command`, CSV columns `<joint>.u`), as a torque-controlled arm's command.
+    pub write_command: bool,
+}
+
+impl Default for SimulateOptions {
+    fn default() -> Self {
+        SimulateOptions {
+            rate_hz: 500.0,
+            duration_s: 20.0,
+            seed: 1,
+            base_freq_hz: 0.1,
+            harmonics: 5,
+            amplitude: 0.8,
+            payload: None,
+            fc: None,
+            fv: None,
+            noise_tau: 0.0,
+            noise_q: 0.0,
+            encoder_bits: None,
+            tau_resolution: None,
+            write_velocity: true,
+            write_command: false,
+        }
+    }
+}
+
+/// The true model of a simulation: `robot` with the payload and friction of `opts`.
+pub fn true_robot(robot: &Robot, opts: &SimulateOptions) -> Result<Robot> {
+    let n = robot.dof();
+    let mut r = robot.clone();
+    let mut theta = r.params();
+    if let Some(p) = &opts.payload {
+        let ic = &p.inertia;
+        let i_c = Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
+        let li = LinkInertia::from_mass_com_inertia(p.mass, &Vector3::new(p.com[0], p.com[1], p.com[2]), &Matrix3::identity(), &i_c);
+        let off = (n - 1) * LINK_PARAMS;
+        for k in 0..LINK_PARAMS {
+            theta[off + k] += li.0[k];
+        }
+    }
+    for (idx, v) in [(0usize, &opts.fc), (1, &opts.fv)] {
+        if let Some(v) = v {
+            if v.len() != n {
+                return Err(Error::Dimension { what: if idx == 0 { "fc (one per joint)".into() } else { "fv (one per joint)".into() }, expected: n, got: v.len() });
+            }
+            for j in 0..n {
+                theta[LINK_PARAMS * n + 4 * j + idx] = v[j];
+            }
+        }
+    }
+    r.set_params(&theta)?;
+    Ok(r)
+}
+
+/// The built-in excitation: `(t, q, qd, qdd)`, `q_j(t) = q0_j + sum_l A_jl sin(2 pi l f0 t + phi_jl)`.
+pub fn fourier_trajectory(robot: &Robot, opts: &SimulateOptions) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
+    let n = robot.dof();
+    let limits = crate::with_model!(&robot.model, m => m.limits.to_vec());
+    let mut rng = Rng::new(opts.seed);
+    let h = opts.harmonics.max(1);
+    let mut coef = vec![(0.0, 0.0); n * h];
+    let mut q0 = vec![0.0; n];
+    for j in 0..n {
+        let l = &limits[j];
+        let mut amp = opts.amplitude;
+        if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower {
+            q0[j] = if l.upper - l.lower < 2.0 * std::f64::consts::TAU { 0.5 * (l.lower + l.upper) } else { 0.0 };
+            amp = amp.min(0.4 * (l.upper - l.lower));
+        }
+        let raw: Vec<(f64, f64)> = (0..h).map(|k| (rng.uniform(0.3, 1.0) / (k + 1) as f64, rng.uniform(0.0, std::f64::consts::TAU))).collect();
+        let s: f64 = raw.iter().map(|(a, _)| a).sum();
+        for k in 0..h {
+            coef[j * h + k] = (raw[k].0 * amp / s, raw[k].1);
+        }
+    }
+    let steps = (opts.duration_s * opts.rate_hz).round().max(2.0) as usize;
+    let (mut t, mut q, mut qd, mut qdd) = (Vec::with_capacity(steps), vec![0.0; steps * n], vec![0.0; steps * n], vec![0.0; steps * n]);
+    for s in 0..steps {
+        let ts = s as f64 / opts.rate_hz;
+        t.push(ts);
+        for j in 0..n {
+            let (mut a, mut v, mut acc) = (q0[j], 0.0, 0.0);
+            for k in 0..h {
+                let w = std::f64::consts::TAU * opts.base_freq_hz * (k + 1) as f64;
+                let (c, ph) = coef[j * h + k];
+                a += c * (w * ts + ph).sin();
+                v += c * w * (w * ts + ph).cos();
+                acc -= c * w * w * (w * ts + ph).sin();
+            }
+            q[s * n + j] = a;
+            qd[s * n + j] = v;
+            qdd[s * n + j] = acc;
+        }
+    }
+    (t, q, qd, qdd)
+}
+
+/// A synthetic log: the true model's inverse dynamics (`rnea`, with payload and friction)
+/// along the trajectory, then noise and quantisation of the recorded `q` and `tau`.
+pub fn simulate(robot: &Robot, traj: &Trajectory, opts: &SimulateOptions) -> Result<JointLog> {
+    let n = robot.dof();
+    let truth = true_robot(robot, opts)?;
+    let (t, q, qd, qdd) = match traj {
+        Trajectory::Fourier => fourier_trajectory(robot, opts),
+        Trajectory::Samples { t, q } => {
+            if t.len() < 3 || q.len() != t.len() * n {
+                return Err(Error::Dimension { what: "trajectory q (T x N, T >= 3)".into(), expected: t.len().max(3) * n, got: q.len() });
+            }
+            let dt = dsp::median_dt(t).ok_or_else(|| err_est("trajectory: need increasing times"))?;
+            if t.windows(2).any(|w| ((w[1] - w[0]) - dt).abs() > 1e-6 * dt.max(1e-9) + 1e-9) {
+                return Err(err_est("trajectory: times must be uniformly spaced"));
+            }
+            (t.clone(), q.clone(), dsp::central_diff(q, n, dt)?, dsp::second_diff(q, n, dt)?)
+        }
+    };
+    let mut tau = vec![0.0; q.len()];
+    crate::batch::rnea_batch(&truth, &q, &qd, &qdd, &mut tau)?;
+    let u = if opts.write_command { Some(tau.clone()) } else { None };
+    let mut rng = Rng::new(opts.seed.wrapping_add(0x5eed));
+    let mut qm = q.clone();
+    for v in qm.iter_mut() {
+        if opts.noise_q > 0.0 {
+            *v += opts.noise_q * rng.normal();
+        }
+        if let Some(bits) = opts.encoder_bits {
+            let r = std::f64::consts::TAU / 2f64.powi(bits as i32);
+            *v = (*v / r).round() * r;
+        }
+    }
+    for v in tau.iter_mut() {
+        if opts.noise_tau > 0.0 {
+            *v += opts.noise_tau * rng.normal();
+        }
+        if let Some(r) = opts.tau_resolution
+            && r > 0.0
+        {
+            *v = (*v / r).round() * r;
+        }
+    }
+    Ok(JointLog {
+        joint_names: robot.joint_names.clone(),
+        t0_ns: 0,
+        t,
+        q: qm,
+        qd: if opts.write_velocity { Some(qd) } else { None },
+        tau: Some(tau),
+        u,
+        truncated: false,
+    })
+}

@@ -1,0 +1,844 @@
+//! `identify` on an MCAP log of any length with bounded memory: the log is read, conditioned,
+//! turned into regressor rows, parallel-filtered, decimated and accumulated block by
+//! block, and nothing of length `T` is ever held.
+//!
+//! The steps and their numbers are those of [`super::identify::identify`] on the whole log:
+//!
+//! 1. a reader thread decodes the messages ([`crate::log::for_each_sample`]) in batches;
+//! 2. duplicated stamps are dropped; the sample time is the median interval of the first
+//!    [`DT_PROBE`] samples (the whole log's median when it is shorter) and every interval
+//!    must be within `max_jitter` of it: a log that needs resampling is reported as
+//!    [`Streamed::Unsupported`] (the caller reads it into memory instead);
+//! 3. `q` is smoothed with the zero-phase Butterworth and differentiated
+//!    ([`crate::prep::stream::StreamCondition`], block-wise `filtfilt`, see [`crate::prep::filtfilt`]);
+//! 4. base regressor rows (and the instrument rows: the nominal model tracking the
+//!    measured motion, [`crate::ident::instrument::Tracker`], state carried across blocks) are stacked with
+//!    the torque and parallel-filtered and decimated by [`crate::prep::filtfilt::StreamFiltfilt`] on two
+//!    threads (columns split in two); entries of the regressor that are structurally zero
+//!    (a joint's row never depends on the links before it) are not filtered;
+//! 5. decimated rows go to per-joint accumulators ([`JointAccs`]): the fit part, and the
+//!    held-out tail (the split is placed from the message count in the MCAP summary);
+//! 6. the fits, the DWH test and the quality figures come from the accumulators
+//!    ([`super::identify::finish_identify`], shared with the in-memory path).
+//!
+//! What is not streamed (use [`super::identify::identify`]): IDIM-IV (iterates over the data), a
+//! command topic, torque outlier rejection, Savitzky-Golay differentiation, a forced
+//! resampling step, and logs with uneven stamps.
+
+
+use std::collections::VecDeque;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{sync_channel, Receiver};
+
+use super::identify::{err_est, FitData, IdentifyOptions, IdentifyReport, Method};
+use crate::dsp::{self, Butterworth, DiffMethod};
+use crate::error::{Error, Result};
+use crate::ident::instrument::Tracker;
+use crate::ident::joint_acc::JointAccs;
+use crate::ident::BaseParams;
+use crate::log::{for_each_sample, ReadOptions, StreamSummary};
+use crate::prep::filtfilt::StreamFiltfilt;
+use crate::prep::stream::{CondRows, StreamCondition};
+use crate::prep;
+use crate::progress::Stage;
+use crate::Robot;
+
+/// Samples whose median interval is the sample time.
+pub const DT_PROBE: usize = 10_000;
+/// Samples per batch from the reader thread, and per conditioned block.
+const BATCH: usize = 4096;
+/// Rows finished per block by the stream filters.
+const FILTER_BLOCK: usize = 16384;
+/// Samples stacked and filtered at a time.
+const SUB_BLOCK: usize = 2048;
+/// Samples per regressor call when packing (below `batch::threads_for`'s threshold: one
+/// thread; `14 N` columns of 120 samples stay in the L2 cache).
+const PACK_CHUNK: usize = 120;
+
+/// Outcome of a streaming run.
+#[derive(Debug)]
+pub enum Streamed<T> {
+    /// Done.
+    Done(T),
+    /// This log or these options need the in-memory path; the reason in words.
+    Unsupported(String),
+}
+
+/// Why `opts` cannot be streamed (`None`: they can).
+pub fn unsupported(opts: &IdentifyOptions, read: &ReadOptions) -> Option<String> {
+    if opts.method == Method::IdimIv {
+        return Some("IDIM-IV iterates over the data".into());
+    }
+    if read.command_topic.is_some() {
+        return Some("a command topic is aligned in memory".into());
+    }
+    if opts.condition.tau_outliers.is_some() {
+        return Some("torque outlier rejection".into());
+    }
+    if opts.condition.dt.is_some() {
+        return Some("a forced resampling step".into());
+    }
+    if !matches!(opts.condition.diff, DiffMethod::Butterworth { .. }) {
+        return Some("Savitzky-Golay differentiation".into());
+    }
+    if opts.validation_log.is_some() {
+        return Some("an in-memory validation log".into());
+    }
+    None
+}
+
+/// Measured messages on `topic` according to the MCAP summary (`None` when the file has
+/// no summary statistics, e.g. an interrupted recording).
+pub fn message_count(path: &Path, topic: &str) -> Result<Option<u64>> {
+    use ::mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
+    use std::io::{Read, Seek};
+    let io = |e: std::io::Error| Error::Io { file: path.to_path_buf(), source: e };
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut reader = SummaryReader::new();
+    while let Some(ev) = reader.next_event() {
+        let Ok(ev) = ev else { return Ok(None) };
+        match ev {
+            SummaryReadEvent::ReadRequest(need) => {
+                let got = file.read(reader.insert(need)).map_err(io)?;
+                reader.notify_read(got);
+            }
+            SummaryReadEvent::SeekRequest(to) => {
+                let pos = file.seek(to).map_err(io)?;
+                reader.notify_seeked(pos);
+            }
+        }
+    }
+    let Some(summary) = reader.finish() else { return Ok(None) };
+    let Some(stats) = summary.stats else { return Ok(None) };
+    let ids: Vec<u16> = summary.channels.iter().filter(|(_, c)| c.topic == topic).map(|(id, _)| *id).collect();
+    if ids.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(ids.iter().map(|id| stats.channel_message_counts.get(id).copied().unwrap_or(0)).sum()))
+}
+
+// ---------------------------------------------------------------------------------------
+// Reader thread and conditioning front
+// ---------------------------------------------------------------------------------------
+
+/// Decoded messages, in the wanted joint order.
+struct RawBatch {
+    stamps: Vec<i64>,
+    q: Vec<f64>,
+    qd: Option<Vec<f64>>,
+    tau: Option<Vec<f64>>,
+}
+
+/// Starts the reader thread: batches of [`BATCH`] messages over a bounded channel (at
+/// most two batches in flight). The thread's result is the reader's.
+fn spawn_reader(path: &Path, read: &ReadOptions) -> (Receiver<RawBatch>, std::thread::JoinHandle<Result<StreamSummary>>) {
+    let (tx, rx) = sync_channel::<RawBatch>(2);
+    let (path, read) = (path.to_path_buf(), read.clone());
+    let h = std::thread::spawn(move || {
+        let new = || RawBatch { stamps: Vec::with_capacity(BATCH), q: vec![], qd: None, tau: None };
+        let mut cur = new();
+        let r = for_each_sample(&path, &read, |s| {
+            cur.stamps.push(s.stamp_ns);
+            cur.q.extend_from_slice(s.q.unwrap_or(&[]));
+            for (dst, src) in [(&mut cur.qd, s.qd), (&mut cur.tau, s.tau)] {
+                if let Some(v) = src {
+                    dst.get_or_insert_with(Vec::new).extend_from_slice(v);
+                }
+            }
+            if cur.stamps.len() == BATCH {
+                let full = std::mem::replace(&mut cur, new());
+                tx.send(full).map_err(|_| err_est("streaming stopped"))?;
+            }
+            Ok(())
+        });
+        if r.is_ok() && !cur.stamps.is_empty() {
+            let _ = tx.send(cur);
+        }
+        r
+    });
+    (rx, h)
+}
+
+/// Conditioned samples in order (from sample `first`), with what was measured at them.
+#[derive(Debug, Default)]
+struct Block {
+    first: usize,
+    c: CondRows,
+    tau: Vec<f64>,
+    stamps: Vec<i64>,
+    q_raw: Vec<f64>,
+    qd_raw: Vec<f64>,
+}
+
+impl Block {
+    fn len(&self, n: usize) -> usize {
+        self.tau.len() / n
+    }
+}
+
+/// Deduplication, sample-time check and conditioning of the raw stream.
+struct Front {
+    n: usize,
+    file: PathBuf,
+    max_jitter: f64,
+    diff: (usize, Option<f64>),
+    /// Samples kept until the sample time is known.
+    probe: Vec<RawBatch>,
+    probed: usize,
+    t0: Option<i64>,
+    last: Option<i64>,
+    dt: Option<f64>,
+    cond: Option<StreamCondition>,
+    /// Measured rows not yet matched by a conditioned row.
+    fifo_tau: VecDeque<f64>,
+    fifo_stamp: VecDeque<i64>,
+    fifo_q: VecDeque<f64>,
+    fifo_qd: VecDeque<f64>,
+    has_qd: bool,
+    samples: usize,
+    duplicates: usize,
+    emitted: usize,
+}
+
+impl Front {
+    fn new(n: usize, file: &Path, opts: &IdentifyOptions) -> Self {
+        let diff = match opts.condition.diff {
+            DiffMethod::Butterworth { order, cutoff_hz } => (order, cutoff_hz),
+            _ => (dsp::DEFAULT_ORDER, None),
+        };
+        Front {
+            n,
+            file: file.to_path_buf(),
+            max_jitter: opts.condition.max_jitter,
+            diff,
+            probe: vec![],
+            probed: 0,
+            t0: None,
+            last: None,
+            dt: None,
+            cond: None,
+            fifo_tau: VecDeque::new(),
+            fifo_stamp: VecDeque::new(),
+            fifo_q: VecDeque::new(),
+            fifo_qd: VecDeque::new(),
+            has_qd: false,
+            samples: 0,
+            duplicates: 0,
+            emitted: 0,
+        }
+    }
+
+    fn log_err(&self, msg: String) -> Error {
+        Error::Log { file: self.file.clone(), msg }
+    }
+
+    /// Takes a raw batch; conditioned rows that are final go to `out`. `Ok(Err(reason))`:
+    /// the stamps need resampling.
+    fn push(&mut self, b: RawBatch, out: &mut Block) -> Result<std::result::Result<(), String>> {
+        if b.tau.is_none() {
+            return Err(err_est("log: the log has no effort (torque) data; identification needs measured torques"));
+        }
+        self.has_qd = b.qd.is_some();
+        if self.dt.is_none() {
+            self.probed += b.stamps.len();
+            self.probe.push(b);
+            if self.probed >= DT_PROBE {
+                return self.start(out);
+            }
+            return Ok(Ok(()));
+        }
+        self.feed(b, out)
+    }
+
+    /// The sample time from the probe, then the probe is fed.
+    fn start(&mut self, out: &mut Block) -> Result<std::result::Result<(), String>> {
+        let t0 = self.probe.first().and_then(|b| b.stamps.first().copied()).unwrap_or(0);
+        let mut t: Vec<f64> = self.probe.iter().flat_map(|b| b.stamps.iter().map(|&s| (s - t0) as f64 * 1e-9)).collect();
+        t.dedup();
+        let Some(dt) = dsp::median_dt(&t) else {
+            return Err(self.log_err(format!("all {} samples have the same stamp (header stamps not set?); try --log-time", self.probed)));
+        };
+        self.t0 = Some(t0);
+        self.dt = Some(dt);
+        let fs = 1.0 / dt;
+        let (order, cutoff) = self.diff;
+        let f = Butterworth::zero_phase(order, cutoff.unwrap_or_else(|| dsp::default_cutoff(fs)), fs)?;
+        self.cond = Some(StreamCondition::new(&f, self.n, dt, FILTER_BLOCK));
+        for b in std::mem::take(&mut self.probe) {
+            if let Err(why) = self.feed(b, out)? {
+                return Ok(Err(why));
+            }
+        }
+        Ok(Ok(()))
+    }
+
+    fn feed(&mut self, b: RawBatch, out: &mut Block) -> Result<std::result::Result<(), String>> {
+        let n = self.n;
+        let (t0, dt) = (self.t0.expect("started"), self.dt.expect("started"));
+        let tau = b.tau.as_ref().expect("checked");
+        let mut q = Vec::with_capacity(b.q.len());
+        for (k, &s) in b.stamps.iter().enumerate() {
+            if let Some(prev) = self.last {
+                if s == prev {
+                    self.duplicates += 1;
+                    continue;
+                }
+                let d = (s - t0) as f64 * 1e-9 - (prev - t0) as f64 * 1e-9;
+                if (d - dt).abs() > self.max_jitter * dt {
+                    return Ok(Err(format!(
+                        "uneven stamps: interval {d:.6} s before sample {} (sample time {dt:.6} s); the log needs resampling",
+                        self.samples + self.duplicates
+                    )));
+                }
+            }
+            self.last = Some(s);
+            self.samples += 1;
+            q.extend_from_slice(&b.q[k * n..(k + 1) * n]);
+            self.fifo_tau.extend(&tau[k * n..(k + 1) * n]);
+            self.fifo_stamp.push_back(s);
+            self.fifo_q.extend(&b.q[k * n..(k + 1) * n]);
+            if let Some(qd) = &b.qd {
+                self.fifo_qd.extend(&qd[k * n..(k + 1) * n]);
+            }
+        }
+        let cond = self.cond.as_mut().expect("started");
+        cond.push(&q, &mut out.c);
+        self.drain(out);
+        Ok(Ok(()))
+    }
+
+    /// Ends the stream (a log shorter than the probe is conditioned here).
+    fn finish(&mut self, out: &mut Block) -> Result<std::result::Result<(), String>> {
+        if self.dt.is_none() {
+            if self.probed < 2 {
+                return Err(self.log_err(format!("only {} samples", self.probed)));
+            }
+            if let Err(why) = self.start(out)? {
+                return Ok(Err(why));
+            }
+        }
+        self.cond.as_mut().expect("started").finish(&mut out.c);
+        self.drain(out);
+        Ok(Ok(()))
+    }
+
+    /// Matches the new conditioned rows of `out` with their measured rows.
+    fn drain(&mut self, out: &mut Block) {
+        let n = self.n;
+        let rows = out.c.q.len() / n - out.tau.len() / n;
+        for _ in 0..rows {
+            out.tau.extend(self.fifo_tau.drain(..n));
+            out.stamps.push(self.fifo_stamp.pop_front().expect("aligned"));
+            out.q_raw.extend(self.fifo_q.drain(..n));
+            if self.has_qd {
+                out.qd_raw.extend(self.fifo_qd.drain(..n));
+            }
+        }
+        self.emitted += rows;
+    }
+}
+
+/// What a pass over a log found.
+struct PassInfo {
+    dt: f64,
+    /// Samples after dropping duplicated stamps.
+    #[allow(dead_code)]
+    samples: usize,
+    duplicates: usize,
+    truncated: bool,
+}
+
+/// Reads and conditions the log at `path` block by block, calling `sink` with each
+/// block of conditioned samples (at most [`BATCH`]-ish samples, in order).
+fn conditioned_pass(
+    path: &Path,
+    read: &ReadOptions,
+    opts: &IdentifyOptions,
+    stage: Option<&Stage>,
+    mut sink: impl FnMut(&Block, f64) -> Result<()>,
+) -> Result<Streamed<PassInfo>> {
+    let n = read.joint_names.len();
+    let (rx, reader) = spawn_reader(path, read);
+    let mut front = Front::new(n, path, opts);
+    let mut block = Block::default();
+    let mut first = 0;
+    let mut outcome: Result<std::result::Result<(), String>> = Ok(Ok(()));
+    let mut flush = |block: &mut Block, front: &Front, first: &mut usize| -> Result<()> {
+        let rows = block.len(n);
+        if rows == 0 {
+            return Ok(());
+        }
+        block.first = *first;
+        sink(block, front.dt.expect("rows imply a sample time"))?;
+        *first += rows;
+        *block = Block::default();
+        Ok(())
+    };
+    for b in rx.iter() {
+        if let Some(st) = stage {
+            st.advance(b.stamps.len() as u64);
+        }
+        match front.push(b, &mut block) {
+            Ok(Ok(())) => {}
+            other => {
+                outcome = other;
+                break;
+            }
+        }
+        if block.len(n) >= BATCH
+            && let Err(e) = flush(&mut block, &front, &mut first)
+        {
+            outcome = Err(e);
+            break;
+        }
+    }
+    drop(rx); // stops the reader if we broke off
+    let summary = reader.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+    match outcome {
+        Ok(Ok(())) => {}
+        Ok(Err(why)) => return Ok(Streamed::Unsupported(why)),
+        Err(e) => return Err(e),
+    }
+    let summary = summary?;
+    match front.finish(&mut block)? {
+        Ok(()) => {}
+        Err(why) => return Ok(Streamed::Unsupported(why)),
+    }
+    flush(&mut block, &front, &mut first)?;
+    Ok(Streamed::Done(PassInfo { dt: front.dt.expect("finished"), samples: front.samples, duplicates: front.duplicates, truncated: summary.truncated }))
+}
+
+// ---------------------------------------------------------------------------------------
+// Regressor rows, parallel filter, decimation
+// ---------------------------------------------------------------------------------------
+
+/// Stacks `[Y (packed) | Z (packed) | tau]` rows of conditioned blocks and runs them
+/// through the parallel filter, two column groups on two threads.
+struct Stacker<'a> {
+    robot: &'a Robot,
+    base: &'a BaseParams,
+    n: usize,
+    /// Indices (into a sample's `n x b` base rows) of the entries that are not
+    /// structurally zero.
+    packed: Vec<usize>,
+    tracker: Option<Tracker>,
+    groups: Vec<(std::ops::Range<usize>, StreamFiltfilt)>,
+    width: usize,
+    /// Packers of the regressor and of the instrument rows (one each: they run in parallel).
+    py: RowPacker<'a>,
+    pz: RowPacker<'a>,
+    /// Work buffers, kept between blocks.
+    y: Vec<f64>,
+    z: Vec<f64>,
+}
+
+/// Entries of the `n x b` base regressor rows that are zero at every one of 32 random
+/// states: structural zeros (joint `i`'s row does not depend on the links before it, nor
+/// on the other joints' drive parameters). They are checked to stay zero in the data.
+fn structural_nonzeros(robot: &Robot, base: &BaseParams) -> Result<Vec<usize>> {
+    let (n, p, b) = (robot.dof(), robot.num_params(), base.base_count());
+    let mut rng = ivdyn_core::rng::Rng::new(7);
+    let mut nz = vec![false; n * b];
+    for _ in 0..32 {
+        let mut state = || (0..n).map(|_| rng.uniform(-3.0, 3.0)).collect::<Vec<f64>>();
+        let (q, qd, qdd) = (state(), state(), state());
+        let y = robot.regressor(&q, &qd, &qdd)?;
+        for i in 0..n {
+            for (c, &col) in base.independent.iter().enumerate() {
+                nz[i * b + c] |= y[i * p + col] != 0.0;
+            }
+        }
+    }
+    Ok((0..n * b).filter(|&k| nz[k]).collect())
+}
+
+/// Base regressor rows, packed to the entries that are not structurally zero.
+struct RowPacker<'a> {
+    robot: &'a Robot,
+    base: &'a BaseParams,
+    /// Index of each packed entry in a sample's full `n x 14n` regressor rows.
+    src: Vec<usize>,
+    /// The packed entries as indices into a sample's `n x b` base rows (ascending).
+    packed: Vec<usize>,
+    checked: bool,
+    /// Work buffer (full regressor rows), kept between blocks.
+    full: Vec<f64>,
+}
+
+impl RowPacker<'_> {
+    /// Base regressor rows of the samples, packed: `T x C`. The entries taken as
+    /// structural zeros are checked on the first block.
+    fn rows(&mut self, q: &[f64], qd: &[f64], qdd: &[f64], first: usize, out: &mut Vec<f64>) -> Result<()> {
+        let (n, p, b) = (self.robot.dof(), self.robot.num_params(), self.base.base_count());
+        let t = q.len() / n;
+        let c = self.src.len();
+        out.clear();
+        out.resize(t * c, 0.0);
+        // small chunks: the full rows stay in cache between writing and gathering (and
+        // run on this thread: the data and the instrument rows are built in parallel)
+        for s in (0..t).step_by(PACK_CHUNK) {
+            let e = (s + PACK_CHUNK).min(t);
+            self.full.resize((e - s) * n * p, 0.0);
+            let r = s * n..e * n;
+            crate::batch::regressor_batch(self.robot, &q[r.clone()], &qd[r.clone()], &qdd[r], &mut self.full, false).map_err(|e| match e {
+                Error::Sample { index, source } => Error::Sample { index: index + first + s, source },
+                e => e,
+            })?;
+            for (o, y) in out[s * c..e * c].chunks_exact_mut(c).zip(self.full.chunks_exact(n * p)) {
+                for (o, &i) in o.iter_mut().zip(&self.src) {
+                    *o = y[i];
+                }
+            }
+        }
+        if !self.checked {
+            self.full.resize(t * n * p, 0.0);
+            crate::batch::regressor_batch(self.robot, q, qd, qdd, &mut self.full, false)?;
+            self.checked = true;
+            for (k, y) in self.full.chunks_exact(n * p).enumerate() {
+                for i in 0..n {
+                    for (c, &col) in self.base.independent.iter().enumerate() {
+                        let v = y[i * p + col];
+                        if v != 0.0 && self.packed.binary_search(&(i * b + c)).is_err() {
+                            return Err(err_est(format!(
+                                "sample {}: regressor entry (joint {i}, base parameter {c}) taken as structurally zero is {v}",
+                                first + k
+                            )));
+                        }
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+}
+
+impl<'a> Stacker<'a> {
+    fn new(robot: &'a Robot, base: &'a BaseParams, dt: f64, dec: &dsp::Decimator, instrument: bool) -> Result<Self> {
+        let n = robot.dof();
+        let packed = structural_nonzeros(robot, base)?;
+        let c = packed.len();
+        let width = c * if instrument { 2 } else { 1 } + n;
+        let half = width.div_ceil(2);
+        let groups = [0..half, half..width]
+            .into_iter()
+            .map(|r| {
+                let f = StreamFiltfilt::new(&dec.filter, r.len(), dec.factor, FILTER_BLOCK);
+                (r, f)
+            })
+            .collect();
+        let (p, b) = (robot.num_params(), base.base_count());
+        let src: Vec<usize> = packed.iter().map(|&k| (k / b) * p + base.independent[k % b]).collect();
+        let tracker = instrument.then(|| Tracker::new(dt));
+        let py = RowPacker { robot, base, src, packed: packed.clone(), checked: false, full: vec![] };
+        let pz = RowPacker { robot, base, src: py.src.clone(), packed: packed.clone(), checked: false, full: vec![] };
+        Ok(Stacker { robot, base, n, packed, tracker, groups, width, py, pz, y: vec![], z: vec![] })
+    }
+
+    /// Filters a conditioned block; decimated rows (`width` wide) with their decimated
+    /// index go to `out`.
+    fn push(&mut self, blk: &Block, out: &mut Vec<(usize, Vec<f64>)>) -> Result<()> {
+        let n = self.n;
+        let t = blk.len(n);
+        // sub-blocks keep the work buffers small
+        for s in (0..t).step_by(SUB_BLOCK) {
+            let e = (s + SUB_BLOCK).min(t);
+            let r = s * n..e * n;
+            self.push_rows(blk.first + s, &blk.c.q[r.clone()], &blk.c.qd[r.clone()], &blk.c.qdd[r.clone()], &blk.tau[r], out)?;
+        }
+        Ok(())
+    }
+
+    fn push_rows(&mut self, first: usize, q: &[f64], qd: &[f64], qdd: &[f64], tau: &[f64], out: &mut Vec<(usize, Vec<f64>)>) -> Result<()> {
+        let n = self.n;
+        let t = tau.len() / n;
+        let (mut y, mut z) = (std::mem::take(&mut self.y), std::mem::take(&mut self.z));
+        let iv = self.tracker.is_some();
+        let robot = self.robot;
+        let (py, pz, tracker) = (&mut self.py, &mut self.pz, self.tracker.as_mut());
+        // the instrument (a sequential simulation) on its own thread, beside the regressor
+        std::thread::scope(|s| -> Result<()> {
+            let zz = &mut z;
+            let hz = tracker.map(|tr| {
+                s.spawn(move || -> Result<()> {
+                    let (qz, qdz, qddz) = tr.run(robot, q, qd, qdd)?;
+                    pz.rows(&qz, &qdz, &qddz, first, zz)
+                })
+            });
+            let ry = py.rows(q, qd, qdd, first, &mut y);
+            if let Some(h) = hz {
+                h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))?;
+            }
+            ry
+        })?;
+        let c = self.packed.len();
+        let parts: [(&[f64], usize); 3] = [(&y, c), (if iv { &z } else { &[] }, if iv { c } else { 0 }), (tau, n)];
+        self.filter(&parts, t, false, out);
+        (self.y, self.z) = (y, z);
+        Ok(())
+    }
+
+    fn finish(&mut self, out: &mut Vec<(usize, Vec<f64>)>) {
+        self.filter(&[], 0, true, out);
+    }
+
+    /// Runs the column groups (two threads) on the `t` rows `[part 0 | part 1 | ...]`
+    /// (each part row-major with its width) and joins their decimated rows.
+    fn filter(&mut self, parts: &[(&[f64], usize)], t: usize, finish: bool, out: &mut Vec<(usize, Vec<f64>)>) {
+        let width = self.width;
+        let results: Vec<(Vec<usize>, Vec<f64>)> = std::thread::scope(|s| {
+            let hs: Vec<_> = self
+                .groups
+                .iter_mut()
+                .map(|(r, f)| {
+                    s.spawn(move || {
+                        // this group's columns of the concatenated rows, straight from the parts
+                        let mut off = 0;
+                        let mut pieces = vec![];
+                        for &(x, w) in parts {
+                            let (a, b) = (r.start.max(off), r.end.min(off + w));
+                            if a < b {
+                                pieces.push((x, w, a - off, b - off));
+                            }
+                            off += w;
+                        }
+                        let (mut idx, mut rows) = (vec![], vec![]);
+                        let mut take = |g: usize, row: &[f64]| {
+                            idx.push(g);
+                            rows.extend_from_slice(row);
+                        };
+                        let fill = |k: usize, dst: &mut Vec<f64>| {
+                            for &(x, w, a, b) in &pieces {
+                                dst.extend_from_slice(&x[k * w + a..k * w + b]);
+                            }
+                        };
+                        f.push_with(t, fill, &mut take);
+                        if finish {
+                            f.finish(&mut take);
+                        }
+                        (idx, rows)
+                    })
+                })
+                .collect();
+            hs.into_iter().map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))).collect()
+        });
+        let (idx0, rows0) = &results[0];
+        let (idx1, rows1) = &results[1];
+        debug_assert_eq!(idx0, idx1);
+        let (m0, m1) = (self.groups[0].0.len(), self.groups[1].0.len());
+        let factor = self.groups[0].1.factor();
+        debug_assert_eq!(m0 + m1, width);
+        for (k, &g) in idx0.iter().enumerate() {
+            let mut row = Vec::with_capacity(width);
+            row.extend_from_slice(&rows0[k * m0..(k + 1) * m0]);
+            row.extend_from_slice(&rows1[k * m1..(k + 1) * m1]);
+            out.push((g / factor, row));
+        }
+    }
+
+    /// Unpacks decimated rows into `phi` (`T x n x b`), `z` and `tau` (`T x n`).
+    fn unpack(&self, rows: &[Vec<f64>], phi: &mut Vec<f64>, z: &mut Vec<f64>, tau: &mut Vec<f64>) {
+        let (n, b, c) = (self.n, self.base.base_count(), self.packed.len());
+        for row in rows {
+            let at = phi.len();
+            phi.resize(at + n * b, 0.0);
+            for (k, &idx) in self.packed.iter().enumerate() {
+                phi[at + idx] = row[k];
+            }
+            let mut off = c;
+            if self.tracker.is_some() {
+                let at = z.len();
+                z.resize(at + n * b, 0.0);
+                for (k, &idx) in self.packed.iter().enumerate() {
+                    z[at + idx] = row[c + k];
+                }
+                off += c;
+            }
+            tau.extend_from_slice(&row[off..off + n]);
+        }
+    }
+}
+
+/// Routes decimated rows: the first `edge` dropped, the last `edge` held back (dropped at
+/// the end), the rest to the fit (index `< cut`) or the held-out statistics.
+struct Route {
+    edge: usize,
+    cut: Option<usize>,
+    pending: VecDeque<(usize, Vec<f64>)>,
+    fit: JointAccs,
+    val: Option<JointAccs>,
+}
+
+impl Route {
+    fn take(&mut self, st: &Stacker, rows: Vec<(usize, Vec<f64>)>) -> Result<()> {
+        let (mut fit_rows, mut val_rows) = (vec![], vec![]);
+        for (d, row) in rows {
+            if d < self.edge {
+                continue;
+            }
+            self.pending.push_back((d, row));
+            if self.pending.len() > self.edge {
+                let (d, row) = self.pending.pop_front().expect("non-empty");
+                match self.cut {
+                    Some(c) if d >= c => val_rows.push(row),
+                    _ => fit_rows.push(row),
+                }
+            }
+        }
+        for (rows, acc) in [(fit_rows, Some(&mut self.fit)), (val_rows, self.val.as_mut())] {
+            let Some(acc) = acc else { continue };
+            if rows.is_empty() {
+                continue;
+            }
+            let (mut phi, mut z, mut tau) = (vec![], vec![], vec![]);
+            st.unpack(&rows, &mut phi, &mut z, &mut tau);
+            let zz = if acc.has_iv() { Some(&z[..]) } else { None };
+            acc.add(&phi, zz, &tau)?;
+        }
+        Ok(())
+    }
+}
+
+/// Statistics of one streamed log: conditioned, stacked, filtered, decimated, routed.
+struct Accumulated {
+    fit: JointAccs,
+    val: Option<JointAccs>,
+    info: PassInfo,
+    dec: dsp::Decimator,
+    decimated: usize,
+    /// Decimated samples expected from the message count.
+    expected: usize,
+}
+
+#[allow(clippy::too_many_arguments)]
+fn accumulate(
+    robot: &Robot,
+    base: &BaseParams,
+    path: &Path,
+    read: &ReadOptions,
+    opts: &IdentifyOptions,
+    instrument: bool,
+    holdout: bool,
+    what: &str,
+) -> Result<Streamed<Accumulated>> {
+    let n = robot.dof();
+    let b = base.base_count();
+    let Some(hint) = message_count(path, &read.topic)?.map(|c| c as usize) else {
+        return Ok(Streamed::Unsupported(format!("{what}: the MCAP file has no summary statistics (message count unknown)")));
+    };
+    let st = Stage::begin(&opts.progress, &format!("{what}: streaming"), hint as u64);
+    let mut state: Option<(Stacker, Route, dsp::Decimator)> = None;
+    let mut decimated = 0usize;
+    let mut expected = 0;
+    let pass = conditioned_pass(path, read, opts, Some(&st), |blk, dt| {
+        if state.is_none() {
+            let dec = prep::parallel_filter(opts.decimate, 1.0 / dt, &opts.condition)?;
+            let stacker = Stacker::new(robot, base, dt, &dec, instrument)?;
+            // the split of the in-memory path, placed from the message count
+            expected = hint.div_ceil(dec.factor);
+            let split = IdentifyOptions { validation_fraction: if holdout { opts.validation_fraction } else { 0.0 }, ..IdentifyOptions::default() };
+            let (fit, val) = super::identify::split_ranges(expected, &split);
+            let (edge, cut) = (fit.start, val.map(|v| v.start));
+            let route = Route { edge, cut, pending: VecDeque::new(), fit: JointAccs::new(n, b, instrument), val: cut.map(|_| JointAccs::new(n, b, false)) };
+            state = Some((stacker, route, dec));
+        }
+        let (stacker, route, _) = state.as_mut().expect("set");
+        let mut rows = vec![];
+        stacker.push(blk, &mut rows)?;
+        decimated += rows.len();
+        route.take(stacker, rows)
+    })?;
+    let info = match pass {
+        Streamed::Done(i) => i,
+        Streamed::Unsupported(why) => return Ok(Streamed::Unsupported(why)),
+    };
+    let (mut stacker, mut route, dec) = state.ok_or_else(|| err_est(format!("{what}: no samples")))?;
+    let mut rows = vec![];
+    stacker.finish(&mut rows);
+    decimated += rows.len();
+    route.take(&stacker, rows)?;
+    Ok(Streamed::Done(Accumulated { fit: route.fit, val: route.val, info, dec, decimated, expected }))
+}
+
+/// [`super::identify::identify`] streamed from the MCAP file `path` (and the validation log
+/// `validation`, if any), with bounded memory. The numbers are those of the in-memory
+/// path to rounding (see the module docs for what differs and what is not streamed).
+pub fn identify_mcap(robot: &Robot, path: &Path, validation: Option<&Path>, read: &ReadOptions, opts: &IdentifyOptions) -> Result<Streamed<IdentifyReport>> {
+    if let Some(why) = unsupported(opts, read) {
+        return Ok(Streamed::Unsupported(why));
+    }
+    if read.joint_names != robot.joint_names {
+        return Err(err_est(format!("log joints {:?} are not the robot's {:?}", read.joint_names, robot.joint_names)));
+    }
+    let base = {
+        let _st = Stage::begin(&opts.progress, "base parameters", 0);
+        super::identify::identify_base(robot, opts)?
+    };
+    let main = match accumulate(robot, &base, path, read, opts, true, validation.is_none(), "log")? {
+        Streamed::Done(a) => a,
+        Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(w)),
+    };
+    let mut notes = vec![];
+    if main.info.truncated {
+        notes.push("the log was truncated; only the samples before the damage were used".into());
+    }
+    if main.info.duplicates > 0 {
+        notes.push(format!("{} samples with a duplicated stamp were dropped", main.info.duplicates));
+    }
+    if main.expected != main.decimated {
+        notes.push(format!(
+            "the fit/validation split was placed from the message count in the MCAP summary ({} decimated samples expected, {} found)",
+            main.expected,
+            main.decimated
+        ));
+    }
+    let validation = match validation {
+        Some(v) => match accumulate(robot, &base, v, read, opts, false, false, "validation log")? {
+            Streamed::Done(a) => Some(("validation log".to_string(), a.fit)),
+            Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(format!("validation log: {w}"))),
+        },
+        None => main.val.map(|v| (format!("tail {:.0}% of the log", 100.0 * opts.validation_fraction), v)),
+    };
+    let instrument = Some(crate::ident::instrument::TRACKING_INSTRUMENT.to_string());
+    let data = FitData {
+        fit: main.fit,
+        validation,
+        instrument,
+        dt: main.info.dt * main.dec.factor as f64,
+        factor: main.dec.factor,
+        cutoff_hz: main.dec.filter.cutoff_hz,
+        idim: None,
+        notes,
+    };
+    let mut rep = super::identify::finish_identify(robot, &base, opts, data)?;
+    rep.streamed = true;
+    Ok(Streamed::Done(rep))
+}
+
+/// [`super::identify::write_prediction`] streamed: reads and conditions the MCAP log at `log`
+/// block by block and writes measured, predicted (`rnea` of `model`) and residual torques
+/// to `out`. Returns the samples written.
+pub fn write_prediction_mcap(out: &Path, model: &Robot, log: &Path, read: &ReadOptions, opts: &IdentifyOptions) -> Result<Streamed<usize>> {
+    if let Some(why) = unsupported(opts, read) {
+        return Ok(Streamed::Unsupported(why));
+    }
+    let n = model.dof();
+    let st = Stage::begin(&opts.progress, "writing the prediction", message_count(log, &read.topic)?.unwrap_or(0) as u64);
+    let mut w = crate::log::PredictionWriter::create(out, &model.joint_names)?;
+    let mut pred = vec![];
+    let pass = conditioned_pass(log, read, opts, Some(&st), |blk, _| {
+        pred.resize(blk.c.q.len(), 0.0);
+        let t = blk.len(n);
+        crate::batch::rnea_batch(model, &blk.c.q[..t * n], &blk.c.qd[..t * n], &blk.c.qdd[..t * n], &mut pred)?;
+        w.write_block(&blk.stamps, &blk.q_raw, &blk.qd_raw, &blk.tau, &blk.c.q[..t * n], &blk.c.qd[..t * n], &pred)
+    })?;
+    match pass {
+        Streamed::Done(_) => {
+            let k = w.samples();
+            w.finish()?;
+            Ok(Streamed::Done(k))
+        }
+        // dropping the writer removes its temporary file
+        Streamed::Unsupported(why) => Ok(Streamed::Unsupported(why)),
+    }
+}

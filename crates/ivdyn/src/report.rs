@@ -1,0 +1,103 @@
+//! Serialisable results shared by every layer: base-parameter values, per-joint fit
+//! quality, the LS-vs-IV test, the full parameter file and a payload description. The
+//! JSON the command line writes is these types, field for field.
+
+use serde::{Deserialize, Serialize};
+
+/// One base parameter of the report.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct BaseValue {
+    /// Readable combination, e.g. `"wrist_1_link.Izz + ..."`.
+    pub name: String,
+    /// Estimate (`null` when not excited).
+    pub value: f64,
+    /// Standard deviation.
+    pub std: f64,
+    /// Relative standard deviation in percent.
+    pub rel_std_pct: f64,
+    /// Value of the nominal (URDF) model for the same combination.
+    pub nominal: f64,
+}
+
+/// Per-joint quality of a torque prediction.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Quality {
+    /// Which data: `"fit"`, `"tail 25% of the log"`, or the validation log's name.
+    pub data: String,
+    /// Samples used.
+    pub samples: usize,
+    /// RMS of `measured - predicted` per joint (N m).
+    pub rms: Vec<f64>,
+    /// Coefficient of determination per joint.
+    pub r2: Vec<f64>,
+    /// RMS of the measured torque per joint (N m), for scale.
+    pub tau_rms: Vec<f64>,
+}
+
+/// The Durbin-Wu-Hausman LS-vs-IV test.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Dwh {
+    /// Statistic (chi-square under "LS unbiased").
+    pub statistic: f64,
+    /// Degrees of freedom.
+    pub dof: usize,
+    /// p-value.
+    pub p_value: f64,
+    /// `p < 0.01`: LS is biased.
+    pub ls_biased: bool,
+    /// The verdict in words.
+    pub verdict: String,
+}
+
+/// Full parameter vector, reloadable with [`load_params`].
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ParamsFile {
+    /// Robot name.
+    pub robot: String,
+    /// Joint names, base to tip.
+    pub joints: Vec<String>,
+    /// Parameter names (`<link>.m`, ..., `<joint>.fc`, ...).
+    pub names: Vec<String>,
+    /// Values (SI).
+    pub theta: Vec<f64>,
+}
+
+
+/// A payload to add to the last link.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PayloadSpec {
+    /// Mass (kg).
+    pub mass: f64,
+    /// COM in the last link's frame (m).
+    pub com: [f64; 3],
+    /// Inertia about the COM `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`.
+    pub inertia: [f64; 6],
+}
+
+/// Per-joint quality of the prediction `phi theta` of `tau` (`T x n` rows, `phi`
+/// row-major `T n x b`).
+pub fn quality(data: String, phi: &[f64], tau: &[f64], theta: &[f64], n: usize) -> Quality {
+    let b = theta.len();
+    let t = tau.len() / n;
+    let (mut sse, mut sum, mut sum2) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    for k in 0..t {
+        for i in 0..n {
+            let r = k * n + i;
+            let pred: f64 = phi[r * b..(r + 1) * b].iter().zip(theta).map(|(a, b)| a * b).sum();
+            let y = tau[r];
+            sse[i] += (y - pred).powi(2);
+            sum[i] += y;
+            sum2[i] += y * y;
+        }
+    }
+    let tf = t.max(1) as f64;
+    let rms = sse.iter().map(|s| (s / tf).sqrt()).collect();
+    let r2 = (0..n)
+        .map(|i| {
+            let sst = sum2[i] - sum[i] * sum[i] / tf;
+            if sst > 0.0 { 1.0 - sse[i] / sst } else { f64::NAN }
+        })
+        .collect();
+    let tau_rms = sum2.iter().map(|s| (s / tf).sqrt()).collect();
+    Quality { data, samples: t, rms, r2, tau_rms }
+}

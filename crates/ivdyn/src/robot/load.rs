@@ -1,0 +1,111 @@
+//! The one way a robot is loaded: URDF (base and tip), then a parameter file or, when
+//! none is given, the side file a `--write-urdf` left beside the URDF.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::urdf;
+use crate::error::{Error, Result};
+use crate::report::{ParamsFile, PayloadSpec};
+use crate::Robot;
+use ivdyn_core::params::{drive_col, IA, TAU0};
+
+/// Format marker of the side file.
+pub const SIDE_FORMAT: &str = "ivdyn-urdf-side/1";
+
+/// What URDF cannot hold, next to the written URDF (`OUT.urdf.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SideFile {
+    /// [`SIDE_FORMAT`].
+    pub format: String,
+    /// Robot name.
+    pub robot: String,
+    /// Base and tip links of the chain the parameters belong to.
+    pub base_link: String,
+    /// Tip link.
+    pub tip_link: String,
+    /// Movable joints, base to tip (order of the lists below).
+    pub joints: Vec<String>,
+    /// Armature (rotor inertia reflected to the joint), kg m^2.
+    pub armature: Vec<f64>,
+    /// Constant torque offsets, N m.
+    pub tau0: Vec<f64>,
+    /// Coulomb friction (also in the URDF `<dynamics friction>`), for reference.
+    pub friction: Vec<f64>,
+    /// Viscous friction (also in the URDF `<dynamics damping>`), for reference.
+    pub damping: Vec<f64>,
+    /// The payload written, if any.
+    pub payload: Option<PayloadSpec>,
+    /// Remarks (where the parameters came from, links whose own share is not consistent).
+    pub notes: Vec<String>,
+}
+
+/// The side file path of a URDF path: `OUT.urdf` -> `OUT.urdf.json`.
+pub fn side_path(urdf: &Path) -> PathBuf {
+    let mut s = urdf.as_os_str().to_owned();
+    s.push(".json");
+    PathBuf::from(s)
+}
+
+impl Robot {
+    /// Applies an ivdyn URDF side file (armature and torque offsets, [`SideFile`]) to this
+    /// robot, checking the format and the joint names.
+    pub fn apply_side_file(&mut self, path: &Path) -> Result<()> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })?;
+        let side: SideFile = serde_json::from_str(&text).map_err(|e| Error::Log { file: path.to_path_buf(), msg: format!("not an ivdyn URDF side file: {e}") })?;
+        if side.format != SIDE_FORMAT {
+            return Err(Error::Log { file: path.to_path_buf(), msg: format!("format '{}', expected '{SIDE_FORMAT}'", side.format) });
+        }
+        if side.joints != self.joint_names || side.armature.len() != self.dof() || side.tau0.len() != self.dof() {
+            return Err(Error::Log { file: path.to_path_buf(), msg: format!("side file for joints {:?}; this chain has {:?}", side.joints, self.joint_names) });
+        }
+        let n = self.dof();
+        let mut th = self.params();
+        for j in 0..n {
+            th[drive_col(n, j, IA)] = side.armature[j];
+            th[drive_col(n, j, TAU0)] = side.tau0[j];
+        }
+        self.set_params(&th)
+    }
+
+    /// Loads a URDF ([`crate::robot::urdf`]; `base` and `tip` pick the chain) and, when
+    /// `<path>.json` exists (written by `--write-urdf`), applies its ivdyn side file
+    /// (armature, torque offsets): the one loading path of the library, the command line
+    /// and Python.
+    pub fn from_urdf(path: impl AsRef<Path>, base: Option<&str>, tip: Option<&str>) -> Result<Self> {
+        let path = path.as_ref();
+        let mut r = urdf::load(path, base, tip)?;
+        let side = side_path(path);
+        if side.exists() {
+            r.apply_side_file(&side)?;
+        }
+        Ok(r)
+    }
+}
+
+/// The robot a command works on: [`Robot::from_urdf`], then, with `params`, a parameter
+/// file (written by `identify --out-params`) replacing every parameter.
+pub fn load(urdf: &Path, base: Option<&str>, tip: Option<&str>, params: Option<&Path>) -> Result<Robot> {
+    let mut robot = Robot::from_urdf(urdf, base, tip)?;
+    if let Some(p) = params {
+        let text = std::fs::read_to_string(p).map_err(|e| Error::Io { file: p.to_path_buf(), source: e })?;
+        let pf: ParamsFile = serde_json::from_str(&text).map_err(|e| Error::Log { file: p.to_path_buf(), msg: format!("not a parameter file: {e}") })?;
+        load_params(&mut robot, &pf).map_err(|e| Error::Log { file: p.to_path_buf(), msg: e.to_string() })?;
+    }
+    Ok(robot)
+}
+
+/// Writes nothing; loads a [`ParamsFile`] into `robot`, checking joint and parameter names.
+pub fn load_params(robot: &mut Robot, p: &ParamsFile) -> Result<()> {
+    let names = robot.param_names();
+    if p.names != names {
+        return Err(Error::Estimation {
+            msg: format!(
+                "parameter file for robot '{}' (joints {:?}) does not match this chain (joints {:?})",
+                p.robot, p.joints, robot.joint_names
+            ),
+        });
+    }
+    robot.set_params(&p.theta)
+}

@@ -1,0 +1,300 @@
+//! Runtime-sized robots: a [`Robot`] holds joint and link names and a [`DynModel`], an
+//! enum over `ivdyn_core::Model<1>` .. `Model<MAX_DOF>` (rust-numpy's `SupportedArray`
+//! pattern), so a URDF read at run time still runs the fixed-size, allocation-free core.
+
+pub mod load;
+pub mod physical;
+pub mod urdf;
+pub mod write;
+
+use crate::error::{Error, Result};
+use ivdyn_core::params::{param_count, DRIVE_PARAM_NAMES, LINK_PARAM_NAMES};
+use ivdyn_core::{
+    self as core_, DriveParams, Joint, JointLimits, LinkInertia, Model, Transform, Vec3, VecN,
+};
+
+/// Largest supported number of movable joints.
+pub const MAX_DOF: usize = 12;
+
+/// A model whose joint count is known at run time.
+#[derive(Debug, Clone, PartialEq)]
+#[allow(missing_docs)]
+pub enum DynModel {
+    N1(Box<Model<1>>),
+    N2(Box<Model<2>>),
+    N3(Box<Model<3>>),
+    N4(Box<Model<4>>),
+    N5(Box<Model<5>>),
+    N6(Box<Model<6>>),
+    N7(Box<Model<7>>),
+    N8(Box<Model<8>>),
+    N9(Box<Model<9>>),
+    N10(Box<Model<10>>),
+    N11(Box<Model<11>>),
+    N12(Box<Model<12>>),
+}
+
+/// Runs `$body` with `$m` bound to the `&Model<N>` (or `&mut`) inside a [`DynModel`];
+/// the body is compiled once per `N`.
+#[macro_export]
+macro_rules! with_model {
+    ($model:expr, $m:ident => $body:expr) => {
+        match $model {
+            $crate::DynModel::N1($m) => $body,
+            $crate::DynModel::N2($m) => $body,
+            $crate::DynModel::N3($m) => $body,
+            $crate::DynModel::N4($m) => $body,
+            $crate::DynModel::N5($m) => $body,
+            $crate::DynModel::N6($m) => $body,
+            $crate::DynModel::N7($m) => $body,
+            $crate::DynModel::N8($m) => $body,
+            $crate::DynModel::N9($m) => $body,
+            $crate::DynModel::N10($m) => $body,
+            $crate::DynModel::N11($m) => $body,
+            $crate::DynModel::N12($m) => $body,
+        }
+    };
+}
+
+/// A chain described with vectors (any length), before it becomes a fixed-size model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Chain {
+    /// Joint kinds and axes.
+    pub joints: Vec<Joint>,
+    /// Joint placements at q = 0 in the previous link's frame.
+    pub x_tree: Vec<Transform>,
+    /// Link inertial parameters in the link frames.
+    pub inertia: Vec<LinkInertia>,
+    /// Drive parameters.
+    pub drive: Vec<DriveParams>,
+    /// Joint limits.
+    pub limits: Vec<JointLimits>,
+    /// Gravity in the base frame.
+    pub gravity: Vec3,
+    /// Tool frame in the last link's frame.
+    pub tool: Transform,
+}
+
+impl Chain {
+    fn to_model<const N: usize>(&self) -> Result<Model<N>> {
+        let joints: [Joint; N] = self.joints.clone().try_into().map_err(|_| dim("joints", N, self.joints.len()))?;
+        let x_tree: [Transform; N] = self.x_tree.clone().try_into().map_err(|_| dim("x_tree", N, self.x_tree.len()))?;
+        let mut m = Model::new(joints, x_tree)?;
+        m.inertia = self.inertia.clone().try_into().map_err(|_| dim("inertia", N, self.inertia.len()))?;
+        m.drive = self.drive.clone().try_into().map_err(|_| dim("drive", N, self.drive.len()))?;
+        m.limits = self.limits.clone().try_into().map_err(|_| dim("limits", N, self.limits.len()))?;
+        m.gravity = self.gravity;
+        m.tool = self.tool;
+        Ok(m)
+    }
+
+    fn from_model<const N: usize>(m: &Model<N>) -> Self {
+        Chain {
+            joints: m.joints.to_vec(),
+            x_tree: m.x_tree.to_vec(),
+            inertia: m.inertia.to_vec(),
+            drive: m.drive.to_vec(),
+            limits: m.limits.to_vec(),
+            gravity: m.gravity,
+            tool: m.tool,
+        }
+    }
+}
+
+fn dim(what: &str, expected: usize, got: usize) -> Error {
+    Error::Dimension { what: what.to_string(), expected, got }
+}
+
+impl DynModel {
+    /// Builds the fixed-size model for the chain's joint count.
+    pub fn from_chain(c: &Chain) -> Result<Self> {
+        Ok(match c.joints.len() {
+            1 => DynModel::N1(Box::new(c.to_model::<1>()?)),
+            2 => DynModel::N2(Box::new(c.to_model::<2>()?)),
+            3 => DynModel::N3(Box::new(c.to_model::<3>()?)),
+            4 => DynModel::N4(Box::new(c.to_model::<4>()?)),
+            5 => DynModel::N5(Box::new(c.to_model::<5>()?)),
+            6 => DynModel::N6(Box::new(c.to_model::<6>()?)),
+            7 => DynModel::N7(Box::new(c.to_model::<7>()?)),
+            8 => DynModel::N8(Box::new(c.to_model::<8>()?)),
+            9 => DynModel::N9(Box::new(c.to_model::<9>()?)),
+            10 => DynModel::N10(Box::new(c.to_model::<10>()?)),
+            11 => DynModel::N11(Box::new(c.to_model::<11>()?)),
+            12 => DynModel::N12(Box::new(c.to_model::<12>()?)),
+            dof => return Err(Error::TooManyJoints { dof, max: MAX_DOF }),
+        })
+    }
+
+    /// The chain description (vectors).
+    pub fn to_chain(&self) -> Chain {
+        with_model!(self, m => Chain::from_model(&**m))
+    }
+
+    /// Number of joints.
+    pub fn dof(&self) -> usize {
+        with_model!(self, m => m.nq())
+    }
+}
+
+/// A robot arm: names plus a runtime-sized model. Methods take and return flat slices
+/// (row-major matrices) and check lengths and finiteness.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Robot {
+    /// Robot name (URDF `<robot name>`).
+    pub name: String,
+    /// Movable joint names, base to tip (the order of every joint-space vector).
+    pub joint_names: Vec<String>,
+    /// Link (frame) name of each joint: the URDF child link of the joint.
+    pub link_names: Vec<String>,
+    /// Base link.
+    pub base_link: String,
+    /// Tip link (its placement in the last link is the model's tool frame).
+    pub tip_link: String,
+    /// Movable joints off the chain that were locked at q = 0 and fused.
+    pub locked_joints: Vec<String>,
+    /// The model.
+    pub model: DynModel,
+}
+
+fn vec_n<const N: usize>(what: &str, x: &[f64]) -> Result<VecN<N>> {
+    if x.len() != N {
+        return Err(dim(what, N, x.len()));
+    }
+    if let Some(i) = x.iter().position(|v| !v.is_finite()) {
+        return Err(Error::Core(core_::Error::NonFinite { what: static_name(what), index: i }));
+    }
+    Ok(VecN::<N>::from_column_slice(x))
+}
+
+fn static_name(what: &str) -> &'static str {
+    match what {
+        "q" => "q",
+        "qd" => "qd",
+        "qdd" => "qdd",
+        "tau" => "tau",
+        _ => "input",
+    }
+}
+
+impl Robot {
+    /// The paper's six-joint robot (Tables 1 and 2); links `link1..6`, joints `joint1..6`.
+    pub fn paper() -> Self {
+        Self::from_model_named("paper", core_::paper::robot())
+    }
+
+    /// Wraps a fixed-size model, naming joints `joint1..` and links `link1..`.
+    pub fn from_model_named<const N: usize>(name: &str, model: Model<N>) -> Self {
+        let chain = Chain::from_model(&model);
+        Robot {
+            name: name.to_string(),
+            joint_names: (1..=N).map(|i| format!("joint{i}")).collect(),
+            link_names: (1..=N).map(|i| format!("link{i}")).collect(),
+            base_link: "base".into(),
+            tip_link: format!("link{N}"),
+            locked_joints: vec![],
+            // N >= 1 and <= MAX_DOF is the caller's promise; fall back to a panic-free error path.
+            model: DynModel::from_chain(&chain).expect("model size within 1..=MAX_DOF"),
+        }
+    }
+
+    /// Number of movable joints.
+    pub fn dof(&self) -> usize {
+        self.model.dof()
+    }
+
+    /// Number of parameters (`14 dof`).
+    pub fn num_params(&self) -> usize {
+        param_count(self.dof())
+    }
+
+    /// Parameter vector `theta` (layout in `ivdyn_core::params`).
+    pub fn params(&self) -> Vec<f64> {
+        let mut t = vec![0.0; self.num_params()];
+        with_model!(&self.model, m => m.params_to_slice(&mut t).expect("length is num_params"));
+        t
+    }
+
+    /// Sets all parameters from `theta`.
+    pub fn set_params(&mut self, theta: &[f64]) -> Result<()> {
+        with_model!(&mut self.model, m => m.set_params_from_slice(theta)?);
+        Ok(())
+    }
+
+    /// Readable names of the parameters: `"<link>.m"`, `"<link>.m*cx"`, ..., `"<joint>.fc"`.
+    pub fn param_names(&self) -> Vec<String> {
+        let mut names = Vec::with_capacity(self.num_params());
+        for l in &self.link_names {
+            names.extend(LINK_PARAM_NAMES.iter().map(|p| format!("{l}.{p}")));
+        }
+        for j in &self.joint_names {
+            names.extend(DRIVE_PARAM_NAMES.iter().map(|p| format!("{j}.{p}")));
+        }
+        names
+    }
+
+    /// Inverse dynamics with drive terms.
+    pub fn rnea(&self, q: &[f64], qd: &[f64], qdd: &[f64]) -> Result<Vec<f64>> {
+        with_model!(&self.model, m => {
+            let (q, qd, qdd) = (vec_n("q", q)?, vec_n("qd", qd)?, vec_n("qdd", qdd)?);
+            let mut data = core_::Data::new();
+            Ok(core_::rnea(&**m, &mut data, &q, &qd, &qdd).as_slice().to_vec())
+        })
+    }
+
+    /// Gravity torques (no drive terms).
+    pub fn gravity(&self, q: &[f64]) -> Result<Vec<f64>> {
+        with_model!(&self.model, m => {
+            let q = vec_n("q", q)?;
+            let mut data = core_::Data::new();
+            Ok(core_::gravity(&**m, &mut data, &q).as_slice().to_vec())
+        })
+    }
+
+    /// Regressor, row-major `dof x 14 dof`.
+    pub fn regressor(&self, q: &[f64], qd: &[f64], qdd: &[f64]) -> Result<Vec<f64>> {
+        with_model!(&self.model, m => {
+            let (q, qd, qdd) = (vec_n("q", q)?, vec_n("qd", qd)?, vec_n("qdd", qdd)?);
+            let mut data = core_::Data::new();
+            let y = core_::regressor(&**m, &mut data, &q, &qd, &qdd);
+            let mut out = vec![0.0; y.cols() * m.nq()];
+            y.write_row_major(&mut out);
+            Ok(out)
+        })
+    }
+
+    /// Static (gravity) regressor, row-major `dof x 14 dof`.
+    pub fn gravity_regressor(&self, q: &[f64]) -> Result<Vec<f64>> {
+        with_model!(&self.model, m => {
+            let q = vec_n("q", q)?;
+            let mut data = core_::Data::new();
+            let y = core_::gravity_regressor(&**m, &mut data, &q);
+            let mut out = vec![0.0; y.cols() * m.nq()];
+            y.write_row_major(&mut out);
+            Ok(out)
+        })
+    }
+
+    /// Mass matrix (with armature), row-major `dof x dof`.
+    pub fn mass_matrix(&self, q: &[f64]) -> Result<Vec<f64>> {
+        with_model!(&self.model, m => {
+            let q = vec_n("q", q)?;
+            let mut data = core_::Data::new();
+            // symmetric: column-major storage equals row-major
+            Ok(core_::mass_matrix(&**m, &mut data, &q).as_slice().to_vec())
+        })
+    }
+
+    /// Forward dynamics `qdd` for torques `tau`.
+    pub fn forward_dynamics(&self, q: &[f64], qd: &[f64], tau: &[f64]) -> Result<Vec<f64>> {
+        with_model!(&self.model, m => {
+            let (q, qd, tau) = (vec_n("q", q)?, vec_n("qd", qd)?, vec_n("tau", tau)?);
+            let mut data = core_::Data::new();
+            Ok(core_::forward_dynamics(&**m, &mut data, &q, &qd, &tau)?.as_slice().to_vec())
+        })
+    }
+
+    /// Index of a joint by name.
+    pub fn joint_index(&self, name: &str) -> Option<usize> {
+        self.joint_names.iter().position(|n| n == name)
+    }
+}
