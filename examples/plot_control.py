@@ -1,6 +1,6 @@
 """Figures of docs/control.md from the JSON written by the control_fig5 example.
 
-    cargo run --release -p ivdyn --example control_fig5
+    cargo run --release -p ivdyn-lab --example control_fig5
     .venv/bin/python examples/plot_control.py [out/control] [docs/figures]
 """
 import json

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Figures for the paper reproduction from the JSON written by
-`cargo run --release -p ivdyn --example paper_reproduction`.
+`cargo run --release -p ivdyn-lab --example paper_reproduction`.
 
 Usage: python examples/plot_paper.py [--in out/paper] [--out docs/figures]
 """

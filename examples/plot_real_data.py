@@ -2,7 +2,7 @@
 
     .venv/bin/python examples/plot_real_data.py --in out/real --out docs/figures
 
-Reads tx40.json and lwr.json written by `cargo run --release -p ivdyn --example real_data`.
+Reads tx40.json and lwr.json written by `cargo run --release -p ivdyn-lab --example real_data`.
 """
 import argparse
 import json

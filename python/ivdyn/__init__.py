@@ -50,7 +50,7 @@ __all__ = [
     # terminal link, closed-loop simulation, control experiments (python/ivdyn/_control.py)
     "terminal_base", "terminal_link", "closed_loop", "control_experiment",
     # the command line's pipelines (python/ivdyn/_pipeline.py)
-    "identify", "payload", "simulate", "diagnose", "tqdm_progress",
+    "identify", "payload", "simulate", "diagnose", "excite", "tqdm_progress",
     # submodules
     "paper", "plot",
 ]
@@ -64,7 +64,7 @@ from ._ident import (  # noqa: E402
     read_joint_states,
 )
 from ._control import closed_loop, control_experiment, terminal_base, terminal_link  # noqa: E402
-from ._pipeline import diagnose, identify, payload, simulate, tqdm_progress  # noqa: E402
+from ._pipeline import diagnose, excite, identify, payload, simulate, tqdm_progress  # noqa: E402
 from . import paper, plot  # noqa: E402
 
 

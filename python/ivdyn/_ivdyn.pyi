@@ -14,7 +14,7 @@ from typing_extensions import Self
 __all__ = [
     "Robot", "FitReport", "BaseParams", "Rls", "Riv", "PaperSim", "fit_ls", "fit_iv", "base_params",
     "fit_robot", "payload_from_fit", "read_joint_states", "paper_estimators", "terminal_base",
-    "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "simulate", "diagnose",
+    "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "simulate", "diagnose", "excite",
     "batch_threads", "__version__", "MAX_DOF",
 ]
 
@@ -276,16 +276,22 @@ _Callback = Optional[Callable[[str, int, int], Any]]
 def identify(robot: Robot, log: _Log, method: str = "wls", validate: Optional[_Log] = None,
              holdout: float = 0.25, topic: str = "/joint_states", command_topic: Optional[str] = None,
              log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
-             params_json: Optional[str] = None, progress: _Callback = None) -> str:
+             params_json: Optional[str] = None, progress: _Callback = None,
+             friction: Optional[List[str]] = None, armature: bool = True, offset: bool = True,
+             consistent: bool = False, in_memory: bool = False, json_out: Optional[str] = None,
+             out_params: Optional[str] = None, write_urdf: Optional[str] = None,
+             out_mcap: Optional[str] = None) -> str:
     """``ivdyn identify`` -> its ``--json`` document."""
 def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/joint_states",
              log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3,
              min_effect: float = 0.5, ignore_log_velocity: bool = False, report: bool = True,
-             params_json: Optional[str] = None) -> str:
+             params_json: Optional[str] = None, json_out: Optional[str] = None,
+             progress: _Callback = None) -> str:
     """``ivdyn diagnose`` -> ``diagnosis.json`` (and the output directory's files with ``out``)."""
 def payload(robot: Robot, log: _Log, before: Optional[_Log] = None, topic: str = "/joint_states",
             command_topic: Optional[str] = None, log_time: bool = False, cutoff: Optional[float] = None,
-            decimate: int = 0, params_json: Optional[str] = None, progress: _Callback = None) -> str:
+            decimate: int = 0, params_json: Optional[str] = None, progress: _Callback = None,
+            json_out: Optional[str] = None, write_urdf: Optional[str] = None, payload_as: str = "link") -> str:
     """``ivdyn payload`` -> its ``--json`` document."""
 def simulate(robot: Robot, out: Optional[Union[str, PathLike[str]]] = None, traj_t: Optional[_F64] = None,
              traj_q: Optional[_F64] = None, duration: float = 20.0, rate: float = 500.0, seed: int = 1,
@@ -294,5 +300,12 @@ def simulate(robot: Robot, out: Optional[Union[str, PathLike[str]]] = None, traj
              fc: Optional[List[float]] = None, fv: Optional[List[float]] = None, noise: float = 0.0,
              noise_q: float = 0.0, encoder_bits: Optional[int] = None, tau_resolution: Optional[float] = None,
              velocity: bool = True, command: bool = False,
-             params_json: Optional[str] = None) -> Tuple[str, Dict[str, Any]]:
+             params_json: Optional[str] = None, json_out: Optional[str] = None) -> Tuple[str, Dict[str, Any]]:
     """``ivdyn simulate`` -> (its ``--json`` summary, the log as arrays)."""
+def excite(robot: Robot, out: Optional[str] = None, out_mcap: Optional[str] = None, json_out: Optional[str] = None,
+           duration: float = 20.0, harmonics: int = 5, f0: float = 0.1, rate: float = 100.0,
+           criterion: str = "cond", acc_limit: Optional[List[float]] = None,
+           vel_limit: Optional[List[float]] = None, margin: float = 0.01, starts: int = 6,
+           iterations: int = 150, random: int = 20, seed: int = 1, params_json: Optional[str] = None,
+           progress: _Callback = None) -> Tuple[str, Dict[str, Any]]:
+    """``ivdyn excite`` -> (its ``--json`` report, the trajectory as arrays)."""

@@ -96,6 +96,10 @@ def _params(params) -> Optional[str]:
     raise TypeError(f"params must be a parameter-file path or dict, got {type(params).__name__}")
 
 
+def _path(p: Optional[PathLike]) -> Optional[str]:
+    return None if p is None else os.fspath(p)
+
+
 def _log(log, n: int, what: str):
     """A log path, or a dict of arrays (``t``, ``q``, optional ``qd``, ``tau``, ``u``,
     ``joint_names``) converted to float64."""
@@ -124,7 +128,11 @@ def _log(log, n: int, what: str):
 def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip: Optional[str] = None,
              params=None, validate=None, holdout: float = 0.25, topic: str = "/joint_states",
              command_topic: Optional[str] = None, log_time: bool = False, cutoff: Optional[float] = None,
-             decimate: int = 0, progress: Progress = None) -> Dict[str, Any]:
+             decimate: int = 0, friction: Sequence[str] = ("coulomb", "viscous"), armature: bool = True,
+             offset: bool = True, consistent: bool = False, in_memory: bool = False,
+             out_json: Optional[PathLike] = None, out_params: Optional[PathLike] = None,
+             write_urdf: Optional[PathLike] = None, out_mcap: Optional[PathLike] = None,
+             progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
     torques; returns the ``--json`` report as a dict (``docs/cli.md``: ``method``,
     ``base`` [{name, value, std, rel_std_pct, nominal}], ``fit``, ``validation``, ``dwh``,
@@ -139,6 +147,14 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     from :func:`read_joint_states` or :func:`simulate`); ``method``: ``"ols"``, ``"wls"``,
     ``"iv"``, ``"idim-iv"``; ``holdout``: tail fraction kept for validation when no
     ``validate`` log; ``cutoff`` (Hz) and ``decimate`` as ``--cutoff``, ``--decimate``.
+
+    The command line's other options: ``friction`` (``("none",)`` or some of
+    ``"coulomb"``, ``"viscous"``), ``armature`` / ``offset`` (``False``: keep the nominal
+    rotor inertia / torque offset), ``consistent`` (also fit physically consistent
+    parameters), ``in_memory`` (read an MCAP log whole instead of streaming it); and the
+    files: ``out_json`` (the report), ``out_params`` (the parameter file), ``write_urdf``
+    (a copy of the robot's URDF with the identified parameters and its side file; the robot
+    must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
     """
     native = _robot(robot, base, tip)
     cb, close = _callback(progress)
@@ -146,7 +162,10 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
         out = _ivdyn.identify(native, _log(log, native.dof, "log"), str(method),
                               None if validate is None else _log(validate, native.dof, "validate"),
                               float(holdout), str(topic), command_topic, bool(log_time),
-                              None if cutoff is None else float(cutoff), int(decimate), _params(params), cb)
+                              None if cutoff is None else float(cutoff), int(decimate), _params(params), cb,
+                              friction=[str(f) for f in friction], armature=bool(armature), offset=bool(offset),
+                              consistent=bool(consistent), in_memory=bool(in_memory), json_out=_path(out_json),
+                              out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap))
     finally:
         close()
     return json.loads(out)
@@ -155,7 +174,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
 def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optional[str] = None,
             params=None, topic: str = "/joint_states", command_topic: Optional[str] = None,
             log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
-            progress: Progress = None) -> Dict[str, Any]:
+            out_json: Optional[PathLike] = None, write_urdf: Optional[PathLike] = None,
+            payload_as: str = "link", progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn payload`` from Python: the payload on the last link from a log after the
     grasp (and optionally ``before``, a log of the unloaded arm, identified first and used
     as the nominal model); returns the ``--json`` report as a dict: ``link``,
@@ -164,7 +184,9 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     ``not_identifiable`` [{parameter, combined_in}], ``rms_before``/``rms_after`` (N m),
     ``notes``. When the payload is not identifiable from the log, ``identifiable`` is
     False and the numbers are None (the command line exits with 2). Arguments as in
-    :func:`identify`.
+    :func:`identify`; ``out_json``: the report file; ``write_urdf``: a copy of the URDF with
+    the payload, as a fixed child link of the tip (``payload_as="link"``) or merged into it
+    (``"merge"``), written only when the payload is identifiable.
     """
     native = _robot(robot, base, tip)
     cb, close = _callback(progress)
@@ -172,7 +194,8 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
         out = _ivdyn.payload(native, _log(log, native.dof, "log"),
                              None if before is None else _log(before, native.dof, "before"), str(topic),
                              command_topic, bool(log_time), None if cutoff is None else float(cutoff),
-                             int(decimate), _params(params), cb)
+                             int(decimate), _params(params), cb, json_out=_path(out_json),
+                             write_urdf=_path(write_urdf), payload_as=str(payload_as))
     finally:
         close()
     return json.loads(out)
@@ -184,7 +207,7 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
              payload_com: Optional[Sequence[float]] = None, payload_inertia: Optional[Sequence[float]] = None,
              fc: Optional[Sequence[float]] = None, fv: Optional[Sequence[float]] = None, noise: float = 0.0,
              noise_q: float = 0.0, encoder_bits: Optional[int] = None, tau_resolution: Optional[float] = None,
-             velocity: bool = True, command: bool = False) -> Dict[str, Any]:
+             velocity: bool = True, command: bool = False, out_json: Optional[PathLike] = None) -> Dict[str, Any]:
     """``ivdyn simulate`` from Python: a synthetic log, the true model's inverse dynamics
     along a trajectory (``robot`` + payload on the last link + friction ``fc``, ``fv``),
     then noise (``noise`` N m on the torque, ``noise_q`` rad on the position) and
@@ -196,7 +219,8 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
     in the last link's frame. ``command``: also record the noise-free torque as the
     command ``u``; ``velocity=False``: no velocities in the log.
 
-    Writes the log to ``out`` (``.mcap`` or ``.csv``) when given. Returns the command's
+    Writes the log to ``out`` (``.mcap`` or ``.csv``) and the summary to ``out_json`` when
+    given. Returns the command's
     ``--json`` summary ``{"out", "samples", "joints", "options", "true_params"}`` plus
     ``"log": {"t": (T,), "q", "qd", "tau", "u": (T, N) or None, "joint_names"}``, which
     :func:`identify` and :func:`payload` accept as a log.
@@ -222,7 +246,7 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
                                    seq(fc, "fc"), seq(fv, "fv"), float(noise), float(noise_q),
                                    None if encoder_bits is None else int(encoder_bits),
                                    None if tau_resolution is None else float(tau_resolution),
-                                   bool(velocity), bool(command), _params(params))
+                                   bool(velocity), bool(command), _params(params), json_out=_path(out_json))
     res = json.loads(summary)
     res["log"] = log
     return res
@@ -231,7 +255,8 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
 def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *, base: Optional[str] = None,
              tip: Optional[str] = None, params=None, topic: str = "/joint_states", log_time: bool = False,
              cutoff: Optional[float] = None, alpha: float = 1e-3, min_effect: float = 0.5,
-             ignore_log_velocity: bool = False, report: bool = True) -> Dict[str, Any]:
+             ignore_log_velocity: bool = False, report: bool = True, out_json: Optional[PathLike] = None,
+             progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
     ``effects`` [{name, joints, parameters, rms_before, rms_after}] in the order found
@@ -243,11 +268,49 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     a parameter file replacing the nominal values; ``log``: a ``.mcap`` / ``.csv`` path or a
     dict of arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd": optional}``;
     ``cutoff`` (Hz): differentiation low-pass (default: chosen from the data); ``alpha``:
-    F-test level; ``min_effect``: smallest effect named, in noise standard deviations.
+    F-test level; ``min_effect``: smallest effect named, in noise standard deviations;
+    ``out_json``: a second copy of diagnosis.json.
     """
     native = _robot(robot, base, tip)
-    out_s = None if out is None else os.fspath(out)
-    text = _ivdyn.diagnose(native, _log(log, native.dof, "log"), out_s, str(topic), bool(log_time),
-                           None if cutoff is None else float(cutoff), float(alpha), float(min_effect),
-                           bool(ignore_log_velocity), bool(report), _params(params))
+    cb, close = _callback(progress)
+    try:
+        text = _ivdyn.diagnose(native, _log(log, native.dof, "log"), _path(out), str(topic), bool(log_time),
+                               None if cutoff is None else float(cutoff), float(alpha), float(min_effect),
+                               bool(ignore_log_velocity), bool(report), _params(params),
+                               json_out=_path(out_json), progress=cb)
+    finally:
+        close()
     return json.loads(text)
+
+
+def excite(robot, out: Optional[PathLike] = None, *, base: Optional[str] = None, tip: Optional[str] = None,
+           params=None, out_mcap: Optional[PathLike] = None, out_json: Optional[PathLike] = None,
+           duration: float = 20.0, harmonics: int = 5, f0: float = 0.1, rate: float = 100.0,
+           criterion: str = "cond", acc_limit: Union[float, Sequence[float]] = 5.0,
+           vel_limit: Optional[Union[float, Sequence[float]]] = None, margin: float = 0.01, starts: int = 6,
+           iterations: int = 150, random: int = 20, seed: int = 1, progress: Progress = None) -> Dict[str, Any]:
+    """``ivdyn excite`` from Python: an excitation trajectory for ``robot`` (a finite
+    Fourier series of ``harmonics`` harmonics of ``f0`` Hz, ``duration`` s at ``rate`` Hz)
+    whose base regressor is as well conditioned as the limits allow (``criterion``:
+    ``"cond"`` or ``"logdet"``; ``acc_limit`` rad/s^2 and ``vel_limit`` rad/s, one value or
+    one per joint; ``margin``: fraction every limit is shrunk). Writes the trajectory to
+    ``out`` (CSV: ``t``, ``<joint>.q``, ``.qd``, ``.qdd``) and ``out_mcap``, the report to
+    ``out_json`` when given. Returns the ``--json`` report as a dict plus ``"trajectory"``:
+    ``{"t": (T,), "q", "qd", "qdd": (T, N), "joint_names"}``.
+    """
+    native = _robot(robot, base, tip)
+
+    def seq(x):
+        return None if x is None else [float(v) for v in np.atleast_1d(np.asarray(x, dtype=np.float64))]
+
+    cb, close = _callback(progress)
+    try:
+        text, traj = _ivdyn.excite(native, _path(out), _path(out_mcap), _path(out_json), float(duration),
+                                   int(harmonics), float(f0), float(rate), str(criterion), seq(acc_limit),
+                                   seq(vel_limit), float(margin), int(starts), int(iterations), int(random),
+                                   int(seed), _params(params), cb)
+    finally:
+        close()
+    res = json.loads(text)
+    res["trajectory"] = traj
+    return res

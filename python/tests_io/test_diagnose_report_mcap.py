@@ -9,7 +9,6 @@ measured effort equal to the log's.
 """
 import os
 import re
-import shutil
 import subprocess
 
 import numpy as np
@@ -29,19 +28,11 @@ FIXED = ["/joint_states", "/ivdyn/predicted/nominal", "/ivdyn/predicted/final",
 
 
 @pytest.fixture(scope="module")
-def decoded(tmp_path_factory):
+def decoded(tmp_path_factory, ivdyn_bin):
     out = tmp_path_factory.mktemp("diag")
     args = ["diagnose", "--urdf", os.path.join(ROOT, "fixtures", "ur5.urdf"), "--base", "base_link", "--tip", "tool0",
             "--log", LOG, "--out", str(out), "--quiet"]
-    # `make test` runs `cargo test --workspace` first, which builds the binary; reuse it.
-    exe = os.path.join(ROOT, "target", "debug", "ivdyn")
-    if os.path.exists(exe):
-        subprocess.run([exe, *args], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
-    else:
-        cargo = shutil.which("cargo")
-        assert cargo is not None, "cargo must be on PATH to build ivdyn"
-        subprocess.run([cargo, "run", "-q", "-p", "ivdyn", "--bin", "ivdyn", "--", *args],
-                       cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+    subprocess.run([ivdyn_bin, *args], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
     path = out / "residuals.mcap"
     msgs = {}
     with open(path, "rb") as f:

@@ -396,6 +396,30 @@ def simulate(cfg, case, robot_nominal_ctrl, duration, dt=DT):
             "tracking_max_err": float(track), "q_ref": qr[:T], "qd_ref": qdr[:T], "qdd_ref": qddr[:T]}
 
 
+def measured(cfg, case, robot, duration, dt=DT):
+    """A case simulated, then measured: (sim, q, qd, tau, torque noise std per joint), with
+    the sensor-side torque offset, Gaussian torque noise (seed + 1000) and the encoder,
+    velocity and torque quantisation of the manifest."""
+    names = robot.joint_names
+    n = len(names)
+    sim = simulate(cfg, case, robot, duration, dt)
+    rng = np.random.default_rng(case["seed"] + 1000)
+    T = len(sim["t"])
+    offset = np.zeros(n)
+    for e in case["effects"]:
+        if e["name"] == "torque_offset":
+            for jn, v in zip(e["joints"], e["parameters"]["tau0"]):
+                offset[names.index(jn)] += v
+    noise_std = cfg["torque_noise"]
+    case_noise = noise_std if "noise_scale" not in case else [case["noise_scale"] * s for s in noise_std]
+    noise = rng.standard_normal((T, n)) * np.array(case_noise)
+    tau_meas = sim["tau"] + offset + noise
+    tau_meas = np.round(tau_meas / TAU_RES) * TAU_RES
+    q_meas = np.round(sim["q"] / Q_RES) * Q_RES
+    qd_meas = np.round(sim["qd"] / QD_RES) * QD_RES
+    return sim, q_meas, qd_meas, tau_meas, case_noise
+
+
 # ----------------------------------------------------------------------------- effects (oracle)
 def effect_torque(effects, names, q, qd, qdd, robot_true):
     """What the true effects add to the nominal rigid-body torque (T, N), evaluated as the
@@ -526,20 +550,8 @@ def main(argv=None):
         nominal = case.get("nominal")
         rate = case.get("rate_hz", 1000.0)
         dt = DT if "rate_hz" not in case else 1.0 / rate
-        sim = simulate(cfg, case, robot, args.duration, dt)
-        rng = np.random.default_rng(case["seed"] + 1000)
+        sim, q_meas, qd_meas, tau_meas, case_noise = measured(cfg, case, robot, args.duration, dt)
         T = len(sim["t"])
-        offset = np.zeros(n)
-        for e in case["effects"]:
-            if e["name"] == "torque_offset":
-                for jn, v in zip(e["joints"], e["parameters"]["tau0"]):
-                    offset[names.index(jn)] += v
-        case_noise = noise_std if "noise_scale" not in case else [case["noise_scale"] * s for s in noise_std]
-        noise = rng.standard_normal((T, n)) * np.array(case_noise)
-        tau_meas = sim["tau"] + offset + noise
-        tau_meas = np.round(tau_meas / TAU_RES) * TAU_RES
-        q_meas = np.round(sim["q"] / Q_RES) * Q_RES
-        qd_meas = np.round(sim["qd"] / QD_RES) * QD_RES
         with_vel = case.get("velocity", True)
         log = f"{case['name']}.mcap"
         size = write_mcap(os.path.join(out, log), names, sim["t"], q_meas,

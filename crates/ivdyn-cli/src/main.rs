@@ -1,17 +1,17 @@
-//! The `ivdyn` command line: `identify`, `payload`, `simulate` (see `docs/cli.md`).
+//! The `ivdyn` command line: `identify`, `payload`, `simulate`, `diagnose`, `excite`
+//! (see `docs/cli.md`). Arguments become an `ivdyn::app` job; the job reads, runs and
+//! writes; this binary prints its summary and draws the progress bars.
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use ivdyn::log::{self, JointLog, ReadOptions};
-use ivdyn::app::{self, IdentifyOptions, Method, PayloadOptions, SimulateOptions, Trajectory};
+use ivdyn::app::{self, IdentifyJob, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, RobotSource, SimulateOptions, Trajectory};
 use ivdyn::progress::Progress;
-use ivdyn::report::{ParamsFile, PayloadSpec};
+use ivdyn::report::PayloadSpec;
 use ivdyn::Robot;
 
 #[derive(Parser)]
@@ -138,6 +138,16 @@ enum FrictionArg {
     None,
     Coulomb,
     Viscous,
+}
+
+impl FrictionArg {
+    fn name(&self) -> &'static str {
+        match self {
+            FrictionArg::None => "none",
+            FrictionArg::Coulomb => "coulomb",
+            FrictionArg::Viscous => "viscous",
+        }
+    }
 }
 
 #[derive(Args)]
@@ -325,15 +335,6 @@ impl Bars {
     fn sink(&self) -> ivdyn::progress::ProgressSink {
         if self.quiet { None } else { Some(Arc::new(self.clone())) }
     }
-    fn spinner(&self, msg: &str) -> Option<ProgressBar> {
-        if self.quiet {
-            return None;
-        }
-        let pb = ProgressBar::new_spinner();
-        pb.set_message(msg.to_string());
-        pb.enable_steady_tick(std::time::Duration::from_millis(120));
-        Some(pb)
-    }
 }
 
 impl Progress for Bars {
@@ -374,34 +375,33 @@ impl Progress for Bars {
 
 // ------------------------------------------------------------------------ helpers
 
-fn load_robot(a: &RobotArgs) -> R<Robot> {
-    let mut robot = Robot::from_urdf(&a.urdf, a.base.as_deref(), a.tip.as_deref()).map_err(|e| e.to_string())?;
-    if let Some(p) = &a.params {
-        let text = std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?;
-        let pf: ParamsFile = serde_json::from_str(&text).map_err(|e| format!("{}: not a parameter file: {e}", p.display()))?;
-        ivdyn::robot::load::load_params(&mut robot, &pf).map_err(|e| format!("{}: {e}", p.display()))?;
-    } else {
-        // armature and offsets of a URDF written by --write-urdf
-        let side = ivdyn::robot::load::side_path(&a.urdf);
-        if side.exists() {
-            robot.apply_side_file(&side).map_err(|e| e.to_string())?;
-            eprintln!("note: applied the side file {}", side.display());
+/// An `ivdyn` error as the command line says it: options by their flag (`--payload-mass`).
+fn msg(e: ivdyn::Error) -> String {
+    match e {
+        ivdyn::Error::Option { option, msg } => {
+            let flags: Vec<String> = option.split('/').map(|o| format!("--{}", o.replace('_', "-"))).collect();
+            format!("{} {msg}", flags.join("/"))
         }
+        ivdyn::Error::InFile { file, source } => format!("{}: {}", file.display(), msg(*source)),
+        e => e.to_string(),
+    }
+}
+
+fn robot_source(a: &RobotArgs) -> RobotSource {
+    RobotSource { urdf: a.urdf.clone(), base: a.base.clone(), tip: a.tip.clone(), params: a.params.clone() }
+}
+
+fn load_robot(a: &RobotArgs) -> R<Robot> {
+    let src = robot_source(a);
+    let robot = src.load().map_err(msg)?;
+    if let Some(side) = src.side_file() {
+        eprintln!("note: applied the side file {}", side.display());
     }
     Ok(robot)
 }
 
-fn ext(p: &Path) -> String {
-    p.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase()
-}
-
-fn read_log(path: &Path, robot: &Robot, la: &LogArgs, bars: &Bars) -> R<JointLog> {
-    let pb = bars.spinner(&format!("reading {}", path.display()));
-    let r = ivdyn::log::read_pipeline_log(path, &robot.joint_names, &la.topic, la.command_topic.as_deref(), la.log_time);
-    if let Some(pb) = pb {
-        pb.finish_and_clear();
-    }
-    r.map_err(|e| e.to_string())
+fn log_source(la: &LogArgs) -> LogSource {
+    LogSource { topic: la.topic.clone(), command_topic: la.command_topic.clone(), log_time: la.log_time }
 }
 
 fn condition_opts(la: &LogArgs) -> ivdyn::prep::ConditionOptions {
@@ -412,44 +412,23 @@ fn condition_opts(la: &LogArgs) -> ivdyn::prep::ConditionOptions {
     c
 }
 
-/// A temporary path in the same directory as `path` (renamed over it on success).
-fn tmp_path(path: &Path) -> PathBuf {
-    let name = path.file_name().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "out".into());
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
-}
-
-fn write_json<T: serde::Serialize>(path: &Path, v: &T) -> R<()> {
-    let tmp = tmp_path(path);
-    let res = (|| -> std::io::Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        serde_json::to_writer_pretty(&mut f, v).map_err(std::io::Error::other)?;
-        f.write_all(b"\n")?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if let Err(e) = res {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(format!("{}: cannot write: {e}", path.display()));
-    }
-    Ok(())
-}
-
 fn fmt_list(v: &[f64], prec: usize) -> String {
     v.iter().map(|x| format!("{x:.prec$}")).collect::<Vec<_>>().join(", ")
 }
 
-// ------------------------------------------------------------------------ identify
-
-fn read_options(robot: &Robot, la: &LogArgs) -> ReadOptions {
-    ReadOptions::new(&robot.joint_names).topic(&la.topic).command_topic_opt(la.command_topic.as_deref()).log_time(la.log_time)
+fn print_written(lines: &[String]) {
+    for l in lines {
+        println!("{l}");
+    }
 }
+
+// ------------------------------------------------------------------------ identify
 
 fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
-    if a.friction.contains(&FrictionArg::None) && a.friction.len() > 1 {
-        return Err("--friction none cannot be combined with other terms".into());
-    }
-    let mut opts = IdentifyOptions {
+    let friction: Vec<&str> = a.friction.iter().map(|f| f.name()).collect();
+    let drive = ivdyn::ident::DriveTerms::from_names(&friction, !a.no_armature, !a.no_offset).map_err(msg)?;
+    let opts = IdentifyOptions {
         method: match a.method {
             MethodArg::Ols => Method::Ols,
             MethodArg::Wls => Method::Wls,
@@ -459,43 +438,31 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
         condition: condition_opts(&a.log_args),
         decimate: a.log_args.decimate,
         validation_fraction: a.holdout,
-        drive: ivdyn::ident::DriveTerms {
-            coulomb: a.friction.contains(&FrictionArg::Coulomb),
-            viscous: a.friction.contains(&FrictionArg::Viscous),
-            armature: !a.no_armature,
-            offset: !a.no_offset,
-        },
+        drive,
         progress: bars.sink(),
         consistent: a.consistent,
         ..Default::default()
     };
-    // MCAP logs are streamed (bounded memory) unless the options or the log need memory
-    let mut streamed = None;
-    let mut why_not = None;
-    let streamable = !a.in_memory && ext(&a.log) != "csv" && a.validate.as_ref().is_none_or(|v| ext(v) != "csv");
-    if streamable {
-        let read = read_options(&robot, &a.log_args);
-        match ivdyn::app::stream::identify_mcap(&robot, &a.log, a.validate.as_deref(), &read, &opts) {
-            Ok(ivdyn::app::stream::Streamed::Done(r)) => streamed = Some(r),
-            Ok(ivdyn::app::stream::Streamed::Unsupported(why)) => why_not = Some(why),
-            // reader errors already name the file
-            Err(e @ (ivdyn::Error::Log { .. } | ivdyn::Error::Io { .. })) => return Err(e.to_string()),
-            Err(e) => return Err(format!("{}: {e}", a.log.display())),
-        }
-    }
-    let mut mem_log = None;
-    let rep = match streamed {
-        Some(r) => r,
-        None => {
-            let log = mem_log.insert(read_log(&a.log, &robot, &a.log_args, bars)?);
-            opts.validation_log = a.validate.as_ref().map(|p| read_log(p, &robot, &a.log_args, bars)).transpose()?;
-            let mut r = app::identify(&robot, log, &opts).map_err(|e| format!("{}: {e}", a.log.display()))?;
-            if let Some(w) = why_not {
-                r.notes.push(format!("read into memory (not streamed): {w}"));
-            }
-            r
-        }
+    let job = IdentifyJob {
+        log: LogInput::File(a.log.clone()),
+        validate: a.validate.clone().map(LogInput::File),
+        source: log_source(&a.log_args),
+        in_memory: a.in_memory,
+        opts,
+        outputs: app::IdentifyOutputs {
+            json: a.json.clone(),
+            params: a.out_params.clone(),
+            urdf: a.write_urdf.clone().map(|o| (a.robot.urdf.clone(), o)),
+            mcap: a.out_mcap.clone(),
+        },
     };
+    let out = app::identify_job(&robot, &job).map_err(msg)?;
+    print_identify(&robot, &out.report);
+    print_written(&out.written);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_identify(robot: &Robot, rep: &app::IdentifyReport) {
     if let Some(fit) = &rep.fit_report {
         println!("robot '{}', {} joints, {} samples at {:.1} Hz (filter {:.1} Hz), method {}", robot.name, robot.dof(), rep.fit.samples, rep.sample_rate_hz, rep.filter_cutoff_hz, rep.method);
         if let Some(i) = &rep.instrument {
@@ -534,58 +501,22 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
             println!("  {l}");
         }
     }
-    let mut params = &rep.params;
     if let Some(c) = &rep.consistent {
-        let (r, k) = (&c.result, &c.result.cost);
-        println!("consistent fit ({} LM iterations{}): weighted RSS {:.6e} -> {:.6e} (+{:.3}%), {}", k.iterations, if k.converged { "" } else { ", NOT converged" }, k.rss_ls, k.rss, 100.0 * k.rss_increase, if r.check.consistent { "physically consistent".to_string() } else { format!("still inconsistent: {}", r.check.lines().join("; ")) });
-        println!("  {} unidentifiable directions pulled toward the nominal parameters", k.regularised_directions);
-        println!("fit quality per joint with the consistent parameters:");
-        print_quality(&rep.joints, &c.fit);
-        if let Some(v) = &c.validation {
-            println!("validation with the consistent parameters ({}):", v.data);
-            print_quality(&rep.joints, v);
-        }
-        params = &c.params;
+        print_consistent(&rep.joints, c);
     }
-    if let Some(p) = &a.out_params {
-        write_json(p, params)?;
-        println!("parameters written to {}", p.display());
+}
+
+fn print_consistent(joints: &[String], c: &ivdyn::ident::consistent::ConsistentReport) {
+    let (r, k) = (&c.result, &c.result.cost);
+    let verdict = if r.check.consistent { "physically consistent".to_string() } else { format!("still inconsistent: {}", r.check.lines().join("; ")) };
+    println!("consistent fit ({} LM iterations{}): weighted RSS {:.6e} -> {:.6e} (+{:.3}%), {}", k.iterations, if k.converged { "" } else { ", NOT converged" }, k.rss_ls, k.rss, 100.0 * k.rss_increase, verdict);
+    println!("  {} unidentifiable directions pulled toward the nominal parameters", k.regularised_directions);
+    println!("fit quality per joint with the consistent parameters:");
+    print_quality(joints, &c.fit);
+    if let Some(v) = &c.validation {
+        println!("validation with the consistent parameters ({}):", v.data);
+        print_quality(joints, v);
     }
-    if let Some(out) = &a.write_urdf {
-        let source = if rep.consistent.is_some() { "ivdyn identify --consistent: physically consistent full parameters" } else { "ivdyn identify: nominal parameters corrected in the identifiable directions (BaseParams::apply)" };
-        let text = std::fs::read_to_string(&a.robot.urdf).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
-        let wb = ivdyn::robot::write::write_back(&text, &a.robot.urdf, &robot, Some(&params.theta), None, vec![source.to_string()]).map_err(|e| e.to_string())?;
-        ivdyn::robot::write::write_files(out, &wb).map_err(|e| e.to_string())?;
-        println!("URDF written to {} (armature and offsets in {})", out.display(), ivdyn::robot::load::side_path(out).display());
-    }
-    if let Some(p) = &a.json {
-        write_json(p, &rep)?;
-        println!("report written to {}", p.display());
-    }
-    if let Some(out) = &a.out_mcap {
-        let mut model = robot.clone();
-        model.set_params(&rep.params.theta).map_err(|e| e.to_string())?;
-        let fail = |e: ivdyn::Error| format!("{}: {e}", out.display());
-        let mut written = None;
-        if mem_log.is_none() {
-            let read = read_options(&robot, &a.log_args);
-            if let ivdyn::app::stream::Streamed::Done(k) = ivdyn::app::stream::write_prediction_mcap(out, &model, &a.log, &read, &opts).map_err(fail)? {
-                written = Some(k);
-            }
-        }
-        let k = match written {
-            Some(k) => k,
-            None => {
-                let log = match mem_log.take() {
-                    Some(l) => l,
-                    None => read_log(&a.log, &robot, &a.log_args, bars)?,
-                };
-                app::write_prediction(out, &model, &log, &opts.condition).map_err(fail)?
-            }
-        };
-        println!("measured, predicted and residual torques ({k} samples) written to {} (topics /joint_states, /ivdyn/predicted, /ivdyn/residual)", out.display());
-    }
-    Ok(ExitCode::SUCCESS)
 }
 
 fn print_quality(joints: &[String], q: &ivdyn::report::Quality) {
@@ -600,12 +531,31 @@ fn print_quality(joints: &[String], q: &ivdyn::report::Quality) {
 
 fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
-    let after = read_log(&a.log, &robot, &a.log_args, bars)?;
-    let before = a.before.as_ref().map(|p| read_log(p, &robot, &a.log_args, bars)).transpose()?;
-    let mut opts = PayloadOptions { condition: condition_opts(&a.log_args), decimate: a.log_args.decimate, progress: bars.sink(), ..Default::default() };
-    opts.before.condition = opts.condition.clone();
-    opts.before.decimate = opts.decimate;
-    let rep = app::payload(&robot, &after, before.as_ref(), &opts).map_err(|e| format!("{}: {e}", a.log.display()))?;
+    let mode = match a.payload_as {
+        PayloadAsArg::Link => app::PayloadMode::Link,
+        PayloadAsArg::Merge => app::PayloadMode::Merge,
+    };
+    let job = app::PayloadJob {
+        log: LogInput::File(a.log.clone()),
+        before: a.before.clone().map(LogInput::File),
+        source: log_source(&a.log_args),
+        opts: PayloadOptions { condition: condition_opts(&a.log_args), decimate: a.log_args.decimate, progress: bars.sink(), ..Default::default() },
+        json: a.json.clone(),
+        urdf: a.write_urdf.clone().map(|o| (a.robot.urdf.clone(), o, mode)),
+    };
+    let out = app::payload_job(&robot, &job).map_err(msg)?;
+    let rep = &out.report;
+    print_payload(rep);
+    print_written(&out.written);
+    if !rep.identifiable {
+        let names: Vec<&str> = rep.not_identifiable.iter().map(|h| h.parameter.as_str()).collect();
+        eprintln!("ivdyn: error: payload not identifiable from {}: {}", a.log.display(), names.join(", "));
+        return Ok(ExitCode::from(2));
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn print_payload(rep: &app::PayloadReport) {
     println!("payload on link '{}' (COM and inertia in its frame), nominal model: {}, {} samples", rep.link, rep.nominal, rep.samples);
     if rep.identifiable {
         let (m, ms) = (rep.mass.unwrap_or(f64::NAN), rep.mass_std.unwrap_or(f64::NAN));
@@ -625,52 +575,13 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
     for n in &rep.notes {
         println!("note: {n}");
     }
-    if let Some(p) = &a.json {
-        write_json(p, &rep)?;
-        println!("report written to {}", p.display());
-    }
-    if let (Some(out), true) = (&a.write_urdf, rep.identifiable) {
-        let spec = PayloadSpec { mass: rep.mass.unwrap_or(f64::NAN), com: rep.com.unwrap_or([f64::NAN; 3]), inertia: rep.inertia.unwrap_or([f64::NAN; 6]) };
-        let mode = match a.payload_as {
-            PayloadAsArg::Link => ivdyn::robot::write::PayloadMode::Link,
-            PayloadAsArg::Merge => ivdyn::robot::write::PayloadMode::Merge,
-        };
-        let text = std::fs::read_to_string(&a.robot.urdf).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
-        let theta = robot.params();
-        let wb = ivdyn::robot::write::write_back(&text, &a.robot.urdf, &robot, Some(&theta), Some((&spec, mode)), vec!["ivdyn payload: the arm as loaded (URDF, --params or side file) plus the identified payload".into()]).map_err(|e| e.to_string())?;
-        ivdyn::robot::write::write_files(out, &wb).map_err(|e| e.to_string())?;
-        println!("URDF with the payload written to {}", out.display());
-    }
-    if !rep.identifiable {
-        let names: Vec<&str> = rep.not_identifiable.iter().map(|h| h.parameter.as_str()).collect();
-        eprintln!("ivdyn: error: payload not identifiable from {}: {}", a.log.display(), names.join(", "));
-        return Ok(ExitCode::from(2));
-    }
-    Ok(ExitCode::SUCCESS)
 }
 
 // ------------------------------------------------------------------------ simulate
 
 fn simulate(a: SimulateArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
-    let payload = match (a.payload_mass, &a.payload_com, &a.payload_inertia) {
-        (None, None, None) => None,
-        (Some(m), c, i) => {
-            if !(m.is_finite() && m > 0.0) {
-                return Err(format!("--payload-mass must be positive, got {m}"));
-            }
-            if c.as_ref().is_some_and(|c| c.len() != 3) {
-                return Err("--payload-com needs 3 values x,y,z".into());
-            }
-            if i.as_ref().is_some_and(|i| i.len() != 6) {
-                return Err("--payload-inertia needs 6 values Ixx,Ixy,Ixz,Iyy,Iyz,Izz".into());
-            }
-            let com = c.as_ref().map(|c| [c[0], c[1], c[2]]).unwrap_or([0.0; 3]);
-            let inertia = i.as_ref().map(|i| [i[0], i[1], i[2], i[3], i[4], i[5]]).unwrap_or([0.0; 6]);
-            Some(PayloadSpec { mass: m, com, inertia })
-        }
-        (None, _, _) => return Err("--payload-com/--payload-inertia need --payload-mass".into()),
-    };
+    let payload = PayloadSpec::from_parts(a.payload_mass, a.payload_com.as_deref(), a.payload_inertia.as_deref()).map_err(msg)?;
     let opts = SimulateOptions {
         rate_hz: a.rate,
         duration_s: a.duration,
@@ -689,49 +600,18 @@ fn simulate(a: SimulateArgs, bars: &Bars) -> R<ExitCode> {
     };
     let traj = match &a.traj {
         None => Trajectory::Fourier,
-        Some(p) => {
-            let l = log::read_csv(p, &robot.joint_names).map_err(|e| e.to_string())?;
-            l.validate(p).map_err(|e| e.to_string())?;
-            Trajectory::Samples { t: l.t, q: l.q }
-        }
+        Some(p) => Trajectory::from_csv(p, &robot).map_err(msg)?,
     };
-    let pb = bars.spinner("simulating");
-    let log = app::simulate(&robot, &traj, &opts).map_err(|e| e.to_string());
-    if let Some(pb) = pb {
-        pb.finish_and_clear();
-    }
-    let log = log?;
-    let tmp = tmp_path(&a.out);
-    let res = match ext(&a.out).as_str() {
-        "csv" => log::write_csv(&tmp, &log).map(|_| ()),
-        "mcap" => log::write_mcap(&tmp, &log, &[]).map(|_| ()),
-        e => return Err(format!("{}: unknown output format '.{e}' (use .mcap or .csv)", a.out.display())),
-    };
-    if let Err(e) = res.map_err(|e| e.to_string()).and_then(|_| std::fs::rename(&tmp, &a.out).map_err(|e| format!("{}: {e}", a.out.display()))) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(e);
-    }
-    println!("wrote {} samples of {} joints ({:.2} s) to {}", log.len(), log.dof(), log.t.last().copied().unwrap_or(0.0), a.out.display());
-    if let Some(p) = &a.json {
-        #[derive(serde::Serialize)]
-        struct SimJson<'a> {
-            out: String,
-            samples: usize,
-            joints: &'a [String],
-            options: &'a SimulateOptions,
-            true_params: ParamsFile,
-        }
-        let truth = app::true_robot(&robot, &opts).map_err(|e| e.to_string())?;
-        let tp = ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: truth.params() };
-        write_json(p, &SimJson { out: a.out.display().to_string(), samples: log.len(), joints: &robot.joint_names, options: &opts, true_params: tp })?;
-    }
+    let job = app::SimulateJob { opts, traj, out: Some(a.out.clone()), json: a.json.clone() };
+    let out = app::simulate_job(&robot, &job, &bars.sink()).map_err(msg)?;
+    print_written(&out.written);
     Ok(ExitCode::SUCCESS)
 }
 
 // ------------------------------------------------------------------------ excite
 
 fn excite(a: ExciteArgs, bars: &Bars) -> R<ExitCode> {
-    use ivdyn::excite::{self, Criterion, ExciteOptions};
+    use ivdyn::excite::{Criterion, ExciteOptions};
     let robot = load_robot(&a.robot)?;
     let opts = ExciteOptions {
         duration_s: a.duration,
@@ -752,11 +632,9 @@ fn excite(a: ExciteArgs, bars: &Bars) -> R<ExitCode> {
         progress: bars.sink(),
         ..Default::default()
     };
-    let rep = excite::design(&robot, &opts).map_err(|e| format!("{}: {e}", a.robot.urdf.display()))?;
-    excite::write_csv(&a.out, &rep.joints, &rep.trajectory).map_err(|e| e.to_string())?;
-    if let Some(p) = &a.out_mcap {
-        excite::write_mcap(p, &rep.joints, &rep.trajectory).map_err(|e| e.to_string())?;
-    }
+    let job = app::ExciteJob { opts, csv: Some(a.out.clone()), mcap: a.out_mcap.clone(), json: a.json.clone() };
+    let out = app::excite_job(&robot, &job).map_err(|e| format!("{}: {}", a.robot.urdf.display(), msg(e)))?;
+    let rep = &out.report;
     println!("robot '{}', {} joints, {} base parameters, {} harmonics of {} Hz, {} s at {} Hz", rep.robot, rep.joints.len(), rep.base_count, rep.harmonics, rep.f0_hz, rep.duration_s, rep.rate_hz);
     println!("  optimised ({:?}): cond = {:.4e}, log det = {:.4}", rep.criterion, rep.optimised.cond, rep.optimised.logdet);
     println!("  random Fourier ({} draws, same harmonics and bounds): median cond = {:.4e} (best {:.4e}), median log det = {:.4}", rep.random.draws, rep.random.cond_median, rep.random.cond_min, rep.random.logdet_median);
@@ -765,10 +643,6 @@ fn excite(a: ExciteArgs, bars: &Bars) -> R<ExitCode> {
     for n in &rep.notes {
         println!("note: {n}");
     }
-    println!("trajectory written to {}{}", a.out.display(), a.out_mcap.as_ref().map(|p| format!(" and {}", p.display())).unwrap_or_default());
-    if let Some(p) = &a.json {
-        write_json(p, &rep)?;
-        println!("report written to {}", p.display());
-    }
+    print_written(&out.written);
     Ok(ExitCode::SUCCESS)
 }

@@ -25,7 +25,12 @@ fn core_is_input(e: &CoreError) -> bool {
 /// `ivdyn::Error` -> Python exception.
 pub fn to_py(e: Error) -> PyErr {
     let msg = e.to_string();
-    match &e {
+    // an error in a file is of its cause's kind
+    let mut e = &e;
+    while let Error::InFile { source, .. } = e {
+        e = source;
+    }
+    match e {
         Error::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound => PyFileNotFoundError::new_err(msg),
         Error::Io { .. } => PyOSError::new_err(msg),
         Error::Core(c) if core_is_input(c) => PyValueError::new_err(msg),
@@ -40,7 +45,8 @@ pub fn to_py(e: Error) -> PyErr {
         | Error::TooManyJoints { .. }
         | Error::Dimension { .. }
         | Error::Log { .. }
-        | Error::Signal { .. } => PyValueError::new_err(msg),
+        | Error::Signal { .. }
+        | Error::Option { .. } => PyValueError::new_err(msg),
         Error::Sample { source, .. } if core_is_input(source) => PyValueError::new_err(msg),
         _ => PyRuntimeError::new_err(msg),
     }

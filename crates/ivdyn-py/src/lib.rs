@@ -29,6 +29,8 @@ use pyo3::prelude::*;
 #[derive(Clone)]
 struct PyRobot {
     inner: ivdyn::Robot,
+    /// The URDF it was loaded from (the start of a URDF write-back).
+    urdf: Option<std::path::PathBuf>,
 }
 
 /// Contiguous row-major data of a `(T, n)` array: borrowed when C-contiguous, else copied.
@@ -110,13 +112,13 @@ impl PyRobot {
     #[staticmethod]
     #[pyo3(signature = (path, base=None, tip=None))]
     fn from_urdf(path: std::path::PathBuf, base: Option<&str>, tip: Option<&str>) -> PyResult<Self> {
-        Ok(PyRobot { inner: ivdyn::Robot::from_urdf(path, base, tip).map_err(to_py)? })
+        Ok(PyRobot { inner: ivdyn::Robot::from_urdf(&path, base, tip).map_err(to_py)?, urdf: Some(path) })
     }
 
     /// The paper's six-joint robot (Tables 1 and 2).
     #[staticmethod]
     fn paper() -> Self {
-        PyRobot { inner: ivdyn::Robot::paper() }
+        PyRobot { inner: ivdyn::Robot::paper(), urdf: None }
     }
 
     /// Revolute chain from a standard DH table (m, rad), all parameters zero.
@@ -124,7 +126,7 @@ impl PyRobot {
     #[pyo3(signature = (a, d, alpha, offset=None))]
     fn from_dh(a: Vec<f64>, d: Vec<f64>, alpha: Vec<f64>, offset: Option<Vec<f64>>) -> PyResult<Self> {
         let inner = batch::robot_from_dh(&a, &d, &alpha, offset.as_deref()).map_err(to_py)?;
-        Ok(PyRobot { inner })
+        Ok(PyRobot { inner, urdf: None })
     }
 
     /// An independent copy.

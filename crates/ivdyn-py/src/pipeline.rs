@@ -1,7 +1,8 @@
-//! The command line's pipelines from Python: `ivdyn::app::{identify, payload,
-//! simulate}` on a robot and a log (a file, or arrays), returning the JSON document the
-//! command line writes with `--json` (as a string; the Python wrapper parses it), with the
-//! GIL released.
+//! The command line's jobs from Python: `ivdyn::app::{identify_job, payload_job,
+//! simulate_job, diagnose_job, excite_job}` (the same functions the command line calls, with
+//! the same options) on a robot and a log (a file, or arrays), returning the JSON document
+//! the command line writes with `--json` (as a string; the Python wrapper parses it), with
+//! the GIL released. This file only converts arguments and results.
 //!
 //! Progress goes through the pipeline's own `Progress` hook (the one the command line
 //! draws its bars with). The hook re-acquires the GIL only to call the Python callback and
@@ -17,12 +18,12 @@ use std::sync::{Arc, Mutex};
 
 use crate::error::to_py;
 use crate::PyRobot;
-use ivdyn::log::JointLog;
-use ivdyn::app::{self, IdentifyOptions, Method, PayloadOptions, SimulateOptions, Trajectory};
-use ivdyn::progress::Progress;
-use ivdyn::report::{ParamsFile, PayloadSpec};
+use ivdyn::app::{self, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, SimulateOptions, Trajectory};
 use ivdyn::dsp::{DiffMethod, DEFAULT_ORDER};
+use ivdyn::log::JointLog;
 use ivdyn::prep::ConditionOptions;
+use ivdyn::progress::Progress;
+use ivdyn::report::PayloadSpec;
 use ivdyn::Robot;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -99,17 +100,9 @@ fn run<T: Send>(py: Python<'_>, callback: Option<Py<PyAny>>, f: impl FnOnce(ivdy
 fn robot_with_params(robot: &Robot, params_json: Option<&str>) -> PyResult<Robot> {
     let mut r = robot.clone();
     if let Some(js) = params_json {
-        let pf: ParamsFile = serde_json::from_str(js).map_err(|e| PyValueError::new_err(format!("params: not a parameter file: {e}")))?;
-        ivdyn::robot::load::load_params(&mut r, &pf).map_err(|e| PyValueError::new_err(format!("params: {e}")))?;
+        ivdyn::robot::load::apply_params_json(&mut r, js, Path::new("params")).map_err(to_py)?;
     }
     Ok(r)
-}
-
-/// Log options shared by identify and payload.
-struct LogSource<'a> {
-    topic: &'a str,
-    command_topic: Option<&'a str>,
-    log_time: bool,
 }
 
 fn f64_1d(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Option<Vec<f64>>> {
@@ -137,37 +130,41 @@ fn f64_2d(d: &Bound<'_, PyDict>, key: &str, t: usize, n: usize) -> PyResult<Opti
     }
 }
 
-/// A log from a path (read as the command line does) or from a dict of arrays
-/// (`t`, `q`, optional `qd`, `tau`, `u`, `joint_names`), checked like a file's.
-fn joint_log(py: Python<'_>, robot: &Robot, log: &Bound<'_, PyAny>, src: &LogSource<'_>, what: &str) -> PyResult<JointLog> {
-    if let Ok(d) = log.cast::<PyDict>() {
-        let n = robot.dof();
-        let t = f64_1d(d, "t")?.ok_or_else(|| PyValueError::new_err(format!("{what}: a log dict needs 't' (T,) and 'q' (T, {n})")))?;
-        let len = t.len();
-        let q = f64_2d(d, "q", len, n)?.ok_or_else(|| PyValueError::new_err(format!("{what}: a log dict needs 'q' (T, {n})")))?;
-        if let Some(names) = d.get_item("joint_names")?
-            && !names.is_none()
-        {
-            let names: Vec<String> = names.extract()?;
-            if names != robot.joint_names {
-                return Err(PyValueError::new_err(format!("{what}: log joints {names:?} are not the robot's {:?}", robot.joint_names)));
-            }
+/// A log given as a path (read by the job, as the command line reads it) or as a dict of
+/// arrays (`t`, `q`, optional `qd`, `tau`, `u`, `joint_names`), checked like a file's.
+fn log_input(robot: &Robot, log: &Bound<'_, PyAny>, what: &str) -> PyResult<LogInput> {
+    let Ok(d) = log.cast::<PyDict>() else {
+        let path: PathBuf = log.extract().map_err(|_| PyValueError::new_err(format!("{what} must be a path (str or os.PathLike) or a dict of arrays")))?;
+        return Ok(LogInput::File(path));
+    };
+    let n = robot.dof();
+    let t = f64_1d(d, "t")?.ok_or_else(|| PyValueError::new_err(format!("{what}: a log dict needs 't' (T,) and 'q' (T, {n})")))?;
+    let len = t.len();
+    let q = f64_2d(d, "q", len, n)?.ok_or_else(|| PyValueError::new_err(format!("{what}: a log dict needs 'q' (T, {n})")))?;
+    if let Some(names) = d.get_item("joint_names")?
+        && !names.is_none()
+    {
+        let names: Vec<String> = names.extract()?;
+        if names != robot.joint_names {
+            return Err(PyValueError::new_err(format!("{what}: log joints {names:?} are not the robot's {:?}", robot.joint_names)));
         }
-        let jl = JointLog {
-            joint_names: robot.joint_names.clone(),
-            t0_ns: 0,
-            t,
-            q,
-            qd: f64_2d(d, "qd", len, n)?,
-            tau: f64_2d(d, "tau", len, n)?,
-            u: f64_2d(d, "u", len, n)?,
-            truncated: false,
-        };
-        ivdyn::log::check_pipeline_log(&jl, Path::new(what), "(arrays)").map_err(to_py)?;
-        return Ok(jl);
     }
-    let path: PathBuf = log.extract().map_err(|_| PyValueError::new_err(format!("{what} must be a path (str or os.PathLike) or a dict of arrays")))?;
-    py.detach(|| ivdyn::log::read_pipeline_log(&path, &robot.joint_names, src.topic, src.command_topic, src.log_time)).map_err(to_py)
+    let jl = JointLog {
+        joint_names: robot.joint_names.clone(),
+        t0_ns: 0,
+        t,
+        q,
+        qd: f64_2d(d, "qd", len, n)?,
+        tau: f64_2d(d, "tau", len, n)?,
+        u: f64_2d(d, "u", len, n)?,
+        truncated: false,
+    };
+    ivdyn::log::check_pipeline_log(&jl, Path::new(what), "(arrays)").map_err(to_py)?;
+    Ok(LogInput::Arrays(jl))
+}
+
+fn log_source(topic: &str, command_topic: Option<&str>, log_time: bool) -> LogSource {
+    LogSource { topic: topic.into(), command_topic: command_topic.map(Into::into), log_time }
 }
 
 fn condition(cutoff: Option<f64>) -> PyResult<ConditionOptions> {
@@ -185,12 +182,19 @@ fn json<T: serde::Serialize>(v: &T) -> PyResult<String> {
     serde_json::to_string(v).map_err(|e| PyRuntimeError::new_err(format!("internal error: report to JSON: {e}")))
 }
 
+/// The URDF a write-back starts from: the file the robot was loaded from.
+fn urdf_of(robot: &PyRobot, what: &str) -> PyResult<PathBuf> {
+    robot.urdf.clone().ok_or_else(|| PyValueError::new_err(format!("{what} needs a robot loaded from a URDF file (Robot.from_urdf)")))
+}
+
 // ------------------------------------------------------------------ identify / payload
 
-/// `ivdyn identify` -> the `--json` document (a string).
+/// `ivdyn identify` -> the `--json` document (a string); writes the outputs asked for.
 #[pyfunction]
 #[pyo3(signature = (robot, log, method="wls", validate=None, holdout=0.25, topic="/joint_states", command_topic=None,
-                    log_time=false, cutoff=None, decimate=0, params_json=None, progress=None))]
+                    log_time=false, cutoff=None, decimate=0, params_json=None, progress=None, friction=None,
+                    armature=true, offset=true, consistent=false, in_memory=false, json_out=None, out_params=None,
+                    write_urdf=None, out_mcap=None))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
     py: Python<'_>,
@@ -206,6 +210,15 @@ fn identify(
     decimate: usize,
     params_json: Option<&str>,
     progress: Option<Py<PyAny>>,
+    friction: Option<Vec<String>>,
+    armature: bool,
+    offset: bool,
+    consistent: bool,
+    in_memory: bool,
+    json_out: Option<PathBuf>,
+    out_params: Option<PathBuf>,
+    write_urdf: Option<PathBuf>,
+    out_mcap: Option<PathBuf>,
 ) -> PyResult<String> {
     let method = match method {
         "ols" => Method::Ols,
@@ -217,39 +230,27 @@ fn identify(
     if !(0.0..1.0).contains(&holdout) {
         return Err(PyValueError::new_err(format!("holdout must be in [0, 1), got {holdout}")));
     }
+    let friction = friction.unwrap_or_else(|| vec!["coulomb".into(), "viscous".into()]);
+    let names: Vec<&str> = friction.iter().map(String::as_str).collect();
+    let drive = ivdyn::ident::DriveTerms::from_names(&names, armature, offset).map_err(to_py)?;
+    let urdf = write_urdf.map(|o| urdf_of(&robot, "write_urdf").map(|i| (i, o))).transpose()?;
     let r = robot_with_params(&robot.inner, params_json)?;
-    let src = LogSource { topic, command_topic, log_time };
-    let mut opts = IdentifyOptions { method, condition: condition(cutoff)?, decimate, validation_fraction: holdout, ..Default::default() };
-    // an MCAP path is streamed (bounded memory) as the command line does, when the
-    // options allow; otherwise (arrays, CSV, options that need memory) read whole
-    let path_of = |x: &Bound<'_, PyAny>| -> Option<PathBuf> {
-        x.extract::<PathBuf>().ok().filter(|p| !p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")))
+    let job = app::IdentifyJob {
+        log: log_input(&r, log, "log")?,
+        validate: validate.map(|v| log_input(&r, v, "validation log")).transpose()?,
+        source: log_source(topic, command_topic, log_time),
+        in_memory,
+        opts: IdentifyOptions { method, condition: condition(cutoff)?, decimate, validation_fraction: holdout, drive, consistent, ..Default::default() },
+        outputs: app::IdentifyOutputs { json: json_out, params: out_params, urdf, mcap: out_mcap },
     };
-    let mut why_not = None;
-    if let (Some(lp), true) = (path_of(log), validate.is_none_or(|v| path_of(v).is_some())) {
-        let vp = validate.and_then(path_of);
-        let read = ivdyn::log::ReadOptions::new(&r.joint_names).topic(topic).command_topic_opt(command_topic).log_time(log_time);
-        let o2 = opts.clone();
-        match run(py, progress.as_ref().map(|p| p.clone_ref(py)), |p| {
-            ivdyn::app::stream::identify_mcap(&r, &lp, vp.as_deref(), &read, &IdentifyOptions { progress: p, ..o2 })
-        })? {
-            ivdyn::app::stream::Streamed::Done(rep) => return json(&rep),
-            ivdyn::app::stream::Streamed::Unsupported(why) => why_not = Some(why),
-        }
-    }
-    let log = joint_log(py, &r, log, &src, "log")?;
-    opts.validation_log = validate.map(|v| joint_log(py, &r, v, &src, "validation log")).transpose()?;
-    let mut rep = run(py, progress, |p| app::identify(&r, &log, &IdentifyOptions { progress: p, ..opts }))?;
-    if let Some(w) = why_not {
-        rep.notes.push(format!("read into memory (not streamed): {w}"));
-    }
-    json(&rep)
+    let out = run(py, progress, |p| app::identify_job(&r, &app::IdentifyJob { opts: IdentifyOptions { progress: p, ..job.opts.clone() }, ..job.clone() }))?;
+    json(&out.report)
 }
 
-/// `ivdyn payload` -> the `--json` document (a string).
+/// `ivdyn payload` -> the `--json` document (a string); writes the outputs asked for.
 #[pyfunction]
 #[pyo3(signature = (robot, log, before=None, topic="/joint_states", command_topic=None, log_time=false, cutoff=None,
-                    decimate=0, params_json=None, progress=None))]
+                    decimate=0, params_json=None, progress=None, json_out=None, write_urdf=None, payload_as="link"))]
 #[allow(clippy::too_many_arguments)]
 fn payload(
     py: Python<'_>,
@@ -263,27 +264,52 @@ fn payload(
     decimate: usize,
     params_json: Option<&str>,
     progress: Option<Py<PyAny>>,
+    json_out: Option<PathBuf>,
+    write_urdf: Option<PathBuf>,
+    payload_as: &str,
 ) -> PyResult<String> {
+    let mode = match payload_as {
+        "link" => app::PayloadMode::Link,
+        "merge" => app::PayloadMode::Merge,
+        m => return Err(PyValueError::new_err(format!("payload_as must be 'link' or 'merge', got {m:?}"))),
+    };
+    let urdf = write_urdf.map(|o| urdf_of(&robot, "write_urdf").map(|i| (i, o, mode))).transpose()?;
     let r = robot_with_params(&robot.inner, params_json)?;
-    let src = LogSource { topic, command_topic, log_time };
-    let after = joint_log(py, &r, log, &src, "log")?;
-    let before = before.map(|b| joint_log(py, &r, b, &src, "before log")).transpose()?;
-    // as the command line: the before-log is conditioned and decimated like the log
-    let mut opts = PayloadOptions { condition: condition(cutoff)?, decimate, ..Default::default() };
-    opts.before.condition = opts.condition.clone();
-    opts.before.decimate = opts.decimate;
-    let rep = run(py, progress, |p| app::payload(&r, &after, before.as_ref(), &PayloadOptions { progress: p, ..opts }))?;
-    json(&rep)
+    let job = app::PayloadJob {
+        log: log_input(&r, log, "log")?,
+        before: before.map(|b| log_input(&r, b, "before log")).transpose()?,
+        source: log_source(topic, command_topic, log_time),
+        opts: PayloadOptions { condition: condition(cutoff)?, decimate, ..Default::default() },
+        json: json_out,
+        urdf,
+    };
+    let out = run(py, progress, |p| app::payload_job(&r, &app::PayloadJob { opts: PayloadOptions { progress: p, ..job.opts.clone() }, ..job.clone() }))?;
+    json(&out.report)
 }
 
 // ------------------------------------------------------------------ simulate
 
+fn dict_of_log<'py>(py: Python<'py>, log: JointLog) -> PyResult<Bound<'py, PyDict>> {
+    let (t, nn) = (log.len(), log.dof());
+    let as2 = |v: Option<Vec<f64>>| -> PyResult<Option<Bound<'py, numpy::PyArray2<f64>>>> {
+        v.map(|v| Array2::from_shape_vec((t, nn), v).map(|a| a.into_pyarray(py)).map_err(|e| PyValueError::new_err(e.to_string()))).transpose()
+    };
+    let d = PyDict::new(py);
+    d.set_item("t", log.t.into_pyarray(py))?;
+    d.set_item("q", as2(Some(log.q))?)?;
+    d.set_item("qd", as2(log.qd)?)?;
+    d.set_item("tau", as2(log.tau)?)?;
+    d.set_item("u", as2(log.u)?)?;
+    d.set_item("joint_names", log.joint_names)?;
+    Ok(d)
+}
+
 /// `ivdyn simulate` -> (the `--json` summary as a string, the log as a dict of arrays);
-/// writes the log to `out` (`.mcap` or `.csv`) when given.
+/// writes the log to `out` (`.mcap` or `.csv`) and the summary to `json_out` when given.
 #[pyfunction]
 #[pyo3(signature = (robot, out=None, traj_t=None, traj_q=None, duration=20.0, rate=500.0, seed=1, amplitude=0.8,
                     payload_mass=None, payload_com=None, payload_inertia=None, fc=None, fv=None, noise=0.0, noise_q=0.0,
-                    encoder_bits=None, tau_resolution=None, velocity=true, command=false, params_json=None))]
+                    encoder_bits=None, tau_resolution=None, velocity=true, command=false, params_json=None, json_out=None))]
 #[allow(clippy::too_many_arguments)]
 fn simulate<'py>(
     py: Python<'py>,
@@ -307,39 +333,11 @@ fn simulate<'py>(
     velocity: bool,
     command: bool,
     params_json: Option<&str>,
+    json_out: Option<PathBuf>,
 ) -> PyResult<(String, Bound<'py, PyDict>)> {
-    let bad = |m: String| PyValueError::new_err(m);
     let r = robot_with_params(&robot.inner, params_json)?;
     let n = r.dof();
-    // the command line's checks of the payload options
-    let payload = match (payload_mass, &payload_com, &payload_inertia) {
-        (None, None, None) => None,
-        (Some(m), c, i) => {
-            if !(m.is_finite() && m > 0.0) {
-                return Err(bad(format!("payload_mass must be positive, got {m}")));
-            }
-            if c.as_ref().is_some_and(|c| c.len() != 3) {
-                return Err(bad("payload_com needs 3 values x, y, z (m)".into()));
-            }
-            if i.as_ref().is_some_and(|i| i.len() != 6) {
-                return Err(bad("payload_inertia needs 6 values Ixx, Ixy, Ixz, Iyy, Iyz, Izz (kg m^2)".into()));
-            }
-            let com = c.as_ref().map(|c| [c[0], c[1], c[2]]).unwrap_or([0.0; 3]);
-            let inertia = i.as_ref().map(|i| [i[0], i[1], i[2], i[3], i[4], i[5]]).unwrap_or([0.0; 6]);
-            Some(PayloadSpec { mass: m, com, inertia })
-        }
-        (None, _, _) => return Err(bad("payload_com / payload_inertia need payload_mass".into())),
-    };
-    for (name, x) in [("duration", duration), ("rate", rate)] {
-        if !(x > 0.0 && x.is_finite()) {
-            return Err(bad(format!("{name} must be finite and > 0, got {x}")));
-        }
-    }
-    for (name, x) in [("noise", noise), ("noise_q", noise_q), ("amplitude", amplitude)] {
-        if !(x >= 0.0 && x.is_finite()) {
-            return Err(bad(format!("{name} must be finite and >= 0, got {x}")));
-        }
-    }
+    let payload = PayloadSpec::from_parts(payload_mass, payload_com.as_deref(), payload_inertia.as_deref()).map_err(to_py)?;
     let opts = SimulateOptions {
         rate_hz: rate,
         duration_s: duration,
@@ -361,69 +359,31 @@ fn simulate<'py>(
         (Some(t), Some(q)) => {
             let len = t.shape()[0];
             if q.shape() != [len, n] {
-                return Err(bad(format!("traj['q'] must have shape ({len}, {n}), got ({}, {})", q.shape()[0], q.shape()[1])));
+                return Err(PyValueError::new_err(format!("traj['q'] must have shape ({len}, {n}), got ({}, {})", q.shape()[0], q.shape()[1])));
             }
             Trajectory::Samples { t: t.as_array().to_vec(), q: q.as_array().iter().copied().collect() }
         }
-        _ => return Err(bad("traj needs both 't' and 'q'".into())),
+        _ => return Err(PyValueError::new_err("traj needs both 't' and 'q'")),
     };
-    let (log, truth) = py
-        .detach(|| -> ivdyn::error::Result<_> {
-            let log = app::simulate(&r, &traj, &opts)?;
-            let truth = app::true_robot(&r, &opts)?;
-            if let Some(p) = &out {
-                // as the command line: a temporary file renamed on success, never a partial one
-                let name = p.file_name().map(|s| s.to_string_lossy().to_string()).unwrap_or_else(|| "out".into());
-                let tmp = p.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-                let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
-                let written = match ext.as_str() {
-                    "csv" => ivdyn::log::write_csv(&tmp, &log),
-                    "mcap" => ivdyn::log::write_mcap(&tmp, &log, &[]).map(|_| ()),
-                    e => Err(ivdyn::Error::Log { file: p.clone(), msg: format!("unknown output format '.{e}' (use .mcap or .csv)") }),
-                }
-                .and_then(|_| std::fs::rename(&tmp, p).map_err(|source| ivdyn::Error::Io { file: p.clone(), source }));
-                if written.is_err() {
-                    let _ = std::fs::remove_file(&tmp);
-                }
-                written?;
-            }
-            Ok((log, truth))
-        })
-        .map_err(to_py)?;
-    // the command line's `--json` summary
-    let tp = ParamsFile { robot: r.name.clone(), joints: r.joint_names.clone(), names: r.param_names(), theta: truth.params() };
-    let summary = serde_json::json!({
-        "out": out.as_ref().map(|p| p.display().to_string()),
-        "samples": log.len(),
-        "joints": r.joint_names,
-        "options": opts,
-        "true_params": tp,
-    });
-    let (t, nn) = (log.len(), log.dof());
-    let as2 = |v: Option<Vec<f64>>| -> PyResult<Option<Bound<'py, numpy::PyArray2<f64>>>> {
-        v.map(|v| Array2::from_shape_vec((t, nn), v).map(|a| a.into_pyarray(py)).map_err(|e| PyValueError::new_err(e.to_string()))).transpose()
-    };
-    let d = PyDict::new(py);
-    d.set_item("t", log.t.into_pyarray(py))?;
-    d.set_item("q", as2(Some(log.q))?)?;
-    d.set_item("qd", as2(log.qd)?)?;
-    d.set_item("tau", as2(log.tau)?)?;
-    d.set_item("u", as2(log.u)?)?;
-    d.set_item("joint_names", log.joint_names)?;
-    Ok((json(&summary)?, d))
+    let job = app::SimulateJob { opts, traj, out, json: json_out };
+    let done = run(py, None, |p| app::simulate_job(&r, &job, &p))?;
+    let (log, summary) = done.report;
+    Ok((json(&summary)?, dict_of_log(py, log)?))
 }
+
+// ------------------------------------------------------------------ diagnose / excite
 
 /// `ivdyn diagnose` -> `diagnosis.json` (a string); with `out`, also writes
 /// diagnosis.json, report.html and residuals.mcap there.
 #[pyfunction]
 #[pyo3(signature = (robot, log, out=None, topic="/joint_states", log_time=false, cutoff=None, alpha=1e-3,
-                    min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None))]
+                    min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None, json_out=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
     robot: PyRef<'_, PyRobot>,
     log: &Bound<'_, PyAny>,
-    out: Option<std::path::PathBuf>,
+    out: Option<PathBuf>,
     topic: &str,
     log_time: bool,
     cutoff: Option<f64>,
@@ -432,32 +392,91 @@ fn diagnose(
     ignore_log_velocity: bool,
     report: bool,
     params_json: Option<&str>,
+    json_out: Option<PathBuf>,
+    progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
-    use ivdyn::diagnose::{self as dg, DiagnoseOptions};
+    use ivdyn::diagnose::DiagnoseOptions;
     let r = robot_with_params(&robot.inner, params_json)?;
-    let src = LogSource { topic, command_topic: None, log_time };
-    let jl = joint_log(py, &r, log, &src, "log")?;
-    let log_name = log.extract::<std::path::PathBuf>().map(|p| p.display().to_string()).unwrap_or_else(|_| "(arrays)".into());
-    let opts = DiagnoseOptions { alpha, min_effect, cutoff_hz: cutoff, ignore_log_velocity, log_name, ..Default::default() };
-    let text = run(py, None, |_| {
-        let d = dg::diagnose(&r, &jl, &opts)?;
-        if let Some(dir) = &out {
-            std::fs::create_dir_all(dir).map_err(|e| ivdyn::Error::Io { file: dir.clone(), source: e })?;
-            if report {
-                dg::report::write_html(&d, dir)?;
-            }
-            dg::report::write_mcap_stamped(&d, &r.joint_names, jl.t0_ns, dir)?;
-            let text = serde_json::to_string_pretty(&d.json).map_err(|e| ivdyn::Error::Estimation { msg: e.to_string() })?;
-            let path = dir.join("diagnosis.json");
-            std::fs::write(&path, text + "\n").map_err(|e| ivdyn::Error::Io { file: path.clone(), source: e })?;
-        }
-        serde_json::to_string(&d.json).map_err(|e| ivdyn::Error::Estimation { msg: e.to_string() })
-    })?;
-    Ok(text)
+    let urdf_name = robot.urdf.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
+    let job = app::DiagnoseJob {
+        log: log_input(&r, log, "log")?,
+        source: log_source(topic, None, log_time),
+        opts: DiagnoseOptions { alpha, min_effect, cutoff_hz: cutoff, ignore_log_velocity, urdf_name, ..Default::default() },
+        out,
+        report,
+        json: json_out,
+    };
+    let done = run(py, progress, |p| app::diagnose_job(&r, &job, &p))?;
+    json(&done.report.json)
+}
+
+/// `ivdyn excite` -> (the `--json` report as a string, the trajectory as a dict of
+/// arrays `t`, `q`, `qd`, `qdd`); writes the CSV / MCAP / JSON files asked for.
+#[pyfunction]
+#[pyo3(signature = (robot, out=None, out_mcap=None, json_out=None, duration=20.0, harmonics=5, f0=0.1, rate=100.0,
+                    criterion="cond", acc_limit=None, vel_limit=None, margin=0.01, starts=6, iterations=150, random=20,
+                    seed=1, params_json=None, progress=None))]
+#[allow(clippy::too_many_arguments)]
+fn excite<'py>(
+    py: Python<'py>,
+    robot: PyRef<'py, PyRobot>,
+    out: Option<PathBuf>,
+    out_mcap: Option<PathBuf>,
+    json_out: Option<PathBuf>,
+    duration: f64,
+    harmonics: usize,
+    f0: f64,
+    rate: f64,
+    criterion: &str,
+    acc_limit: Option<Vec<f64>>,
+    vel_limit: Option<Vec<f64>>,
+    margin: f64,
+    starts: usize,
+    iterations: usize,
+    random: usize,
+    seed: u64,
+    params_json: Option<&str>,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<(String, Bound<'py, PyDict>)> {
+    use ivdyn::excite::{Criterion, ExciteOptions};
+    let criterion = match criterion {
+        "cond" => Criterion::Cond,
+        "logdet" => Criterion::Logdet,
+        c => return Err(PyValueError::new_err(format!("criterion must be 'cond' or 'logdet', got {c:?}"))),
+    };
+    let r = robot_with_params(&robot.inner, params_json)?;
+    let opts = ExciteOptions {
+        duration_s: duration,
+        harmonics,
+        f0_hz: f0,
+        rate_hz: rate,
+        criterion,
+        acc_limit: acc_limit.unwrap_or_else(|| vec![ivdyn::excite::DEFAULT_ACC_LIMIT]),
+        vel_limit,
+        margin,
+        starts,
+        iterations,
+        random_draws: random,
+        seed,
+        ..Default::default()
+    };
+    let job = app::ExciteJob { opts, csv: out, mcap: out_mcap, json: json_out };
+    let done = run(py, progress, |p| app::excite_job(&r, &app::ExciteJob { opts: ExciteOptions { progress: p, ..job.opts.clone() }, ..job.clone() }))?;
+    let rep = done.report;
+    let (t, n) = (rep.trajectory.t.len(), rep.joints.len());
+    let as2 = |v: &[f64]| Array2::from_shape_vec((t, n), v.to_vec()).map(|a| a.into_pyarray(py)).map_err(|e| PyValueError::new_err(e.to_string()));
+    let d = PyDict::new(py);
+    d.set_item("t", rep.trajectory.t.clone().into_pyarray(py))?;
+    d.set_item("q", as2(&rep.trajectory.q)?)?;
+    d.set_item("qd", as2(&rep.trajectory.qd)?)?;
+    d.set_item("qdd", as2(&rep.trajectory.qdd)?)?;
+    d.set_item("joint_names", rep.joints.clone())?;
+    Ok((json(&rep)?, d))
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
+    m.add_function(wrap_pyfunction!(excite, m)?)?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(payload, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;

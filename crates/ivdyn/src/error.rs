@@ -124,6 +124,23 @@ pub enum Error {
         /// What is wrong, where.
         msg: String,
     },
+    /// An option with a value that cannot be used. `option` is the option's name in
+    /// Python's spelling (`payload_mass`); the command line shows it as `--payload-mass`.
+    #[error("{option} {msg}")]
+    Option {
+        /// The option.
+        option: String,
+        /// What is wrong with it ("must be positive, got -1").
+        msg: String,
+    },
+    /// An error while working on a file (a log, an output): the file, then the error.
+    #[error("{file}: {source}")]
+    InFile {
+        /// The file.
+        file: PathBuf,
+        /// What went wrong.
+        source: Box<Error>,
+    },
     /// Bad input to a signal-conditioning function (an option out of range, too few
     /// samples, a non-finite value).
     #[error("signal: {msg}")]

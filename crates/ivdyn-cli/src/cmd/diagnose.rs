@@ -5,7 +5,8 @@ use std::process::ExitCode;
 
 use clap::Args;
 
-use super::{load_robot, read_log, write_json, Bars, LogArgs, RobotArgs, R};
+use super::{load_robot, log_source, msg, Bars, LogArgs, RobotArgs, R};
+use ivdyn::app::{diagnose_job, DiagnoseJob, LogInput};
 use ivdyn::diagnose::{self, DiagnoseOptions};
 
 #[derive(Args)]
@@ -39,7 +40,6 @@ pub struct DiagnoseArgs {
 
 pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
-    let log = read_log(&a.log, &robot, &a.log_args, bars)?;
     let opts = DiagnoseOptions {
         alpha: a.alpha,
         min_effect: a.min_effect,
@@ -49,25 +49,16 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
         urdf_name: a.robot.urdf.display().to_string(),
         ..Default::default()
     };
-    let pb = bars.spinner("diagnosing");
-    let d = diagnose::diagnose(&robot, &log, &opts).map_err(|e| format!("{}: {e}", a.log.display()))?;
-    if let Some(pb) = pb {
-        pb.finish_and_clear();
-    }
-    std::fs::create_dir_all(&a.out).map_err(|e| format!("{}: cannot create: {e}", a.out.display()))?;
-    if !a.no_report {
-        let pb = bars.spinner("writing report.html");
-        diagnose::report::write_html(&d, &a.out).map_err(|e| e.to_string())?;
-        if let Some(pb) = pb {
-            pb.finish_and_clear();
-        }
-    }
-    diagnose::report::write_mcap_stamped(&d, &robot.joint_names, log.t0_ns, &a.out).map_err(|e| e.to_string())?;
-    write_json(&a.out.join("diagnosis.json"), &d.json)?;
-    if let Some(j) = &a.json {
-        write_json(j, &d.json)?;
-    }
-    print_summary(&d);
+    let job = DiagnoseJob {
+        log: LogInput::File(a.log.clone()),
+        source: log_source(&a.log_args),
+        opts,
+        out: Some(a.out.clone()),
+        report: !a.no_report,
+        json: a.json.clone(),
+    };
+    let out = diagnose_job(&robot, &job, &bars.sink()).map_err(msg)?;
+    print_summary(&out.report);
     Ok(ExitCode::SUCCESS)
 }
 

@@ -1,12 +1,34 @@
-//! The one orchestration: [`identify`](identify::identify), [`payload`](payload::payload),
-//! [`simulate`](simulate::simulate), and the streaming identify of log files
-//! ([`stream`]). The command line and the Python package call these.
+//! The one orchestration: every command (`identify`, `payload`, `simulate`, `diagnose`,
+//! `excite`) as a job that reads its inputs, runs, and writes its outputs whole or not at
+//! all. The command line (`crates/ivdyn-cli`) and the Python package (`crates/ivdyn-py`)
+//! build a job from their arguments, call it, and present the result; neither holds any
+//! orchestration of its own.
+//!
+//! Below the jobs: [`identify()`], [`payload()`] and [`simulate()`] on logs in memory, and
+//! the streaming identify of MCAP files ([`stream`]).
 
+pub mod diagnose;
+pub mod excite;
 pub mod identify;
+pub mod identify_job;
+pub mod io;
 pub mod payload;
 pub mod simulate;
 pub mod stream;
 
+pub use diagnose::{diagnose_job, DiagnoseJob};
+pub use excite::{excite_job, ExciteJob};
 pub use identify::{identify, identify_base, write_prediction, IdentifyOptions, IdentifyReport, Method};
-pub use payload::{payload, Hidden, PayloadOptions, PayloadReport};
-pub use simulate::{fourier_trajectory, simulate, true_robot, SimulateOptions, Trajectory};
+pub use identify_job::{identify_job, IdentifyJob, IdentifyOutputs};
+pub use io::{LogInput, LogSource, RobotSource};
+pub use payload::{payload, payload_job, Hidden, PayloadJob, PayloadMode, PayloadOptions, PayloadReport};
+pub use simulate::{fourier_trajectory, simulate, simulate_job, true_robot, SimulateJob, SimulateOptions, SimulateSummary, Trajectory};
+
+/// A job's report and, in order, one line per file written (for the command line).
+#[derive(Debug, Clone)]
+pub struct Outcome<R> {
+    /// The report.
+    pub report: R,
+    /// "... written to PATH" lines, in the order the files were written.
+    pub written: Vec<String>,
+}

@@ -4,7 +4,13 @@
 use nalgebra::DMatrix;
 use serde::Serialize;
 
+use std::path::PathBuf;
+
 use super::identify::{identify, rows_of, IdentifyOptions, Method};
+use super::Outcome;
+use super::io::{LogInput, LogSource};
+use crate::output::write_json;
+use crate::report::PayloadSpec;
 use crate::batch::stack_rows;
 use crate::ident::wls::{per_joint_weights, row_weights};
 use crate::report::quality;
@@ -231,4 +237,54 @@ fn random_rows(robot: &Robot, cols: &[usize], samples: usize, seed: u64) -> Resu
         }
     }
     Ok(phi)
+}
+
+/// How `payload` writes the payload into a URDF copy.
+pub use crate::robot::write::PayloadMode;
+
+/// One `payload` run: the log after the grasp, optionally the log before it, and what to
+/// write.
+#[derive(Clone)]
+pub struct PayloadJob {
+    /// The log after the grasp.
+    pub log: LogInput,
+    /// The log before the grasp (the same arm without payload).
+    pub before: Option<LogInput>,
+    /// How log files are read.
+    pub source: LogSource,
+    /// Options (the before-log is conditioned and decimated like the log).
+    pub opts: PayloadOptions,
+    /// The JSON report.
+    pub json: Option<PathBuf>,
+    /// A copy of the URDF `.0` with the payload, written to `.1` (when identifiable).
+    pub urdf: Option<(PathBuf, PathBuf, PayloadMode)>,
+}
+
+/// Runs `job` on `robot`, then writes its outputs.
+pub fn payload_job(robot: &Robot, job: &PayloadJob) -> Result<Outcome<PayloadReport>> {
+    let after = read(robot, &job.log, &job.source, &job.opts.progress)?;
+    let before = job.before.as_ref().map(|b| read(robot, b, &job.source, &job.opts.progress)).transpose()?;
+    let mut opts = job.opts.clone();
+    opts.before.condition = opts.condition.clone();
+    opts.before.decimate = opts.decimate;
+    let rep = payload(robot, &after, before.as_deref(), &opts).map_err(|e| job.log.context(e))?;
+    let mut written = vec![];
+    if let Some(p) = &job.json {
+        write_json(p, &rep)?;
+        written.push(format!("report written to {}", p.display()));
+    }
+    if let (Some((input, out, mode)), true) = (&job.urdf, rep.identifiable) {
+        let spec = PayloadSpec { mass: rep.mass.unwrap_or(f64::NAN), com: rep.com.unwrap_or([f64::NAN; 3]), inertia: rep.inertia.unwrap_or([f64::NAN; 6]) };
+        let text = std::fs::read_to_string(input).map_err(|e| Error::Io { file: input.clone(), source: e })?;
+        let note = "ivdyn payload: the arm as loaded (URDF, --params or side file) plus the identified payload";
+        let wb = crate::robot::write::write_back(&text, input, robot, Some(&robot.params()), Some((&spec, *mode)), vec![note.into()])?;
+        crate::robot::write::write_files(out, &wb)?;
+        written.push(format!("URDF with the payload written to {}", out.display()));
+    }
+    Ok(Outcome { report: rep, written })
+}
+
+fn read<'a>(robot: &Robot, input: &'a LogInput, src: &LogSource, progress: &ProgressSink) -> Result<std::borrow::Cow<'a, JointLog>> {
+    let _st = input.path().map(|p| Stage::begin(progress, &format!("reading {}", p.display()), 0));
+    input.load(robot, src)
 }

@@ -7,7 +7,13 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 use crate::dsp;
 use crate::log::JointLog;
-use crate::report::PayloadSpec;
+use std::path::{Path, PathBuf};
+
+use super::io::write_log;
+use crate::output::write_json;
+use super::Outcome;
+use crate::progress::{ProgressSink, Stage};
+use crate::report::{ParamsFile, PayloadSpec};
 use crate::Robot;
 use ivdyn_core::params::LINK_PARAMS;
 use ivdyn_core::rng::Rng;
@@ -219,4 +225,118 @@ pub fn simulate(robot: &Robot, traj: &Trajectory, opts: &SimulateOptions) -> Res
         u,
         truncated: false,
     })
+}
+
+fn bad_option(option: &str, msg: String) -> Error {
+    Error::Option { option: option.into(), msg }
+}
+
+impl PayloadSpec {
+    /// A payload from its parts as a user gives them (`mass` in kg, `com` x, y, z in m,
+    /// `inertia` Ixx, Ixy, Ixz, Iyy, Iyz, Izz in kg m^2 about the COM; the last two
+    /// default to zero); `None` when nothing is given.
+    pub fn from_parts(mass: Option<f64>, com: Option<&[f64]>, inertia: Option<&[f64]>) -> Result<Option<PayloadSpec>> {
+        let Some(m) = mass else {
+            return match (com, inertia) {
+                (None, None) => Ok(None),
+                _ => Err(bad_option("payload_com/payload_inertia", "need payload_mass".into())),
+            };
+        };
+        if !(m.is_finite() && m > 0.0) {
+            return Err(bad_option("payload_mass", format!("must be positive, got {m}")));
+        }
+        if com.is_some_and(|c| c.len() != 3 || c.iter().any(|x| !x.is_finite())) {
+            return Err(bad_option("payload_com", "needs 3 values x, y, z (m), all finite".into()));
+        }
+        if inertia.is_some_and(|i| i.len() != 6 || i.iter().any(|x| !x.is_finite())) {
+            return Err(bad_option("payload_inertia", "needs 6 values Ixx, Ixy, Ixz, Iyy, Iyz, Izz (kg m^2), all finite".into()));
+        }
+        let com = com.map(|c| [c[0], c[1], c[2]]).unwrap_or([0.0; 3]);
+        let inertia = inertia.map(|i| [i[0], i[1], i[2], i[3], i[4], i[5]]).unwrap_or([0.0; 6]);
+        Ok(Some(PayloadSpec { mass: m, com, inertia }))
+    }
+}
+
+impl SimulateOptions {
+    /// Rejects values that cannot give a log: non-finite or non-positive duration and
+    /// rate, negative or non-finite noise and amplitude.
+    pub fn check(&self) -> Result<()> {
+        for (name, x) in [("duration", self.duration_s), ("rate", self.rate_hz)] {
+            if !(x > 0.0 && x.is_finite()) {
+                return Err(bad_option(name, format!("must be finite and > 0, got {x}")));
+            }
+        }
+        for (name, x) in [("noise", self.noise_tau), ("noise_q", self.noise_q), ("amplitude", self.amplitude)] {
+            if !(x >= 0.0 && x.is_finite()) {
+                return Err(bad_option(name, format!("must be finite and >= 0, got {x}")));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// One `simulate` run: the options, the trajectory, and where the log and the summary go.
+#[derive(Debug, Clone)]
+pub struct SimulateJob {
+    /// Options (checked by [`SimulateOptions::check`]).
+    pub opts: SimulateOptions,
+    /// The trajectory.
+    pub traj: Trajectory,
+    /// The log file (`.mcap` or `.csv`).
+    pub out: Option<PathBuf>,
+    /// The JSON summary.
+    pub json: Option<PathBuf>,
+}
+
+/// What was simulated (`simulate --json`): the options and the true parameters.
+#[derive(Debug, Clone, Serialize)]
+pub struct SimulateSummary {
+    /// The log file.
+    pub out: Option<String>,
+    /// Samples written.
+    pub samples: usize,
+    /// Joint names.
+    pub joints: Vec<String>,
+    /// The options.
+    pub options: SimulateOptions,
+    /// Parameters of the true model (payload and friction included).
+    pub true_params: ParamsFile,
+}
+
+impl Trajectory {
+    /// A trajectory from a CSV file (columns `t`, `<joint>.q`; uniform times).
+    pub fn from_csv(path: &Path, robot: &Robot) -> Result<Trajectory> {
+        let l = crate::log::read_csv(path, &robot.joint_names)?;
+        l.validate(path)?;
+        Ok(Trajectory::Samples { t: l.t, q: l.q })
+    }
+}
+
+/// Runs `job` on `robot`: the log, written to `job.out` (whole or not at all), then the
+/// summary.
+pub fn simulate_job(robot: &Robot, job: &SimulateJob, progress: &ProgressSink) -> Result<Outcome<(JointLog, SimulateSummary)>> {
+    job.opts.check()?;
+    let log = {
+        let _st = Stage::begin(progress, "simulating", 0);
+        simulate(robot, &job.traj, &job.opts)?
+    };
+    let truth = true_robot(robot, &job.opts)?;
+    let mut written = vec![];
+    if let Some(p) = &job.out {
+        write_log(p, &log)?;
+        let secs = log.t.last().copied().unwrap_or(0.0);
+        written.push(format!("wrote {} samples of {} joints ({secs:.2} s) to {}", log.len(), log.dof(), p.display()));
+    }
+    let true_params = ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: truth.params() };
+    let summary = SimulateSummary {
+        out: job.out.as_ref().map(|p| p.display().to_string()),
+        samples: log.len(),
+        joints: robot.joint_names.clone(),
+        options: job.opts.clone(),
+        true_params,
+    };
+    if let Some(p) = &job.json {
+        write_json(p, &summary)?;
+    }
+    Ok(Outcome { report: (log, summary), written })
 }

@@ -10,7 +10,7 @@ mod backend;
 mod html;
 mod plots;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 pub use html::{fmt_num, fmt_p, fmt_pct};
 
@@ -187,18 +187,11 @@ pub fn write_html(d: &Diagnosis, dir: &Path) -> Result<()> {
     write_atomic(&dir.join(HTML_FILE), page.as_bytes())
 }
 
-/// Writes `bytes` to `path` via a temporary file in the same directory and a rename.
+/// Writes `bytes` to `path` (its folder created if missing), whole or not at all.
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?;
-    let name = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp: PathBuf = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    let r = std::fs::write(&tmp, bytes).and_then(|_| std::fs::rename(&tmp, path));
-    if let Err(e) = r {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(Error::Io { file: path.to_path_buf(), source: e });
-    }
-    Ok(())
+    crate::output::write_atomic(path, |tmp| std::fs::write(tmp, bytes).map_err(|e| Error::Io { file: path.to_path_buf(), source: e }))
 }
 
 /// Topic of the prediction after step `i` (1-based) that added `effect`:

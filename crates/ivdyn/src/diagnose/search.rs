@@ -1168,12 +1168,7 @@ fn assemble(
     let e = effect_torque(&f, d, n, t_len);
     let r_final: Vec<f64> = (0..t_len * n).map(|i| r_nom[i] - e[i]).collect();
     let final_rms = rms_per_joint(&r_final, n);
-    let mut predicted = vec![tau_nom.to_vec()];
-    for (_, ms) in &steps {
-        let fs = fit(&ms.params(), ctx.gr, &ctx.w, &[0, 1]);
-        let es = effect_torque(&fs, d, n, t_len);
-        predicted.push((0..t_len * n).map(|i| tau_nom[i] + es[i]).collect());
-    }
+    let raw: Vec<(EffectKind, Model)> = steps.iter().map(|(st, ms)| (st.effect, ms.clone())).collect();
     let regimes_before = regimes(s, r_nom, n);
     let regimes_after = regimes(s, &r_final, n);
 
@@ -1274,6 +1269,7 @@ fn assemble(
         });
     }
     let kept: Vec<Step> = out_steps.into_iter().filter(|st| effects.iter().any(|e| e.name == st.effect.name())).collect();
+    let predicted = step_predictions(&raw, &kept, ctx, d, tau_nom);
     let gaps = remaining_gaps(ctx, m, &final_rms, &regimes_after, names);
     let verdict = if effects.is_empty() && gaps.is_empty() {
         "nothing significant missing: the nominal model explains the log down to the noise".to_string()
@@ -1317,6 +1313,27 @@ fn assemble(
             align_samples: s.align,
         },
     })
+}
+
+/// The predicted torques of the report: the nominal model, then one per reported step.
+/// A step found again later (more joints) is merged into its first report, so reported
+/// step `i` shows the model after the last search step that added nothing reported later
+/// than `i` (effects not reported at all count as earlier): with nothing merged, the model
+/// after each search step; the last one is always the model after the last search step.
+fn step_predictions(raw: &[(EffectKind, Model)], kept: &[Step], ctx: &Ctx, d: &Dictionary, tau_nom: &[f64]) -> Vec<Vec<f64>> {
+    let (n, t_len) = (ctx.n, tau_nom.len() / ctx.n);
+    let rank = |e: EffectKind| kept.iter().position(|st| st.effect == e).unwrap_or(0);
+    let mut predicted = vec![tau_nom.to_vec()];
+    for i in 0..kept.len() {
+        let Some(k) = raw.iter().take_while(|(e, _)| rank(*e) <= i).count().checked_sub(1) else {
+            predicted.push(tau_nom.to_vec());
+            continue;
+        };
+        let fs = fit(&raw[k].1.params(), ctx.gr, &ctx.w, &[0, 1]);
+        let es = effect_torque(&fs, d, n, t_len);
+        predicted.push((0..t_len * n).map(|j| tau_nom[j] + es[j]).collect());
+    }
+    predicted
 }
 
 /// What is left above the noise after the final model, in words (empty if nothing): per

@@ -41,3 +41,18 @@ impl DriveTerms {
         (0..n).flat_map(|j| (0..4).filter(move |&k| !on[k]).map(move |k| LINK_PARAMS * n + 4 * j + k)).collect()
     }
 }
+
+impl DriveTerms {
+    /// The terms named by a user: friction terms `"coulomb"`, `"viscous"` or `"none"` (alone),
+    /// armature and offset switched on or off.
+    pub fn from_names(friction: &[&str], armature: bool, offset: bool) -> crate::error::Result<DriveTerms> {
+        let bad = |msg: String| crate::error::Error::Option { option: "friction".into(), msg };
+        if let Some(f) = friction.iter().find(|f| !matches!(**f, "coulomb" | "viscous" | "none")) {
+            return Err(bad(format!("must be 'none' or a list of 'coulomb', 'viscous', got '{f}'")));
+        }
+        if friction.contains(&"none") && friction.len() > 1 {
+            return Err(bad("none cannot be combined with other terms".into()));
+        }
+        Ok(DriveTerms { coulomb: friction.contains(&"coulomb"), viscous: friction.contains(&"viscous"), armature, offset })
+    }
+}

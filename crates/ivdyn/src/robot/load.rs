@@ -90,8 +90,7 @@ pub fn load(urdf: &Path, base: Option<&str>, tip: Option<&str>, params: Option<&
     let mut robot = Robot::from_urdf(urdf, base, tip)?;
     if let Some(p) = params {
         let text = std::fs::read_to_string(p).map_err(|e| Error::Io { file: p.to_path_buf(), source: e })?;
-        let pf: ParamsFile = serde_json::from_str(&text).map_err(|e| Error::Log { file: p.to_path_buf(), msg: format!("not a parameter file: {e}") })?;
-        load_params(&mut robot, &pf).map_err(|e| Error::Log { file: p.to_path_buf(), msg: e.to_string() })?;
+        apply_params_json(&mut robot, &text, p)?;
     }
     Ok(robot)
 }
@@ -108,4 +107,11 @@ pub fn load_params(robot: &mut Robot, p: &ParamsFile) -> Result<()> {
         });
     }
     robot.set_params(&p.theta)
+}
+
+/// Loads the parameter file `text` (JSON, [`ParamsFile`]; `name` names it in errors) into
+/// `robot`.
+pub fn apply_params_json(robot: &mut Robot, text: &str, name: &Path) -> Result<()> {
+    let pf: ParamsFile = serde_json::from_str(text).map_err(|e| Error::Log { file: name.to_path_buf(), msg: format!("not a parameter file: {e}") })?;
+    load_params(robot, &pf).map_err(|e| Error::Log { file: name.to_path_buf(), msg: e.to_string() })
 }

@@ -326,14 +326,7 @@ pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>
 /// file renamed on success.
 pub fn write_files(path: &Path, wb: &WriteBack) -> Result<()> {
     let put = |p: &Path, text: &str| -> Result<()> {
-        let fname = p.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        let tmp = p.with_file_name(format!(".{fname}.{}.tmp", std::process::id()));
-        let r = std::fs::write(&tmp, text).and_then(|_| std::fs::rename(&tmp, p));
-        if let Err(e) = r {
-            let _ = std::fs::remove_file(&tmp);
-            return Err(Error::Io { file: p.to_path_buf(), source: e });
-        }
-        Ok(())
+        crate::output::write_atomic(p, |tmp| std::fs::write(tmp, text).map_err(|e| Error::Io { file: p.to_path_buf(), source: e }))
     };
     let side = serde_json::to_string_pretty(&wb.side).map_err(|e| Error::Estimation { msg: e.to_string() })? + "\n";
     put(path, &wb.urdf)?;

@@ -1,11 +1,13 @@
-# Shared by python/tests and python/tests_io: the `ivdyn` command-line binary.
+# pytest fixtures shared by python/tests and python/tests_io: the `ivdyn` command-line
+# binary. (At the repository root, not in python/: a conftest there would put python/ on
+# sys.path and shadow the installed ivdyn package with its source folder.)
 import os
 import shutil
 import subprocess
 
 import pytest
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
+ROOT = os.path.dirname(os.path.abspath(__file__))
 
 
 def ivdyn_exe():

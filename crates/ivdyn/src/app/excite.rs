@@ -1,0 +1,45 @@
+//! `excite` as a command: an excitation trajectory designed for `robot`, written as CSV
+//! (and MCAP) for the robot to replay, with its report.
+
+use std::path::PathBuf;
+
+use super::Outcome;
+use crate::error::Result;
+use crate::excite::{self, ExciteOptions, ExciteReport};
+use crate::output::write_json;
+use crate::Robot;
+
+/// One `excite` run.
+#[derive(Clone)]
+pub struct ExciteJob {
+    /// Design options.
+    pub opts: ExciteOptions,
+    /// The trajectory as CSV (`t`, `<joint>.q`, `.qd`, `.qdd`).
+    pub csv: Option<PathBuf>,
+    /// The trajectory as MCAP `/joint_states`.
+    pub mcap: Option<PathBuf>,
+    /// The JSON report.
+    pub json: Option<PathBuf>,
+}
+
+/// Designs the trajectory, then writes the files of `job`; `written` lists the
+/// trajectory files, then the report.
+pub fn excite_job(robot: &Robot, job: &ExciteJob) -> Result<Outcome<ExciteReport>> {
+    let rep = excite::design(robot, &job.opts)?;
+    let mut written = vec![];
+    if let Some(p) = &job.csv {
+        excite::write_csv(p, &rep.joints, &rep.trajectory)?;
+    }
+    if let Some(p) = &job.mcap {
+        excite::write_mcap(p, &rep.joints, &rep.trajectory)?;
+    }
+    let files: Vec<String> = job.csv.iter().chain(&job.mcap).map(|p| p.display().to_string()).collect();
+    if !files.is_empty() {
+        written.push(format!("trajectory written to {}", files.join(" and ")));
+    }
+    if let Some(p) = &job.json {
+        write_json(p, &rep)?;
+        written.push(format!("report written to {}", p.display()));
+    }
+    Ok(Outcome { report: rep, written })
+}

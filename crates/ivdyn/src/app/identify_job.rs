@@ -1,0 +1,138 @@
+//! `identify` as a command: the stream-or-memory choice, then the outputs (parameter file,
+//! URDF write-back, JSON report, prediction MCAP), each written whole or not at all.
+
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
+
+use super::identify::{identify, write_prediction, IdentifyOptions, IdentifyReport};
+use super::io::{LogInput, LogSource};
+use crate::output::{write_atomic, write_json};
+use super::Outcome;
+use super::stream::{identify_mcap, write_prediction_mcap, Streamed};
+use crate::error::{Error, Result};
+use crate::log::JointLog;
+use crate::progress::Stage;
+use crate::robot::{load::side_path, write as urdf_write};
+use crate::Robot;
+
+/// What `identify` writes (each optional).
+#[derive(Debug, Clone, Default)]
+pub struct IdentifyOutputs {
+    /// The JSON report.
+    pub json: Option<PathBuf>,
+    /// The identified full parameters (reloadable with `--params`).
+    pub params: Option<PathBuf>,
+    /// A copy of the URDF `.0` with the identified inertials and friction, written to `.1`
+    /// (with its side file).
+    pub urdf: Option<(PathBuf, PathBuf)>,
+    /// Measured, predicted and residual torques as JointState topics.
+    pub mcap: Option<PathBuf>,
+}
+
+/// One `identify` run.
+#[derive(Clone)]
+pub struct IdentifyJob {
+    /// The log.
+    pub log: LogInput,
+    /// A validation log (default: the tail of the log, `opts.validation_fraction`).
+    pub validate: Option<LogInput>,
+    /// How log files are read.
+    pub source: LogSource,
+    /// Read the whole log into memory even when it could be streamed.
+    pub in_memory: bool,
+    /// Fit options (its `validation_log` is set from `validate` when read whole).
+    pub opts: IdentifyOptions,
+    /// What to write.
+    pub outputs: IdentifyOutputs,
+}
+
+
+/// Runs `job` on `robot`: MCAP logs are streamed (bounded memory) unless the options or
+/// the log need memory, then the outputs are written.
+pub fn identify_job(robot: &Robot, job: &IdentifyJob) -> Result<Outcome<IdentifyReport>> {
+    let (report, mem) = fit(robot, job)?;
+    let written = write_outputs(robot, job, &report, mem.as_deref())?;
+    Ok(Outcome { report, written })
+}
+
+/// The fit, and the log if it was read into memory.
+fn fit<'a>(robot: &Robot, job: &'a IdentifyJob) -> Result<(IdentifyReport, Option<Cow<'a, JointLog>>)> {
+    let mut why_not = None;
+    let streamable = !job.in_memory && job.validate.as_ref().is_none_or(|v| v.mcap_path().is_some());
+    if let (Some(path), true) = (job.log.mcap_path(), streamable) {
+        let vpath = job.validate.as_ref().and_then(|v| v.mcap_path());
+        match identify_mcap(robot, path, vpath, &job.source.read_options(robot), &job.opts).map_err(|e| job.log.context(e))? {
+            Streamed::Done(r) => return Ok((r, None)),
+            Streamed::Unsupported(why) => why_not = Some(why),
+        }
+    }
+    let log = read(robot, &job.log, &job.source, &job.opts)?;
+    let mut opts = job.opts.clone();
+    opts.validation_log = job.validate.as_ref().map(|v| read(robot, v, &job.source, &opts).map(Cow::into_owned)).transpose()?;
+    let mut r = identify(robot, &log, &opts).map_err(|e| job.log.context(e))?;
+    if let Some(w) = why_not {
+        r.notes.push(format!("read into memory (not streamed): {w}"));
+    }
+    Ok((r, Some(log)))
+}
+
+fn read<'a>(robot: &Robot, input: &'a LogInput, src: &LogSource, opts: &IdentifyOptions) -> Result<Cow<'a, JointLog>> {
+    let _st = input.path().map(|p| Stage::begin(&opts.progress, &format!("reading {}", p.display()), 0));
+    input.load(robot, src)
+}
+
+fn write_outputs(robot: &Robot, job: &IdentifyJob, rep: &IdentifyReport, mem: Option<&JointLog>) -> Result<Vec<String>> {
+    let out = &job.outputs;
+    let mut written = vec![];
+    let params = rep.consistent.as_ref().map(|c| &c.params).unwrap_or(&rep.params);
+    if let Some(p) = &out.params {
+        write_json(p, params)?;
+        written.push(format!("parameters written to {}", p.display()));
+    }
+    if let Some((input, path)) = &out.urdf {
+        let source = if rep.consistent.is_some() {
+            "ivdyn identify --consistent: physically consistent full parameters"
+        } else {
+            "ivdyn identify: nominal parameters corrected in the identifiable directions (BaseParams::apply)"
+        };
+        let text = std::fs::read_to_string(input).map_err(|e| Error::Io { file: input.clone(), source: e })?;
+        let wb = urdf_write::write_back(&text, input, robot, Some(&params.theta), None, vec![source.to_string()])?;
+        urdf_write::write_files(path, &wb)?;
+        written.push(format!("URDF written to {} (armature and offsets in {})", path.display(), side_path(path).display()));
+    }
+    if let Some(p) = &out.json {
+        write_json(p, rep)?;
+        written.push(format!("report written to {}", p.display()));
+    }
+    if let Some(p) = &out.mcap {
+        let mut model = robot.clone();
+        model.set_params(&rep.params.theta)?;
+        let k = prediction(robot, &model, job, mem, p)?;
+        written.push(format!("measured, predicted and residual torques ({k} samples) written to {} (topics /joint_states, /ivdyn/predicted, /ivdyn/residual)", p.display()));
+    }
+    Ok(written)
+}
+
+/// The prediction MCAP: streamed from the log file when the fit was, else from memory.
+fn prediction(robot: &Robot, model: &Robot, job: &IdentifyJob, mem: Option<&JointLog>, out: &Path) -> Result<usize> {
+    let in_file = |e: Error| match e {
+        e @ (Error::Log { .. } | Error::Io { .. } | Error::InFile { .. }) => e,
+        e => Error::InFile { file: out.to_path_buf(), source: Box::new(e) },
+    };
+    let mut k = 0;
+    write_atomic(out, |tmp| {
+        if let (None, Some(path)) = (mem, job.log.mcap_path())
+            && let Streamed::Done(n) = write_prediction_mcap(tmp, model, path, &job.source.read_options(robot), &job.opts).map_err(in_file)?
+        {
+            k = n;
+            return Ok(());
+        }
+        let log = match mem {
+            Some(l) => Cow::Borrowed(l),
+            None => job.log.load(robot, &job.source)?,
+        };
+        k = write_prediction(tmp, model, &log, &job.opts.condition).map_err(in_file)?;
+        Ok(())
+    })?;
+    Ok(k)
+}

@@ -1,0 +1,118 @@
+//! What the jobs read and write: the robot and log sources of a command, and outputs
+//! written whole or not at all (a temporary file beside the target, renamed over it).
+
+use std::borrow::Cow;
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::log::{read_pipeline_log, JointLog, ReadOptions};
+use crate::output::write_atomic;
+use crate::robot::load;
+use crate::Robot;
+
+/// Where a command's robot comes from: a URDF (with its side file, when present), the
+/// chain's base and tip links, and optionally a parameter file replacing every parameter.
+#[derive(Debug, Clone, Default)]
+pub struct RobotSource {
+    /// URDF file.
+    pub urdf: PathBuf,
+    /// Base link (default: the URDF's root).
+    pub base: Option<String>,
+    /// Tip link (default: the end of an unbranched chain).
+    pub tip: Option<String>,
+    /// Parameter file written by `identify --out-params`.
+    pub params: Option<PathBuf>,
+}
+
+impl RobotSource {
+    /// Loads the robot ([`load::load`]).
+    pub fn load(&self) -> Result<Robot> {
+        load::load(&self.urdf, self.base.as_deref(), self.tip.as_deref(), self.params.as_deref())
+    }
+
+    /// The side file that [`RobotSource::load`] applies, if there is one (the command
+    /// line says so).
+    pub fn side_file(&self) -> Option<PathBuf> {
+        let side = load::side_path(&self.urdf);
+        (self.params.is_none() && side.exists()).then_some(side)
+    }
+}
+
+/// How logs are read: the JointState topic, an optional command topic, and the stamps.
+#[derive(Debug, Clone)]
+pub struct LogSource {
+    /// JointState topic of MCAP logs.
+    pub topic: String,
+    /// JointState topic carrying the actuator command `u` (its effort field).
+    pub command_topic: Option<String>,
+    /// MCAP log times instead of header stamps.
+    pub log_time: bool,
+}
+
+impl Default for LogSource {
+    fn default() -> Self {
+        LogSource { topic: "/joint_states".into(), command_topic: None, log_time: false }
+    }
+}
+
+impl LogSource {
+    /// The streaming reader's options for `robot`'s joints.
+    pub fn read_options(&self, robot: &Robot) -> ReadOptions {
+        ReadOptions::new(&robot.joint_names).topic(&self.topic).command_topic_opt(self.command_topic.as_deref()).log_time(self.log_time)
+    }
+
+    /// Reads a whole log file (`.csv`, or MCAP) and checks it ([`read_pipeline_log`]).
+    pub fn read(&self, path: &Path, robot: &Robot) -> Result<JointLog> {
+        read_pipeline_log(path, &robot.joint_names, &self.topic, self.command_topic.as_deref(), self.log_time)
+    }
+}
+
+/// A log given as a file (read, or streamed when the options allow) or as arrays.
+#[derive(Debug, Clone)]
+pub enum LogInput {
+    /// A `.mcap` or `.csv` file.
+    File(PathBuf),
+    /// Arrays already in memory (checked as a file's would be).
+    Arrays(JointLog),
+}
+
+impl LogInput {
+    /// The file, if the log is one.
+    pub fn path(&self) -> Option<&Path> {
+        match self {
+            LogInput::File(p) => Some(p),
+            LogInput::Arrays(_) => None,
+        }
+    }
+
+    /// An MCAP file (what the streaming reader takes; CSV and arrays are read whole).
+    pub fn mcap_path(&self) -> Option<&Path> {
+        self.path().filter(|p| !p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")))
+    }
+
+    /// The log in memory.
+    pub fn load(&self, robot: &Robot, src: &LogSource) -> Result<Cow<'_, JointLog>> {
+        match self {
+            LogInput::File(p) => src.read(p, robot).map(Cow::Owned),
+            LogInput::Arrays(l) => Ok(Cow::Borrowed(l)),
+        }
+    }
+
+    /// `e` prefixed with the log file, unless it already names a file.
+    pub fn context(&self, e: Error) -> Error {
+        match (self, e) {
+            (_, e @ (Error::Log { .. } | Error::Io { .. } | Error::InFile { .. })) => e,
+            (LogInput::File(p), e) => Error::InFile { file: p.clone(), source: Box::new(e) },
+            (LogInput::Arrays(_), e) => e,
+        }
+    }
+}
+
+/// A log written as `.mcap` or `.csv` (by the extension), whole or not at all.
+pub fn write_log(path: &Path, log: &JointLog) -> Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    if ext != "csv" && ext != "mcap" {
+        return Err(Error::Log { file: path.to_path_buf(), msg: format!("unknown output format '.{ext}' (use .mcap or .csv)") });
+    }
+    write_atomic(path, |tmp| if ext == "csv" { crate::log::write_csv(tmp, log) } else { crate::log::write_mcap(tmp, log, &[]).map(|_| ()) })
+}
