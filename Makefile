@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test venv rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data
+.PHONY: demo test venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -31,8 +31,13 @@ demo:
 	    --log fixtures/diagnose/viscous_payload.mcap --out $(DEMO)/diagnose
 	@echo "diagnosis of a MuJoCo log (truth: 1.2 kg payload, viscous friction on shoulder_lift and wrist_1): $(DEMO)/diagnose/report.html"
 
-## test: every Rust test, the no_std/no-alloc proof, and the Python suites
-test: rust-test nostd py-test
+## test: formatting and lints, every Rust test, the no_std/no-alloc proof, and the Python suites
+test: lint rust-test nostd py-test
+
+## lint: rustfmt (rustfmt.toml) and clippy with warnings as errors, on every target
+lint:
+	$(CARGO) fmt --all --check
+	$(CARGO) clippy --workspace --all-targets -- -D warnings
 
 venv: $(STAMP)
 $(STAMP): python/requirements-dev.txt

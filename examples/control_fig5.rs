@@ -41,7 +41,11 @@ fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dy
         // first time the mass estimate stays within 5 % for good
         let within = c.estimates.iter().rposition(|e| ((e.theta[b] - truth[b]) / truth[b]).abs() > 0.05).map(|i| i + 1);
         if let Some(i) = within.filter(|&i| i < c.estimates.len()) {
-            println!("mass estimate within 5 % from t = {:.3} s on ({:.3} s after the grasp)", c.estimates[i].t, c.estimates[i].t - exp.grasp_time);
+            println!(
+                "mass estimate within 5 % from t = {:.3} s on ({:.3} s after the grasp)",
+                c.estimates[i].t,
+                c.estimates[i].t - exp.grasp_time
+            );
         }
     }
     println!("\nall estimated entries at the end (truth = the payload's parameters about the last link's origin):");
@@ -50,7 +54,10 @@ fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dy
     }
     let settle = switch + SETTLE;
     let mut tables = vec![];
-    for (from, what) in [(settle, format!("from {SETTLE} s after the switch (t >= {settle:.3} s)")), (switch, format!("from the switch (t >= {switch:.3} s)"))] {
+    for (from, what) in [
+        (settle, format!("from {SETTLE} s after the switch (t >= {settle:.3} s)")),
+        (switch, format!("from the switch (t >= {switch:.3} s)")),
+    ] {
         println!("\ntracking error {what}, per joint, RMS / peak in mrad:\n");
         let hdr: Vec<String> = (1..=N).map(|i| format!("j{i}")).collect();
         println!("| scheme | {} | mean RMS |", hdr.join(" | "));
@@ -60,7 +67,8 @@ fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dy
             let (rms, pk) = r.rms_peak(from);
             let m = rms.iter().sum::<f64>() / N as f64;
             rms_mean.push(m);
-            let cells: Vec<String> = rms.iter().zip(&pk).map(|(a, b)| format!("{:.3} / {:.2}", 1e3 * a, 1e3 * b)).collect();
+            let cells: Vec<String> =
+                rms.iter().zip(&pk).map(|(a, b)| format!("{:.3} / {:.2}", 1e3 * a, 1e3 * b)).collect();
             println!("| {} | {} | {:.3} |", r.scheme.label(), cells.join(" | "), 1e3 * m);
         }
         println!(
@@ -74,7 +82,13 @@ fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dy
     }
     // error of (c) in the same window before the grasp, between grasp and switch
     let window = |r: &RunLog, a: f64, b: f64| -> f64 {
-        let v: Vec<f64> = r.t_all.iter().zip(&r.err_all).filter(|(t, _)| **t >= a && **t < b).map(|(_, e)| e.iter().map(|x| x * x).sum::<f64>() / N as f64).collect();
+        let v: Vec<f64> = r
+            .t_all
+            .iter()
+            .zip(&r.err_all)
+            .filter(|(t, _)| **t >= a && **t < b)
+            .map(|(_, e)| e.iter().map(|x| x * x).sum::<f64>() / N as f64)
+            .collect();
         (v.iter().sum::<f64>() / v.len().max(1) as f64).sqrt()
     };
     println!(

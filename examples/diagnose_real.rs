@@ -7,8 +7,8 @@
 use std::path::PathBuf;
 
 use ivdyn::diagnose::{self, DiagnoseOptions};
-use ivdyn_lab::real::{load_lwr_robot, load_lwr_run};
 use ivdyn::log::JointLog;
+use ivdyn_lab::real::{load_lwr_robot, load_lwr_run};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -27,7 +27,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             u: None,
             truncated: false,
         };
-        let opts = DiagnoseOptions { log_name: run.file.display().to_string(), urdf_name: "kuka_lwr4.urdf".into(), ..Default::default() };
+        let opts = DiagnoseOptions {
+            log_name: run.file.display().to_string(),
+            urdf_name: "kuka_lwr4.urdf".into(),
+            ..Default::default()
+        };
         let t0 = std::time::Instant::now();
         let d = diagnose::diagnose(&robot, &log, &opts)?;
         let dir = out.join(format!("run{k}"));
@@ -41,11 +45,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         if std::env::var("VERBOSE").is_ok() {
             for c in &d.final_candidates {
-                println!("    {:<18} {}", c.effect.name(), c.per_joint.iter().map(|s| format!("[F {:.0} p {:.0e} g {:.2} e {:.3}]", s.f, s.p, s.heldout_gain, s.effect_rms)).collect::<Vec<_>>().join(" "));
+                println!(
+                    "    {:<18} {}",
+                    c.effect.name(),
+                    c.per_joint
+                        .iter()
+                        .map(|s| format!("[F {:.0} p {:.0e} g {:.2} e {:.3}]", s.f, s.p, s.heldout_gain, s.effect_rms))
+                        .collect::<Vec<_>>()
+                        .join(" ")
+                );
             }
         }
         let f = |v: &[f64]| v.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(" ");
-        println!("  baseline RMS {}\n  final    RMS {}\n  noise        {}", f(&d.json.baseline_rms), f(&d.json.final_rms), f(&d.noise_std));
+        println!(
+            "  baseline RMS {}\n  final    RMS {}\n  noise        {}",
+            f(&d.json.baseline_rms),
+            f(&d.json.final_rms),
+            f(&d.noise_std)
+        );
     }
     Ok(())
 }

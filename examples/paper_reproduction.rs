@@ -6,7 +6,7 @@
 //! See `docs/paper-reproduction.md` for the set-up and the results.
 
 use indicatif::{ProgressBar, ProgressStyle};
-use ivdyn_lab::repro::{batch_estimates, recursive_traces, Estimator, PaperSim};
+use ivdyn_lab::repro::{Estimator, PaperSim, batch_estimates, recursive_traces};
 use serde_json::json;
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -56,26 +56,31 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     )?;
 
     // --- Monte Carlo over seeds (nominal errors and noise both drawn per seed) ---
-    let checkpoints: Vec<usize> = [2_000usize, 10_000, 100_000, 1_000_000].into_iter().filter(|&n| n <= n_max).collect();
+    let checkpoints: Vec<usize> =
+        [2_000usize, 10_000, 100_000, 1_000_000].into_iter().filter(|&n| n <= n_max).collect();
     let bar = ProgressBar::new(seeds);
-    bar.set_style(ProgressStyle::with_template("monte carlo {bar:40} {pos}/{len} seeds [{elapsed_precise} / eta {eta}]")?);
+    bar.set_style(ProgressStyle::with_template(
+        "monte carlo {bar:40} {pos}/{len} seeds [{elapsed_precise} / eta {eta}]",
+    )?);
     let results = Mutex::new(Vec::new());
     let next = Mutex::new(0u64);
     std::thread::scope(|s| {
         for _ in 0..std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1) {
-            s.spawn(|| loop {
-                let seed = {
-                    let mut g = next.lock().unwrap();
-                    if *g >= seeds {
-                        break;
-                    }
-                    *g += 1;
-                    *g - 1
-                };
-                let sim = PaperSim::new(seed).expect("set-up");
-                let est = batch_estimates(&sim, 1_000_000 + seed, &checkpoints).expect("estimates");
-                results.lock().unwrap().push((seed, sim.truth_base.clone(), est));
-                bar.inc(1);
+            s.spawn(|| {
+                loop {
+                    let seed = {
+                        let mut g = next.lock().unwrap();
+                        if *g >= seeds {
+                            break;
+                        }
+                        *g += 1;
+                        *g - 1
+                    };
+                    let sim = PaperSim::new(seed).expect("set-up");
+                    let est = batch_estimates(&sim, 1_000_000 + seed, &checkpoints).expect("estimates");
+                    results.lock().unwrap().push((seed, sim.truth_base.clone(), est));
+                    bar.inc(1);
+                }
             });
         }
     });
@@ -96,7 +101,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("nonzero, else absolute (SI units):");
     for (ci, &n) in checkpoints.iter().enumerate() {
         println!("\nN = {n}");
-        println!("| combination | truth (seed 0) | {} |", Estimator::ALL.iter().map(|e| e.label()).collect::<Vec<_>>().join(" | "));
+        println!(
+            "| combination | truth (seed 0) | {} |",
+            Estimator::ALL.iter().map(|e| e.label()).collect::<Vec<_>>().join(" | ")
+        );
         println!("|---|---|{}", "---|".repeat(Estimator::ALL.len()));
         for (b, name) in sim.base.names.iter().enumerate() {
             if !name.contains("link6") && !name.contains("joint6") {
@@ -107,10 +115,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .map(|k| {
                     let errs: Vec<f64> = results
                         .iter()
-                        .map(|(_, t, e)| if relative { 100.0 * (e[k][ci][b] - t[b]) / t[b].abs() } else { e[k][ci][b] - t[b] })
+                        .map(
+                            |(_, t, e)| {
+                                if relative { 100.0 * (e[k][ci][b] - t[b]) / t[b].abs() } else { e[k][ci][b] - t[b] }
+                            },
+                        )
                         .collect();
                     let m = errs.iter().sum::<f64>() / errs.len() as f64;
-                    let sd = (errs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (errs.len().max(2) - 1) as f64).sqrt();
+                    let sd =
+                        (errs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (errs.len().max(2) - 1) as f64).sqrt();
                     if relative { format!("{m:+.1} % +- {sd:.1}") } else { format!("{m:+.1e} +- {sd:.1e}") }
                 })
                 .collect();

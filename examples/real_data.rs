@@ -14,7 +14,10 @@
 use std::path::PathBuf;
 
 use ivdyn_lab::real::{load_lwr_robot, load_lwr_run, load_tx40};
-use ivdyn_lab::realdata::{butterworth_settling_s, identify_lwr, identify_tx40, lwr_cross_validation, Estimator, LwrOptions, RealReport, Tx40Options};
+use ivdyn_lab::realdata::{
+    Estimator, LwrOptions, RealReport, Tx40Options, butterworth_settling_s, identify_lwr, identify_tx40,
+    lwr_cross_validation,
+};
 
 fn main() {
     if let Err(e) = run() {
@@ -43,22 +46,40 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         println!("  rank {} of the base regressor, {} rows, cond {:.3e}", r.rank, r.rows, r.condition_number);
         println!("  {:<14} {:>8} {:>8} {:>9} {:>9}", "joint", "R2 val", "floor", "RMS val", "tau RMS");
         for i in 0..r.joints.len() {
-            println!("  {:<14} {:>8.3} {:>8.2} {:>9.3} {:>9.3}", r.joints[i], r.validation.r2[i], r.floor_r2[i], r.validation.rms[i], r.validation.tau_rms[i]);
+            println!(
+                "  {:<14} {:>8.3} {:>8.2} {:>9.3} {:>9.3}",
+                r.joints[i], r.validation.r2[i], r.floor_r2[i], r.validation.rms[i], r.validation.tau_rms[i]
+            );
         }
         if let Some(c) = &r.consistent {
-            println!("  physically consistent fit (log-Cholesky, friction and armature >= 0): {} LM iterations (converged: {}), {} directions unseen by the data", c.cost.iterations, c.cost.converged, c.cost.regularised_directions);
-            println!("    weighted RSS of the fitted rows {:.6e} -> {:.6e} ({:+.2} %)", c.cost.rss_ls, c.cost.rss, 100.0 * c.cost.rss_increase);
+            println!(
+                "  physically consistent fit (log-Cholesky, friction and armature >= 0): {} LM iterations (converged: {}), {} directions unseen by the data",
+                c.cost.iterations, c.cost.converged, c.cost.regularised_directions
+            );
+            println!(
+                "    weighted RSS of the fitted rows {:.6e} -> {:.6e} ({:+.2} %)",
+                c.cost.rss_ls,
+                c.cost.rss,
+                100.0 * c.cost.rss_increase
+            );
             println!("    LS estimate (nominal + base correction): {} violations", c.ls_violations.len());
             for v in &c.ls_violations {
                 println!("      {v}");
             }
-            println!("    consistent parameters: {} violations{}", c.violations.len(), if c.violations.is_empty() { " (physically valid)" } else { "" });
+            println!(
+                "    consistent parameters: {} violations{}",
+                c.violations.len(),
+                if c.violations.is_empty() { " (physically valid)" } else { "" }
+            );
             for v in &c.violations {
                 println!("      {v}");
             }
             println!("    {:<14} {:>8} {:>8} {:>9} {:>9}", "joint", "R2 LS", "R2 cons", "RMS LS", "RMS cons");
             for i in 0..r.joints.len() {
-                println!("    {:<14} {:>8.3} {:>8.3} {:>9.3} {:>9.3}", r.joints[i], r.validation.r2[i], c.validation.r2[i], r.validation.rms[i], c.validation.rms[i]);
+                println!(
+                    "    {:<14} {:>8.3} {:>8.3} {:>9.3} {:>9.3}",
+                    r.joints[i], r.validation.r2[i], c.validation.r2[i], r.validation.rms[i], c.validation.rms[i]
+                );
             }
         }
     };
@@ -76,8 +97,14 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         ("OLS, position filter 200 Hz", Tx40Options { cutoff_hz: 200.0, ..Default::default() }),
         ("OLS, parallel filter 20 Hz (50 Hz rows)", Tx40Options { decimate_parallel: 10, ..Default::default() }),
         ("OLS, parallel filter 40 Hz (100 Hz rows)", Tx40Options { decimate_parallel: 5, ..Default::default() }),
-        ("OLS, smooth Coulomb tanh(qd_m / v0), v0 = 3x velocity noise", Tx40Options { smooth_coulomb: true, ..Default::default() }),
-        ("OLS, standstill rows dropped (fit and validation)", Tx40Options { exclude_standstill: true, ..Default::default() }),
+        (
+            "OLS, smooth Coulomb tanh(qd_m / v0), v0 = 3x velocity noise",
+            Tx40Options { smooth_coulomb: true, ..Default::default() },
+        ),
+        (
+            "OLS, standstill rows dropped (fit and validation)",
+            Tx40Options { exclude_standstill: true, ..Default::default() },
+        ),
     ];
     for (name, o) in tx_variants {
         let r = identify_tx40(&tx, &o)?;
@@ -86,19 +113,28 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
 
     let robot = load_lwr_robot(&root)?;
     let runs = (1..=3).map(|k| load_lwr_run(&root, k)).collect::<Result<Vec<_>, _>>()?;
-    let rep = identify_lwr(&robot, &[&runs[0], &runs[2]], &runs[1], &LwrOptions { consistent: true, ..Default::default() })?;
+    let rep =
+        identify_lwr(&robot, &[&runs[0], &runs[2]], &runs[1], &LwrOptions { consistent: true, ..Default::default() })?;
     summary(&rep);
     std::fs::write(out.join("lwr.json"), serde_json::to_string_pretty(&rep)?)?;
     // How the LWR settings were chosen: cross-validation within the fitted runs (fit run 1,
     // predict run 3 and the reverse), mean held-out R² over joints and both folds; the
     // validation run's R² is listed next to it but was not used for the choice.
     let mut selection = vec![];
-    println!("LWR settings by cross-validation within runs 1 + 3 (held-out R2 mean over joints and folds), and validation on run 2:");
+    println!(
+        "LWR settings by cross-validation within runs 1 + 3 (held-out R2 mean over joints and folds), and validation on run 2:"
+    );
     for edge_s in [0.0, butterworth_settling_s(6, 2.0)] {
         for springs in [vec![], vec![6], (0..7).collect::<Vec<_>>()] {
             for matched_filter_hz in [Some(2.0), None] {
                 for estimator in [Estimator::Ols, Estimator::Wls] {
-                    let o = LwrOptions { edge_s, springs: springs.clone(), matched_filter_hz, estimator, ..Default::default() };
+                    let o = LwrOptions {
+                        edge_s,
+                        springs: springs.clone(),
+                        matched_filter_hz,
+                        estimator,
+                        ..Default::default()
+                    };
                     let cv = lwr_cross_validation(&robot, &[&runs[0], &runs[2]], &o)?;
                     let cv_mean = cv.iter().flatten().sum::<f64>() / (cv.len() * cv[0].len()) as f64;
                     let r = identify_lwr(&robot, &[&runs[0], &runs[2]], &runs[1], &o)?;

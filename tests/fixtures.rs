@@ -16,7 +16,7 @@ fn vecf(v: &Value) -> Vec<f64> {
 }
 
 fn matf(v: &Value) -> Vec<f64> {
-    v.as_array().unwrap().iter().flat_map(|r| vecf(r)).collect()
+    v.as_array().unwrap().iter().flat_map(vecf).collect()
 }
 
 /// |a - b| / max(|b|, 1) in the 2-norm, as the fixture generator measured it.
@@ -35,12 +35,9 @@ fn load(name: &str) -> (Robot, Value) {
     let m = &fx["model"];
     let robot = match m["kind"].as_str().unwrap() {
         "urdf" => {
-            let r = Robot::from_urdf(
-                fixtures().join(m["file"].as_str().unwrap()),
-                m["base"].as_str(),
-                m["tip"].as_str(),
-            )
-            .unwrap();
+            let r =
+                Robot::from_urdf(fixtures().join(m["file"].as_str().unwrap()), m["base"].as_str(), m["tip"].as_str())
+                    .unwrap();
             let locked: Vec<String> =
                 m["locked_joints"].as_array().unwrap().iter().map(|s| s.as_str().unwrap().to_string()).collect();
             let mut got = r.locked_joints.clone();
@@ -94,10 +91,16 @@ fn check(name: &str) {
         upd(6, rel(&robot.gravity(&q).unwrap(), &vecf(&s["g"])), "g (Pinocchio)");
         let tau_fd = vecf(&s["tau_fd"]);
         upd(7, rel(&robot.forward_dynamics(&q, &qd, &tau_fd).unwrap(), &vecf(&s["qdd_fd"])), "qdd_fd");
-        upd(8, rel(&rigid.forward_dynamics(&q, &qd, &tau_fd).unwrap(), &vecf(&s["qdd_fd_rigid"])), "qdd_fd_rigid (Pinocchio aba)");
+        upd(
+            8,
+            rel(&rigid.forward_dynamics(&q, &qd, &tau_fd).unwrap(), &vecf(&s["qdd_fd_rigid"])),
+            "qdd_fd_rigid (Pinocchio aba)",
+        );
     }
-    eprintln!("{name}: worst rel errors tau {:.1e} tau_rigid {:.1e} Y {:.1e} Y_rigid {:.1e} M {:.1e} M_rigid {:.1e} g {:.1e} fd {:.1e} fd_rigid {:.1e}",
-        worst[0], worst[1], worst[2], worst[3], worst[4], worst[5], worst[6], worst[7], worst[8]);
+    eprintln!(
+        "{name}: worst rel errors tau {:.1e} tau_rigid {:.1e} Y {:.1e} Y_rigid {:.1e} M {:.1e} M_rigid {:.1e} g {:.1e} fd {:.1e} fd_rigid {:.1e}",
+        worst[0], worst[1], worst[2], worst[3], worst[4], worst[5], worst[6], worst[7], worst[8]
+    );
 }
 
 fn check_energy(name: &str) {

@@ -1,10 +1,12 @@
 //! Bad input fails with a message naming the problem, never a panic.
 
-use ivdyn::{robot::urdf::load_str, Error, Robot};
+use ivdyn::{Error, Robot, robot::urdf::load_str};
 use std::path::Path;
 
 fn link(name: &str) -> String {
-    format!(r#"<link name="{name}"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>"#)
+    format!(
+        r#"<link name="{name}"><inertial><mass value="1"/><inertia ixx="0.1" ixy="0" ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial></link>"#
+    )
 }
 
 fn joint(name: &str, kind: &str, parent: &str, child: &str, extra: &str) -> String {
@@ -27,7 +29,13 @@ fn err(text: &str, base: Option<&str>, tip: Option<&str>) -> String {
 #[test]
 fn floating_and_planar_joints_are_named() {
     for kind in ["floating", "planar"] {
-        let t = urdf(&[link("a"), link("b"), link("c"), joint("j1", "revolute", "a", "b", ""), joint("free", kind, "b", "c", "")]);
+        let t = urdf(&[
+            link("a"),
+            link("b"),
+            link("c"),
+            joint("j1", "revolute", "a", "b", ""),
+            joint("free", kind, "b", "c", ""),
+        ]);
         let msg = err(&t, None, Some("c"));
         assert!(msg.contains("'free'") && msg.contains(kind) && msg.contains("arm.urdf"), "{msg}");
     }
@@ -36,7 +44,9 @@ fn floating_and_planar_joints_are_named() {
 #[test]
 fn mimic_joint_on_the_chain_is_named() {
     let t = urdf(&[
-        link("a"), link("b"), link("c"),
+        link("a"),
+        link("b"),
+        link("c"),
         joint("j1", "revolute", "a", "b", ""),
         joint("j2", "revolute", "b", "c", r#"<mimic joint="j1" multiplier="1" offset="0"/>"#),
     ]);
@@ -47,7 +57,10 @@ fn mimic_joint_on_the_chain_is_named() {
 #[test]
 fn branching_without_tip_names_the_branches_and_a_tip_resolves_it() {
     let t = urdf(&[
-        link("a"), link("b"), link("l"), link("r"),
+        link("a"),
+        link("b"),
+        link("l"),
+        link("r"),
         joint("j1", "revolute", "a", "b", ""),
         joint("left", "revolute", "b", "l", ""),
         joint("right", "prismatic", "b", "r", ""),
@@ -74,7 +87,8 @@ fn unknown_links_and_bad_structure() {
 
 #[test]
 fn zero_axis_is_named() {
-    let t = urdf(&[link("a"), link("b"), joint("j1", "revolute", "a", "b", "")]).replace(r#"<axis xyz="0 0 1"/>"#, r#"<axis xyz="0 0 0"/>"#);
+    let t = urdf(&[link("a"), link("b"), joint("j1", "revolute", "a", "b", "")])
+        .replace(r#"<axis xyz="0 0 1"/>"#, r#"<axis xyz="0 0 0"/>"#);
     let msg = err(&t, None, None);
     assert!(msg.contains("'j1'") && msg.contains("axis"), "{msg}");
 }
@@ -107,7 +121,10 @@ fn wrong_length_and_non_finite_inputs_are_errors() {
 #[test]
 fn fixed_joints_fuse_and_continuous_joints_are_unlimited() {
     let t = urdf(&[
-        link("a"), link("b"), link("c"), link("tool"),
+        link("a"),
+        link("b"),
+        link("c"),
+        link("tool"),
         joint("j1", "continuous", "a", "b", ""),
         joint("mid", "fixed", "b", "c", ""),
         joint("tool_joint", "fixed", "c", "tool", ""),

@@ -3,12 +3,12 @@
 //! the last link's 10 parameters), fixed sizes, no allocation. Paper's robot (N = 6) and
 //! the Panda (N = 7). Each iteration uses the next of 1024 states, `Data` reused.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use ivdyn_benches::{panda7, states};
 use ivdyn_core::control::{ComputedTorque, Gains, PayloadEstimator, Reference};
-use ivdyn_core::estim::terminal::Method;
 use ivdyn_core::estim::Riv;
-use ivdyn_core::{paper, Data, Model};
+use ivdyn_core::estim::terminal::Method;
+use ivdyn_core::{Data, Model, paper};
 use nalgebra::{Const, SVector};
 use std::hint::black_box;
 
@@ -18,7 +18,14 @@ fn bench_robot<const N: usize>(c: &mut Criterion, name: &str, model: &Model<N>) 
     let ct = ComputedTorque::new(Gains::<N>::critically_damped(20.0));
     let cols = SVector::<usize, 10>::from_fn(|i, _| i);
     let mk = || {
-        PayloadEstimator::new(model.clone(), cols, [1.0; N], 0.0, Method::Iv(Riv::<Const<10>>::new(SVector::zeros(), 1e3))).unwrap()
+        PayloadEstimator::new(
+            model.clone(),
+            cols,
+            [1.0; N],
+            0.0,
+            Method::Iv(Riv::<Const<10>>::new(SVector::zeros(), 1e3)),
+        )
+        .unwrap()
     };
     let mut est = mk();
     let mut ctrl_model = model.clone();

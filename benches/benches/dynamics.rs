@@ -2,9 +2,9 @@
 //! (and gravity). Each iteration runs one call on the next of 1024 states, with `Data`
 //! reused, as the Pinocchio anchor (`shared/anchors/pinocchio/bench.cpp`) does.
 
-use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use ivdyn_benches::{panda7, states, ur5};
-use ivdyn_core::{forward_dynamics, gravity, mass_matrix, paper, regressor, rnea, Data, Model};
+use ivdyn_core::{Data, Model, forward_dynamics, gravity, mass_matrix, paper, regressor, rnea};
 use std::hint::black_box;
 
 fn bench_robot<const N: usize>(c: &mut Criterion, name: &str, model: &Model<N>) {

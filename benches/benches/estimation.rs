@@ -3,14 +3,14 @@
 //! update of RLS and RIV over the paper robot's full base set, and a batch fit of 100 000
 //! UR5 samples (regressor + streaming QR least squares).
 
-use criterion::{criterion_group, criterion_main, Criterion};
-use ivdyn::ident::{base::robot_base_params, fit_ls, LsAccumulator};
-use ivdyn_lab::repro::{Estimator, PaperSim};
+use criterion::{Criterion, criterion_group, criterion_main};
 use ivdyn::Robot;
+use ivdyn::ident::{LsAccumulator, base::robot_base_params, fit_ls};
 use ivdyn_core::estim::terminal::{Method, TerminalLink};
 use ivdyn_core::estim::{Riv, Rls};
 use ivdyn_core::rng::Rng;
 use ivdyn_core::{Data, VecN};
+use ivdyn_lab::repro::{Estimator, PaperSim};
 use nalgebra::{Const, DVector, Dyn, SVector};
 use std::hint::black_box;
 
@@ -27,7 +27,8 @@ fn terminal_link(c: &mut Criterion) {
     );
     let samples: Vec<_> = sim.samples(1, 4000).collect();
     let mut d = Data::<6>::new();
-    let instr: Vec<VecN<6>> = samples.iter().map(|s| Estimator::IvmEq35.instrument(&sim, s, &mut d).unwrap().unwrap()).collect();
+    let instr: Vec<VecN<6>> =
+        samples.iter().map(|s| Estimator::IvmEq35.instrument(&sim, s, &mut d).unwrap().unwrap()).collect();
     let mut k = 0;
     c.bench_function("terminal_link_iv_update/paper_k5_18cols", |b| {
         b.iter(|| {
@@ -79,7 +80,8 @@ fn full_base_set(c: &mut Criterion) {
 }
 
 fn batch_fit(c: &mut Criterion) {
-    let robot = Robot::from_urdf(ivdyn_benches::root().join("fixtures/ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
+    let robot =
+        Robot::from_urdf(ivdyn_benches::root().join("fixtures/ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
     let base = robot_base_params(&robot, 60, 1).unwrap();
     let (n, p, b) = (robot.dof(), robot.num_params(), base.base_count());
     let states = ivdyn_benches::states::<6>(100_000);

@@ -9,10 +9,13 @@ use std::sync::{Arc, Mutex};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
 
-use ivdyn::app::{self, IdentifyJob, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, RobotSource, SimulateOptions, Trajectory};
+use ivdyn::Robot;
+use ivdyn::app::{
+    self, IdentifyJob, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, RobotSource, SimulateOptions,
+    Trajectory,
+};
 use ivdyn::progress::Progress;
 use ivdyn::report::PayloadSpec;
-use ivdyn::Robot;
 
 #[derive(Parser)]
 #[command(name = "ivdyn", version, about = "Robot-arm dynamics identification from motion logs")]
@@ -464,16 +467,39 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
 
 fn print_identify(robot: &Robot, rep: &app::IdentifyReport) {
     if let Some(fit) = &rep.fit_report {
-        println!("robot '{}', {} joints, {} samples at {:.1} Hz (filter {:.1} Hz), method {}", robot.name, robot.dof(), rep.fit.samples, rep.sample_rate_hz, rep.filter_cutoff_hz, rep.method);
+        println!(
+            "robot '{}', {} joints, {} samples at {:.1} Hz (filter {:.1} Hz), method {}",
+            robot.name,
+            robot.dof(),
+            rep.fit.samples,
+            rep.sample_rate_hz,
+            rep.filter_cutoff_hz,
+            rep.method
+        );
         if let Some(i) = &rep.instrument {
             println!("instrument: {i}");
         }
         println!();
-        println!("{} fit: {} rows, rank {}/{}, sigma2 = {:.4e}, cond = {:.3e}", fit.method, fit.rows, fit.rank, fit.theta.len(), fit.sigma2, fit.condition_number);
+        println!(
+            "{} fit: {} rows, rank {}/{}, sigma2 = {:.4e}, cond = {:.3e}",
+            fit.method,
+            fit.rows,
+            fit.rank,
+            fit.theta.len(),
+            fit.sigma2,
+            fit.condition_number
+        );
         println!("  {:>3}  {:>13}  {:>10}  {:>8}  {:>13}  base parameter", "#", "value", "std", "rel %", "nominal");
         for (i, b) in rep.base.iter().enumerate() {
-            let name = if b.name.chars().count() > 70 { format!("{}...", b.name.chars().take(67).collect::<String>()) } else { b.name.clone() };
-            println!("  {i:>3}  {:>13.6e}  {:>10.3e}  {:>8.2}  {:>13.6e}  {name}", b.value, b.std, b.rel_std_pct, b.nominal);
+            let name = if b.name.chars().count() > 70 {
+                format!("{}...", b.name.chars().take(67).collect::<String>())
+            } else {
+                b.name.clone()
+            };
+            println!(
+                "  {i:>3}  {:>13.6e}  {:>10.3e}  {:>8.2}  {:>13.6e}  {name}",
+                b.value, b.std, b.rel_std_pct, b.nominal
+            );
         }
         if !rep.unexcited.is_empty() {
             println!("  not excited (left at nominal): {}", rep.unexcited.join(", "));
@@ -508,8 +534,20 @@ fn print_identify(robot: &Robot, rep: &app::IdentifyReport) {
 
 fn print_consistent(joints: &[String], c: &ivdyn::ident::consistent::ConsistentReport) {
     let (r, k) = (&c.result, &c.result.cost);
-    let verdict = if r.check.consistent { "physically consistent".to_string() } else { format!("still inconsistent: {}", r.check.lines().join("; ")) };
-    println!("consistent fit ({} LM iterations{}): weighted RSS {:.6e} -> {:.6e} (+{:.3}%), {}", k.iterations, if k.converged { "" } else { ", NOT converged" }, k.rss_ls, k.rss, 100.0 * k.rss_increase, verdict);
+    let verdict = if r.check.consistent {
+        "physically consistent".to_string()
+    } else {
+        format!("still inconsistent: {}", r.check.lines().join("; "))
+    };
+    println!(
+        "consistent fit ({} LM iterations{}): weighted RSS {:.6e} -> {:.6e} (+{:.3}%), {}",
+        k.iterations,
+        if k.converged { "" } else { ", NOT converged" },
+        k.rss_ls,
+        k.rss,
+        100.0 * k.rss_increase,
+        verdict
+    );
     println!("  {} unidentifiable directions pulled toward the nominal parameters", k.regularised_directions);
     println!("fit quality per joint with the consistent parameters:");
     print_quality(joints, &c.fit);
@@ -539,7 +577,12 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
         log: LogInput::File(a.log.clone()),
         before: a.before.clone().map(LogInput::File),
         source: log_source(&a.log_args),
-        opts: PayloadOptions { condition: condition_opts(&a.log_args), decimate: a.log_args.decimate, progress: bars.sink(), ..Default::default() },
+        opts: PayloadOptions {
+            condition: condition_opts(&a.log_args),
+            decimate: a.log_args.decimate,
+            progress: bars.sink(),
+            ..Default::default()
+        },
         json: a.json.clone(),
         urdf: a.write_urdf.clone().map(|o| (a.robot.urdf.clone(), o, mode)),
     };
@@ -556,13 +599,20 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
 }
 
 fn print_payload(rep: &app::PayloadReport) {
-    println!("payload on link '{}' (COM and inertia in its frame), nominal model: {}, {} samples", rep.link, rep.nominal, rep.samples);
+    println!(
+        "payload on link '{}' (COM and inertia in its frame), nominal model: {}, {} samples",
+        rep.link, rep.nominal, rep.samples
+    );
     if rep.identifiable {
         let (m, ms) = (rep.mass.unwrap_or(f64::NAN), rep.mass_std.unwrap_or(f64::NAN));
         let (c, cs) = (rep.com.unwrap_or([f64::NAN; 3]), rep.com_std.unwrap_or([f64::NAN; 3]));
         let (i, is) = (rep.inertia.unwrap_or([f64::NAN; 6]), rep.inertia_std.unwrap_or([f64::NAN; 6]));
         println!("  mass     {m:.4} kg  (std {ms:.2e})");
-        println!("  com      [{}] m  (std [{}])", fmt_list(&c, 4), cs.iter().map(|x| format!("{x:.1e}")).collect::<Vec<_>>().join(", "));
+        println!(
+            "  com      [{}] m  (std [{}])",
+            fmt_list(&c, 4),
+            cs.iter().map(|x| format!("{x:.1e}")).collect::<Vec<_>>().join(", ")
+        );
         println!("  inertia  [{}] kg m^2 about the COM (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)", fmt_list(&i, 5));
         println!("           std [{}]", fmt_list(&is, 5));
     } else {
@@ -571,7 +621,11 @@ fn print_payload(rep: &app::PayloadReport) {
             println!("    {} (part of: {})", h.parameter, h.combined_in);
         }
     }
-    println!("  residual rms per joint before [{}] N m, after [{}] N m", fmt_list(&rep.rms_before, 4), fmt_list(&rep.rms_after, 4));
+    println!(
+        "  residual rms per joint before [{}] N m, after [{}] N m",
+        fmt_list(&rep.rms_before, 4),
+        fmt_list(&rep.rms_after, 4)
+    );
     for n in &rep.notes {
         println!("note: {n}");
     }
@@ -581,7 +635,8 @@ fn print_payload(rep: &app::PayloadReport) {
 
 fn simulate(a: SimulateArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
-    let payload = PayloadSpec::from_parts(a.payload_mass, a.payload_com.as_deref(), a.payload_inertia.as_deref()).map_err(msg)?;
+    let payload =
+        PayloadSpec::from_parts(a.payload_mass, a.payload_com.as_deref(), a.payload_inertia.as_deref()).map_err(msg)?;
     let opts = SimulateOptions {
         rate_hz: a.rate,
         duration_s: a.duration,
@@ -635,11 +690,30 @@ fn excite(a: ExciteArgs, bars: &Bars) -> R<ExitCode> {
     let job = app::ExciteJob { opts, csv: Some(a.out.clone()), mcap: a.out_mcap.clone(), json: a.json.clone() };
     let out = app::excite_job(&robot, &job).map_err(|e| format!("{}: {}", a.robot.urdf.display(), msg(e)))?;
     let rep = &out.report;
-    println!("robot '{}', {} joints, {} base parameters, {} harmonics of {} Hz, {} s at {} Hz", rep.robot, rep.joints.len(), rep.base_count, rep.harmonics, rep.f0_hz, rep.duration_s, rep.rate_hz);
-    println!("  optimised ({:?}): cond = {:.4e}, log det = {:.4}", rep.criterion, rep.optimised.cond, rep.optimised.logdet);
-    println!("  random Fourier ({} draws, same harmonics and bounds): median cond = {:.4e} (best {:.4e}), median log det = {:.4}", rep.random.draws, rep.random.cond_median, rep.random.cond_min, rep.random.logdet_median);
+    println!(
+        "robot '{}', {} joints, {} base parameters, {} harmonics of {} Hz, {} s at {} Hz",
+        rep.robot,
+        rep.joints.len(),
+        rep.base_count,
+        rep.harmonics,
+        rep.f0_hz,
+        rep.duration_s,
+        rep.rate_hz
+    );
+    println!(
+        "  optimised ({:?}): cond = {:.4e}, log det = {:.4}",
+        rep.criterion, rep.optimised.cond, rep.optimised.logdet
+    );
+    println!(
+        "  random Fourier ({} draws, same harmonics and bounds): median cond = {:.4e} (best {:.4e}), median log det = {:.4}",
+        rep.random.draws, rep.random.cond_median, rep.random.cond_min, rep.random.logdet_median
+    );
     println!("  condition number {:.1}x better than the random median", rep.cond_improvement);
-    println!("  peak |qd| / limit per joint [{}], peak |qdd| / limit [{}]", fmt_list(&rep.velocity_use, 3), fmt_list(&rep.acceleration_use, 3));
+    println!(
+        "  peak |qd| / limit per joint [{}], peak |qdd| / limit [{}]",
+        fmt_list(&rep.velocity_use, 3),
+        fmt_list(&rep.acceleration_use, 3)
+    );
     for n in &rep.notes {
         println!("note: {n}");
     }

@@ -52,7 +52,11 @@ fn cli_error_stamps_go_back() {
 #[test]
 fn cli_error_joint_names_do_not_match() {
     // a chain of test_arm.urdf whose joints the UR5 log does not have
-    let a: Vec<String> = ["--urdf", &fixture("test_arm.urdf"), "--tip", "tool", "--log", &fixture("logs/ur5_500hz.mcap")].iter().map(|s| s.to_string()).collect();
+    let a: Vec<String> =
+        ["--urdf", &fixture("test_arm.urdf"), "--tip", "tool", "--log", &fixture("logs/ur5_500hz.mcap")]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
     let line = fails("names", "identify", &a, &["ur5_500hz.mcap"]);
     eprintln!("{line}");
 }

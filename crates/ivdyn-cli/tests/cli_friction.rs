@@ -6,9 +6,15 @@ use util::*;
 
 /// Identifies `log` with `flags`; returns (base parameter names, drive_terms, worst
 /// validation RMS, the parameter file).
-fn identify(d: &std::path::Path, log: &std::path::Path, tag: &str, flags: &[&str]) -> (Vec<String>, Vec<String>, f64, ivdyn::report::ParamsFile) {
+fn identify(
+    d: &std::path::Path,
+    log: &std::path::Path,
+    tag: &str,
+    flags: &[&str],
+) -> (Vec<String>, Vec<String>, f64, ivdyn::report::ParamsFile) {
     let (rep, par) = (d.join(format!("{tag}.json")), d.join(format!("{tag}.params.json")));
-    let mut a = vec!["--log", log.to_str().unwrap(), "--json", rep.to_str().unwrap(), "--out-params", par.to_str().unwrap()];
+    let mut a =
+        vec!["--log", log.to_str().unwrap(), "--json", rep.to_str().unwrap(), "--out-params", par.to_str().unwrap()];
     a.extend_from_slice(flags);
     ok(&run(ur5_cmd("identify", &a)));
     let r = json(&rep);
@@ -28,8 +34,27 @@ fn friction_flags_choose_the_drive_parameters() {
     let d = tmpdir("friction");
     let (clean, rough) = (d.join("clean.mcap"), d.join("rough.mcap"));
     // the URDF has no friction: `clean` is rigid-body only; `rough` adds Coulomb and viscous
-    ok(&run(ur5_cmd("simulate", &["--noise", "0.05", "--duration", "12", "--seed", "8", "--out", clean.to_str().unwrap()])));
-    ok(&run(ur5_cmd("simulate", &["--noise", "0.05", "--duration", "12", "--seed", "8", "--fc", "2,2,1.5,0.6,0.6,0.4", "--fv", "0.8,0.8,0.5,0.2,0.2,0.1", "--out", rough.to_str().unwrap()])));
+    ok(&run(ur5_cmd(
+        "simulate",
+        &["--noise", "0.05", "--duration", "12", "--seed", "8", "--out", clean.to_str().unwrap()],
+    )));
+    ok(&run(ur5_cmd(
+        "simulate",
+        &[
+            "--noise",
+            "0.05",
+            "--duration",
+            "12",
+            "--seed",
+            "8",
+            "--fc",
+            "2,2,1.5,0.6,0.6,0.4",
+            "--fv",
+            "0.8,0.8,0.5,0.2,0.2,0.1",
+            "--out",
+            rough.to_str().unwrap(),
+        ],
+    )));
 
     let rigid = ["--friction", "none", "--no-armature", "--no-offset"];
     let (names, terms, worst_clean_none, pf) = identify(&d, &clean, "clean_none", &rigid);
@@ -59,7 +84,9 @@ fn friction_flags_choose_the_drive_parameters() {
     // Coulomb term flips sign with the velocity and no rigid-body parameter can mimic it
     let (_, _, worst_rough_none, _) = identify(&d, &rough, "rough_none", &rigid);
     let (_, _, worst_rough_all, pf_all) = identify(&d, &rough, "rough_all", &[]);
-    eprintln!("validation worst rms: rough log, rigid model {worst_rough_none:.3} N m, with friction {worst_rough_all:.4} N m");
+    eprintln!(
+        "validation worst rms: rough log, rigid model {worst_rough_none:.3} N m, with friction {worst_rough_all:.4} N m"
+    );
     assert!(worst_rough_all < 0.05, "{worst_rough_all}");
     assert!(worst_rough_none > 0.3, "{worst_rough_none}");
     // and with friction in the model, shoulder_pan's Coulomb coefficient is found

@@ -4,7 +4,7 @@
 //! RNEA) at the state of an in-memory conditioning of the original log.
 #[path = "cli_util/mod.rs"]
 mod util;
-use ivdyn::log::{read_mcap, ReadOptions};
+use ivdyn::log::{ReadOptions, read_mcap};
 use util::*;
 
 struct Out {
@@ -25,12 +25,44 @@ fn read_out(path: &std::path::Path, names: &[String]) -> Out {
 #[test]
 fn identify_out_mcap_measured_predicted_residual() {
     let d = tmpdir("out_mcap");
-    let (log, params, pred_s, pred_m) = (d.join("log.mcap"), d.join("params.json"), d.join("pred_stream.mcap"), d.join("pred_memory.mcap"));
-    ok(&run(ur5_cmd("simulate", &["--noise", "0.05", "--duration", "12", "--seed", "9", "--fc", "2,2,1.5,0.6,0.6,0.4", "--fv", "0.8,0.8,0.5,0.2,0.2,0.1", "--out", log.to_str().unwrap()])));
+    let (log, params, pred_s, pred_m) =
+        (d.join("log.mcap"), d.join("params.json"), d.join("pred_stream.mcap"), d.join("pred_memory.mcap"));
+    ok(&run(ur5_cmd(
+        "simulate",
+        &[
+            "--noise",
+            "0.05",
+            "--duration",
+            "12",
+            "--seed",
+            "9",
+            "--fc",
+            "2,2,1.5,0.6,0.6,0.4",
+            "--fv",
+            "0.8,0.8,0.5,0.2,0.2,0.1",
+            "--out",
+            log.to_str().unwrap(),
+        ],
+    )));
     let rep = d.join("rep.json");
-    ok(&run(ur5_cmd("identify", &["--log", log.to_str().unwrap(), "--out-params", params.to_str().unwrap(), "--out-mcap", pred_s.to_str().unwrap(), "--json", rep.to_str().unwrap()])));
+    ok(&run(ur5_cmd(
+        "identify",
+        &[
+            "--log",
+            log.to_str().unwrap(),
+            "--out-params",
+            params.to_str().unwrap(),
+            "--out-mcap",
+            pred_s.to_str().unwrap(),
+            "--json",
+            rep.to_str().unwrap(),
+        ],
+    )));
     assert_eq!(json(&rep)["streamed"], true);
-    ok(&run(ur5_cmd("identify", &["--log", log.to_str().unwrap(), "--in-memory", "--out-mcap", pred_m.to_str().unwrap()])));
+    ok(&run(ur5_cmd(
+        "identify",
+        &["--log", log.to_str().unwrap(), "--in-memory", "--out-mcap", pred_m.to_str().unwrap()],
+    )));
     // only the finished files, no temporary ones
     assert_eq!(files_in(&d), ["log.mcap", "params.json", "pred_memory.mcap", "pred_stream.mcap", "rep.json"]);
 
@@ -68,7 +100,9 @@ fn identify_out_mcap_measured_predicted_residual() {
         worst_tau = worst_tau.max((yt - tau_p[r]).abs());
         worst_q = worst_q.max((c.d.q[r] - out.predicted.q[r]).abs());
     }
-    eprintln!("predicted vs Y theta: worst {worst_tau:.2e} N m (torques up to {scale:.1} N m); smoothed q worst {worst_q:.2e} rad");
+    eprintln!(
+        "predicted vs Y theta: worst {worst_tau:.2e} N m (torques up to {scale:.1} N m); smoothed q worst {worst_q:.2e} rad"
+    );
     assert!(worst_tau < 1e-9 * scale, "{worst_tau}");
     assert!(worst_q < 1e-10, "{worst_q}");
     // the model explains the data: away from the filter edges (1 % at each end), the
@@ -83,9 +117,11 @@ fn identify_out_mcap_measured_predicted_residual() {
     }
     // the in-memory path writes the same file content (to rounding)
     let mem = read_out(&pred_m, &names);
-    assert_eq!((&mem.measured.t, &mem.measured.q, &mem.measured.qd, &mem.measured.tau), (&out.measured.t, &out.measured.q, &out.measured.qd, &out.measured.tau));
+    assert_eq!(
+        (&mem.measured.t, &mem.measured.q, &mem.measured.qd, &mem.measured.tau),
+        (&out.measured.t, &out.measured.q, &out.measured.qd, &out.measured.tau)
+    );
     let worst = mem.predicted.tau.as_ref().unwrap().iter().zip(tau_p).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     assert!(worst < 1e-8 * scale, "stream vs memory prediction differ by {worst}");
     let _ = std::fs::remove_dir_all(&d);
 }
-

@@ -17,7 +17,12 @@ fn check(p: &std::path::Path, label: &str) {
     let m = r["mass"].as_f64().unwrap();
     let com: Vec<f64> = r["com"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
     let dc = ((com[0] - COM[0]).powi(2) + (com[1] - COM[1]).powi(2) + (com[2] - COM[2]).powi(2)).sqrt();
-    eprintln!("{label}: mass {m:.4} kg (err {:.3} %), com {com:?} (err {:.2} mm), mass_std {}", 100.0 * (m - 2.0).abs() / 2.0, 1e3 * dc, r["mass_std"]);
+    eprintln!(
+        "{label}: mass {m:.4} kg (err {:.3} %), com {com:?} (err {:.2} mm), mass_std {}",
+        100.0 * (m - 2.0).abs() / 2.0,
+        1e3 * dc,
+        r["mass_std"]
+    );
     assert!((m - 2.0).abs() < 0.03 * 2.0, "{label}: mass {m}");
     assert!(dc < 0.01, "{label}: com {com:?}");
     for k in ["mass_std", "com_std", "inertia", "inertia_std"] {
@@ -32,7 +37,24 @@ fn check(p: &std::path::Path, label: &str) {
 fn cli_payload_ur5_2kg() {
     let d = tmpdir("payload");
     let (after, before, j1, j2) = (d.join("after.mcap"), d.join("before.mcap"), d.join("p1.json"), d.join("p2.json"));
-    ok(&run(ur5_args(), "simulate", &["--noise", "0.1", "--seed", "21", "--payload-mass", "2", "--payload-com", "0.01,-0.02,0.05", "--payload-inertia", "0.004,0,0,0.004,0,0.003", "--out", &s(&after)]));
+    ok(&run(
+        ur5_args(),
+        "simulate",
+        &[
+            "--noise",
+            "0.1",
+            "--seed",
+            "21",
+            "--payload-mass",
+            "2",
+            "--payload-com",
+            "0.01,-0.02,0.05",
+            "--payload-inertia",
+            "0.004,0,0,0.004,0,0.003",
+            "--out",
+            &s(&after),
+        ],
+    ));
     ok(&run(ur5_args(), "simulate", &["--noise", "0.1", "--seed", "22", "--out", &s(&before)]));
     let out = run(ur5_args(), "payload", &["--log", &s(&after), "--json", &s(&j1)]);
     ok(&out);
@@ -49,7 +71,8 @@ fn cli_payload_nominal_error_cancelled_by_before_log() {
     let d = tmpdir("payload_before");
     let (after, before, j) = (d.join("after.csv"), d.join("before.csv"), d.join("p.json"));
     let fr = ["--fc", "1,1,0.8,0.3,0.3,0.2", "--fv", "2,2,1,0.3,0.3,0.2"];
-    let mut a = vec!["--noise", "0.05", "--seed", "31", "--payload-mass", "2", "--payload-com", "0.01,-0.02,0.05", "--out"];
+    let mut a =
+        vec!["--noise", "0.05", "--seed", "31", "--payload-mass", "2", "--payload-com", "0.01,-0.02,0.05", "--out"];
     let after_s = s(&after);
     a.push(&after_s);
     a.extend(fr);

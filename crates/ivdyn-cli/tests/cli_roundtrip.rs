@@ -14,9 +14,11 @@ fn with(base: Vec<String>, extra: &[&str]) -> Vec<String> {
 #[test]
 fn cli_roundtrip_simulate_identify_reload() {
     let d = tmpdir("roundtrip");
-    let (log, sim_json, params, rep) = (d.join("sim.mcap"), d.join("sim.json"), d.join("params.json"), d.join("report.json"));
+    let (log, sim_json, params, rep) =
+        (d.join("sim.mcap"), d.join("sim.json"), d.join("params.json"), d.join("report.json"));
     let friction = ["--fc", "2,2,1.5,0.5,0.5,0.3", "--fv", "3,3,2,0.5,0.5,0.3"];
-    let mut a = with(ur5_args(), &["simulate", "--noise", "0.05", "--seed", "3", "--out", &s(&log), "--json", &s(&sim_json)]);
+    let mut a =
+        with(ur5_args(), &["simulate", "--noise", "0.05", "--seed", "3", "--out", &s(&log), "--json", &s(&sim_json)]);
     a.extend(friction.iter().map(|s| s.to_string()));
     ok(&run(a));
     let a = with(ur5_args(), &["identify", "--log", &s(&log), "--out-params", &s(&params), "--json", &s(&rep)]);
@@ -76,7 +78,10 @@ fn cli_roundtrip_simulate_identify_reload() {
     }
     // and the same through the command line: simulate with --params reproduces the torques
     let (a_csv, b_csv) = (d.join("a.csv"), d.join("b.csv"));
-    let a = with(ur5_args(), &["simulate", "--seed", "11", "--duration", "10", "--out", &s(&a_csv), "--params", &s(&params)]);
+    let a = with(
+        ur5_args(),
+        &["simulate", "--seed", "11", "--duration", "10", "--out", &s(&a_csv), "--params", &s(&params)],
+    );
     ok(&run(a));
     let mut a = with(ur5_args(), &["simulate", "--seed", "11", "--duration", "10", "--out", &s(&b_csv)]);
     a.extend(friction.iter().map(|s| s.to_string()));
@@ -97,12 +102,31 @@ fn cli_roundtrip_simulate_identify_reload() {
 fn cli_identify_iv_with_command_topic() {
     let d = tmpdir("iv_cmd");
     let log = d.join("c.mcap");
-    let a = with(ur5_args(), &["simulate", "--noise", "0.05", "--noise-q", "2e-5", "--duration", "12", "--seed", "6", "--command", "--out", &s(&log)]);
+    let a = with(
+        ur5_args(),
+        &[
+            "simulate",
+            "--noise",
+            "0.05",
+            "--noise-q",
+            "2e-5",
+            "--duration",
+            "12",
+            "--seed",
+            "6",
+            "--command",
+            "--out",
+            &s(&log),
+        ],
+    );
     ok(&run(a));
     let mut worst = vec![];
     for m in ["wls", "iv"] {
         let rep = d.join(format!("{m}.json"));
-        let a = with(ur5_args(), &["identify", "--log", &s(&log), "--method", m, "--command-topic", "/ivdyn/command", "--json", &s(&rep)]);
+        let a = with(
+            ur5_args(),
+            &["identify", "--log", &s(&log), "--method", m, "--command-topic", "/ivdyn/command", "--json", &s(&rep)],
+        );
         ok(&run(a));
         let r = json(&rep);
         assert!(r["instrument"].as_str().unwrap().contains("command u"), "{}", r["instrument"]);
@@ -120,13 +144,19 @@ fn cli_identify_methods_and_validation_log() {
     let d = tmpdir("methods");
     let (log, log2) = (d.join("a.csv"), d.join("b.mcap"));
     for (p, seed) in [(&log, "4"), (&log2, "5")] {
-        let a = with(ur5_args(), &["simulate", "--noise", "0.05", "--duration", "12", "--no-velocity", "--seed", seed, "--out", &s(p)]);
-            ok(&run(a));
+        let a = with(
+            ur5_args(),
+            &["simulate", "--noise", "0.05", "--duration", "12", "--no-velocity", "--seed", seed, "--out", &s(p)],
+        );
+        ok(&run(a));
     }
     for m in ["ols", "wls", "iv", "idim-iv"] {
         let rep = d.join(format!("{m}.json"));
-        let a = with(ur5_args(), &["identify", "--log", &s(&log), "--method", m, "--validate", &s(&log2), "--json", &s(&rep)]);
-            let out = run(a);
+        let a = with(
+            ur5_args(),
+            &["identify", "--log", &s(&log), "--method", m, "--validate", &s(&log2), "--json", &s(&rep)],
+        );
+        let out = run(a);
         ok(&out);
         let r = json(&rep);
         assert_eq!(r["method"], m);
@@ -146,8 +176,10 @@ fn cli_identify_methods_and_validation_log() {
 #[test]
 fn cli_roundtrip_reloaded_parameters_reproduce_the_identified_torques() {
     let d = tmpdir("roundtrip_exact");
-    let (log, params, pred, traj, re) = (d.join("log.mcap"), d.join("p.json"), d.join("pred.mcap"), d.join("traj.csv"), d.join("re.csv"));
-    let mut a = with(ur5_args(), &["simulate", "--noise", "0.05", "--duration", "8", "--seed", "13", "--out", &s(&log)]);
+    let (log, params, pred, traj, re) =
+        (d.join("log.mcap"), d.join("p.json"), d.join("pred.mcap"), d.join("traj.csv"), d.join("re.csv"));
+    let mut a =
+        with(ur5_args(), &["simulate", "--noise", "0.05", "--duration", "8", "--seed", "13", "--out", &s(&log)]);
     a.extend(["--fc", "2,2,1.5,0.5,0.5,0.3", "--fv", "3,3,2,0.5,0.5,0.3"].iter().map(|s| s.to_string()));
     ok(&run(a));
     ok(&run(with(ur5_args(), &["identify", "--log", &s(&log), "--out-params", &s(&params), "--out-mcap", &s(&pred)])));
@@ -155,7 +187,16 @@ fn cli_roundtrip_reloaded_parameters_reproduce_the_identified_torques() {
     let names = robot0.joint_names.clone();
     let p = ivdyn::log::read_mcap(&pred, &ivdyn::log::ReadOptions::new(&names).topic("/ivdyn/predicted")).unwrap();
     // the smoothed positions the prediction was made at, as a trajectory file
-    let tr = ivdyn::log::JointLog { joint_names: names.clone(), t0_ns: 0, t: p.t.clone(), q: p.q.clone(), qd: None, tau: None, u: None, truncated: false };
+    let tr = ivdyn::log::JointLog {
+        joint_names: names.clone(),
+        t0_ns: 0,
+        t: p.t.clone(),
+        q: p.q.clone(),
+        qd: None,
+        tau: None,
+        u: None,
+        truncated: false,
+    };
     ivdyn::log::write_csv(&traj, &tr).unwrap();
     ok(&run(with(ur5_args(), &["simulate", "--params", &s(&params), "--traj", &s(&traj), "--out", &s(&re)])));
     let r = ivdyn::log::read_csv(&re, &names).unwrap();

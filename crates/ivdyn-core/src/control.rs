@@ -21,11 +21,11 @@
 //! into it (`data.tau`).
 
 use crate::data::Data;
-use crate::error::{check_finite, Error};
+use crate::error::{Error, check_finite};
 use crate::estim::terminal::{Method, TerminalLink, TerminalSpec};
 use crate::model::Model;
-use crate::params::{sign, DRIVE_PARAMS, LINK_PARAMS};
-use crate::{rnea, VecN};
+use crate::params::{DRIVE_PARAMS, LINK_PARAMS, sign};
+use crate::{VecN, rnea};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 

@@ -7,11 +7,7 @@ use crate::spatial::Transform;
 use crate::{MatN, Vec3, VecN};
 
 /// Mass matrix `M(q)` including the armature `ia` on the diagonal. Returns `&data.m`.
-pub fn mass_matrix<'d, const N: usize>(
-    model: &Model<N>,
-    data: &'d mut Data<N>,
-    q: &VecN<N>,
-) -> &'d MatN<N> {
+pub fn mass_matrix<'d, const N: usize>(model: &Model<N>, data: &'d mut Data<N>, q: &VecN<N>) -> &'d MatN<N> {
     joint_transforms(model, &mut data.kin, q);
     // composite inertia, outermost first: IC_i = I_i + X_{i+1} IC_{i+1}
     for i in (0..N).rev() {

@@ -10,7 +10,7 @@
 use crate::inertia::LinkInertia;
 use crate::model::{Joint, Model};
 use crate::params::DriveParams;
-use crate::spatial::{rot_x, rot_z, Transform};
+use crate::spatial::{Transform, rot_x, rot_z};
 use crate::{Mat3, Vec3};
 
 /// One row of a standard DH table (SI units, radians).
@@ -88,9 +88,17 @@ pub fn to_paper_grouping<const N: usize>(
         let alpha = x.rot.tr_mul(&alpha_j);
         let ib = x.rot.transpose() * ibar_j * x.rot;
         out[i] = [
-            alpha.x, alpha.y, alpha.z,
-            ib[(0, 0)], ib[(1, 1)], ib[(2, 2)], ib[(0, 1)], ib[(0, 2)], ib[(1, 2)],
-            drive[i].fc, drive[i].fv,
+            alpha.x,
+            alpha.y,
+            alpha.z,
+            ib[(0, 0)],
+            ib[(1, 1)],
+            ib[(2, 2)],
+            ib[(0, 1)],
+            ib[(0, 2)],
+            ib[(1, 2)],
+            drive[i].fc,
+            drive[i].fv,
         ];
         m_out += inertia[i].mass();
     }

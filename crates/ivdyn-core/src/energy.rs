@@ -26,7 +26,8 @@ pub fn kinetic_energy<const N: usize>(model: &Model<N>, data: &mut Data<N>, q: &
         data.v[i] = v;
         let p = &model.inertia[i];
         // T = 1/2 (m v.v + 2 v.(w x h) + w.I_o w)
-        ke += 0.5 * (p.mass() * v.dot(&v) + 2.0 * v.dot(&w.cross(&p.first_moment())) + w.dot(&(p.inertia_origin() * w)));
+        ke +=
+            0.5 * (p.mass() * v.dot(&v) + 2.0 * v.dot(&w.cross(&p.first_moment())) + w.dot(&(p.inertia_origin() * w)));
         ke += 0.5 * model.drive[i].ia * qd[i] * qd[i];
     }
     ke

@@ -3,7 +3,7 @@
 use crate::data::Data;
 use crate::error::Error;
 use crate::model::Model;
-use crate::{crba, rnea, VecN};
+use crate::{VecN, crba, rnea};
 #[allow(unused_imports)] // needed without std (libm-backed sqrt), unused when std is unified in
 use nalgebra::ComplexField;
 

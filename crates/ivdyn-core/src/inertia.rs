@@ -1,7 +1,7 @@
 //! Link inertial parameters: the standard 10-vector and its conversions.
 
 use crate::error::Error;
-use crate::spatial::{skew, Transform};
+use crate::spatial::{Transform, skew};
 use crate::{Mat3, Vec3};
 
 /// The 10 standard inertial parameters of a rigid body about a frame origin, in that

@@ -151,11 +151,7 @@ pub fn forward_kinematics<const N: usize>(model: &Model<N>, data: &mut Data<N>, 
 }
 
 /// Placement of the tool frame in the base frame at `q`.
-pub fn tool_pose<const N: usize>(
-    model: &Model<N>,
-    data: &mut Data<N>,
-    q: &VecN<N>,
-) -> crate::Transform {
+pub fn tool_pose<const N: usize>(model: &Model<N>, data: &mut Data<N>, q: &VecN<N>) -> crate::Transform {
     forward_kinematics(model, data, q);
     if N == 0 {
         return model.tool;

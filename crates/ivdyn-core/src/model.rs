@@ -1,10 +1,10 @@
 //! The constant description of a chain: joints, frames, gravity, nominal parameters.
 
+use crate::Vec3;
 use crate::error::Error;
 use crate::inertia::LinkInertia;
-use crate::params::{param_count, DriveParams, DRIVE_PARAMS, LINK_PARAMS};
+use crate::params::{DRIVE_PARAMS, DriveParams, LINK_PARAMS, param_count};
 use crate::spatial::Transform;
-use crate::Vec3;
 
 /// Kind of a one-degree-of-freedom joint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -54,12 +54,8 @@ pub struct JointLimits {
 
 impl JointLimits {
     /// No limits.
-    pub const UNLIMITED: JointLimits = JointLimits {
-        lower: f64::NEG_INFINITY,
-        upper: f64::INFINITY,
-        velocity: f64::INFINITY,
-        effort: f64::INFINITY,
-    };
+    pub const UNLIMITED: JointLimits =
+        JointLimits { lower: f64::NEG_INFINITY, upper: f64::INFINITY, velocity: f64::INFINITY, effort: f64::INFINITY };
 }
 
 impl Default for JointLimits {

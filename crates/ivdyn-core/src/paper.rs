@@ -1,7 +1,7 @@
 //! The paper's six-joint robot: Table 1 (standard DH) and Table 2 (link parameters) in SI
 //! units, as corrected in `shared/paper/NOTES.md`.
 
-use crate::dh::{inertia_from_dh_frame, model_from_dh, DhRow};
+use crate::dh::{DhRow, inertia_from_dh_frame, model_from_dh};
 use crate::inertia::LinkInertia;
 use crate::model::Model;
 use crate::params::DriveParams;

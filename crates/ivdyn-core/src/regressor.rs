@@ -17,7 +17,7 @@
 //! `O(N^2)` small dot products rather than transforming 6x10 blocks inward.
 
 use crate::data::Data;
-use crate::kinematics::{forward_pass, joint_transforms, splat3, Kinematics};
+use crate::kinematics::{Kinematics, forward_pass, joint_transforms, splat3};
 use crate::model::{JointKind, Model};
 use crate::params::{DRIVE_PARAMS, LINK_PARAMS, PARAMS_PER_JOINT};
 use crate::{Lanes, VecN};
@@ -126,7 +126,14 @@ impl<const N: usize> Regressor<N> {
 
 /// Fills one 10-entry block: joint motion `(sw, sv)` against link kinematics `(w, wd, acc)`.
 #[inline(always)]
-fn block<T: Lanes>(out: &mut [T; LINK_PARAMS], sw: &Vector3<T>, sv: &Vector3<T>, w: &Vector3<T>, wd: &Vector3<T>, acc: &Vector3<T>) {
+fn block<T: Lanes>(
+    out: &mut [T; LINK_PARAMS],
+    sw: &Vector3<T>,
+    sv: &Vector3<T>,
+    w: &Vector3<T>,
+    wd: &Vector3<T>,
+    acc: &Vector3<T>,
+) {
     // Y[m] = sv . acc
     out[0] = sv.dot(acc);
     // Y[h] = acc x sw + sv x wd + w x (w x sv)
@@ -211,11 +218,7 @@ pub fn regressor<'d, const N: usize>(
 
 /// The static (gravity-only) regressor: `gravity_regressor(q).mul(theta) == gravity(q)`.
 /// Inertia-tensor and drive columns are zero.
-pub fn gravity_regressor<'d, const N: usize>(
-    model: &Model<N>,
-    data: &'d mut Data<N>,
-    q: &VecN<N>,
-) -> &'d Regressor<N> {
+pub fn gravity_regressor<'d, const N: usize>(model: &Model<N>, data: &'d mut Data<N>, q: &VecN<N>) -> &'d Regressor<N> {
     joint_transforms(model, &mut data.kin, q);
     // acc_i = R_i^T acc_{i-1}, acc_0 = -g (no motion)
     let mut acc = -model.gravity;

@@ -1,7 +1,7 @@
 //! Recursive Newton-Euler inverse dynamics, paper eqs (2)-(8).
 
 use crate::data::Data;
-use crate::kinematics::{forward_pass, joint_transforms, splat3, Kinematics};
+use crate::kinematics::{Kinematics, forward_pass, joint_transforms, splat3};
 use crate::model::{JointKind, Model};
 use crate::{Lanes, VecN};
 use nalgebra::{SVector, Vector3};
@@ -40,11 +40,7 @@ pub fn rnea_rigid<'d, const N: usize>(
 }
 
 /// Gravity torques `g(q)` (no drive terms, not even the offset).
-pub fn gravity<'d, const N: usize>(
-    model: &Model<N>,
-    data: &'d mut Data<N>,
-    q: &VecN<N>,
-) -> &'d VecN<N> {
+pub fn gravity<'d, const N: usize>(model: &Model<N>, data: &'d mut Data<N>, q: &VecN<N>) -> &'d VecN<N> {
     let z = VecN::<N>::zeros();
     rnea_rigid(model, data, q, &z, &z)
 }

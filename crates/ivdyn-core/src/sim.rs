@@ -34,10 +34,10 @@
 
 use crate::control::saturate;
 use crate::data::Data;
-use crate::error::{check_finite, Error};
+use crate::error::{Error, check_finite};
 use crate::model::Model;
 use crate::rng::Rng;
-use crate::{energy, forward_dynamics, VecN};
+use crate::{VecN, energy, forward_dynamics};
 
 /// Fixed-step integration scheme.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -165,11 +165,8 @@ impl<const N: usize> Differentiator<N> {
         if self.count < 3 {
             return (self.qd_filt, None);
         }
-        let s = CentralSample {
-            q: q1,
-            qd: (q0 - q2) / (2.0 * self.dt),
-            qdd: (q0 - 2.0 * q1 + q2) / (self.dt * self.dt),
-        };
+        let s =
+            CentralSample { q: q1, qd: (q0 - q2) / (2.0 * self.dt), qdd: (q0 - 2.0 * q1 + q2) / (self.dt * self.dt) };
         (self.qd_filt, Some(s))
     }
 
@@ -343,12 +340,9 @@ impl<const N: usize> Simulator<N> {
         let (qd_ctrl, central) = self.diff.push(&qm);
         self.sensors = Sensors { t: self.t, q: qm, qd: qd_ctrl };
         let out = match (central, self.prev) {
-            (Some(x), Some((tau_prev, u_prev))) => Some(IdSample {
-                t: self.t - self.cfg.dt,
-                x,
-                tau: (tau_prev + tau_meas) * 0.5,
-                u: (u_prev + u) * 0.5,
-            }),
+            (Some(x), Some((tau_prev, u_prev))) => {
+                Some(IdSample { t: self.t - self.cfg.dt, x, tau: (tau_prev + tau_meas) * 0.5, u: (u_prev + u) * 0.5 })
+            }
             _ => None,
         };
         self.prev = Some((tau_meas, *u));

@@ -25,10 +25,8 @@ impl Default for Transform {
 
 impl Transform {
     /// The identity placement.
-    pub const IDENTITY: Transform = Transform {
-        rot: Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0),
-        trans: Vec3::new(0.0, 0.0, 0.0),
-    };
+    pub const IDENTITY: Transform =
+        Transform { rot: Mat3::new(1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0), trans: Vec3::new(0.0, 0.0, 0.0) };
 
     /// From a rotation and a translation.
     pub fn new(rot: Mat3, trans: Vec3) -> Self {

@@ -1,12 +1,12 @@
 //! Controllers, simulator and the online payload estimator of `control` and `sim`.
 
-use ivdyn_core::control::{saturate, ComputedTorque, Gains, Pd, PayloadEstimator, Reference};
-use ivdyn_core::estim::terminal::Method;
+use ivdyn_core::control::{ComputedTorque, Gains, PayloadEstimator, Pd, Reference, saturate};
 use ivdyn_core::estim::Riv;
+use ivdyn_core::estim::terminal::Method;
 use ivdyn_core::rng::Rng;
 use ivdyn_core::sim::{Differentiator, Integrator, SimConfig, Simulator};
 use ivdyn_core::trajectory::Fourier;
-use ivdyn_core::{forward_dynamics, gravity, mass_matrix, paper, DriveParams, LinkInertia, Mat3, Model, Vec3, VecN};
+use ivdyn_core::{DriveParams, LinkInertia, Mat3, Model, Vec3, VecN, forward_dynamics, gravity, mass_matrix, paper};
 use nalgebra::{Const, SVector};
 
 fn rand_vec(rng: &mut Rng, s: f64) -> VecN<6> {
@@ -227,7 +227,12 @@ fn last_link_identifiable_from_all_rows() {
 #[test]
 fn online_estimator_converges_to_payload_mass() {
     let nominal = paper::robot();
-    let payload = LinkInertia::from_mass_com_inertia(0.25, &Vec3::new(0.02, 0.0, 0.03), &Mat3::identity(), &(Mat3::identity() * 6.7e-5));
+    let payload = LinkInertia::from_mass_com_inertia(
+        0.25,
+        &Vec3::new(0.02, 0.0, 0.03),
+        &Mat3::identity(),
+        &(Mat3::identity() * 6.7e-5),
+    );
     let mut loaded = nominal.clone();
     loaded.inertia[5] = loaded.inertia[5].add(&payload);
     let w = std::f64::consts::PI;
@@ -260,7 +265,12 @@ fn online_estimator_converges_to_payload_mass() {
         }
     }
     let dm = est.theta()[0];
-    eprintln!("dm = {dm:.5} kg after 1.5 s ({} rows used, {} skipped), std {:.2e}", est.link.rows_used, est.link.rows_skipped, est.variance(0).sqrt());
+    eprintln!(
+        "dm = {dm:.5} kg after 1.5 s ({} rows used, {} skipped), std {:.2e}",
+        est.link.rows_used,
+        est.link.rows_skipped,
+        est.variance(0).sqrt()
+    );
     assert!(((dm - 0.25) / 0.25).abs() < 0.05, "dm = {dm}");
     // the estimate written into a model gives the loaded last link's mass
     let mut m = nominal.clone();

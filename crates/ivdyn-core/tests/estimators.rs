@@ -3,8 +3,8 @@
 
 mod common;
 use common::Rng;
-use ivdyn_core::estim::{Riv, Rls};
 use ivdyn_core::Error;
+use ivdyn_core::estim::{Riv, Rls};
 use nalgebra::{Const, SMatrix, SVector};
 
 const P: usize = 8;

@@ -2,12 +2,11 @@
 //! style): regressor vs RNEA, CRBA vs RNEA columns, forward vs inverse dynamics, energy.
 
 mod common;
-use common::{assert_close, random_model, Rng};
+use common::{Rng, assert_close, random_model};
 use ivdyn_core::energy::{kinetic_energy, potential_energy};
 use ivdyn_core::rnea::rnea_rigid;
 use ivdyn_core::{
-    forward_dynamics, gravity, gravity_regressor, mass_matrix, params::param_count, regressor, rnea,
-    Data, Model, VecN,
+    Data, Model, VecN, forward_dynamics, gravity, gravity_regressor, mass_matrix, params::param_count, regressor, rnea,
 };
 use proptest::prelude::*;
 

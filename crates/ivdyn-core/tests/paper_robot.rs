@@ -1,10 +1,10 @@
 //! The paper's robot: DH kinematics, Table 2 conversions and the paper's grouping.
 
 mod common;
-use common::{assert_close, Rng};
+use common::{Rng, assert_close};
 use ivdyn_core::dh::{from_paper_grouping, inertia_to_dh_frame, to_paper_grouping};
 use ivdyn_core::kinematics::tool_pose;
-use ivdyn_core::{paper, rnea, Data, LinkInertia, Mat3, Vec3, VecN};
+use ivdyn_core::{Data, LinkInertia, Mat3, Vec3, VecN, paper, rnea};
 
 /// Plain standard-DH product `prod Rz(q) Tz(d) Tx(a) Rx(alpha)` as 4x4 matrices.
 fn dh_forward(q: &VecN<6>) -> nalgebra::Matrix4<f64> {

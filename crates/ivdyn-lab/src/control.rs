@@ -26,13 +26,13 @@
 
 use ivdyn::error::{Error, Result};
 use ivdyn::ident::BaseParams;
-use ivdyn_core::control::{ComputedTorque, CoulombVelocity, Gains, Pd, PayloadEstimator, Reference};
+use ivdyn_core::control::{ComputedTorque, CoulombVelocity, Gains, PayloadEstimator, Pd, Reference};
 use ivdyn_core::estim::terminal::Method;
 use ivdyn_core::estim::{InstrumentModel, Riv, Rls};
-use ivdyn_core::params::{LINK_PARAMS, LINK_PARAM_NAMES};
+use ivdyn_core::params::{LINK_PARAM_NAMES, LINK_PARAMS};
 use ivdyn_core::sim::{IdSample, SimConfig, Simulator};
 use ivdyn_core::trajectory::Fourier;
-use ivdyn_core::{mass_matrix, regressor, Data, LinkInertia, Mat3, Model, Vec3, VecN};
+use ivdyn_core::{Data, LinkInertia, Mat3, Model, Vec3, VecN, mass_matrix, regressor};
 use nalgebra::{DMatrix, DVector, Dyn};
 use std::collections::VecDeque;
 
@@ -87,7 +87,8 @@ pub enum Scheme {
 
 impl Scheme {
     /// All schemes, in table order.
-    pub const ALL: [Scheme; 5] = [Scheme::Pd, Scheme::PdGravity, Scheme::CtNominal, Scheme::CtEstimated, Scheme::CtTrue];
+    pub const ALL: [Scheme; 5] =
+        [Scheme::Pd, Scheme::PdGravity, Scheme::CtNominal, Scheme::CtEstimated, Scheme::CtTrue];
 
     /// Short label.
     pub fn label(&self) -> &'static str {
@@ -327,7 +328,13 @@ impl Experiment<7> {
 impl<const N: usize> Experiment<N> {
     /// An experiment with default settings (see [`Experiment::paper`]); the estimated
     /// columns come from [`last_link_base`].
-    pub fn new(name: &str, nominal: Model<N>, payload: Payload, traj: Fourier<N, 2>, sim: SimConfig<N>) -> Result<Self> {
+    pub fn new(
+        name: &str,
+        nominal: Model<N>,
+        payload: Payload,
+        traj: Fourier<N, 2>,
+        sim: SimConfig<N>,
+    ) -> Result<Self> {
         let base = last_link_base(&nominal, 40, 7);
         Ok(Self {
             name: name.to_string(),
@@ -381,7 +388,8 @@ impl<const N: usize> Experiment<N> {
         for i in 0..N {
             let mut v = sq(self.sim.tau_noise[i]);
             for j in 0..N {
-                let s_qdd = (0.5f64.sqrt() * self.sim.encoder_resolution[j]).hypot(6f64.sqrt() * self.sim.q_noise[j]) / dt2;
+                let s_qdd =
+                    (0.5f64.sqrt() * self.sim.encoder_resolution[j]).hypot(6f64.sqrt() * self.sim.q_noise[j]) / dt2;
                 v += sq(m[(i, j)] * s_qdd);
             }
             w[i] = 1.0 / v.max(1e-12);
@@ -416,7 +424,11 @@ impl<const N: usize> Experiment<N> {
         let gains = Gains::<N>::critically_damped(self.wn);
         let mut ct = ComputedTorque::new(gains);
         ct.coulomb = self.coulomb;
-        let pd = Pd { gains: gains.scaled(&m0.diagonal()), tau_limit: VecN::<N>::repeat(f64::INFINITY), gravity: scheme == Scheme::PdGravity };
+        let pd = Pd {
+            gains: gains.scaled(&m0.diagonal()),
+            tau_limit: VecN::<N>::repeat(f64::INFINITY),
+            gravity: scheme == Scheme::PdGravity,
+        };
         let mut ctrl_model = self.nominal.clone();
         let mut est = self.make_estimator()?;
         let instr = InstrumentModel::from_nominal(&self.nominal, &mut data, &self.mean_pose());
@@ -515,7 +527,12 @@ impl<const N: usize> Experiment<N> {
                 }
                 busy += t1.elapsed();
                 if k % self.record_every == 0 {
-                    log.estimates.push(EstimatePoint { t: smp.t, theta: est.theta().iter().copied().collect(), mass_std, err_std });
+                    log.estimates.push(EstimatePoint {
+                        t: smp.t,
+                        theta: est.theta().iter().copied().collect(),
+                        mass_std,
+                        err_std,
+                    });
                 }
             }
         }
@@ -548,8 +565,8 @@ impl<const N: usize> Experiment<N> {
     /// `prior + to_full(theta_base - project(prior))`: the prior with its identifiable part
     /// replaced. The payload is then estimated against that model.
     pub fn with_identified_nominal(mut self, prior: Model<N>, seconds: f64) -> Result<(Self, NominalIdentification)> {
-        use ivdyn::ident::{fit_iv, IvAccumulator};
-        use ivdyn_core::params::{param_count, DRIVE_PARAM_NAMES};
+        use ivdyn::ident::{IvAccumulator, fit_iv};
+        use ivdyn_core::params::{DRIVE_PARAM_NAMES, param_count};
         let p = param_count(N);
         let names: Vec<String> = (0..p)
             .map(|c| {
@@ -616,7 +633,9 @@ impl<const N: usize> Experiment<N> {
         acc.add_rows(&phi, &z, &y, None)?;
         let fit = fit_iv(&acc, &base.names)?;
         if !fit.unexcited.is_empty() {
-            return Err(Error::Estimation { msg: format!("unloaded-arm identification: not excited by the trajectory: {:?}", fit.unexcited) });
+            return Err(Error::Estimation {
+                msg: format!("unloaded-arm identification: not excited by the trajectory: {:?}", fit.unexcited),
+            });
         }
         let mut theta_prior = vec![0.0; p];
         prior.params_to_slice(&mut theta_prior)?;
@@ -638,7 +657,8 @@ impl<const N: usize> Experiment<N> {
             }
             s2.iter().map(|v| (v / n as f64).sqrt()).collect()
         };
-        let info = NominalIdentification { rows: y.len(), rms_prior: rms(&prior), rms_identified: rms(&identified), fit };
+        let info =
+            NominalIdentification { rows: y.len(), rms_prior: rms(&prior), rms_identified: rms(&identified), fit };
         let lb = last_link_base(&identified, 40, 7);
         self.columns = lb.independent.clone();
         self.column_names = lb.independent.iter().map(|&c| base_name(&lb, c)).collect();
@@ -649,5 +669,9 @@ impl<const N: usize> Experiment<N> {
 
 /// Name of full column `c` in `base` (the base parameter built on it).
 fn base_name(base: &BaseParams, c: usize) -> String {
-    base.independent.iter().position(|&i| i == c).map(|j| base.names[j].clone()).unwrap_or_else(|| format!("theta[{c}]"))
+    base.independent
+        .iter()
+        .position(|&i| i == c)
+        .map(|j| base.names[j].clone())
+        .unwrap_or_else(|| format!("theta[{c}]"))
 }

@@ -75,7 +75,9 @@ pub fn read_npz(path: impl AsRef<Path>) -> Result<BTreeMap<String, NpyArray>> {
                 ),
             ));
         }
-        let data = bytes.get(m.data_start..m.data_start + m.size).ok_or_else(|| err(path, format!("member '{}' runs past the end of the file (truncated?)", m.name)))?;
+        let data = bytes
+            .get(m.data_start..m.data_start + m.size)
+            .ok_or_else(|| err(path, format!("member '{}' runs past the end of the file (truncated?)", m.name)))?;
         let arr = parse_npy(data).map_err(|e| err(path, format!("member '{}': {e}", m.name)))?;
         let key = m.name.strip_suffix(".npy").unwrap_or(&m.name).to_string();
         out.insert(key, arr);
@@ -102,7 +104,10 @@ fn zip_members(b: &[u8]) -> std::result::Result<Vec<Member>, String> {
     }
     // the end record is the last 22 bytes plus a comment of up to 65535 bytes
     let lo = b.len().saturating_sub(22 + 65535);
-    let eocd = (lo..=b.len() - 22).rev().find(|&i| u32_at(b, i) == Some(EOCD)).ok_or("not a ZIP (.npz) archive: no end-of-central-directory record")?;
+    let eocd = (lo..=b.len() - 22)
+        .rev()
+        .find(|&i| u32_at(b, i) == Some(EOCD))
+        .ok_or("not a ZIP (.npz) archive: no end-of-central-directory record")?;
     let mut count = u16_at(b, eocd + 10).ok_or("truncated end record")? as u64;
     let mut cd_off = u32_at(b, eocd + 16).ok_or("truncated end record")? as u64;
     if (count == 0xFFFF || cd_off == 0xFFFF_FFFF) && eocd >= 20 && u32_at(b, eocd - 20) == Some(EOCD64_LOC) {
@@ -120,7 +125,11 @@ fn zip_members(b: &[u8]) -> std::result::Result<Vec<Member>, String> {
         let method = u16_at(b, p + 10).ok_or_else(bad)?;
         let mut csize = u32_at(b, p + 20).ok_or_else(bad)? as u64;
         let mut usize_ = u32_at(b, p + 24).ok_or_else(bad)? as u64;
-        let (nlen, xlen, clen) = (u16_at(b, p + 28).ok_or_else(bad)? as usize, u16_at(b, p + 30).ok_or_else(bad)? as usize, u16_at(b, p + 32).ok_or_else(bad)? as usize);
+        let (nlen, xlen, clen) = (
+            u16_at(b, p + 28).ok_or_else(bad)? as usize,
+            u16_at(b, p + 30).ok_or_else(bad)? as usize,
+            u16_at(b, p + 32).ok_or_else(bad)? as usize,
+        );
         let mut local = u32_at(b, p + 42).ok_or_else(bad)? as u64;
         let name = String::from_utf8_lossy(b.get(p + 46..p + 46 + nlen).ok_or_else(bad)?).into_owned();
         // ZIP64 extra field (id 1): the 64-bit values of whichever fields are 0xFFFFFFFF, in order
@@ -143,7 +152,8 @@ fn zip_members(b: &[u8]) -> std::result::Result<Vec<Member>, String> {
         if u32_at(b, lh) != Some(LOC) {
             return Err(format!("member '{name}': local header missing at offset {lh}"));
         }
-        let data_start = lh + 30 + u16_at(b, lh + 26).ok_or_else(bad)? as usize + u16_at(b, lh + 28).ok_or_else(bad)? as usize;
+        let data_start =
+            lh + 30 + u16_at(b, lh + 26).ok_or_else(bad)? as usize + u16_at(b, lh + 28).ok_or_else(bad)? as usize;
         let size = if method == 0 { usize_ } else { csize };
         out.push(Member { name, method, size: size as usize, data_start });
         p += 46 + nlen + xlen + clen;
@@ -179,7 +189,8 @@ fn parse_npy(b: &[u8]) -> std::result::Result<NpyArray, String> {
         2 | 3 => (u32_at(b, 8).ok_or("truncated header")? as usize, 12),
         v => return Err(format!(".npy format version {v} is not supported (1, 2, 3 are)")),
     };
-    let header = std::str::from_utf8(b.get(hstart..hstart + hlen).ok_or("truncated header")?).map_err(|_| "header is not text")?;
+    let header = std::str::from_utf8(b.get(hstart..hstart + hlen).ok_or("truncated header")?)
+        .map_err(|_| "header is not text")?;
     let descr = header_value(header, "descr").ok_or("header has no 'descr'")?.trim_matches(|c| c == '\'' || c == '"');
     let fortran = match header_value(header, "fortran_order") {
         Some("True") => true,
@@ -209,7 +220,11 @@ fn parse_npy(b: &[u8]) -> std::result::Result<NpyArray, String> {
     };
     let body = &b[hstart + hlen..];
     if body.len() < count * width {
-        return Err(format!("data truncated: shape {shape:?} of '{descr}' needs {} bytes, {} present", count * width, body.len()));
+        return Err(format!(
+            "data truncated: shape {shape:?} of '{descr}' needs {} bytes, {} present",
+            count * width,
+            body.len()
+        ));
     }
     let word = |k: usize| -> [u8; 8] {
         let mut w = [0u8; 8];
@@ -273,7 +288,10 @@ mod tests {
     use super::*;
 
     fn npy(descr: &str, fortran: bool, shape: &str, body: &[u8]) -> Vec<u8> {
-        let mut h = format!("{{'descr': '{descr}', 'fortran_order': {}, 'shape': {shape}, }}", if fortran { "True" } else { "False" });
+        let mut h = format!(
+            "{{'descr': '{descr}', 'fortran_order': {}, 'shape': {shape}, }}",
+            if fortran { "True" } else { "False" }
+        );
         while (10 + h.len() + 1) % 64 != 0 {
             h.push(' ');
         }

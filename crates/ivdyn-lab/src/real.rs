@@ -14,9 +14,9 @@
 use std::path::{Path, PathBuf};
 
 use super::npz::read_npz;
+use ivdyn::Robot;
 use ivdyn::error::{Error, Result};
 use ivdyn::ident::transmission::Transmission;
-use ivdyn::Robot;
 
 /// Folder of the TX40 data below the data root.
 pub const TX40_DIR: &str = "staubli_tx40_figaroh";
@@ -83,7 +83,9 @@ pub fn read_matrix_csv(path: &Path, expected: &[&str]) -> Result<Vec<f64>> {
             return Err(err(format!("line {}: {} values, expected {m}", ln + 1, cells.len())));
         }
         for (j, c) in cells.iter().enumerate() {
-            let v: f64 = c.trim().parse().map_err(|_| err(format!("line {}, column '{}': '{}' is not a number", ln + 1, expected[j], c.trim())))?;
+            let v: f64 = c.trim().parse().map_err(|_| {
+                err(format!("line {}, column '{}': '{}' is not a number", ln + 1, expected[j], c.trim()))
+            })?;
             if !v.is_finite() {
                 return Err(err(format!("line {}, column '{}': value is {v}", ln + 1, expected[j])));
             }
@@ -101,7 +103,10 @@ pub fn load_tx40(root: &Path) -> Result<Tx40Data> {
     let q_m = read_matrix_csv(&dir.join("pos_read_data.csv"), &cols)?;
     let tau_m = read_matrix_csv(&dir.join("curr_data.csv"), &cols)?;
     if q_m.len() != tau_m.len() {
-        return Err(Error::Log { file: dir.join("curr_data.csv"), msg: format!("{} rows, but pos_read_data.csv has {}", tau_m.len() / 6, q_m.len() / 6) });
+        return Err(Error::Log {
+            file: dir.join("curr_data.csv"),
+            msg: format!("{} rows, but pos_read_data.csv has {}", tau_m.len() / 6, q_m.len() / 6),
+        });
     }
     let robot = Robot::from_urdf(dir.join("tx40_mdh_modified.urdf"), Some("base_link"), Some("tool0"))?;
     Ok(Tx40Data { robot, dt: TX40_DT, q_m, tau_m })
@@ -154,7 +159,8 @@ pub fn load_lwr_run(root: &Path, k: usize) -> Result<LwrRun> {
         Ok(a.data)
     };
     let times = take("times", 1)?;
-    let (q, qd, qdd, tau) = (take("positions", 7)?, take("velocities", 7)?, take("accelerations", 7)?, take("torques", 7)?);
+    let (q, qd, qdd, tau) =
+        (take("positions", 7)?, take("velocities", 7)?, take("accelerations", 7)?, take("torques", 7)?);
     let t0 = times.first().copied().unwrap_or(0.0);
     let t: Vec<f64> = times.iter().map(|v| v - t0).collect();
     for (key, a) in [("positions", &q), ("velocities", &qd), ("accelerations", &qdd), ("torques", &tau)] {

@@ -26,14 +26,14 @@
 
 use serde::Serialize;
 
-use ivdyn::error::{Error, Result};
-use ivdyn::ident::consistent::{fit_consistent, ConsistentFit};
-use ivdyn::ident::{fit_ls, robot_base_params, BaseParams, FitReport, LsAccumulator};
-use crate::real::{tx40_transmission, LwrRun, Tx40Data};
-use ivdyn::report::{BaseValue, Quality};
-use ivdyn::dsp::{central_diff, second_diff, take_rows, Butterworth, Decimator};
-use ivdyn::ident::transmission::MotorRegressor;
+use crate::real::{LwrRun, Tx40Data, tx40_transmission};
 use ivdyn::Robot;
+use ivdyn::dsp::{Butterworth, Decimator, central_diff, second_diff, take_rows};
+use ivdyn::error::{Error, Result};
+use ivdyn::ident::consistent::{ConsistentFit, fit_consistent};
+use ivdyn::ident::transmission::MotorRegressor;
+use ivdyn::ident::{BaseParams, FitReport, LsAccumulator, fit_ls, robot_base_params};
+use ivdyn::report::{BaseValue, Quality};
 
 /// How the base parameters are estimated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -94,7 +94,13 @@ impl Rows {
     /// Samples `r` only.
     pub fn slice(&self, r: std::ops::Range<usize>) -> Rows {
         let (n, p) = (self.n, self.p);
-        Rows { n, p, t: self.t[r.clone()].to_vec(), phi: self.phi[r.start * n * p..r.end * n * p].to_vec(), tau: self.tau[r.start * n..r.end * n].to_vec() }
+        Rows {
+            n,
+            p,
+            t: self.t[r.clone()].to_vec(),
+            phi: self.phi[r.start * n * p..r.end * n * p].to_vec(),
+            tau: self.tau[r.start * n..r.end * n].to_vec(),
+        }
     }
     /// The samples `keep` (indices, ascending).
     pub fn select(&self, keep: &[usize]) -> Rows {
@@ -136,10 +142,12 @@ pub fn quality(data: &str, measured: &[f64], predicted: &[f64], n: usize) -> Qua
         data: data.into(),
         samples: t,
         rms: sse.iter().map(|s| (s / tf).sqrt()).collect(),
-        r2: (0..n).map(|i| {
-            let sst = sum2[i] - sum[i] * sum[i] / tf;
-            if sst > 0.0 { 1.0 - sse[i] / sst } else { f64::NAN }
-        }).collect(),
+        r2: (0..n)
+            .map(|i| {
+                let sst = sum2[i] - sum[i] * sum[i] / tf;
+                if sst > 0.0 { 1.0 - sse[i] / sst } else { f64::NAN }
+            })
+            .collect(),
         tau_rms: sum2.iter().map(|s| (s / tf).sqrt()).collect(),
     }
 }
@@ -164,7 +172,11 @@ pub struct Fitted {
 pub fn fit_rows(rows: &Rows, base: &BaseParams, est: Estimator, consistent: Option<ConsistentInput>) -> Result<Fitted> {
     let (n, p, b) = (rows.n, rows.p, base.base_count());
     if base.full_cols != p {
-        return Err(Error::Dimension { what: "base parameters' full columns".into(), expected: p, got: base.full_cols });
+        return Err(Error::Dimension {
+            what: "base parameters' full columns".into(),
+            expected: p,
+            got: base.full_cols,
+        });
     }
     let m = rows.tau.len();
     let phi_b = base.select_rows(&rows.phi, m)?;
@@ -192,8 +204,15 @@ pub fn fit_rows(rows: &Rows, base: &BaseParams, est: Estimator, consistent: Opti
         None => None,
         Some(c) => {
             let p0 = c.nominal.len();
-            if p0 > p || base.independent.len() < p - p0 || base.independent[b - (p - p0)..].iter().zip(p0..p).any(|(a, e)| *a != e) {
-                return Err(Error::Dimension { what: "nominal full parameters (the columns before the free extra ones)".into(), expected: p, got: p0 });
+            if p0 > p
+                || base.independent.len() < p - p0
+                || base.independent[b - (p - p0)..].iter().zip(p0..p).any(|(a, e)| *a != e)
+            {
+                return Err(Error::Dimension {
+                    what: "nominal full parameters (the columns before the free extra ones)".into(),
+                    expected: p,
+                    got: p0,
+                });
             }
             let rw: Vec<f64> = (0..m).map(|r| weights[r % n]).collect();
             Some(fit_consistent_with_free(&phi_b, &rows.tau, &rw, base, p - p0, &theta_base, c)?)
@@ -208,7 +227,15 @@ pub fn fit_rows(rows: &Rows, base: &BaseParams, est: Estimator, consistent: Opti
 /// `‖R11 k + R12 θ0 - z1‖² + ‖R22 θ0 - z2‖²` is minimised over `k` by
 /// `k = R11⁻¹ (z1 - R12 θ0)` for every `θ0`, so the consistent fit runs on `(R22, z2)`
 /// (plus the LS residual) and `k` follows from its result. With `s = 0` it is the plain fit.
-fn fit_consistent_with_free(phi_b: &[f64], tau: &[f64], rw: &[f64], base: &BaseParams, s: usize, theta_base: &[f64], c: ConsistentInput) -> Result<ConsistentFit> {
+fn fit_consistent_with_free(
+    phi_b: &[f64],
+    tau: &[f64],
+    rw: &[f64],
+    base: &BaseParams,
+    s: usize,
+    theta_base: &[f64],
+    c: ConsistentInput,
+) -> Result<ConsistentFit> {
     let b = base.base_count();
     let m = tau.len();
     let b0 = b - s;
@@ -237,7 +264,9 @@ fn fit_consistent_with_free(phi_b: &[f64], tau: &[f64], rw: &[f64], base: &BaseP
     let mut cf = fit_consistent(&red, &base0, &theta_ls, c.nominal, c.links, c.joints, &Default::default())?;
     let r11 = r.view((0, 0), (s, s)).into_owned();
     let rhs = z.rows(0, s) - r.view((0, s), (s, b0)) * nalgebra::DVector::from_column_slice(&cf.theta_base);
-    let k = r11.solve_upper_triangular(&rhs).ok_or_else(|| Error::Estimation { msg: format!("consistent fit: the {s} free columns are singular ({m} rows)") })?;
+    let k = r11.solve_upper_triangular(&rhs).ok_or_else(|| Error::Estimation {
+        msg: format!("consistent fit: the {s} free columns are singular ({m} rows)"),
+    })?;
     cf.theta.extend(k.iter());
     cf.theta_base.extend(k.iter());
     Ok(cf)
@@ -455,7 +484,8 @@ pub fn identify_tx40(data: &Tx40Data, opts: &Tx40Options) -> Result<RealReport> 
         None
     };
     let d2 = opts.decimate_parallel.max(1);
-    let par = if d2 > 1 { Decimator::new(d2, fs1)? } else { Decimator::with_filter(1, Butterworth::default_for(fs1)?)? };
+    let par =
+        if d2 > 1 { Decimator::new(d2, fs1)? } else { Decimator::with_filter(1, Butterworth::default_for(fs1)?)? };
     let phi = par.apply(&phi1, n * p)?;
     let tau = par.apply(&tau1, n)?;
     let t: Vec<f64> = keep.iter().step_by(d2).map(|&k| k as f64 * data.dt).collect();
@@ -482,10 +512,13 @@ pub fn identify_tx40(data: &Tx40Data, opts: &Tx40Options) -> Result<RealReport> 
     let nominal = reg.params(&vec![Default::default(); n])?;
     let nom_base = base.project(&nominal)?;
     if opts.consistent && opts.joint_drive {
-        return Err(Error::Estimation { msg: "TX40: the consistent fit needs the 10 n + 4 n layout (no joint-side drive columns)".into() });
+        return Err(Error::Estimation {
+            msg: "TX40: the consistent fit needs the 10 n + 4 n layout (no joint-side drive columns)".into(),
+        });
     }
     let motors: Vec<String> = robot.joint_names.iter().map(|j| format!("{j}.motor")).collect();
-    let cin = opts.consistent.then_some(ConsistentInput { nominal: &nominal, links: &robot.link_names, joints: &motors });
+    let cin =
+        opts.consistent.then_some(ConsistentInput { nominal: &nominal, links: &robot.link_names, joints: &motors });
     let fitted = if opts.fit_joint_side {
         fit_rows_checked(&joint_side_rows(&fit_rows, &trans)?, &base, opts.estimator, cin)?
     } else {
@@ -497,14 +530,21 @@ pub fn identify_tx40(data: &Tx40Data, opts: &Tx40Options) -> Result<RealReport> 
     };
     let (fm, fp) = joint_side(&fit_rows, &fitted.theta_full)?;
     let (vm, vp) = joint_side(&val_rows, &fitted.theta_full)?;
-    let validation_motor = Some(quality("validation, motor torques", &val_rows.tau, &val_rows.predict(&fitted.theta_full), n));
+    let validation_motor =
+        Some(quality("validation, motor torques", &val_rows.tau, &val_rows.predict(&fitted.theta_full), n));
     let consistent = match &fitted.consistent {
         None => None,
         Some(cf) => {
             let (cfm, cfp) = joint_side(&fit_rows, &cf.theta)?;
             let (cvm, cvp) = joint_side(&val_rows, &cf.theta)?;
-            let mut part = consistent_part(cf, reg.param_names(), quality("fit, joint torques K^T tau_m", &cfm, &cfp, n), quality("validation, joint torques K^T tau_m", &cvm, &cvp, n));
-            part.validation_motor = Some(quality("validation, motor torques", &val_rows.tau, &val_rows.predict(&cf.theta), n));
+            let mut part = consistent_part(
+                cf,
+                reg.param_names(),
+                quality("fit, joint torques K^T tau_m", &cfm, &cfp, n),
+                quality("validation, joint torques K^T tau_m", &cvm, &cvp, n),
+            );
+            part.validation_motor =
+                Some(quality("validation, motor torques", &val_rows.tau, &val_rows.predict(&cf.theta), n));
             Some((part, cvp))
         }
     };
@@ -516,15 +556,33 @@ pub fn identify_tx40(data: &Tx40Data, opts: &Tx40Options) -> Result<RealReport> 
         method: fitted.base_fit.method.replace("LS", opts.estimator.name()),
         split: format!(
             "fit on raw rows {}..{} ({:.2}-{:.2} s), validate on raw rows {}..{} ({:.2}-{:.2} s), FIGAROH's split",
-            opts.fit_rows.start, opts.fit_rows.end, opts.fit_rows.start as f64 * data.dt, opts.fit_rows.end as f64 * data.dt,
-            opts.val_rows.start, opts.val_rows.end, opts.val_rows.start as f64 * data.dt, opts.val_rows.end as f64 * data.dt
+            opts.fit_rows.start,
+            opts.fit_rows.end,
+            opts.fit_rows.start as f64 * data.dt,
+            opts.fit_rows.end as f64 * data.dt,
+            opts.val_rows.start,
+            opts.val_rows.end,
+            opts.val_rows.start as f64 * data.dt,
+            opts.val_rows.end as f64 * data.dt
         ),
         preprocessing: format!(
             "motor positions: zero-phase Butterworth order {} at {} Hz (-3 dB), central differences at {} Hz; states sub-sampled x{d1} and motor torques decimated x{d1} (zero-phase anti-alias) to {} Hz; motor-side regressor (K^-T Y{} + motor fc, fv, ia, tau0) there; torque and regressor through the same decimator x{d2} (zero-phase -3 dB at {:.0} Hz) to {} Hz",
-            opts.order, opts.cutoff_hz, fs, fs1, if opts.joint_drive { " with joint-side drive columns" } else { "" }, par.filter.cutoff_hz, rate
-        ) + &v0.as_ref().map_or(String::new(), |v| format!("; v0 = {} rad/s (3x the motor velocity noise RMS above {VELOCITY_NOISE_HZ} Hz)", v.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(", ")))
-            + if opts.smooth_coulomb { "; motor Coulomb friction tanh(qd_m / v0)" } else { "" }
-            + &standstill.map_or(String::new(), |(f, v)| format!("; standstill rows (every |qd_m| < v0) dropped: {f} fitted, {v} validated")),
+            opts.order,
+            opts.cutoff_hz,
+            fs,
+            fs1,
+            if opts.joint_drive { " with joint-side drive columns" } else { "" },
+            par.filter.cutoff_hz,
+            rate
+        ) + &v0.as_ref().map_or(String::new(), |v| {
+            format!(
+                "; v0 = {} rad/s (3x the motor velocity noise RMS above {VELOCITY_NOISE_HZ} Hz)",
+                v.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(", ")
+            )
+        }) + if opts.smooth_coulomb { "; motor Coulomb friction tanh(qd_m / v0)" } else { "" }
+            + &standstill.map_or(String::new(), |(f, v)| {
+                format!("; standstill rows (every |qd_m| < v0) dropped: {f} fitted, {v} validated")
+            }),
         sample_rate_hz: rate,
         rows: fitted.base_fit.rows,
         rank: fitted.base_fit.rank,
@@ -542,7 +600,12 @@ pub fn identify_tx40(data: &Tx40Data, opts: &Tx40Options) -> Result<RealReport> 
         },
         validation_motor,
         floor_r2: TX40_FLOOR_R2.to_vec(),
-        series: Series { t: val_rows.t.clone(), measured: vm, predicted: vp, predicted_consistent: consistent.as_ref().map(|c| c.1.clone()) },
+        series: Series {
+            t: val_rows.t.clone(),
+            measured: vm,
+            predicted: vp,
+            predicted_consistent: consistent.as_ref().map(|c| c.1.clone()),
+        },
         consistent: consistent.map(|c| c.0),
         notes: vec![],
     })
@@ -568,9 +631,16 @@ pub fn joint_side_rows(rows: &Rows, trans: &ivdyn::ident::transmission::Transmis
     Ok(Rows { n, p, t: rows.t.clone(), phi, tau: trans.joint_torques(&rows.tau)? })
 }
 
-fn fit_rows_checked(rows: &Rows, base: &BaseParams, est: Estimator, consistent: Option<ConsistentInput>) -> Result<Fitted> {
+fn fit_rows_checked(
+    rows: &Rows,
+    base: &BaseParams,
+    est: Estimator,
+    consistent: Option<ConsistentInput>,
+) -> Result<Fitted> {
     if rows.tau.len() < 2 * base.base_count() {
-        return Err(Error::Estimation { msg: format!("{} rows for {} base parameters", rows.tau.len(), base.base_count()) });
+        return Err(Error::Estimation {
+            msg: format!("{} rows for {} base parameters", rows.tau.len(), base.base_count()),
+        });
     }
     fit_rows(rows, base, est, consistent)
 }
@@ -590,7 +660,13 @@ fn consistent_part(cf: &ConsistentFit, names: Vec<String>, fit: Quality, validat
 
 fn base_values(fit: &FitReport, nominal: &[f64]) -> Vec<BaseValue> {
     (0..fit.theta.len())
-        .map(|i| BaseValue { name: fit.names[i].clone(), value: fit.theta[i], std: fit.std[i], rel_std_pct: fit.rel_std_pct[i], nominal: nominal[i] })
+        .map(|i| BaseValue {
+            name: fit.names[i].clone(),
+            value: fit.theta[i],
+            std: fit.std[i],
+            rel_std_pct: fit.rel_std_pct[i],
+            nominal: nominal[i],
+        })
         .collect()
 }
 
@@ -690,10 +766,18 @@ pub fn lwr_rows(robot: &Robot, run: &LwrRun, opts: &LwrOptions, edge_s: f64) -> 
     }
     let edge = (edge_s / dt).round() as usize;
     if 2 * edge >= t_all {
-        return Err(Error::Estimation { msg: format!("LWR {}: dropping {edge_s} s at each end leaves no samples", run.file.display()) });
+        return Err(Error::Estimation {
+            msg: format!("LWR {}: dropping {edge_s} s at each end leaves no samples", run.file.display()),
+        });
     }
     let keep: Vec<usize> = (edge..t_all - edge).step_by(opts.step.max(1)).collect();
-    Ok(Rows { n, p, t: keep.iter().map(|&k| run.t[k]).collect(), phi: take_rows(&phi, n * p, &keep), tau: take_rows(&run.tau, n, &keep) })
+    Ok(Rows {
+        n,
+        p,
+        t: keep.iter().map(|&k| run.t[k]).collect(),
+        phi: take_rows(&phi, n * p, &keep),
+        tau: take_rows(&run.tau, n, &keep),
+    })
 }
 
 /// Seconds for the slowest pole of an order-`order` Butterworth low-pass at `fc_hz` to
@@ -707,7 +791,11 @@ pub fn butterworth_settling_s(order: usize, fc_hz: f64) -> f64 {
 /// runs 1 and 3, validate on run 2).
 pub fn identify_lwr(robot: &Robot, fit: &[&LwrRun], val: &LwrRun, opts: &LwrOptions) -> Result<RealReport> {
     let n = robot.dof();
-    let spring_names: Vec<String> = opts.springs.iter().map(|&j| format!("{}.spring", robot.joint_names.get(j).map_or("?", |s| s.as_str()))).collect();
+    let spring_names: Vec<String> = opts
+        .springs
+        .iter()
+        .map(|&j| format!("{}.spring", robot.joint_names.get(j).map_or("?", |s| s.as_str())))
+        .collect();
     let mut fit_rows = Rows { n, p: robot.num_params() + spring_names.len(), ..Default::default() };
     for r in fit {
         fit_rows.append(&lwr_rows(robot, r, opts, opts.edge_s)?);
@@ -718,7 +806,11 @@ pub fn identify_lwr(robot: &Robot, fit: &[&LwrRun], val: &LwrRun, opts: &LwrOpti
     let nominal = robot.params();
     let mut names = robot.param_names();
     names.extend(spring_names.iter().cloned());
-    let cin = opts.consistent.then_some(ConsistentInput { nominal: &nominal, links: &robot.link_names, joints: &robot.joint_names });
+    let cin = opts.consistent.then_some(ConsistentInput {
+        nominal: &nominal,
+        links: &robot.link_names,
+        joints: &robot.joint_names,
+    });
     let fitted = fit_rows_checked(&fit_rows, &base, opts.estimator, cin)?;
     let mut nominal_ext = nominal.clone();
     nominal_ext.resize(fit_rows.p, 0.0);
@@ -726,7 +818,12 @@ pub fn identify_lwr(robot: &Robot, fit: &[&LwrRun], val: &LwrRun, opts: &LwrOpti
     let vp = val_rows.predict(&fitted.theta_full);
     let consistent = fitted.consistent.as_ref().map(|cf| {
         let cvp = val_rows.predict(&cf.theta);
-        let part = consistent_part(cf, names.clone(), quality("fit", &fit_rows.tau, &fit_rows.predict(&cf.theta), n), quality("validation", &val_rows.tau, &cvp, n));
+        let part = consistent_part(
+            cf,
+            names.clone(),
+            quality("fit", &fit_rows.tau, &fit_rows.predict(&cf.theta), n),
+            quality("validation", &val_rows.tau, &cvp, n),
+        );
         (part, cvp)
     });
     let name = |r: &LwrRun| r.file.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -770,7 +867,9 @@ pub fn identify_lwr(robot: &Robot, fit: &[&LwrRun], val: &LwrRun, opts: &LwrOpti
 /// held-out per-joint R² of each fold (`runs.len()` folds; needs two runs or more).
 pub fn lwr_cross_validation(robot: &Robot, runs: &[&LwrRun], opts: &LwrOptions) -> Result<Vec<Vec<f64>>> {
     if runs.len() < 2 {
-        return Err(Error::Estimation { msg: format!("LWR cross-validation needs two runs or more, got {}", runs.len()) });
+        return Err(Error::Estimation {
+            msg: format!("LWR cross-validation needs two runs or more, got {}", runs.len()),
+        });
     }
     let o = LwrOptions { consistent: false, ..opts.clone() };
     (0..runs.len())

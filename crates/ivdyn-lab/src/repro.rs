@@ -20,11 +20,11 @@
 use ivdyn::error::{Error, Result};
 use ivdyn::ident::{BaseParams, IvAccumulator, LsAccumulator};
 use ivdyn_core::estim::{InstrumentModel, TerminalSpec};
-use ivdyn_core::paper::{self, Table2Row, TABLE2};
-use ivdyn_core::params::{DRIVE_PARAM_NAMES, LINK_PARAMS, LINK_PARAM_NAMES};
-use ivdyn_core::trajectory::Fourier;
+use ivdyn_core::paper::{self, TABLE2, Table2Row};
+use ivdyn_core::params::{DRIVE_PARAM_NAMES, LINK_PARAM_NAMES, LINK_PARAMS};
 use ivdyn_core::rng::Rng;
-use ivdyn_core::{regressor, rnea, Data, Model, VecN};
+use ivdyn_core::trajectory::Fourier;
+use ivdyn_core::{Data, Model, VecN, regressor, rnea};
 
 /// One simulated sample.
 #[derive(Debug, Clone, Copy)]
@@ -124,7 +124,12 @@ pub fn terminal_names(spec: &TerminalSpec, n: usize) -> Vec<String> {
 /// The planned trajectory: fixed coefficients (seed 7), acceleration RMS 10 rad/s^2.
 pub fn paper_trajectory(qdd_rms: f64) -> Fourier<6, 5> {
     let mut rng = Rng::new(7);
-    let mut f = Fourier { omega: std::f64::consts::PI, q0: [0.3, -0.6, 0.9, 0.4, 0.8, -0.3], a: [[0.0; 5]; 6], b: [[0.0; 5]; 6] };
+    let mut f = Fourier {
+        omega: std::f64::consts::PI,
+        q0: [0.3, -0.6, 0.9, 0.4, 0.8, -0.3],
+        a: [[0.0; 5]; 6],
+        b: [[0.0; 5]; 6],
+    };
     for i in 0..6 {
         for l in 0..5 {
             f.a[i][l] = rng.uniform(-1.0, 1.0);

@@ -69,7 +69,6 @@ fn last_link_fully_identifiable_from_all_joints() {
     assert_eq!(b.independent, (0..10).collect::<Vec<_>>(), "{:?}", b.names);
 }
 
-
 /// The paper's experiment in full: the nominal model starts 10 % wrong (every mass, COM,
 /// inertia and friction value of Table 2, uniform +-10 %), the unloaded arm is identified
 /// first (batch IV on 8 s of unloaded tracking), then the payload is estimated online
@@ -112,5 +111,10 @@ fn paper_robot_payload_after_identifying_the_unloaded_arm() {
     // the identified model is closer to the truth overall (a joint whose prior error is
     // below the estimation noise, ~1 mN m on the light wrist, need not improve)
     let total = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-    assert!(total(&info.rms_identified) < 0.5 * total(&info.rms_prior), "{:?} vs {:?}", info.rms_identified, info.rms_prior);
+    assert!(
+        total(&info.rms_identified) < 0.5 * total(&info.rms_prior),
+        "{:?} vs {:?}",
+        info.rms_identified,
+        info.rms_prior
+    );
 }

@@ -1,6 +1,6 @@
 //! The paper's simulation (k = 5 terminal-link problem on the paper's robot).
 
-use ivdyn_lab::repro::{batch_estimates, recursive_traces, Estimator, PaperSim};
+use ivdyn_lab::repro::{Estimator, PaperSim, batch_estimates, recursive_traces};
 
 /// Noise-free accelerations: every base combination is recovered exactly (1e-9 relative,
 /// 1e-10 absolute where the truth is zero) by every estimator, batch and recursive.

@@ -4,7 +4,9 @@
 //! an independent source.
 
 use ivdyn_lab::real::{load_lwr_robot, load_lwr_run, load_tx40};
-use ivdyn_lab::realdata::{identify_lwr, identify_tx40, LwrOptions, RealReport, Tx40Options, LWR_FLOOR_R2, TX40_FLOOR_R2};
+use ivdyn_lab::realdata::{
+    LWR_FLOOR_R2, LwrOptions, RealReport, TX40_FLOOR_R2, Tx40Options, identify_lwr, identify_tx40,
+};
 use nalgebra::{Matrix3, Matrix4};
 use std::path::PathBuf;
 
@@ -71,7 +73,12 @@ fn check_consistent(what: &str, rep: &RealReport, n: usize) {
     // the LS estimate does violate consistency (otherwise the constrained fit is moot)
     assert!(!c.ls_violations.is_empty(), "{what}: LS estimate already consistent");
     // constrained: never better than LS on the fitted rows
-    assert!(c.cost.rss >= c.cost.rss_ls * (1.0 - 1e-9), "{what}: consistent RSS {} below the LS minimum {}", c.cost.rss, c.cost.rss_ls);
+    assert!(
+        c.cost.rss >= c.cost.rss_ls * (1.0 - 1e-9),
+        "{what}: consistent RSS {} below the LS minimum {}",
+        c.cost.rss,
+        c.cost.rss_ls
+    );
     assert_eq!(c.validation.r2.len(), n);
 }
 
@@ -81,7 +88,11 @@ fn check_consistent(what: &str, rep: &RealReport, n: usize) {
 fn check_rss_direct(what: &str, rep: &RealReport, n: usize) {
     let c = rep.consistent.as_ref().unwrap();
     let direct: f64 = (0..n).map(|j| rep.weights[j] * c.fit.rms[j].powi(2) * c.fit.samples as f64).sum();
-    assert!((direct - c.cost.rss).abs() <= 1e-6 * c.cost.rss, "{what}: RSS {} reported, {direct} on the fitted rows", c.cost.rss);
+    assert!(
+        (direct - c.cost.rss).abs() <= 1e-6 * c.cost.rss,
+        "{what}: RSS {} reported, {direct} on the fitted rows",
+        c.cost.rss
+    );
 }
 
 #[test]
@@ -93,7 +104,13 @@ fn tx40_beats_the_floor() {
     let r2 = &rep.validation.r2;
     // joint 2 is not asserted: 0.965 against the floor's 0.97 (docs/real-data.md: "weak joints")
     for j in [0, 2, 3, 4, 5] {
-        assert!(r2[j] >= TX40_FLOOR_R2[j], "TX40 joint {}: validation R2 {:.3} below the floor {}", j + 1, r2[j], TX40_FLOOR_R2[j]);
+        assert!(
+            r2[j] >= TX40_FLOOR_R2[j],
+            "TX40 joint {}: validation R2 {:.3} below the floor {}",
+            j + 1,
+            r2[j],
+            TX40_FLOOR_R2[j]
+        );
     }
 }
 
@@ -101,13 +118,21 @@ fn tx40_beats_the_floor() {
 fn lwr_matches_the_floor() {
     let robot = load_lwr_robot(&root()).unwrap();
     let runs: Vec<_> = (1..=3).map(|k| load_lwr_run(&root(), k).unwrap()).collect();
-    let rep = identify_lwr(&robot, &[&runs[0], &runs[2]], &runs[1], &LwrOptions { consistent: true, ..Default::default() }).unwrap();
+    let rep =
+        identify_lwr(&robot, &[&runs[0], &runs[2]], &runs[1], &LwrOptions { consistent: true, ..Default::default() })
+            .unwrap();
     check_consistent("LWR4+", &rep, 7);
     check_rss_direct("LWR4+", &rep, 7);
     let r2 = &rep.validation.r2;
     // the floor is given to two decimals, so compare rounded values
     for j in 0..7 {
         let rounded = (r2[j] * 100.0).round() / 100.0;
-        assert!(rounded >= LWR_FLOOR_R2[j], "LWR joint {}: validation R2 {:.3} below the floor {}", j + 1, r2[j], LWR_FLOOR_R2[j]);
+        assert!(
+            rounded >= LWR_FLOOR_R2[j],
+            "LWR joint {}: validation R2 {:.3} below the floor {}",
+            j + 1,
+            r2[j],
+            LWR_FLOOR_R2[j]
+        );
     }
 }

@@ -6,13 +6,13 @@
 
 use std::any::Any;
 
-use crate::error::to_py;
 use crate::PyRobot;
-use ivdyn_lab::control::{EstimatorKind, Experiment, Instrument, RunLog, Scheme};
+use crate::error::to_py;
 use ivdyn::core::control::{ComputedTorque, CoulombVelocity, Gains, Pd, Reference};
 use ivdyn::core::sim::{Integrator, SimConfig, Simulator};
-use ivdyn::core::{mass_matrix, Data, Model, VecN};
+use ivdyn::core::{Data, Model, VecN, mass_matrix};
 use ivdyn::{Error, Robot};
+use ivdyn_lab::control::{EstimatorKind, Experiment, Instrument, RunLog, Scheme};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -116,7 +116,11 @@ fn closed_loop_n<const N: usize>(
         mean += v(q_des, k);
     }
     let m0 = *mass_matrix(model, &mut data, &(mean / t.max(1) as f64));
-    let pd = Pd { gains: gains.scaled(&m0.diagonal()), tau_limit: VecN::<N>::repeat(f64::INFINITY), gravity: s.controller == Controller::PdGravity };
+    let pd = Pd {
+        gains: gains.scaled(&m0.diagonal()),
+        tau_limit: VecN::<N>::repeat(f64::INFINITY),
+        gravity: s.controller == Controller::PdGravity,
+    };
     let mut rec = LoopRecord::default();
     for k in 0..t {
         let r = Reference { q: v(q_des, k), qd: v(qd_des, k), qdd: v(qdd_des, k) };
@@ -151,7 +155,11 @@ fn closed_loop_n<const N: usize>(
 
 fn flat<'a>(x: &'a PyReadonlyArray2<'_, f64>, name: &str, t: usize, n: usize) -> PyResult<&'a [f64]> {
     if x.shape() != [t, n] {
-        return Err(PyValueError::new_err(format!("{name} must have shape ({t}, {n}), got ({}, {})", x.shape()[0], x.shape()[1])));
+        return Err(PyValueError::new_err(format!(
+            "{name} must have shape ({t}, {n}), got ({}, {})",
+            x.shape()[0],
+            x.shape()[1]
+        )));
     }
     x.as_slice().map_err(|_| PyValueError::new_err(format!("{name} must be C-contiguous")))
 }
@@ -191,7 +199,8 @@ fn closed_loop<'py>(
     if t == 0 {
         return Err(PyValueError::new_err("q_des must have at least one sample"));
     }
-    let (qs, qds, qdds) = (flat(&q_des, "q_des", t, n)?, flat(&qd_des, "qd_des", t, n)?, flat(&qdd_des, "qdd_des", t, n)?);
+    let (qs, qds, qdds) =
+        (flat(&q_des, "q_des", t, n)?, flat(&qd_des, "qd_des", t, n)?, flat(&qdd_des, "qdd_des", t, n)?);
     let bad = |what: &str| PyValueError::new_err(what.to_string());
     let controller = match controller {
         "computed_torque" | "ct" => Controller::ComputedTorque,
@@ -209,11 +218,18 @@ fn closed_loop<'py>(
         "reference" => true,
         c => return Err(bad(&format!("coulomb must be 'measured' or 'reference', got {c:?}"))),
     };
-    let positive = |name: &str, x: f64| if x > 0.0 && x.is_finite() { Ok(()) } else { Err(bad(&format!("{name} must be finite and > 0, got {x}"))) };
+    let positive = |name: &str, x: f64| {
+        if x > 0.0 && x.is_finite() { Ok(()) } else { Err(bad(&format!("{name} must be finite and > 0, got {x}"))) }
+    };
     positive("dt", dt)?;
     positive("wn", wn)?;
     positive("zeta", zeta)?;
-    for (name, x) in [("q_noise", q_noise), ("tau_noise", tau_noise), ("coulomb_band", coulomb_band), ("velocity_cutoff_hz", velocity_cutoff_hz)] {
+    for (name, x) in [
+        ("q_noise", q_noise),
+        ("tau_noise", tau_noise),
+        ("coulomb_band", coulomb_band),
+        ("velocity_cutoff_hz", velocity_cutoff_hz),
+    ] {
         if !(x >= 0.0 && x.is_finite()) {
             return Err(bad(&format!("{name} must be finite and >= 0, got {x}")));
         }
@@ -254,7 +270,9 @@ fn closed_loop<'py>(
         seed,
     };
     let ctrl = match &model {
-        Some(m) if m.inner.dof() != n => return Err(bad(&format!("model has {} joints, the robot {n}", m.inner.dof()))),
+        Some(m) if m.inner.dof() != n => {
+            return Err(bad(&format!("model has {} joints, the robot {n}", m.inner.dof())));
+        }
         Some(m) => m.inner.clone(),
         None => robot.inner.clone(),
     };
@@ -365,7 +383,8 @@ fn control_experiment<'py>(
         ("iv", i) => return Err(bad(format!("instrument must be 'planned' or 'eq35', got {i:?}"))),
         (e, _) => return Err(bad(format!("estimator must be 'iv' or 'ls', got {e:?}"))),
     };
-    if duration.is_some_and(|d| !(d > 0.0 && d.is_finite())) || grasp_time.is_some_and(|g| !(g >= 0.0 && g.is_finite())) {
+    if duration.is_some_and(|d| !(d > 0.0 && d.is_finite())) || grasp_time.is_some_and(|g| !(g >= 0.0 && g.is_finite()))
+    {
         return Err(bad("duration must be > 0 and grasp_time >= 0".into()));
     }
     if p0.is_some_and(|p| !(p > 0.0 && p.is_finite())) {
@@ -378,7 +397,8 @@ fn control_experiment<'py>(
     let res = match robot {
         "paper" => py.detach(|| Experiment::paper().and_then(|e| run_experiment(e, &s, scheme))),
         "panda" => {
-            let urdf = urdf.ok_or_else(|| bad("robot 'panda' needs urdf= (the Panda URDF, e.g. fixtures/panda.urdf)".into()))?;
+            let urdf =
+                urdf.ok_or_else(|| bad("robot 'panda' needs urdf= (the Panda URDF, e.g. fixtures/panda.urdf)".into()))?;
             py.detach(|| Experiment::panda(&urdf).and_then(|e| run_experiment(e, &s, scheme)))
         }
         r => return Err(bad(format!("robot must be 'paper' or 'panda', got {r:?}"))),

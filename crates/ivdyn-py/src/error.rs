@@ -7,10 +7,10 @@
 //!
 //! The message is always the Rust error's `Display` text.
 
-use ivdyn::core::Error as CoreError;
 use ivdyn::Error;
-use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyRuntimeError, PyValueError};
+use ivdyn::core::Error as CoreError;
 use pyo3::PyErr;
+use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyRuntimeError, PyValueError};
 
 fn core_is_input(e: &CoreError) -> bool {
     matches!(

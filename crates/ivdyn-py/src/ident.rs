@@ -6,8 +6,8 @@
 
 use std::borrow::Cow;
 
-use crate::error::to_py;
 use crate::PyRobot;
+use crate::error::to_py;
 use ivdyn::ident::arrays::{self, RecursiveIv, RecursiveLs};
 use ivdyn::ident::{BaseParams, FitReport};
 use ivdyn_lab::repro::{self, Estimator, PaperSim};
@@ -33,7 +33,12 @@ fn vec1<'a>(x: &'a PyReadonlyArray1<'_, f64>, name: &str, n: Option<usize>) -> P
 }
 
 /// Contiguous row-major data of a 2-D array `(m, p)`; checks `p` and `m` when given.
-fn mat<'a>(x: &'a PyReadonlyArray2<'_, f64>, name: &str, m: Option<usize>, p: Option<usize>) -> PyResult<Cow<'a, [f64]>> {
+fn mat<'a>(
+    x: &'a PyReadonlyArray2<'_, f64>,
+    name: &str,
+    m: Option<usize>,
+    p: Option<usize>,
+) -> PyResult<Cow<'a, [f64]>> {
     let s = x.shape();
     if m.is_some_and(|m| m != s[0]) || p.is_some_and(|p| p != s[1]) {
         let d = |v: Option<usize>, c: &str| v.map_or(c.to_string(), |v| v.to_string());
@@ -232,12 +237,20 @@ impl PyBaseParams {
         self.inner.base_count()
     }
     /// `(P,)` -> `(B,)`.
-    fn project<'py>(&self, py: Python<'py>, theta_full: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn project<'py>(
+        &self,
+        py: Python<'py>,
+        theta_full: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let t = vec1(&theta_full, "theta_full", Some(self.inner.full_cols))?;
         Ok(self.inner.project(&t).map_err(to_py)?.into_pyarray(py))
     }
     /// `(B,)` -> `(P,)`.
-    fn to_full<'py>(&self, py: Python<'py>, theta_base: PyReadonlyArray1<'py, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn to_full<'py>(
+        &self,
+        py: Python<'py>,
+        theta_base: PyReadonlyArray1<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let t = vec1(&theta_base, "theta_base", Some(self.inner.base_count()))?;
         Ok(self.inner.to_full(&t).map_err(to_py)?.into_pyarray(py))
     }
@@ -260,9 +273,16 @@ impl PyBaseParams {
 /// columns only when `rigid_only`).
 #[pyfunction]
 #[pyo3(signature = (robot, samples=100, seed=1, rigid_only=false))]
-fn base_params(py: Python<'_>, robot: PyRef<'_, PyRobot>, samples: usize, seed: u64, rigid_only: bool) -> PyResult<PyBaseParams> {
+fn base_params(
+    py: Python<'_>,
+    robot: PyRef<'_, PyRobot>,
+    samples: usize,
+    seed: u64,
+    rigid_only: bool,
+) -> PyResult<PyBaseParams> {
     let r = robot.inner.clone();
-    let inner = py.detach(|| ivdyn::ident::base::robot_base_params_with(&r, samples, seed, rigid_only)).map_err(to_py)?;
+    let inner =
+        py.detach(|| ivdyn::ident::base::robot_base_params_with(&r, samples, seed, rigid_only)).map_err(to_py)?;
     Ok(PyBaseParams { inner })
 }
 
@@ -284,7 +304,8 @@ fn fit_robot(
     let n = robot.inner.dof();
     let q = mat(&q, "q", None, Some(n))?;
     let t = q.len() / n.max(1);
-    let (qd, qdd, tau) = (mat(&qd, "qd", Some(t), Some(n))?, mat(&qdd, "qdd", Some(t), Some(n))?, mat(&tau, "tau", Some(t), Some(n))?);
+    let (qd, qdd, tau) =
+        (mat(&qd, "qd", Some(t), Some(n))?, mat(&qdd, "qdd", Some(t), Some(n))?, mat(&tau, "tau", Some(t), Some(n))?);
     let w = joint_weight.as_ref().map(|w| vec1(w, "joint_weight", Some(n))).transpose()?;
     let (r, b) = (&robot.inner, &base.inner);
     let inner = py.detach(|| ivdyn::ident::fit_ls_batch(r, b, &q, &qd, &qdd, &tau, w.as_deref())).map_err(to_py)?;
@@ -300,10 +321,9 @@ fn payload_from_fit<'py>(
     cols: Vec<usize>,
     full_names: Vec<String>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let cols: [usize; 10] = cols
-        .as_slice()
-        .try_into()
-        .map_err(|_| PyValueError::new_err(format!("cols must have 10 entries (m, m*cx, .., Izz), got {}", cols.len())))?;
+    let cols: [usize; 10] = cols.as_slice().try_into().map_err(|_| {
+        PyValueError::new_err(format!("cols must have 10 entries (m, m*cx, .., Izz), got {}", cols.len()))
+    })?;
     if let Some(&c) = cols.iter().find(|&&c| c >= base.inner.full_cols) {
         return Err(PyValueError::new_err(format!("cols: index {c} out of range (P = {})", base.inner.full_cols)));
     }
@@ -378,7 +398,8 @@ impl PyRls {
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let p = self.inner.p();
-        let a = Array2::from_shape_vec((p, p), self.inner.covariance()).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let a = Array2::from_shape_vec((p, p), self.inner.covariance())
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(a.into_pyarray(py))
     }
     #[getter]
@@ -442,7 +463,8 @@ impl PyRiv {
     #[getter(P)]
     fn p_matrix<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let p = self.inner.p();
-        let a = Array2::from_shape_vec((p, p), self.inner.p_matrix()).map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let a =
+            Array2::from_shape_vec((p, p), self.inner.p_matrix()).map_err(|e| PyValueError::new_err(e.to_string()))?;
         Ok(a.into_pyarray(py))
     }
     #[getter]
@@ -563,7 +585,12 @@ impl PyPaperSim {
         self.inner.row_weight.to_vec()
     }
     /// `(estimators, checkpoints, B)`.
-    fn batch_estimates<'py>(&self, py: Python<'py>, noise_seed: u64, checkpoints: Vec<usize>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+    fn batch_estimates<'py>(
+        &self,
+        py: Python<'py>,
+        noise_seed: u64,
+        checkpoints: Vec<usize>,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         check_counts("checkpoints", &checkpoints)?;
         let sim = &self.inner;
         let out = py.detach(|| repro::batch_estimates(sim, noise_seed, &checkpoints)).map_err(to_py)?;
@@ -571,7 +598,13 @@ impl PyPaperSim {
     }
     /// `(estimators, record, B)`.
     #[pyo3(signature = (noise_seed, record, p0=1e4))]
-    fn recursive_traces<'py>(&self, py: Python<'py>, noise_seed: u64, record: Vec<usize>, p0: f64) -> PyResult<Bound<'py, PyArray3<f64>>> {
+    fn recursive_traces<'py>(
+        &self,
+        py: Python<'py>,
+        noise_seed: u64,
+        record: Vec<usize>,
+        p0: f64,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         check_counts("record", &record)?;
         if !(p0 > 0.0 && p0.is_finite()) {
             return Err(PyValueError::new_err(format!("p0 must be finite and > 0, got {p0}")));

@@ -20,7 +20,10 @@ use std::borrow::Cow;
 use error::to_py;
 use ivdyn::batch;
 use numpy::ndarray::{Ix2, Ix3};
-use numpy::{IntoPyArray, PyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
+use numpy::{
+    IntoPyArray, PyArray, PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2,
+    PyUntypedArrayMethods,
+};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 
@@ -75,19 +78,23 @@ where
     };
     {
         let mut rw = arr.try_readwrite().map_err(|e| PyValueError::new_err(format!("out: {e}")))?;
-        let out = rw.as_slice_mut().map_err(|e| PyRuntimeError::new_err(format!("internal error: output array: {e}")))?;
+        let out =
+            rw.as_slice_mut().map_err(|e| PyRuntimeError::new_err(format!("internal error: output array: {e}")))?;
         py.detach(|| fill(out))?;
     }
     Ok(arr)
 }
 
 /// `out` as a float64 C-contiguous writeable array of shape `dims`, or `ValueError`.
-fn out_array<'py, D: numpy::ndarray::Dimension>(o: Bound<'py, PyAny>, dims: &D) -> PyResult<Bound<'py, PyArray<f64, D>>> {
+fn out_array<'py, D: numpy::ndarray::Dimension>(
+    o: Bound<'py, PyAny>,
+    dims: &D,
+) -> PyResult<Bound<'py, PyArray<f64, D>>> {
     let shape_str = |s: &[usize]| format!("({})", s.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", "));
     let want = shape_str(dims.slice());
-    let arr = o.cast_into::<PyArray<f64, D>>().map_err(|e| {
-        PyValueError::new_err(format!("out must be a float64 numpy array of shape {want} ({e})"))
-    })?;
+    let arr = o
+        .cast_into::<PyArray<f64, D>>()
+        .map_err(|e| PyValueError::new_err(format!("out must be a float64 numpy array of shape {want} ({e})")))?;
     if arr.shape() != dims.slice() {
         return Err(PyValueError::new_err(format!("out must have shape {want}, got {}", shape_str(arr.shape()))));
     }
@@ -206,7 +213,12 @@ impl PyRobot {
 
     /// Gravity torques; `(T, N)` -> `(T, N)`.
     #[pyo3(signature = (q, out=None))]
-    fn gravity<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>, out: Option<Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    fn gravity<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArray2<'py, f64>,
+        out: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let n = self.inner.dof();
         let q = rows(&q, "q", n, None)?;
         let t = q.len() / n;
@@ -236,7 +248,12 @@ impl PyRobot {
 
     /// Mass matrices; `(T, N)` -> `(T, N, N)`.
     #[pyo3(signature = (q, out=None))]
-    fn mass_matrix<'py>(&self, py: Python<'py>, q: PyReadonlyArray2<'py, f64>, out: Option<Bound<'py, PyAny>>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+    fn mass_matrix<'py>(
+        &self,
+        py: Python<'py>,
+        q: PyReadonlyArray2<'py, f64>,
+        out: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray3<f64>>> {
         let n = self.inner.dof();
         let q = rows(&q, "q", n, None)?;
         let t = q.len() / n;

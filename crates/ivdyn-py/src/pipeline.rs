@@ -12,19 +12,19 @@
 //! raises the stored exception. Nothing is shared with the caller but read-only inputs,
 //! so no half-updated state survives the abort.
 
-use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
+use std::panic::{AssertUnwindSafe, catch_unwind, resume_unwind};
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-use crate::error::to_py;
 use crate::PyRobot;
+use crate::error::to_py;
+use ivdyn::Robot;
 use ivdyn::app::{self, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, SimulateOptions, Trajectory};
-use ivdyn::dsp::{DiffMethod, DEFAULT_ORDER};
+use ivdyn::dsp::{DEFAULT_ORDER, DiffMethod};
 use ivdyn::log::JointLog;
 use ivdyn::prep::ConditionOptions;
 use ivdyn::progress::Progress;
 use ivdyn::report::PayloadSpec;
-use ivdyn::Robot;
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
@@ -83,7 +83,11 @@ impl Progress for PyProgress {
 
 /// Runs `f` (a pipeline) with the GIL released and `progress` as its sink; turns an abort
 /// from the callback back into its Python exception.
-fn run<T: Send>(py: Python<'_>, callback: Option<Py<PyAny>>, f: impl FnOnce(ivdyn::progress::ProgressSink) -> ivdyn::error::Result<T> + Send) -> PyResult<T> {
+fn run<T: Send>(
+    py: Python<'_>,
+    callback: Option<Py<PyAny>>,
+    f: impl FnOnce(ivdyn::progress::ProgressSink) -> ivdyn::error::Result<T> + Send,
+) -> PyResult<T> {
     let sink = Arc::new(PyProgress { callback, state: Mutex::new((String::new(), 0, 0)), failed: Mutex::new(None) });
     let s2: Arc<dyn Progress> = sink.clone();
     let r = py.detach(|| catch_unwind(AssertUnwindSafe(|| f(Some(s2)))));
@@ -110,7 +114,9 @@ fn f64_1d(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Option<Vec<f64>>> {
         None => Ok(None),
         Some(v) if v.is_none() => Ok(None),
         Some(v) => {
-            let a: PyReadonlyArray1<f64> = v.extract().map_err(|_| PyValueError::new_err(format!("log['{key}'] must be a float64 array of shape (T,)")))?;
+            let a: PyReadonlyArray1<f64> = v
+                .extract()
+                .map_err(|_| PyValueError::new_err(format!("log['{key}'] must be a float64 array of shape (T,)")))?;
             Ok(Some(a.as_array().iter().copied().collect()))
         }
     }
@@ -121,9 +127,15 @@ fn f64_2d(d: &Bound<'_, PyDict>, key: &str, t: usize, n: usize) -> PyResult<Opti
         None => Ok(None),
         Some(v) if v.is_none() => Ok(None),
         Some(v) => {
-            let a: PyReadonlyArray2<f64> = v.extract().map_err(|_| PyValueError::new_err(format!("log['{key}'] must be a float64 array of shape ({t}, {n})")))?;
+            let a: PyReadonlyArray2<f64> = v.extract().map_err(|_| {
+                PyValueError::new_err(format!("log['{key}'] must be a float64 array of shape ({t}, {n})"))
+            })?;
             if a.shape() != [t, n] {
-                return Err(PyValueError::new_err(format!("log['{key}'] must have shape ({t}, {n}), got ({}, {})", a.shape()[0], a.shape()[1])));
+                return Err(PyValueError::new_err(format!(
+                    "log['{key}'] must have shape ({t}, {n}), got ({}, {})",
+                    a.shape()[0],
+                    a.shape()[1]
+                )));
             }
             Ok(Some(a.as_array().iter().copied().collect()))
         }
@@ -134,19 +146,26 @@ fn f64_2d(d: &Bound<'_, PyDict>, key: &str, t: usize, n: usize) -> PyResult<Opti
 /// arrays (`t`, `q`, optional `qd`, `tau`, `u`, `joint_names`), checked like a file's.
 fn log_input(robot: &Robot, log: &Bound<'_, PyAny>, what: &str) -> PyResult<LogInput> {
     let Ok(d) = log.cast::<PyDict>() else {
-        let path: PathBuf = log.extract().map_err(|_| PyValueError::new_err(format!("{what} must be a path (str or os.PathLike) or a dict of arrays")))?;
+        let path: PathBuf = log.extract().map_err(|_| {
+            PyValueError::new_err(format!("{what} must be a path (str or os.PathLike) or a dict of arrays"))
+        })?;
         return Ok(LogInput::File(path));
     };
     let n = robot.dof();
-    let t = f64_1d(d, "t")?.ok_or_else(|| PyValueError::new_err(format!("{what}: a log dict needs 't' (T,) and 'q' (T, {n})")))?;
+    let t = f64_1d(d, "t")?
+        .ok_or_else(|| PyValueError::new_err(format!("{what}: a log dict needs 't' (T,) and 'q' (T, {n})")))?;
     let len = t.len();
-    let q = f64_2d(d, "q", len, n)?.ok_or_else(|| PyValueError::new_err(format!("{what}: a log dict needs 'q' (T, {n})")))?;
+    let q = f64_2d(d, "q", len, n)?
+        .ok_or_else(|| PyValueError::new_err(format!("{what}: a log dict needs 'q' (T, {n})")))?;
     if let Some(names) = d.get_item("joint_names")?
         && !names.is_none()
     {
         let names: Vec<String> = names.extract()?;
         if names != robot.joint_names {
-            return Err(PyValueError::new_err(format!("{what}: log joints {names:?} are not the robot's {:?}", robot.joint_names)));
+            return Err(PyValueError::new_err(format!(
+                "{what}: log joints {names:?} are not the robot's {:?}",
+                robot.joint_names
+            )));
         }
     }
     let jl = JointLog {
@@ -184,7 +203,10 @@ fn json<T: serde::Serialize>(v: &T) -> PyResult<String> {
 
 /// The URDF a write-back starts from: the file the robot was loaded from.
 fn urdf_of(robot: &PyRobot, what: &str) -> PyResult<PathBuf> {
-    robot.urdf.clone().ok_or_else(|| PyValueError::new_err(format!("{what} needs a robot loaded from a URDF file (Robot.from_urdf)")))
+    robot
+        .urdf
+        .clone()
+        .ok_or_else(|| PyValueError::new_err(format!("{what} needs a robot loaded from a URDF file (Robot.from_urdf)")))
 }
 
 // ------------------------------------------------------------------ identify / payload
@@ -240,10 +262,23 @@ fn identify(
         validate: validate.map(|v| log_input(&r, v, "validation log")).transpose()?,
         source: log_source(topic, command_topic, log_time),
         in_memory,
-        opts: IdentifyOptions { method, condition: condition(cutoff)?, decimate, validation_fraction: holdout, drive, consistent, ..Default::default() },
+        opts: IdentifyOptions {
+            method,
+            condition: condition(cutoff)?,
+            decimate,
+            validation_fraction: holdout,
+            drive,
+            consistent,
+            ..Default::default()
+        },
         outputs: app::IdentifyOutputs { json: json_out, params: out_params, urdf, mcap: out_mcap },
     };
-    let out = run(py, progress, |p| app::identify_job(&r, &app::IdentifyJob { opts: IdentifyOptions { progress: p, ..job.opts.clone() }, ..job.clone() }))?;
+    let out = run(py, progress, |p| {
+        app::identify_job(
+            &r,
+            &app::IdentifyJob { opts: IdentifyOptions { progress: p, ..job.opts.clone() }, ..job.clone() },
+        )
+    })?;
     json(&out.report)
 }
 
@@ -283,7 +318,12 @@ fn payload(
         json: json_out,
         urdf,
     };
-    let out = run(py, progress, |p| app::payload_job(&r, &app::PayloadJob { opts: PayloadOptions { progress: p, ..job.opts.clone() }, ..job.clone() }))?;
+    let out = run(py, progress, |p| {
+        app::payload_job(
+            &r,
+            &app::PayloadJob { opts: PayloadOptions { progress: p, ..job.opts.clone() }, ..job.clone() },
+        )
+    })?;
     json(&out.report)
 }
 
@@ -292,7 +332,12 @@ fn payload(
 fn dict_of_log<'py>(py: Python<'py>, log: JointLog) -> PyResult<Bound<'py, PyDict>> {
     let (t, nn) = (log.len(), log.dof());
     let as2 = |v: Option<Vec<f64>>| -> PyResult<Option<Bound<'py, numpy::PyArray2<f64>>>> {
-        v.map(|v| Array2::from_shape_vec((t, nn), v).map(|a| a.into_pyarray(py)).map_err(|e| PyValueError::new_err(e.to_string()))).transpose()
+        v.map(|v| {
+            Array2::from_shape_vec((t, nn), v)
+                .map(|a| a.into_pyarray(py))
+                .map_err(|e| PyValueError::new_err(e.to_string()))
+        })
+        .transpose()
     };
     let d = PyDict::new(py);
     d.set_item("t", log.t.into_pyarray(py))?;
@@ -337,7 +382,8 @@ fn simulate<'py>(
 ) -> PyResult<(String, Bound<'py, PyDict>)> {
     let r = robot_with_params(&robot.inner, params_json)?;
     let n = r.dof();
-    let payload = PayloadSpec::from_parts(payload_mass, payload_com.as_deref(), payload_inertia.as_deref()).map_err(to_py)?;
+    let payload =
+        PayloadSpec::from_parts(payload_mass, payload_com.as_deref(), payload_inertia.as_deref()).map_err(to_py)?;
     let opts = SimulateOptions {
         rate_hz: rate,
         duration_s: duration,
@@ -359,7 +405,11 @@ fn simulate<'py>(
         (Some(t), Some(q)) => {
             let len = t.shape()[0];
             if q.shape() != [len, n] {
-                return Err(PyValueError::new_err(format!("traj['q'] must have shape ({len}, {n}), got ({}, {})", q.shape()[0], q.shape()[1])));
+                return Err(PyValueError::new_err(format!(
+                    "traj['q'] must have shape ({len}, {n}), got ({}, {})",
+                    q.shape()[0],
+                    q.shape()[1]
+                )));
             }
             Trajectory::Samples { t: t.as_array().to_vec(), q: q.as_array().iter().copied().collect() }
         }
@@ -401,7 +451,14 @@ fn diagnose(
     let job = app::DiagnoseJob {
         log: log_input(&r, log, "log")?,
         source: log_source(topic, None, log_time),
-        opts: DiagnoseOptions { alpha, min_effect, cutoff_hz: cutoff, ignore_log_velocity, urdf_name, ..Default::default() },
+        opts: DiagnoseOptions {
+            alpha,
+            min_effect,
+            cutoff_hz: cutoff,
+            ignore_log_velocity,
+            urdf_name,
+            ..Default::default()
+        },
         out,
         report,
         json: json_out,
@@ -461,10 +518,16 @@ fn excite<'py>(
         ..Default::default()
     };
     let job = app::ExciteJob { opts, csv: out, mcap: out_mcap, json: json_out };
-    let done = run(py, progress, |p| app::excite_job(&r, &app::ExciteJob { opts: ExciteOptions { progress: p, ..job.opts.clone() }, ..job.clone() }))?;
+    let done = run(py, progress, |p| {
+        app::excite_job(&r, &app::ExciteJob { opts: ExciteOptions { progress: p, ..job.opts.clone() }, ..job.clone() })
+    })?;
     let rep = done.report;
     let (t, n) = (rep.trajectory.t.len(), rep.joints.len());
-    let as2 = |v: &[f64]| Array2::from_shape_vec((t, n), v.to_vec()).map(|a| a.into_pyarray(py)).map_err(|e| PyValueError::new_err(e.to_string()));
+    let as2 = |v: &[f64]| {
+        Array2::from_shape_vec((t, n), v.to_vec())
+            .map(|a| a.into_pyarray(py))
+            .map_err(|e| PyValueError::new_err(e.to_string()))
+    };
     let d = PyDict::new(py);
     d.set_item("t", rep.trajectory.t.clone().into_pyarray(py))?;
     d.set_item("q", as2(&rep.trajectory.q)?)?;

@@ -3,12 +3,12 @@
 //! the GIL released. Glue only; the Python wrapper (`python/ivdyn/_control.py`) converts
 //! the arrays and documents the API.
 
+use crate::PyRobot;
 use crate::error::to_py;
 use crate::ident::PyBaseParams;
-use crate::PyRobot;
-use ivdyn::ident::arrays::{self, TerminalInstrument, TerminalOptions};
 use ivdyn::core::estim::TerminalSpec;
 use ivdyn::core::params::DRIVE_PARAMS;
+use ivdyn::ident::arrays::{self, TerminalInstrument, TerminalOptions};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::PyValueError;
@@ -19,10 +19,9 @@ use pyo3::types::PyDict;
 fn drive_flags(drive: &[String]) -> PyResult<[bool; DRIVE_PARAMS]> {
     let mut f = [false; DRIVE_PARAMS];
     for d in drive {
-        let i = ivdyn::core::params::DRIVE_PARAM_NAMES
-            .iter()
-            .position(|n| n == d)
-            .ok_or_else(|| PyValueError::new_err(format!("drive: unknown drive parameter {d:?} (expected some of fc, fv, ia, tau0)")))?;
+        let i = ivdyn::core::params::DRIVE_PARAM_NAMES.iter().position(|n| n == d).ok_or_else(|| {
+            PyValueError::new_err(format!("drive: unknown drive parameter {d:?} (expected some of fc, fv, ia, tau0)"))
+        })?;
         f[i] = true;
     }
     Ok(f)
@@ -35,7 +34,9 @@ fn spec(n: usize, k: Option<usize>, drive: &[String], first_row: Option<usize>) 
     let k = k.unwrap_or(n - 1);
     let first_row = first_row.unwrap_or(k);
     if k >= n || first_row > k {
-        return Err(PyValueError::new_err(format!("need 0 <= first_row <= k < N = {n}, got k = {k}, first_row = {first_row}")));
+        return Err(PyValueError::new_err(format!(
+            "need 0 <= first_row <= k < N = {n}, got k = {k}, first_row = {first_row}"
+        )));
     }
     Ok(TerminalSpec { k, drive: drive_flags(drive)?, first_row })
 }
@@ -96,7 +97,8 @@ fn terminal_link<'py>(
     let n = robot.inner.dof();
     let sp = spec(n, k, &drive, first_row)?;
     let t = q.shape()[0];
-    let (q, qd, qdd, tau) = (rows(&q, "q", t, n)?, rows(&qd, "qd", t, n)?, rows(&qdd, "qdd", t, n)?, rows(&tau, "tau", t, n)?);
+    let (q, qd, qdd, tau) =
+        (rows(&q, "q", t, n)?, rows(&qd, "qd", t, n)?, rows(&qdd, "qdd", t, n)?, rows(&tau, "tau", t, n)?);
     let instrument = match (&qdd_instr, &u) {
         (Some(_), Some(_)) => return Err(PyValueError::new_err("give one instrument: qdd_instr or u, not both")),
         (Some(z), None) => TerminalInstrument::Qdd(rows(z, "qdd_instr", t, n)?),
@@ -121,7 +123,9 @@ fn terminal_link<'py>(
     let d = PyDict::new(py);
     d.set_item("names", opts.columns.iter().map(|&c| all[c].clone()).collect::<Vec<_>>())?;
     d.set_item("theta", run.theta.into_pyarray(py))?;
-    let to2 = |v: Vec<f64>, r: usize, c: usize| Array2::from_shape_vec((r, c), v).map_err(|e| PyValueError::new_err(e.to_string()));
+    let to2 = |v: Vec<f64>, r: usize, c: usize| {
+        Array2::from_shape_vec((r, c), v).map_err(|e| PyValueError::new_err(e.to_string()))
+    };
     d.set_item("trace", to2(run.trace, opts.record.len(), b)?.into_pyarray(py))?;
     d.set_item("record", opts.record.clone())?;
     d.set_item("P", to2(run.p, b, b)?.into_pyarray(py))?;

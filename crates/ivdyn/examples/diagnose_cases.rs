@@ -8,15 +8,16 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use ivdyn::diagnose::{diagnose, DiagnoseOptions};
-use ivdyn::log::{read_mcap, ReadOptions};
 use ivdyn::Robot;
+use ivdyn::diagnose::{DiagnoseOptions, diagnose};
+use ivdyn::log::{ReadOptions, read_mcap};
 use serde_json::Value;
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let verbose = args.iter().any(|a| a == "--verbose");
-    let manifest = args.iter().find(|a| !a.starts_with("--")).cloned().unwrap_or_else(|| "fixtures/diagnose/cases.json".into());
+    let manifest =
+        args.iter().find(|a| !a.starts_with("--")).cloned().unwrap_or_else(|| "fixtures/diagnose/cases.json".into());
     let manifest = PathBuf::from(manifest);
     let dir = manifest.parent().unwrap_or(Path::new(".")).to_path_buf();
     let m: Value = serde_json::from_str(&std::fs::read_to_string(&manifest).expect("read cases.json")).expect("json");
@@ -35,7 +36,13 @@ fn main() {
             .as_array()
             .unwrap()
             .iter()
-            .map(|e| format!("{} {:?}", e["name"].as_str().unwrap(), e["joints"].as_array().unwrap().iter().map(|j| short(j.as_str().unwrap())).collect::<Vec<_>>()))
+            .map(|e| {
+                format!(
+                    "{} {:?}",
+                    e["name"].as_str().unwrap(),
+                    e["joints"].as_array().unwrap().iter().map(|j| short(j.as_str().unwrap())).collect::<Vec<_>>()
+                )
+            })
             .collect();
         let named: Vec<String> = d
             .json
@@ -53,7 +60,8 @@ fn main() {
                 errs.push(format!("{k} {:.1}%", 100.0 * worst));
             }
         }
-        let oracle: Vec<f64> = c["oracle"]["oracle_rms_exact"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        let oracle: Vec<f64> =
+            c["oracle"]["oracle_rms_exact"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
         let ratio = d.json.final_rms.iter().zip(&oracle).map(|(a, b)| a / b).fold(0.0, f64::max);
         println!(
             "| {name} | {} | {} | {} | {ratio:.2} | {secs:.2} s |",
@@ -77,7 +85,17 @@ fn main() {
                         cs.effect.name(),
                         cs.score,
                         cs.joints,
-                        cs.per_joint.iter().map(|s| format!("[F {:.0} g {:.2} e {:.3}{}]", s.f, s.heldout_gain, s.effect_rms, if s.significant { "*" } else { "" })).collect::<Vec<_>>().join(" ")
+                        cs.per_joint
+                            .iter()
+                            .map(|s| format!(
+                                "[F {:.0} g {:.2} e {:.3}{}]",
+                                s.f,
+                                s.heldout_gain,
+                                s.effect_rms,
+                                if s.significant { "*" } else { "" }
+                            ))
+                            .collect::<Vec<_>>()
+                            .join(" ")
                     );
                 }
             }
@@ -85,7 +103,11 @@ fn main() {
                 println!(
                     "      final {:<18} {}",
                     cs.effect.name(),
-                    cs.per_joint.iter().map(|s| format!("[F {:.0} g {:.2} e {:.3}]", s.f, s.heldout_gain, s.effect_rms)).collect::<Vec<_>>().join(" ")
+                    cs.per_joint
+                        .iter()
+                        .map(|s| format!("[F {:.0} g {:.2} e {:.3}]", s.f, s.heldout_gain, s.effect_rms))
+                        .collect::<Vec<_>>()
+                        .join(" ")
                 );
             }
         }
@@ -107,7 +129,10 @@ fn rel_err(truth: &Value, found: &Value, tj: &[Value], fj: &[String]) -> f64 {
         (Value::Array(a), Value::Array(b)) if tj.is_empty() => {
             // payload com / inertia: relative to the vector's norm
             let na = a.iter().map(|v| v.as_f64().unwrap().powi(2)).sum::<f64>().sqrt().max(1e-12);
-            a.iter().zip(b).map(|(x, y)| (y.as_f64().unwrap_or(f64::NAN) - x.as_f64().unwrap()).abs() / na).fold(0.0, f64::max)
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (y.as_f64().unwrap_or(f64::NAN) - x.as_f64().unwrap()).abs() / na)
+                .fold(0.0, f64::max)
         }
         (Value::Array(a), Value::Array(b)) => {
             let mut worst = 0.0f64;

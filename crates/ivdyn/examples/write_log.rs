@@ -8,7 +8,7 @@
 //! qd = cos(0.01 k + j), tau = 2 j + 0.001 k, predicted = 0.9 tau, residual = 0.1 tau;
 //! stamps 1.7e18 ns + k ms.
 
-use ivdyn::log::{write_mcap, JointLog};
+use ivdyn::log::{JointLog, write_mcap};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args = std::env::args().skip(1);

@@ -15,7 +15,9 @@ pub enum Error {
         msg: String,
     },
     /// A joint of a kind the chain model cannot represent.
-    #[error("{file}: joint '{joint}' has unsupported type '{kind}' (supported: revolute, continuous, prismatic, fixed)")]
+    #[error(
+        "{file}: joint '{joint}' has unsupported type '{kind}' (supported: revolute, continuous, prismatic, fixed)"
+    )]
     UnsupportedJoint {
         /// The file.
         file: PathBuf,
@@ -25,7 +27,9 @@ pub enum Error {
         kind: String,
     },
     /// A mimic joint on the chain (mimic joints couple two coordinates; not supported).
-    #[error("{file}: joint '{joint}' is a <mimic> joint on the chain; mimic joints are not supported (choose a tip before it, or lock it)")]
+    #[error(
+        "{file}: joint '{joint}' is a <mimic> joint on the chain; mimic joints are not supported (choose a tip before it, or lock it)"
+    )]
     MimicJoint {
         /// The file.
         file: PathBuf,

@@ -51,4 +51,4 @@ pub mod app;
 
 pub use error::Error;
 pub use ivdyn_core as core;
-pub use robot::{DynModel, Robot, MAX_DOF};
+pub use robot::{DynModel, MAX_DOF, Robot};

@@ -19,7 +19,8 @@ pub fn tmp_path(path: &Path) -> PathBuf {
 /// then renamed over `path`; on any error the temporary file is removed.
 pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let tmp = tmp_path(path);
-    let r = write(&tmp).and_then(|_| std::fs::rename(&tmp, path).map_err(|source| Error::Io { file: path.to_path_buf(), source }));
+    let r = write(&tmp)
+        .and_then(|_| std::fs::rename(&tmp, path).map_err(|source| Error::Io { file: path.to_path_buf(), source }));
     if r.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
@@ -36,4 +37,3 @@ pub fn write_json<T: Serialize>(path: &Path, v: &T) -> Result<()> {
         f.sync_all().map_err(io)
     })
 }
-

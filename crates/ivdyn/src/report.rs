@@ -62,7 +62,6 @@ pub struct ParamsFile {
     pub theta: Vec<f64>,
 }
 
-
 /// A payload to add to the last link.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct PayloadSpec {

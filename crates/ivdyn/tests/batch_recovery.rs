@@ -3,11 +3,11 @@
 //! noise of known sigma the reported standard deviations cover the truth at the nominal
 //! rate; recursive and batch estimates agree to rounding.
 
-use ivdyn::ident::{base::robot_base_params, fit_ls, BaseParams, LsAccumulator};
 use ivdyn::Robot;
+use ivdyn::ident::{BaseParams, LsAccumulator, base::robot_base_params, fit_ls};
+use ivdyn_core::VecN;
 use ivdyn_core::rng::Rng;
 use ivdyn_core::trajectory::Fourier;
-use ivdyn_core::VecN;
 use std::path::PathBuf;
 
 fn fixtures() -> PathBuf {
@@ -44,7 +44,8 @@ fn set_drives(r: &mut Robot, seed: u64) {
 /// An exciting 5-harmonic trajectory (period 10 s) sampled at `hz` for `secs`.
 fn trajectory<const N: usize>(seed: u64, hz: f64, secs: f64) -> Vec<(Vec<f64>, Vec<f64>, Vec<f64>)> {
     let mut rng = Rng::new(seed);
-    let mut f = Fourier::<N, 5> { omega: std::f64::consts::TAU / 10.0, q0: [0.0; N], a: [[0.0; 5]; N], b: [[0.0; 5]; N] };
+    let mut f =
+        Fourier::<N, 5> { omega: std::f64::consts::TAU / 10.0, q0: [0.0; N], a: [[0.0; 5]; N], b: [[0.0; 5]; N] };
     for i in 0..N {
         f.q0[i] = rng.uniform(-0.5, 0.5);
         for l in 0..5 {
@@ -62,7 +63,13 @@ fn trajectory<const N: usize>(seed: u64, hz: f64, secs: f64) -> Vec<(Vec<f64>, V
 }
 
 /// Stacks the base regressor rows and the torques (plus Gaussian noise `sigma`).
-fn accumulate(robot: &Robot, base: &BaseParams, traj: &[(Vec<f64>, Vec<f64>, Vec<f64>)], sigma: f64, seed: u64) -> LsAccumulator {
+fn accumulate(
+    robot: &Robot,
+    base: &BaseParams,
+    traj: &[(Vec<f64>, Vec<f64>, Vec<f64>)],
+    sigma: f64,
+    seed: u64,
+) -> LsAccumulator {
     let (n, p) = (robot.dof(), robot.num_params());
     let mut acc = LsAccumulator::new(base.base_count());
     let mut rng = Rng::new(seed);
@@ -84,7 +91,8 @@ fn accumulate(robot: &Robot, base: &BaseParams, traj: &[(Vec<f64>, Vec<f64>, Vec
 fn check_noise_free(robot: &Robot, traj_seed: u64, n_joints: usize) {
     let base = robot_base_params(robot, 60, 1).unwrap();
     let truth = base.project(&robot.params()).unwrap();
-    let traj = if n_joints == 6 { trajectory::<6>(traj_seed, 50.0, 30.0) } else { trajectory::<7>(traj_seed, 50.0, 30.0) };
+    let traj =
+        if n_joints == 6 { trajectory::<6>(traj_seed, 50.0, 30.0) } else { trajectory::<7>(traj_seed, 50.0, 30.0) };
     let acc = accumulate(robot, &base, &traj, 0.0, 0);
     let fit = fit_ls(&acc, &base.names).unwrap();
     assert!(fit.unexcited.is_empty(), "unexcited: {:?}", fit.unexcited);
@@ -94,7 +102,12 @@ fn check_noise_free(robot: &Robot, traj_seed: u64, n_joints: usize) {
         worst = worst.max(rel);
         assert!(rel < 1e-6, "{}: {e} vs {t} (rel {rel:e})", base.names[b]);
     }
-    eprintln!("{}: {} base parameters, cond {:.3e}, worst rel error {worst:.1e}", robot.name, base.base_count(), fit.condition_number);
+    eprintln!(
+        "{}: {} base parameters, cond {:.3e}, worst rel error {worst:.1e}",
+        robot.name,
+        base.base_count(),
+        fit.condition_number
+    );
 }
 
 #[test]
@@ -207,7 +220,8 @@ fn fused_multithreaded_fit_equals_sequential() {
         let mut rb = vec![0.0; base.base_count()];
         let (mut phi, mut y) = (vec![], vec![]);
         for k in 0..traj.len() {
-            let yf = robot.regressor(&q[k * n..(k + 1) * n], &qd[k * n..(k + 1) * n], &qdd[k * n..(k + 1) * n]).unwrap();
+            let yf =
+                robot.regressor(&q[k * n..(k + 1) * n], &qd[k * n..(k + 1) * n], &qdd[k * n..(k + 1) * n]).unwrap();
             for i in 0..n {
                 base.select_row(&yf[i * p..(i + 1) * p], &mut rb).unwrap();
                 phi.extend_from_slice(&rb);
@@ -220,7 +234,13 @@ fn fused_multithreaded_fit_equals_sequential() {
     for b in 0..base.base_count() {
         let d = (fused.theta[b] - seq.theta[b]).abs();
         // merged and sequential QR factors differ by rounding, amplified by cond(R)
-        assert!(d <= 1e-12 * seq.condition_number * seq.theta[b].abs().max(seq.std[b]), "{}: {} vs {}", base.names[b], fused.theta[b], seq.theta[b]);
+        assert!(
+            d <= 1e-12 * seq.condition_number * seq.theta[b].abs().max(seq.std[b]),
+            "{}: {} vs {}",
+            base.names[b],
+            fused.theta[b],
+            seq.theta[b]
+        );
         assert!((fused.std[b] - seq.std[b]).abs() <= 1e-9 * seq.std[b]);
     }
     assert_eq!(fused.rows, seq.rows);

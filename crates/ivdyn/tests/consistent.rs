@@ -3,11 +3,11 @@
 //! parameters, and turns data from an invalid "robot" into parameters whose pseudo-inertias
 //! are positive definite (eigenvalues computed here, independently of the module).
 
-use ivdyn::ident::consistent::{fit_consistent, link_from_log_cholesky, log_cholesky_from_link, ConsistentOptions};
-use ivdyn::robot::physical::{check_link, check_robot_params};
-use ivdyn::ident::{fit_ls, robot_base_params, LsAccumulator};
 use ivdyn::Robot;
-use ivdyn_core::params::{drive_col, link_col, FC, FV, IA, TAU0};
+use ivdyn::ident::consistent::{ConsistentOptions, fit_consistent, link_from_log_cholesky, log_cholesky_from_link};
+use ivdyn::ident::{LsAccumulator, fit_ls, robot_base_params};
+use ivdyn::robot::physical::{check_link, check_robot_params};
+use ivdyn_core::params::{FC, FV, IA, TAU0, drive_col, link_col};
 use ivdyn_core::rng::Rng;
 use nalgebra::{Matrix3, Matrix4};
 
@@ -39,7 +39,12 @@ fn assert_physical(robot: &Robot, theta: &[f64]) {
     for i in 0..n {
         let p = &theta[link_col(i, 0)..link_col(i, 10)];
         let emin = pseudo(p).symmetric_eigenvalues().min();
-        assert!(p[0] > 0.0 && emin > 0.0, "link {}: mass {}, smallest pseudo-inertia eigenvalue {emin}", robot.link_names[i], p[0]);
+        assert!(
+            p[0] > 0.0 && emin > 0.0,
+            "link {}: mass {}, smallest pseudo-inertia eigenvalue {emin}",
+            robot.link_names[i],
+            p[0]
+        );
     }
     for j in 0..n {
         for k in [FC, FV, IA] {
@@ -131,7 +136,16 @@ fn consistent_fit_recovers_a_valid_robot() {
     let fit = fit_ls(&acc, &base.names).unwrap();
     let nominal = robot.params();
     let theta_ls = base.apply(&fit.theta, &nominal, 1.0).unwrap();
-    let cf = fit_consistent(&acc, &base, &theta_ls, &nominal, &robot.link_names, &robot.joint_names, &ConsistentOptions::default()).unwrap();
+    let cf = fit_consistent(
+        &acc,
+        &base,
+        &theta_ls,
+        &nominal,
+        &robot.link_names,
+        &robot.joint_names,
+        &ConsistentOptions::default(),
+    )
+    .unwrap();
     assert!(cf.check.consistent, "{:?}", cf.check.lines());
     assert_physical(&robot, &cf.theta);
     // recovered: the fit reproduces the data to 10 ppm (relative RMS), and the true torques
@@ -153,7 +167,12 @@ fn consistent_fit_recovers_a_valid_robot() {
             worst = worst.max((a[j] - b[j]).abs());
         }
     }
-    assert!(worst <= 1e-5 * (tau2 / (50 * n) as f64).sqrt(), "worst torque error {worst} (rms error {}, torque rms {})", (err2 / (50 * n) as f64).sqrt(), (tau2 / (50 * n) as f64).sqrt());
+    assert!(
+        worst <= 1e-5 * (tau2 / (50 * n) as f64).sqrt(),
+        "worst torque error {worst} (rms error {}, torque rms {})",
+        (err2 / (50 * n) as f64).sqrt(),
+        (tau2 / (50 * n) as f64).sqrt()
+    );
 }
 
 #[test]
@@ -170,7 +189,16 @@ fn infeasible_estimate_is_flagged_and_the_enforced_fit_is_physical() {
     let fit = fit_ls(&acc, &base.names).unwrap();
     let nominal = robot.params();
     let theta_ls = base.apply(&fit.theta, &nominal, 1.0).unwrap();
-    let cf = fit_consistent(&acc, &base, &theta_ls, &nominal, &robot.link_names, &robot.joint_names, &ConsistentOptions::default()).unwrap();
+    let cf = fit_consistent(
+        &acc,
+        &base,
+        &theta_ls,
+        &nominal,
+        &robot.link_names,
+        &robot.joint_names,
+        &ConsistentOptions::default(),
+    )
+    .unwrap();
     assert!(!cf.ls_check.consistent);
     let flagged: Vec<&str> = cf.ls_check.joints.iter().map(|v| v.name.as_str()).collect();
     assert!(flagged.contains(&"shoulder_pan_joint") && flagged.contains(&"wrist_1_joint"), "{:?}", cf.ls_check.lines());

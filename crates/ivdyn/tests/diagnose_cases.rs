@@ -8,17 +8,13 @@
 
 use std::path::{Path, PathBuf};
 
-use ivdyn::diagnose::{diagnose, DiagnoseOptions, DiagnosisJson};
-use ivdyn::log::{read_mcap, ReadOptions};
 use ivdyn::Robot;
+use ivdyn::diagnose::{DiagnoseOptions, DiagnosisJson, diagnose};
+use ivdyn::log::{ReadOptions, read_mcap};
 use serde_json::Value;
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn cases() -> Value {
-    cases_in("diagnose")
 }
 
 fn cases_in(set: &str) -> Value {
@@ -26,14 +22,14 @@ fn cases_in(set: &str) -> Value {
     serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
 }
 
-fn run(case: &Value, m: &Value) -> DiagnosisJson {
-    run_in("diagnose", case, m)
-}
-
 fn run_in(set: &str, case: &Value, m: &Value) -> DiagnosisJson {
     let urdf = root().join(case["urdf"].as_str().unwrap());
     let robot = Robot::from_urdf(urdf, m["base"].as_str(), m["tip"].as_str()).unwrap();
-    let log = read_mcap(root().join("fixtures").join(set).join(case["log"].as_str().unwrap()), &ReadOptions::new(&robot.joint_names)).unwrap();
+    let log = read_mcap(
+        root().join("fixtures").join(set).join(case["log"].as_str().unwrap()),
+        &ReadOptions::new(&robot.joint_names),
+    )
+    .unwrap();
     diagnose(&robot, &log, &DiagnoseOptions::default()).unwrap().json
 }
 
@@ -61,7 +57,12 @@ fn check_case_in(set: &str, name: &str) {
     let mut named: Vec<(String, Vec<String>)> = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
     let mut want: Vec<(String, Vec<String>)> = truth
         .iter()
-        .map(|e| (e["name"].as_str().unwrap().to_string(), e["joints"].as_array().unwrap().iter().map(|j| j.as_str().unwrap().to_string()).collect()))
+        .map(|e| {
+            (
+                e["name"].as_str().unwrap().to_string(),
+                e["joints"].as_array().unwrap().iter().map(|j| j.as_str().unwrap().to_string()).collect(),
+            )
+        })
         .collect();
     named.sort();
     want.sort();

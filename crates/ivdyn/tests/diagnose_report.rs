@@ -14,7 +14,7 @@ use ivdyn::diagnose::{
     CandidateScore, Diagnosis, DiagnosisJson, EffectJson, EffectKind, JointScore, LogInfo, Regimes, Step, Traces,
 };
 use ivdyn::log::mcap::list_topics;
-use ivdyn::log::{for_each_sample, ReadOptions, Source};
+use ivdyn::log::{ReadOptions, Source, for_each_sample};
 
 const T: usize = 500;
 const N: usize = 2;
@@ -102,7 +102,9 @@ fn synthetic() -> Diagnosis {
         steps: vec![Step {
             effect: EffectKind::Coulomb,
             joints: vec![0, 1],
-            evidence: vec!["joint wrist<1> residual jumps by 2.5 N m at every velocity reversal: Coulomb friction".into()],
+            evidence: vec![
+                "joint wrist<1> residual jumps by 2.5 N m at every velocity reversal: Coulomb friction".into(),
+            ],
             candidates: cands,
             rms_before: vec![0.512, 1.25],
             rms_after: vec![0.0225, 0.0478],
@@ -219,7 +221,18 @@ fn html_is_self_contained_and_complete() {
     assert!(html.contains("Coulomb friction level <span class=\"unit\">(N m)</span>"));
     assert!(html.contains(">0.500<") && html.contains(">1.25<"));
     assert!(html.contains("residual jumps by 2.5 N m at every velocity reversal"));
-    for s in [">812<", ">3.20e-9<", "87.3\u{a0}%", "&lt; 1e-16", ">4321<", "-1.2\u{a0}%", ">0.220<", "largest held-out gain", "explains less than Coulomb friction", "not significant on any joint"] {
+    for s in [
+        ">812<",
+        ">3.20e-9<",
+        "87.3\u{a0}%",
+        "&lt; 1e-16",
+        ">4321<",
+        "-1.2\u{a0}%",
+        ">0.220<",
+        "largest held-out gain",
+        "explains less than Coulomb friction",
+        "not significant on any joint",
+    ] {
         assert!(html.contains(s), "missing {s}");
     }
 
@@ -266,12 +279,19 @@ fn payload_parameters_and_a_single_sample() {
     d.steps[0].effect = EffectKind::Payload;
     d.json.effects[0].name = "payload".into();
     d.json.effects[0].joints.clear();
-    let p = serde_json::json!({"mass": 2.0, "com": [0.01, -0.02, 0.05], "inertia": [0.004, 0.0, 0.0, 0.004, 0.0, 0.002]});
+    let p =
+        serde_json::json!({"mass": 2.0, "com": [0.01, -0.02, 0.05], "inertia": [0.004, 0.0, 0.0, 0.004, 0.0, 0.002]});
     d.json.effects[0].parameters = p.as_object().unwrap().clone();
     write_html(&d, &dir).unwrap();
     let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
     assert!(html.contains("Step 1: payload on the last link <span"));
-    for s in ["mass <span class=\"unit\">(kg)</span>", ">2.00<", "[0.0100, -0.0200, 0.0500]", "[0.00400, 0, 0, 0.00400, 0, 0.00200]", "kg m\u{b2}"] {
+    for s in [
+        "mass <span class=\"unit\">(kg)</span>",
+        ">2.00<",
+        "[0.0100, -0.0200, 0.0500]",
+        "[0.00400, 0, 0, 0.00400, 0, 0.00200]",
+        "kg m\u{b2}",
+    ] {
         assert!(html.contains(s), "missing {s}");
     }
     // one sample: still a page with every figure

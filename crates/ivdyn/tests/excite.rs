@@ -4,8 +4,8 @@
 //! the optimised condition number beats the random trajectories of the same harmonics and
 //! bounds.
 
-use ivdyn::excite::{self, Criterion, ExciteOptions};
 use ivdyn::Robot;
+use ivdyn::excite::{self, Criterion, ExciteOptions};
 
 const UR5: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf");
 
@@ -69,11 +69,20 @@ fn optimised_trajectory_respects_the_limits_and_beats_random() {
     for (k, &t) in tr.t.iter().enumerate() {
         for i in 0..n {
             let (q, qd, qdd) = series(rep.q0[i], &rep.a[i], &rep.b[i], w, t);
-            assert!((tr.q[k * n + i] - q).abs() < 1e-12 && (tr.qd[k * n + i] - qd).abs() < 1e-12 && (tr.qdd[k * n + i] - qdd).abs() < 1e-11);
+            assert!(
+                (tr.q[k * n + i] - q).abs() < 1e-12
+                    && (tr.qd[k * n + i] - qd).abs() < 1e-12
+                    && (tr.qdd[k * n + i] - qdd).abs() < 1e-11
+            );
         }
     }
     // better conditioned than every random draw's median (and the optimiser did something)
-    assert!(rep.optimised.cond < rep.random.cond_median, "optimised cond {} vs random median {}", rep.optimised.cond, rep.random.cond_median);
+    assert!(
+        rep.optimised.cond < rep.random.cond_median,
+        "optimised cond {} vs random median {}",
+        rep.optimised.cond,
+        rep.random.cond_median
+    );
     assert!((rep.cond_improvement - rep.random.cond_median / rep.optimised.cond).abs() < 1e-12);
     // the reported condition number is the one of the stacked base regressor, recomputed here
     // with an SVD of the dense matrix
@@ -82,7 +91,9 @@ fn optimised_trajectory_respects_the_limits_and_beats_random() {
     let p = robot.num_params();
     let mut phi = nalgebra::DMatrix::<f64>::zeros(tr.t.len() * n, b);
     for k in 0..tr.t.len() {
-        let y = robot.regressor(&tr.q[k * n..(k + 1) * n], &tr.qd[k * n..(k + 1) * n], &tr.qdd[k * n..(k + 1) * n]).unwrap();
+        let y = robot
+            .regressor(&tr.q[k * n..(k + 1) * n], &tr.qd[k * n..(k + 1) * n], &tr.qdd[k * n..(k + 1) * n])
+            .unwrap();
         for r in 0..n {
             for (c, &j) in base.independent.iter().enumerate() {
                 phi[(k * n + r, c)] = y[r * p + j];
@@ -98,7 +109,12 @@ fn optimised_trajectory_respects_the_limits_and_beats_random() {
 fn logdet_criterion_beats_random_logdet() {
     let robot = Robot::from_urdf(UR5, Some("base_link"), Some("tool0")).unwrap();
     let rep = excite::design(&robot, &small_opts(5, Criterion::Logdet)).unwrap();
-    assert!(rep.optimised.logdet > rep.random.logdet_max, "log det {} vs best random {}", rep.optimised.logdet, rep.random.logdet_max);
+    assert!(
+        rep.optimised.logdet > rep.random.logdet_max,
+        "log det {} vs best random {}",
+        rep.optimised.logdet,
+        rep.random.logdet_max
+    );
 }
 
 #[test]
@@ -132,8 +148,11 @@ fn bad_options_are_errors() {
     let robot = Robot::from_urdf(UR5, Some("base_link"), Some("tool0")).unwrap();
     let e = excite::design(&robot, &ExciteOptions { harmonics: 1, ..Default::default() }).unwrap_err().to_string();
     assert!(e.contains("harmonics"), "{e}");
-    let e = excite::design(&robot, &ExciteOptions { acc_limit: vec![1.0, 2.0], ..Default::default() }).unwrap_err().to_string();
+    let e = excite::design(&robot, &ExciteOptions { acc_limit: vec![1.0, 2.0], ..Default::default() })
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("acceleration limit"), "{e}");
-    let e = excite::design(&robot, &ExciteOptions { acc_limit: vec![-1.0], ..Default::default() }).unwrap_err().to_string();
+    let e =
+        excite::design(&robot, &ExciteOptions { acc_limit: vec![-1.0], ..Default::default() }).unwrap_err().to_string();
     assert!(e.contains("shoulder_pan_joint"), "{e}");
 }

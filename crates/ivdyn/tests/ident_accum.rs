@@ -21,19 +21,9 @@ fn problem(seed: u64, m: usize, p: usize, noise: f64) -> Problem {
     let theta: Vec<f64> = (0..p).map(|_| rng.normal()).collect();
     let w: Vec<f64> = (0..m).map(|_| rng.uniform(0.5, 2.0)).collect();
     let y = (0..m)
-        .map(|i| {
-            (0..p).map(|j| phi[i * p + j] * theta[j]).sum::<f64>()
-                + noise * rng.normal() / w[i].sqrt()
-        })
+        .map(|i| (0..p).map(|j| phi[i * p + j] * theta[j]).sum::<f64>() + noise * rng.normal() / w[i].sqrt())
         .collect();
-    Problem {
-        m,
-        p,
-        phi,
-        theta,
-        y,
-        w,
-    }
+    Problem { m, p, phi, theta, y, w }
 }
 
 fn names(p: usize) -> Vec<String> {
@@ -41,12 +31,7 @@ fn names(p: usize) -> Vec<String> {
 }
 
 fn rel_err(a: &[f64], b: &[f64]) -> f64 {
-    let num: f64 = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).powi(2))
-        .sum::<f64>()
-        .sqrt();
+    let num: f64 = a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt();
     let den: f64 = b.iter().map(|y| y * y).sum::<f64>().sqrt();
     num / den
 }
@@ -57,12 +42,7 @@ fn noise_free_rows_recover_theta() {
     let mut acc = LsAccumulator::new(pr.p);
     acc.add_rows(&pr.phi, &pr.y, Some(&pr.w)).unwrap();
     let fit = fit_ls(&acc, &names(pr.p)).unwrap();
-    assert!(
-        rel_err(&fit.theta, &pr.theta) < 1e-10,
-        "{:?} vs {:?}",
-        fit.theta,
-        pr.theta
-    );
+    assert!(rel_err(&fit.theta, &pr.theta) < 1e-10, "{:?} vs {:?}", fit.theta, pr.theta);
     assert!(rel_err(&acc.solve().unwrap(), &pr.theta) < 1e-10);
     assert_eq!(fit.rank, pr.p);
     assert!(fit.unexcited.is_empty());
@@ -124,10 +104,7 @@ fn chunked_and_merged_equal_one_shot() {
             assert!(rel_mat(&gram(acc), &gram(&one)) < 1e-12);
             assert!(((acc.sum_wyy() - one.sum_wyy()) / one.sum_wyy()).abs() < 1e-12);
             let fit = fit_ls(acc, &names(p)).unwrap();
-            assert!(
-                rel_err(&fit.theta, &fit_one.theta) < 1e-12,
-                "sizes {sizes:?}"
-            );
+            assert!(rel_err(&fit.theta, &fit_one.theta) < 1e-12, "sizes {sizes:?}");
             assert!(((fit.sigma2 - fit_one.sigma2) / fit_one.sigma2).abs() < 1e-12);
             assert!(rel_mat(&fit.covariance, &fit_one.covariance) < 1e-12);
         }
@@ -141,19 +118,10 @@ fn chunked_and_merged_equal_one_shot() {
     let mut merged = IvAccumulator::new(p);
     for (lo, hi) in [(0, 1), (1, 400), (400, 401), (401, 1000)] {
         let mut part = IvAccumulator::new(p);
-        part.add_rows(
-            &pr.phi[lo * p..hi * p],
-            &z[lo * p..hi * p],
-            &pr.y[lo..hi],
-            Some(&pr.w[lo..hi]),
-        )
-        .unwrap();
+        part.add_rows(&pr.phi[lo * p..hi * p], &z[lo * p..hi * p], &pr.y[lo..hi], Some(&pr.w[lo..hi])).unwrap();
         merged.merge(&part).unwrap();
     }
-    let (a, b) = (
-        fit_iv(&one, &names(p)).unwrap(),
-        fit_iv(&merged, &names(p)).unwrap(),
-    );
+    let (a, b) = (fit_iv(&one, &names(p)).unwrap(), fit_iv(&merged, &names(p)).unwrap());
     assert!(rel_err(&b.theta, &a.theta) < 1e-12);
     assert!(rel_mat(&b.covariance, &a.covariance) < 1e-12);
     assert!(rel_mat(merged.ztwz(), one.ztwz()) < 1e-12);
@@ -197,46 +165,22 @@ fn bad_input_is_rejected_with_the_row_and_leaves_the_accumulator_unchanged() {
     };
     let mut phi = pr.phi.clone();
     phi[3 * 3 + 1] = f64::NAN;
-    assert_eq!(
-        nonfinite(acc.add_rows(&phi, &pr.y, None).unwrap_err()),
-        ("phi", 3)
-    );
+    assert_eq!(nonfinite(acc.add_rows(&phi, &pr.y, None).unwrap_err()), ("phi", 3));
     let mut y = pr.y.clone();
     y[7] = f64::INFINITY;
-    assert_eq!(
-        nonfinite(acc.add_rows(&pr.phi, &y, None).unwrap_err()),
-        ("y", 7)
-    );
+    assert_eq!(nonfinite(acc.add_rows(&pr.phi, &y, None).unwrap_err()), ("y", 7));
     let mut w = pr.w.clone();
     w[5] = f64::NAN;
-    assert_eq!(
-        nonfinite(acc.add_rows(&pr.phi, &pr.y, Some(&w)).unwrap_err()),
-        ("w", 5)
-    );
+    assert_eq!(nonfinite(acc.add_rows(&pr.phi, &pr.y, Some(&w)).unwrap_err()), ("w", 5));
     w[5] = -1.0;
-    assert_eq!(
-        nonfinite(acc.add_rows(&pr.phi, &pr.y, Some(&w)).unwrap_err()),
-        ("w", 5)
-    );
-    assert!(matches!(
-        acc.add_rows(&pr.phi[..29], &pr.y, None),
-        Err(Error::Dimension { .. })
-    ));
-    assert!(matches!(
-        acc.add_rows(&pr.phi, &pr.y, Some(&pr.w[..9])),
-        Err(Error::Dimension { .. })
-    ));
-    assert!(matches!(
-        acc.merge(&LsAccumulator::new(4)),
-        Err(Error::Dimension { .. })
-    ));
+    assert_eq!(nonfinite(acc.add_rows(&pr.phi, &pr.y, Some(&w)).unwrap_err()), ("w", 5));
+    assert!(matches!(acc.add_rows(&pr.phi[..29], &pr.y, None), Err(Error::Dimension { .. })));
+    assert!(matches!(acc.add_rows(&pr.phi, &pr.y, Some(&pr.w[..9])), Err(Error::Dimension { .. })));
+    assert!(matches!(acc.merge(&LsAccumulator::new(4)), Err(Error::Dimension { .. })));
     let mut iv = IvAccumulator::new(3);
     let mut z = pr.phi.clone();
     z[2 * 3] = f64::NEG_INFINITY;
-    assert_eq!(
-        nonfinite(iv.add_rows(&pr.phi, &z, &pr.y, None).unwrap_err()),
-        ("z", 2)
-    );
+    assert_eq!(nonfinite(iv.add_rows(&pr.phi, &z, &pr.y, None).unwrap_err()), ("z", 2));
     assert_eq!(iv.rows(), 0);
     assert_eq!(acc, before);
     // zero weights carry no information and do not count as rows
@@ -283,10 +227,6 @@ fn iv_matches_direct_formulas() {
     let h = (d.transpose() * (&cov - &v_ls).pseudo_inverse(1e-14).unwrap() * &d)[(0, 0)];
     let dwh = fit.dwh.unwrap();
     assert_eq!(dwh.dof, p);
-    assert!(
-        ((dwh.statistic - h) / h).abs() < 1e-8,
-        "{} vs {h}",
-        dwh.statistic
-    );
+    assert!(((dwh.statistic - h) / h).abs() < 1e-8, "{} vs {h}", dwh.statistic);
     assert!((dwh.p_value - ivdyn::ident::stats::chi2_sf(h, p as f64)).abs() < 1e-8);
 }

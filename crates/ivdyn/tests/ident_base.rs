@@ -26,9 +26,7 @@ fn identity_error(robot: &Robot, base: &BaseParams, cols: usize, seed: u64) -> f
     for _ in 0..50 {
         let (q, qd, qdd) = state(&mut rng, n);
         let y = robot.regressor(&q, &qd, &qdd).unwrap();
-        let rows: Vec<f64> = (0..n)
-            .flat_map(|r| y[r * p..r * p + cols].to_vec())
-            .collect();
+        let rows: Vec<f64> = (0..n).flat_map(|r| y[r * p..r * p + cols].to_vec()).collect();
         let yb = base.select_rows(&rows, n).unwrap();
         let b = base.base_count();
         for r in 0..n {
@@ -47,31 +45,17 @@ fn paper_robot_base_parameters() {
     let p = robot.num_params();
     let t = std::time::Instant::now();
     let base = robot_base_params(&robot, 100, 1).unwrap();
-    println!(
-        "base parameters of the paper's robot ({} of {p}, {:?}):",
-        base.base_count(),
-        t.elapsed()
-    );
+    println!("base parameters of the paper's robot ({} of {p}, {:?}):", base.base_count(), t.elapsed());
     for name in &base.names {
         println!("  {name}");
     }
     let names = robot.param_names();
-    println!(
-        "zero columns: {:?}",
-        base.zero_columns
-            .iter()
-            .map(|&j| &names[j])
-            .collect::<Vec<_>>()
-    );
+    println!("zero columns: {:?}", base.zero_columns.iter().map(|&j| &names[j]).collect::<Vec<_>>());
 
     // The rank does not depend on the seed or the number of samples.
     for (samples, seed) in [(40, 2), (100, 3), (300, 4)] {
         let other = robot_base_params(&robot, samples, seed).unwrap();
-        assert_eq!(
-            other.base_count(),
-            base.base_count(),
-            "samples {samples}, seed {seed}"
-        );
+        assert_eq!(other.base_count(), base.base_count(), "samples {samples}, seed {seed}");
         assert_eq!(other.zero_columns, base.zero_columns);
     }
     // partition of the columns
@@ -86,17 +70,9 @@ fn paper_robot_base_parameters() {
     // Link 1 turns about the fixed vertical base axis z through its frame origin: only
     // its Izz acts (about the axis); m, m*c (the origin does not move and gravity is
     // parallel to the axis) and the other inertia entries have no effect at all.
-    for what in [
-        "m", "m*cx", "m*cy", "m*cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz",
-    ] {
-        let j = names
-            .iter()
-            .position(|n| n == &format!("link1.{what}"))
-            .unwrap();
-        assert!(
-            base.zero_columns.contains(&j),
-            "link1.{what} should be a zero column"
-        );
+    for what in ["m", "m*cx", "m*cy", "m*cz", "Ixx", "Ixy", "Iyy", "Ixz", "Iyz"] {
+        let j = names.iter().position(|n| n == &format!("link1.{what}")).unwrap();
+        assert!(base.zero_columns.contains(&j), "link1.{what} should be a zero column");
     }
     let izz1 = names.iter().position(|n| n == "link1.Izz").unwrap();
     assert!(!base.zero_columns.contains(&izz1));
@@ -104,20 +80,12 @@ fn paper_robot_base_parameters() {
     // tau1 only), so they enter every base parameter with the same coefficient.
     let ia1 = names.iter().position(|n| n == "joint1.ia").unwrap();
     let unit = |j: usize| (0..p).map(|i| (i == j) as u8 as f64).collect::<Vec<_>>();
-    let (a, b) = (
-        base.project(&unit(izz1)).unwrap(),
-        base.project(&unit(ia1)).unwrap(),
-    );
-    assert!(
-        a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-12),
-        "{a:?} vs {b:?}"
-    );
+    let (a, b) = (base.project(&unit(izz1)).unwrap(), base.project(&unit(ia1)).unwrap());
+    assert!(a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-12), "{a:?} vs {b:?}");
     assert!(a.iter().any(|x| x.abs() > 0.5));
 
     // round trip
-    let x: Vec<f64> = (0..base.base_count())
-        .map(|i| i as f64 * 0.1 - 1.0)
-        .collect();
+    let x: Vec<f64> = (0..base.base_count()).map(|i| i as f64 * 0.1 - 1.0).collect();
     let back = base.project(&base.to_full(&x).unwrap()).unwrap();
     assert!(back.iter().zip(&x).all(|(a, b)| (a - b).abs() < 1e-15));
     assert!(base.project(&[0.0; 3]).is_err());
@@ -159,15 +127,7 @@ fn ur5_rigid_body_base_count_is_36() {
     // with the drive columns (identity only; the count is printed)
     let full = robot_base_params(&robot, 100, 8).unwrap();
     let all = robot.param_names();
-    let dep: Vec<&String> = full
-        .dependent
-        .iter()
-        .filter(|&&j| j >= cols)
-        .map(|&j| &all[j])
-        .collect();
-    println!(
-        "UR5 with drive parameters: {} base parameters; dependent drive columns {dep:?}",
-        full.base_count()
-    );
+    let dep: Vec<&String> = full.dependent.iter().filter(|&&j| j >= cols).map(|&j| &all[j]).collect();
+    println!("UR5 with drive parameters: {} base parameters; dependent drive columns {dep:?}", full.base_count());
     assert!(identity_error(&robot, &full, p, 9) < 1e-10);
 }

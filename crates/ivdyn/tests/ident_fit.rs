@@ -59,26 +59,13 @@ fn iv_is_consistent_where_ls_is_biased_and_dwh_detects_it() {
     }
     let (m_iv, sd_iv) = mean_sd(&iv0);
     let (m_ls, sd_ls) = mean_sd(&ls0);
-    let (se_iv, se_ls) = (
-        sd_iv / (trials as f64).sqrt(),
-        sd_ls / (trials as f64).sqrt(),
-    );
+    let (se_iv, se_ls) = (sd_iv / (trials as f64).sqrt(), sd_ls / (trials as f64).sqrt());
     println!(
         "IV mean {m_iv:.5} (se {se_iv:.5}), LS mean {m_ls:.5} (se {se_ls:.5}), DWH flagged {flagged}/{trials}, IV coverage {covered}/{trials}"
     );
-    assert!(
-        (m_iv - theta[0]).abs() < 3.0 * se_iv,
-        "IV mean {m_iv} vs {}",
-        theta[0]
-    );
-    assert!(
-        (m_ls - theta[0]).abs() > 10.0 * se_ls,
-        "LS mean {m_ls} should be biased"
-    );
-    assert!(
-        flagged as f64 >= 0.95 * trials as f64,
-        "DWH flagged LS bias in {flagged}/{trials}"
-    );
+    assert!((m_iv - theta[0]).abs() < 3.0 * se_iv, "IV mean {m_iv} vs {}", theta[0]);
+    assert!((m_ls - theta[0]).abs() > 10.0 * se_ls, "LS mean {m_ls} should be biased");
+    assert!(flagged as f64 >= 0.95 * trials as f64, "DWH flagged LS bias in {flagged}/{trials}");
     let cov = covered as f64 / trials as f64;
     assert!((0.905..=0.995).contains(&cov), "IV coverage {cov}");
 }
@@ -104,10 +91,7 @@ fn dwh_p_value_is_uniform_without_measurement_noise() {
     );
     assert!((2..=20).contains(&rejections), "{rejections} rejections");
     // uniform: median near 0.5 (Binomial(200, 0.5) sd 7: ±25 is ~3.5 sd)
-    assert!(
-        (75..=125).contains(&below_half),
-        "{below_half} p-values below 0.5"
-    );
+    assert!((75..=125).contains(&below_half), "{below_half} p-values below 0.5");
 }
 
 /// Coverage: heteroscedastic Gaussian noise of known sigma_i in [0.1, 0.4], weights
@@ -135,9 +119,7 @@ fn ls_confidence_intervals_have_nominal_coverage() {
         let mut acc = LsAccumulator::new(p);
         acc.add_rows(&phi, &y, Some(&w)).unwrap();
         let fit = fit_ls(&acc, &names(p)).unwrap();
-        hits += (0..p)
-            .filter(|&j| (fit.theta[j] - theta[j]).abs() <= z * fit.std[j])
-            .count();
+        hits += (0..p).filter(|&j| (fit.theta[j] - theta[j]).abs() <= z * fit.std[j]).count();
         sigma2.push(fit.sigma2);
     }
     let coverage = hits as f64 / (trials * p) as f64;
@@ -169,11 +151,7 @@ fn unexcited_columns_are_reported_not_invented() {
     assert_eq!(fit.rank, 4);
     assert!(fit.theta[2].is_nan() && fit.std[2].is_nan());
     for j in [0, 1, 3, 4] {
-        assert!(
-            (fit.theta[j] - theta[j]).abs() < 1e-10,
-            "theta{j} = {}",
-            fit.theta[j]
-        );
+        assert!((fit.theta[j] - theta[j]).abs() < 1e-10, "theta{j} = {}", fit.theta[j]);
         assert!(fit.std[j].is_finite());
     }
     assert!(fit.condition_number.is_finite());
@@ -192,22 +170,12 @@ fn unexcited_columns_are_reported_not_invented() {
 
     // Two columns equal on this data (col 4 = 2 col 0): one is unexcited and the other
     // carries the identifiable combination.
-    let phi2: Vec<f64> = phi
-        .chunks(p)
-        .flat_map(|r| [r[0], r[1], r[3], 2.0 * r[0]])
-        .collect();
-    let y2: Vec<f64> = phi
-        .chunks(p)
-        .map(|r| 0.7 * r[0] - 2.0 * r[1] + 0.25 * r[3] + 1.0 * 2.0 * r[0])
-        .collect();
+    let phi2: Vec<f64> = phi.chunks(p).flat_map(|r| [r[0], r[1], r[3], 2.0 * r[0]]).collect();
+    let y2: Vec<f64> = phi.chunks(p).map(|r| 0.7 * r[0] - 2.0 * r[1] + 0.25 * r[3] + 1.0 * 2.0 * r[0]).collect();
     let mut acc = LsAccumulator::new(4);
     acc.add_rows(&phi2, &y2, None).unwrap();
     let fit = fit_ls(&acc, &names(4)).unwrap();
     assert_eq!(fit.unexcited.len(), 1);
-    let combo = if fit.theta[0].is_nan() {
-        fit.theta[3] * 2.0
-    } else {
-        fit.theta[0]
-    };
+    let combo = if fit.theta[0].is_nan() { fit.theta[3] * 2.0 } else { fit.theta[0] };
     assert!((combo - (0.7 + 2.0)).abs() < 1e-10, "{fit}");
 }

@@ -1,8 +1,8 @@
 //! IDIM-IV on a closed-loop UR5 experiment with noisy accelerations: least squares is
 //! biased (DWH flags it), IDIM-IV converges to the truth.
 
-use ivdyn::ident::{idim_iv, robot_base_params, Experiment};
 use ivdyn::Robot;
+use ivdyn::ident::{Experiment, idim_iv, robot_base_params};
 use ivdyn_core::rng::Rng;
 use ivdyn_core::trajectory::Fourier;
 use std::path::PathBuf;
@@ -24,7 +24,12 @@ fn idim_iv_removes_the_least_squares_bias() {
     // the robot's controller: PD on a Fourier reference with gravity compensation from a
     // fixed (unloaded, here: true) model; the same law drives the IDIM-IV simulations
     let mut tr = Rng::new(2);
-    let mut f = Fourier::<6, 4> { omega: std::f64::consts::TAU / 5.0, q0: [0.0, -1.2, 1.2, -1.0, -1.4, 0.3], a: [[0.0; 4]; 6], b: [[0.0; 4]; 6] };
+    let mut f = Fourier::<6, 4> {
+        omega: std::f64::consts::TAU / 5.0,
+        q0: [0.0, -1.2, 1.2, -1.0, -1.4, 0.3],
+        a: [[0.0; 4]; 6],
+        b: [[0.0; 4]; 6],
+    };
     for i in 0..6 {
         for l in 0..4 {
             f.a[i][l] = tr.uniform(-0.6, 0.6);
@@ -73,14 +78,27 @@ fn idim_iv_removes_the_least_squares_bias() {
         (s / theta.len() as f64).sqrt()
     };
     let (z_ls, z_iv) = (z(&res.ls.theta), z(&res.fit.theta));
-    let changes: Vec<f64> = res.history.windows(2).map(|w| {
-        let d: f64 = w[1].iter().zip(&w[0]).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
-        d / w[0].iter().map(|a| a * a).sum::<f64>().sqrt()
-    }).collect();
-    eprintln!("iterations {} converged {} shrink {:?} changes {:?} | rms error / LS std: LS {z_ls:.2} IDIM-IV {z_iv:.2} | DWH p = {:?}",
-        res.history.len() - 1, res.converged, res.shrink, changes, res.fit.dwh.map(|d| d.p_value));
+    let changes: Vec<f64> = res
+        .history
+        .windows(2)
+        .map(|w| {
+            let d: f64 = w[1].iter().zip(&w[0]).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+            d / w[0].iter().map(|a| a * a).sum::<f64>().sqrt()
+        })
+        .collect();
+    eprintln!(
+        "iterations {} converged {} shrink {:?} changes {:?} | rms error / LS std: LS {z_ls:.2} IDIM-IV {z_iv:.2} | DWH p = {:?}",
+        res.history.len() - 1,
+        res.converged,
+        res.shrink,
+        changes,
+        res.fit.dwh.map(|d| d.p_value)
+    );
     for (b, name) in base.names.iter().enumerate().take(12) {
-        eprintln!("  {name:<40} truth {:+.4e} LS {:+.4e} IV {:+.4e} (LS std {:.1e})", theta_true[b], res.ls.theta[b], res.fit.theta[b], res.ls.std[b]);
+        eprintln!(
+            "  {name:<40} truth {:+.4e} LS {:+.4e} IV {:+.4e} (LS std {:.1e})",
+            theta_true[b], res.ls.theta[b], res.fit.theta[b], res.ls.std[b]
+        );
     }
     assert!(res.converged);
     assert!(res.fit.dwh.unwrap().ls_biased, "DWH should flag the LS bias");

@@ -2,8 +2,8 @@
 
 use std::path::{Path, PathBuf};
 
-use ivdyn::log::{read_csv, write_csv, JointLog};
 use ivdyn::Error;
+use ivdyn::log::{JointLog, read_csv, write_csv};
 
 const UR5: [&str; 6] =
     ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"];

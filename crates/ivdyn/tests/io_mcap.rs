@@ -4,11 +4,11 @@
 
 use std::path::{Path, PathBuf};
 
-use ivdyn::log::{
-    self, for_each_sample, read_mcap, CommandAlign, CommandField, Compression, JointLog, McapWriter, ReadOptions,
-    Source,
-};
 use ivdyn::Error;
+use ivdyn::log::{
+    self, CommandAlign, CommandField, Compression, JointLog, McapWriter, ReadOptions, Source, for_each_sample,
+    read_mcap,
+};
 
 const T0_NS: i64 = 1_700_000_000_000_000_000;
 const UR5: [&str; 6] =
@@ -236,7 +236,11 @@ fn error_topic_not_found_lists_topics() {
 fn error_wrong_schema() {
     let names = urdf_joints();
     let e = log_err(read_mcap(fixture("ur5_500hz.mcap"), &ReadOptions::new(&names).topic("/tf")));
-    assert!(e.contains("topic /tf has schema 'tf2_msgs/msg/TFMessage'") && e.contains("expected sensor_msgs/msg/JointState"), "{e}");
+    assert!(
+        e.contains("topic /tf has schema 'tf2_msgs/msg/TFMessage'")
+            && e.contains("expected sensor_msgs/msg/JointState"),
+        "{e}"
+    );
 }
 
 fn synthetic_log(t: usize, names: &[&str]) -> JointLog {
@@ -257,17 +261,35 @@ fn synthetic_log(t: usize, names: &[&str]) -> JointLog {
 fn round_trip_own_writer_all_compressions() {
     let names = urdf_joints();
     let log = synthetic_log(300, &UR5);
-    for (c, name) in [(Compression::Zstd, "rt_zstd.mcap"), (Compression::Lz4, "rt_lz4.mcap"), (Compression::None, "rt_none.mcap")] {
+    for (c, name) in
+        [(Compression::Zstd, "rt_zstd.mcap"), (Compression::Lz4, "rt_lz4.mcap"), (Compression::None, "rt_none.mcap")]
+    {
         let p = tmp(name);
         let mut w = McapWriter::create_with(&p, c).unwrap();
         // a different joint order in the file, plus an extra joint: matched by name
-        let file_order = ["wrist_3_joint", "elbow_joint", "gripper_joint", "shoulder_pan_joint", "wrist_2_joint", "shoulder_lift_joint", "wrist_1_joint"];
+        let file_order = [
+            "wrist_3_joint",
+            "elbow_joint",
+            "gripper_joint",
+            "shoulder_pan_joint",
+            "wrist_2_joint",
+            "shoulder_lift_joint",
+            "wrist_1_joint",
+        ];
         let perm: Vec<Option<usize>> = file_order.iter().map(|f| UR5.iter().position(|u| u == f)).collect();
         let id = w.add_joint_state_topic("/joint_states").unwrap();
         for k in 0..log.len() {
             let pick = |a: &[f64]| -> Vec<f64> { perm.iter().map(|p| p.map_or(0.5, |j| a[k * 6 + j])).collect() };
             let stamp = T0_NS + (log.t[k] * 1e9).round() as i64;
-            w.write(id, stamp, &file_order, &pick(&log.q), &pick(log.qd.as_ref().unwrap()), &pick(log.tau.as_ref().unwrap())).unwrap();
+            w.write(
+                id,
+                stamp,
+                &file_order,
+                &pick(&log.q),
+                &pick(log.qd.as_ref().unwrap()),
+                &pick(log.tau.as_ref().unwrap()),
+            )
+            .unwrap();
         }
         w.finish().unwrap();
         let back = read_mcap(&p, &ReadOptions::new(&names)).unwrap();

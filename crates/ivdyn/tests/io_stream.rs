@@ -1,7 +1,7 @@
 //! Streaming: a log larger than the memory the reader may use is read with bounded
 //! memory (resident set measured from /proc/self/status while the callback runs).
 
-use ivdyn::log::{for_each_sample, Compression, McapWriter, ReadOptions};
+use ivdyn::log::{Compression, McapWriter, ReadOptions, for_each_sample};
 
 fn rss_kib() -> Option<u64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
@@ -52,6 +52,10 @@ fn streams_a_large_file_with_bounded_memory() {
         let grew_mib = peak.saturating_sub(before) as f64 / 1024.0;
         eprintln!("streamed {size} bytes; resident memory grew by {grew_mib:.1} MiB");
         // the whole file is ~55 MB; the reader holds one chunk and a 256 KiB buffer
-        assert!(grew_mib < 24.0, "resident memory grew by {grew_mib:.1} MiB while streaming a {} MB file", size / 1_000_000);
+        assert!(
+            grew_mib < 24.0,
+            "resident memory grew by {grew_mib:.1} MiB while streaming a {} MB file",
+            size / 1_000_000
+        );
     }
 }

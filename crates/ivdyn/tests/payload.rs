@@ -1,12 +1,12 @@
 //! A 2 kg payload on the UR5's last link, estimated as a change of the terminal link from
 //! every joint's residual against the unloaded model, and read as mass, COM and inertia.
 
-use ivdyn::ident::{fit_ls, payload_from_fit, BaseParams, LsAccumulator};
+use ivdyn::ident::{BaseParams, LsAccumulator, fit_ls, payload_from_fit};
 use ivdyn::{DynModel, Robot};
 use ivdyn_core::estim::TerminalSpec;
 use ivdyn_core::rng::Rng;
 use ivdyn_core::trajectory::Fourier;
-use ivdyn_core::{regressor, rnea, Data, LinkInertia, Mat3, Model, Vec3, VecN};
+use ivdyn_core::{Data, LinkInertia, Mat3, Model, Vec3, VecN, regressor, rnea};
 use nalgebra::DMatrix;
 use std::path::PathBuf;
 
@@ -39,7 +39,12 @@ fn names() -> Vec<String> {
 fn accumulate(nominal: &Model<6>, truth: &Model<6>, base: &BaseParams, sigma: f64, seed: u64) -> LsAccumulator {
     let spec = TerminalSpec::payload(6);
     let mut rng = Rng::new(seed);
-    let mut f = Fourier::<6, 4> { omega: std::f64::consts::TAU / 8.0, q0: [0.0, -1.2, 1.0, -1.0, -1.5, 0.0], a: [[0.0; 4]; 6], b: [[0.0; 4]; 6] };
+    let mut f = Fourier::<6, 4> {
+        omega: std::f64::consts::TAU / 8.0,
+        q0: [0.0, -1.2, 1.0, -1.0, -1.5, 0.0],
+        a: [[0.0; 4]; 6],
+        b: [[0.0; 4]; 6],
+    };
     let mut tr = Rng::new(4);
     for i in 0..6 {
         for l in 0..4 {
@@ -135,4 +140,3 @@ fn payload_uncertainty_covers_the_truth() {
     eprintln!("coverage: mass {rm}, com z {rc}");
     assert!((0.90..=0.99).contains(&rm) && (0.90..=0.99).contains(&rc), "mass {rm} com {rc}");
 }
-

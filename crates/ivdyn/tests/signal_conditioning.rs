@@ -4,9 +4,9 @@
 
 use std::f64::consts::{PI, SQRT_2};
 
-use ivdyn::log::JointLog;
 use ivdyn::dsp::*;
-use ivdyn::prep::{condition, ConditionOptions};
+use ivdyn::log::JointLog;
+use ivdyn::prep::{ConditionOptions, condition};
 
 fn sine(fs: f64, f: f64, t: usize, phase: f64) -> Vec<f64> {
     (0..t).map(|k| (2.0 * PI * f * k as f64 / fs + phase).sin()).collect()
@@ -91,10 +91,12 @@ fn differentiate_sinusoid_default() {
         let t = (4.0 * fs) as usize;
         let w = 2.0 * PI * f;
         // two columns: sin and cos
-        let q: Vec<f64> = (0..t).flat_map(|k| {
-            let s = k as f64 / fs;
-            [(w * s).sin(), 0.5 * (w * s).cos()]
-        }).collect();
+        let q: Vec<f64> = (0..t)
+            .flat_map(|k| {
+                let s = k as f64 / fs;
+                [(w * s).sin(), 0.5 * (w * s).cos()]
+            })
+            .collect();
         let d = differentiate(&q, 2, 1.0 / fs, &DiffMethod::default()).unwrap();
         let mut e1: f64 = 0.0;
         let mut e2: f64 = 0.0;
@@ -149,7 +151,12 @@ fn savitzky_golay_exact_on_polynomials() {
 #[test]
 fn central_differences_exact_on_quadratics() {
     let dt = 0.01;
-    let x: Vec<f64> = (0..10).map(|k| { let s = k as f64 * dt; 1.0 + 3.0 * s - 4.0 * s * s }).collect();
+    let x: Vec<f64> = (0..10)
+        .map(|k| {
+            let s = k as f64 * dt;
+            1.0 + 3.0 * s - 4.0 * s * s
+        })
+        .collect();
     let d1 = central_diff(&x, 1, dt).unwrap();
     let d2 = second_diff(&x, 1, dt).unwrap();
     for k in 0..10 {
@@ -221,10 +228,18 @@ fn decimation_keeps_slow_removes_aliasing() {
 fn parallel_filtering_commutes_with_parameters() {
     // F(Y theta) == F(Y) theta for the same linear filter: tau and the regressor columns
     let (t, m) = (700, 5);
-    let y: Vec<f64> = (0..t * m).map(|i| ((i % m) as f64 + 1.0) * ((i / m) as f64 * 0.013 * (1 + i % m) as f64).sin() + 0.01 * ((i * 2654435761usize) % 1000) as f64).collect();
+    let y: Vec<f64> = (0..t * m)
+        .map(|i| {
+            ((i % m) as f64 + 1.0) * ((i / m) as f64 * 0.013 * (1 + i % m) as f64).sin()
+                + 0.01 * ((i * 2654435761usize) % 1000) as f64
+        })
+        .collect();
     let theta = [0.5, -2.0, 1.25, 3.0, -0.75];
     let tau: Vec<f64> = (0..t).map(|k| (0..m).map(|j| y[k * m + j] * theta[j]).sum()).collect();
-    for dec in [Decimator::new(4, 1000.0).unwrap(), Decimator::with_filter(1, Butterworth::default_for(1000.0).unwrap()).unwrap()] {
+    for dec in [
+        Decimator::new(4, 1000.0).unwrap(),
+        Decimator::with_filter(1, Butterworth::default_for(1000.0).unwrap()).unwrap(),
+    ] {
         let fy = dec.apply(&y, m).unwrap();
         let ft = dec.apply(&tau, 1).unwrap();
         let scale = ft.iter().fold(0.0f64, |a, v| a.max(v.abs()));
@@ -238,7 +253,11 @@ fn parallel_filtering_commutes_with_parameters() {
 #[test]
 fn hampel_rejects_spikes() {
     let fs = 1000.0;
-    let mut x: Vec<f64> = sine(fs, 3.0, 1000, 0.0).iter().enumerate().map(|(k, v)| v + 1e-3 * (((k * 7919) % 101) as f64 / 101.0 - 0.5)).collect();
+    let mut x: Vec<f64> = sine(fs, 3.0, 1000, 0.0)
+        .iter()
+        .enumerate()
+        .map(|(k, v)| v + 1e-3 * (((k * 7919) % 101) as f64 / 101.0 - 0.5))
+        .collect();
     let clean = x.clone();
     let spikes = [10usize, 333, 334, 700, 999];
     for &k in &spikes {

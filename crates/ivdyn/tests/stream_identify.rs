@@ -3,12 +3,12 @@
 //! against `dsp::differentiate`, and `stream::identify_mcap` against
 //! `app::identify` on the same log.
 
-use ivdyn::core::rng::Rng;
-use ivdyn::app::{self, IdentifyOptions, SimulateOptions, Trajectory};
-use ivdyn::dsp::{self, Butterworth, Decimator};
-use ivdyn::prep::stream::{CondRows, StreamCondition};
-use ivdyn::prep::filtfilt::StreamFiltfilt;
 use ivdyn::app::stream::{self as st, Streamed};
+use ivdyn::app::{self, IdentifyOptions, SimulateOptions, Trajectory};
+use ivdyn::core::rng::Rng;
+use ivdyn::dsp::{self, Butterworth, Decimator};
+use ivdyn::prep::filtfilt::StreamFiltfilt;
+use ivdyn::prep::stream::{CondRows, StreamCondition};
 
 /// `T x m` test signal: slow sines (robot motion) plus white noise (a noisy torque).
 fn signal(t: usize, m: usize, seed: u64) -> Vec<f64> {
@@ -53,7 +53,10 @@ fn block_filtfilt_matches_whole_signal_filtfilt() {
     let (t, m) = (60_000, 5);
     let x = signal(t, m, 1);
     // the decimator of a 1 kHz log (factor 20) and the differentiation filter
-    for (dec, name) in [(Decimator::new(20, 1000.0).unwrap(), "decimator 20"), (Decimator::with_filter(1, Butterworth::default_for(1000.0).unwrap()).unwrap(), "20 Hz diff filter")] {
+    for (dec, name) in [
+        (Decimator::new(20, 1000.0).unwrap(), "decimator 20"),
+        (Decimator::with_filter(1, Butterworth::default_for(1000.0).unwrap()).unwrap(), "20 Hz diff filter"),
+    ] {
         let whole = dec.apply(&x, m).unwrap();
         let mut f = StreamFiltfilt::new(&dec.filter, m, dec.factor, 2048);
         let (idx, got) = stream_all(&mut f, &x, m);
@@ -93,7 +96,12 @@ fn streamed_conditioning_matches_differentiate() {
 
 /// A 40 s, 1 kHz UR5 log with friction and torque noise, as an MCAP file.
 fn ur5_log(dir: &std::path::Path) -> (ivdyn::Robot, std::path::PathBuf) {
-    let robot = ivdyn::Robot::from_urdf(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
+    let robot = ivdyn::Robot::from_urdf(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf"),
+        Some("base_link"),
+        Some("tool0"),
+    )
+    .unwrap();
     let o = SimulateOptions {
         rate_hz: 1000.0,
         duration_s: 40.0,
@@ -118,7 +126,9 @@ fn streamed_identify_matches_in_memory_identify() {
     let log = ivdyn::log::read_mcap(&path, &read).unwrap();
     let opts = IdentifyOptions::default();
     let mem = app::identify(&robot, &log, &opts).unwrap();
-    let Streamed::Done(s) = st::identify_mcap(&robot, &path, None, &read, &opts).unwrap() else { panic!("not streamed") };
+    let Streamed::Done(s) = st::identify_mcap(&robot, &path, None, &read, &opts).unwrap() else {
+        panic!("not streamed")
+    };
     assert_eq!(s.base.len(), mem.base.len());
     assert_eq!((s.rows, s.rank, s.decimation), (mem.rows, mem.rank, mem.decimation));
     let mut worst: f64 = 0.0;
@@ -155,8 +165,18 @@ fn streamed_identify_matches_in_memory_identify() {
 fn uneven_stamps_and_idim_are_not_streamed() {
     let dir = std::env::temp_dir().join(format!("ivdyn-stream-uneven-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let robot = ivdyn::Robot::from_urdf(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
-    let mut log = app::simulate(&robot, &Trajectory::Fourier, &SimulateOptions { duration_s: 30.0, noise_tau: 0.05, ..Default::default() }).unwrap();
+    let robot = ivdyn::Robot::from_urdf(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf"),
+        Some("base_link"),
+        Some("tool0"),
+    )
+    .unwrap();
+    let mut log = app::simulate(
+        &robot,
+        &Trajectory::Fourier,
+        &SimulateOptions { duration_s: 30.0, noise_tau: 0.05, ..Default::default() },
+    )
+    .unwrap();
     // one interval 30 % long, after the first 10 000 samples
     for t in log.t.iter_mut().skip(12_000) {
         *t += 0.3 * 2e-3;

@@ -1,9 +1,9 @@
 //! Transmissions: the motor/joint maps, the motor-side regressor against the Newton-Euler
 //! path, recovery of simulated coupled-wrist data, and drive gains from a known payload.
 
-use ivdyn::ident::{fit_ls, LsAccumulator};
-use ivdyn::ident::transmission::{fit_drive_gains, motor_torque, CurrentLog, MotorRegressor, Transmission};
 use ivdyn::Robot;
+use ivdyn::ident::transmission::{CurrentLog, MotorRegressor, Transmission, fit_drive_gains, motor_torque};
+use ivdyn::ident::{LsAccumulator, fit_ls};
 use ivdyn_core::params::{DriveParams, FC, FV, IA};
 use ivdyn_core::rng::Rng;
 use std::path::PathBuf;
@@ -25,14 +25,22 @@ fn coupled() -> Transmission {
 }
 
 fn motor_drives() -> Vec<DriveParams> {
-    (0..6).map(|i| DriveParams { fc: 0.05 + 0.01 * i as f64, fv: 0.002 * (i + 1) as f64, ia: 1e-4 * (6 - i) as f64, tau0: 0.01 * i as f64 - 0.02 }).collect()
+    (0..6)
+        .map(|i| DriveParams {
+            fc: 0.05 + 0.01 * i as f64,
+            fv: 0.002 * (i + 1) as f64,
+            ia: 1e-4 * (6 - i) as f64,
+            tau0: 0.01 * i as f64 - 0.02,
+        })
+        .collect()
 }
 
 /// Joint-side sums of sines (analytic q, qd, qdd), `T x 6`.
 fn joint_trajectory(seed: u64, t: usize, dt: f64) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let mut rng = Rng::new(seed);
     let w0 = 2.0 * std::f64::consts::PI * 0.2;
-    let coef: Vec<[(f64, f64); 4]> = (0..6).map(|_| std::array::from_fn(|_| (rng.uniform(-0.4, 0.4), rng.uniform(-0.4, 0.4)))).collect();
+    let coef: Vec<[(f64, f64); 4]> =
+        (0..6).map(|_| std::array::from_fn(|_| (rng.uniform(-0.4, 0.4), rng.uniform(-0.4, 0.4)))).collect();
     let (mut q, mut qd, mut qdd) = (vec![], vec![], vec![]);
     for k in 0..t {
         let s = k as f64 * dt;
@@ -62,7 +70,12 @@ fn maps_round_trip_and_conserve_power() {
     let back_rates = tr.motor_rates(&tr.joint_rates(&x).unwrap()).unwrap();
     let back_tau = tr.joint_torques(&tr.motor_torques(&x).unwrap()).unwrap();
     for i in 0..60 {
-        assert!((back[i] - x[i]).abs() < 1e-12 && (back_rates[i] - x[i]).abs() < 1e-12 && (back_tau[i] - x[i]).abs() < 1e-12, "entry {i}");
+        assert!(
+            (back[i] - x[i]).abs() < 1e-12
+                && (back_rates[i] - x[i]).abs() < 1e-12
+                && (back_tau[i] - x[i]).abs() < 1e-12,
+            "entry {i}"
+        );
     }
     // virtual work: the motors deliver the power the joints receive, tau_m . qd_m = tau . qd
     let (qd, tau) = (&x[..30], &x[30..]);
@@ -92,7 +105,8 @@ fn motor_regressor_matches_newton_euler() {
     robot.set_params(&theta).unwrap();
     let tr = coupled();
     let (q, qd, qdd) = joint_trajectory(5, 40, 0.07);
-    let (q_m, qd_m, qdd_m) = (tr.motor_positions(&q).unwrap(), tr.motor_rates(&qd).unwrap(), tr.motor_rates(&qdd).unwrap());
+    let (q_m, qd_m, qdd_m) =
+        (tr.motor_positions(&q).unwrap(), tr.motor_rates(&qd).unwrap(), tr.motor_rates(&qdd).unwrap());
     let drives = motor_drives();
     let want = motor_torque(&robot, &tr, &drives, &q_m, &qd_m, &qdd_m).unwrap();
     let reg = MotorRegressor::new(&robot, &tr, true).unwrap();
@@ -115,7 +129,8 @@ fn recovers_coupled_motor_friction_from_simulated_data() {
     let drives = motor_drives();
     let truth = reg.params(&drives).unwrap();
     let (q, qd, qdd) = joint_trajectory(11, 1500, 0.01);
-    let (q_m, qd_m, qdd_m) = (tr.motor_positions(&q).unwrap(), tr.motor_rates(&qd).unwrap(), tr.motor_rates(&qdd).unwrap());
+    let (q_m, qd_m, qdd_m) =
+        (tr.motor_positions(&q).unwrap(), tr.motor_rates(&qd).unwrap(), tr.motor_rates(&qdd).unwrap());
     let tau_m = motor_torque(&robot, &tr, &drives, &q_m, &qd_m, &qdd_m).unwrap();
     let rows = reg.rows(&q_m, &qd_m, &qdd_m).unwrap();
     let phi = base.select_rows(&rows, tau_m.len()).unwrap();
@@ -161,7 +176,8 @@ fn drive_gains_from_a_known_payload_mass() {
     loaded.set_params(&th).unwrap();
     let run = |r: &Robot, seed: u64| {
         let (q, qd, qdd) = joint_trajectory(seed, 1200, 0.01);
-        let (q_m, qd_m, qdd_m) = (tr.motor_positions(&q).unwrap(), tr.motor_rates(&qd).unwrap(), tr.motor_rates(&qdd).unwrap());
+        let (q_m, qd_m, qdd_m) =
+            (tr.motor_positions(&q).unwrap(), tr.motor_rates(&qd).unwrap(), tr.motor_rates(&qdd).unwrap());
         let tau_m = motor_torque(r, &tr, &drives, &q_m, &qd_m, &qdd_m).unwrap();
         let current: Vec<f64> = tau_m.iter().enumerate().map(|(i, t)| t / gains[i % 6]).collect();
         (q_m, qd_m, qdd_m, current)
@@ -196,5 +212,14 @@ fn drive_gains_from_a_known_payload_mass() {
         }
     }
     // no known mass: refused
-    assert!(fit_drive_gains(&reg, &base, &CurrentLog { q_m: &u.0, qd_m: &u.1, qdd_m: &u.2, current: &u.3 }, &CurrentLog { q_m: &l.0, qd_m: &l.1, qdd_m: &l.2, current: &l.3 }, 0.0).is_err());
+    assert!(
+        fit_drive_gains(
+            &reg,
+            &base,
+            &CurrentLog { q_m: &u.0, qd_m: &u.1, qdd_m: &u.2, current: &u.3 },
+            &CurrentLog { q_m: &l.0, qd_m: &l.1, qdd_m: &l.2, current: &l.3 },
+            0.0
+        )
+        .is_err()
+    );
 }

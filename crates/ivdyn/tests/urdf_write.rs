@@ -1,11 +1,11 @@
 //! URDF write-back: identify -> write URDF (+ side file) -> reload -> predict reproduces
 //! the identified torques to 1e-9; the rest of the XML is kept; payloads as a link or merged.
 
+use ivdyn::Robot;
 use ivdyn::app::{self, IdentifyOptions, SimulateOptions, Trajectory};
 use ivdyn::report::PayloadSpec;
 use ivdyn::robot::load::side_path;
-use ivdyn::robot::write::{write_back, write_files, PayloadMode};
-use ivdyn::Robot;
+use ivdyn::robot::write::{PayloadMode, write_back, write_files};
 use ivdyn_core::rng::Rng;
 use std::path::{Path, PathBuf};
 
@@ -35,7 +35,13 @@ fn max_torque_diff(a: &Robot, b: &Robot) -> f64 {
     worst
 }
 
-fn write_and_reload(input: &Path, robot: &Robot, theta: Option<&[f64]>, payload: Option<(&PayloadSpec, PayloadMode)>, out: &Path) -> Robot {
+fn write_and_reload(
+    input: &Path,
+    robot: &Robot,
+    theta: Option<&[f64]>,
+    payload: Option<(&PayloadSpec, PayloadMode)>,
+    out: &Path,
+) -> Robot {
     let text = std::fs::read_to_string(input).unwrap();
     let wb = write_back(&text, input, robot, theta, payload, vec![]).unwrap();
     write_files(out, &wb).unwrap();
@@ -45,13 +51,29 @@ fn write_and_reload(input: &Path, robot: &Robot, theta: Option<&[f64]>, payload:
 
 /// Lines of the input that must survive unchanged (everything but inertials and dynamics).
 fn kept_lines(text: &str) -> Vec<&str> {
-    text.lines().filter(|l| l.contains("<visual") || l.contains("<collision") || l.contains("<!--") || l.contains("gazebo") || l.contains("<limit") || l.contains("<origin rpy") && !l.contains("rpy=\"0 0 0\" xyz")).collect()
+    text.lines()
+        .filter(|l| {
+            l.contains("<visual")
+                || l.contains("<collision")
+                || l.contains("<!--")
+                || l.contains("gazebo")
+                || l.contains("<limit")
+                || l.contains("<origin rpy") && !l.contains("rpy=\"0 0 0\" xyz")
+        })
+        .collect()
 }
 
 #[test]
 fn identify_write_reload_reproduces_the_identified_torques() {
     let robot = Robot::from_urdf(UR5, Some("base_link"), Some("tool0")).unwrap();
-    let sim = SimulateOptions { duration_s: 10.0, rate_hz: 200.0, fc: Some(vec![2.0, 2.0, 1.5, 0.6, 0.6, 0.4]), fv: Some(vec![0.8, 0.8, 0.5, 0.2, 0.2, 0.1]), noise_tau: 0.05, ..Default::default() };
+    let sim = SimulateOptions {
+        duration_s: 10.0,
+        rate_hz: 200.0,
+        fc: Some(vec![2.0, 2.0, 1.5, 0.6, 0.6, 0.4]),
+        fv: Some(vec![0.8, 0.8, 0.5, 0.2, 0.2, 0.1]),
+        noise_tau: 0.05,
+        ..Default::default()
+    };
     let log = app::simulate(&robot, &Trajectory::Fourier, &sim).unwrap();
     let rep = app::identify(&robot, &log, &IdentifyOptions { consistent: true, ..Default::default() }).unwrap();
     let c = rep.consistent.as_ref().unwrap();
@@ -77,7 +99,8 @@ fn identify_write_reload_reproduces_the_identified_torques() {
 #[test]
 fn payload_as_link_or_merged_reloads_to_the_loaded_arm() {
     let robot = Robot::from_urdf(UR5, Some("base_link"), Some("tool0")).unwrap();
-    let spec = PayloadSpec { mass: 2.0, com: [0.01, -0.02, 0.05], inertia: [0.003, 0.0001, -0.0002, 0.004, 0.0003, 0.002] };
+    let spec =
+        PayloadSpec { mass: 2.0, com: [0.01, -0.02, 0.05], inertia: [0.003, 0.0001, -0.0002, 0.004, 0.0003, 0.002] };
     let truth = app::true_robot(&robot, &SimulateOptions { payload: Some(spec), ..Default::default() }).unwrap();
     for mode in [PayloadMode::Link, PayloadMode::Merge] {
         let out = tmp(&format!("ur5_payload_{mode:?}.urdf"));
@@ -113,7 +136,8 @@ fn fused_links_keep_their_inertials_on_the_panda() {
     // the hand and finger inertials are untouched
     let text = std::fs::read_to_string(&out).unwrap();
     let orig = std::fs::read_to_string(PANDA).unwrap();
-    let hand = |t: &str| t.split("<link name=\"panda_hand\">").nth(1).unwrap().split("</link>").next().unwrap().to_string();
+    let hand =
+        |t: &str| t.split("<link name=\"panda_hand\">").nth(1).unwrap().split("</link>").next().unwrap().to_string();
     assert_eq!(hand(&text), hand(&orig));
     // without the side file the armature and offsets are missing (so it is needed)
     let no_side = ivdyn::robot::urdf::load(&out, Some("panda_link0"), Some("panda_hand")).unwrap();

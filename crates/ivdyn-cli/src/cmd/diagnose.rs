@@ -5,8 +5,8 @@ use std::process::ExitCode;
 
 use clap::Args;
 
-use super::{load_robot, log_source, msg, Bars, LogArgs, RobotArgs, R};
-use ivdyn::app::{diagnose_job, DiagnoseJob, LogInput};
+use super::{Bars, LogArgs, R, RobotArgs, load_robot, log_source, msg};
+use ivdyn::app::{DiagnoseJob, LogInput, diagnose_job};
 use ivdyn::diagnose::{self, DiagnoseOptions};
 
 #[derive(Args)]

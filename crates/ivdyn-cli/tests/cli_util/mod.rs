@@ -41,11 +41,11 @@ pub fn json(p: &Path) -> serde_json::Value {
 }
 
 pub fn files_in(d: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
+    let mut v: Vec<String> =
+        std::fs::read_dir(d).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
     v.sort();
     v
 }
-
 
 pub fn ur5_args() -> Vec<String> {
     vec!["--urdf".into(), fixture("ur5.urdf"), "--base".into(), "base_link".into(), "--tip".into(), "tool0".into()]

@@ -15,7 +15,7 @@ use crate::estim::{Riv, Rls};
 use crate::model::Model;
 use crate::params::{DRIVE_PARAMS, LINK_PARAMS};
 use crate::regressor::Regressor;
-use crate::{regressor, rnea, VecN};
+use crate::{VecN, regressor, rnea};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
@@ -98,11 +98,7 @@ impl TerminalSpec {
     /// Index into the full `theta` (layout of [`crate::params`]) of column `c`.
     pub fn theta_index(&self, n: usize, c: usize) -> usize {
         let (l, e) = self.column(c);
-        if e < LINK_PARAMS {
-            LINK_PARAMS * l + e
-        } else {
-            LINK_PARAMS * n + DRIVE_PARAMS * l + (e - LINK_PARAMS)
-        }
+        if e < LINK_PARAMS { LINK_PARAMS * l + e } else { LINK_PARAMS * n + DRIVE_PARAMS * l + (e - LINK_PARAMS) }
     }
 }
 
@@ -155,7 +151,13 @@ where
     DefaultAllocator: Allocator<D, D> + Allocator<D> + Allocator<D, nalgebra::U1>,
 {
     /// New estimator; `columns` selects identifiable columns of the terminal regressor.
-    pub fn new(nominal: Model<N>, spec: TerminalSpec, columns: OVector<usize, D>, row_weight: [f64; N], method: Method<D>) -> Self {
+    pub fn new(
+        nominal: Model<N>,
+        spec: TerminalSpec,
+        columns: OVector<usize, D>,
+        row_weight: [f64; N],
+        method: Method<D>,
+    ) -> Self {
         let (dim, _) = columns.shape_generic();
         Self {
             nominal,

@@ -1,9 +1,7 @@
 //! Random chains for property tests (deterministic from a seed).
 #![allow(dead_code)]
 
-use ivdyn_core::{
-    spatial::axis_angle, DriveParams, Joint, LinkInertia, Mat3, Model, Transform, Vec3, VecN,
-};
+use ivdyn_core::{DriveParams, Joint, LinkInertia, Mat3, Model, Transform, Vec3, VecN, spatial::axis_angle};
 
 /// The crate's deterministic generator with helpers for random chains and states.
 pub struct Rng {
@@ -62,7 +60,7 @@ pub fn random_model<const N: usize>(seed: u64, prismatic: bool) -> Model<N> {
         // every other joint on a signed coordinate axis (the fast rotation path)
         let axis = if i % 2 == 0 {
             let mut a = Vec3::zeros();
-            a[(rng.next_u64() % 3) as usize] = if rng.next_u64() % 2 == 0 { 1.0 } else { -1.0 };
+            a[(rng.next_u64() % 3) as usize] = if rng.next_u64().is_multiple_of(2) { 1.0 } else { -1.0 };
             a
         } else {
             rng.unit()

@@ -3,13 +3,13 @@
 
 use std::path::PathBuf;
 
-use super::io::{LogInput, LogSource};
 use super::Outcome;
+use super::io::{LogInput, LogSource};
+use crate::Robot;
 use crate::diagnose::{self, DiagnoseOptions, Diagnosis};
 use crate::error::{Error, Result};
 use crate::output::write_json;
 use crate::progress::{ProgressSink, Stage};
-use crate::Robot;
 
 /// One `diagnose` run.
 #[derive(Debug, Clone)]

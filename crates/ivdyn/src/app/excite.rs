@@ -4,10 +4,10 @@
 use std::path::PathBuf;
 
 use super::Outcome;
+use crate::Robot;
 use crate::error::Result;
 use crate::excite::{self, ExciteOptions, ExciteReport};
 use crate::output::write_json;
-use crate::Robot;
 
 /// One `excite` run.
 #[derive(Clone)]

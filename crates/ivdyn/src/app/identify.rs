@@ -28,21 +28,20 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
-use crate::ident::instrument::{nominal_tracking, TRACKING_INSTRUMENT};
-use crate::ident::joint_acc::JointAccs;
+use crate::Robot;
 use crate::batch::stack_rows;
-use crate::ident::wls::per_joint_weights;
-use crate::ident::{self, fit_iv, fit_ls, BaseParams, DriveTerms, FitReport};
 use crate::dsp;
+use crate::error::{Error, Result};
+use crate::ident::instrument::Tracker;
+use crate::ident::instrument::{TRACKING_INSTRUMENT, nominal_tracking};
+use crate::ident::joint_acc::JointAccs;
+use crate::ident::wls::per_joint_weights;
+use crate::ident::{self, BaseParams, DriveTerms, FitReport, fit_iv, fit_ls};
 use crate::log::JointLog;
-use crate::prep::{self, parallel_filter, ConditionOptions};
+use crate::prep::{self, ConditionOptions, parallel_filter};
 use crate::progress::{ProgressSink, Stage};
 use crate::report::{BaseValue, Dwh, ParamsFile, Quality};
-use crate::ident::instrument::Tracker;
 use crate::robot::physical;
-use crate::Robot;
-
 
 // ---------------------------------------------------------------------------------------
 // Options and reports
@@ -177,7 +176,6 @@ pub struct IdentifyReport {
     pub fit_report: Option<FitReport>,
 }
 
-
 // ---------------------------------------------------------------------------------------
 // Preparation: conditioning, regressor stacking, parallel filtering
 // ---------------------------------------------------------------------------------------
@@ -209,14 +207,25 @@ pub(crate) fn err_est(msg: impl Into<String>) -> Error {
     Error::Estimation { msg: msg.into() }
 }
 
-
-fn prepare(robot: &Robot, base: &BaseParams, log: &JointLog, opts: &IdentifyOptions, instrument: bool, what: &str) -> Result<Prepared> {
+fn prepare(
+    robot: &Robot,
+    base: &BaseParams,
+    log: &JointLog,
+    opts: &IdentifyOptions,
+    instrument: bool,
+    what: &str,
+) -> Result<Prepared> {
     let n = robot.dof();
     if log.dof() != n || log.joint_names != robot.joint_names {
-        return Err(err_est(format!("{what}: log joints {:?} are not the robot's {:?}", log.joint_names, robot.joint_names)));
+        return Err(err_est(format!(
+            "{what}: log joints {:?} are not the robot's {:?}",
+            log.joint_names, robot.joint_names
+        )));
     }
     if log.tau.is_none() {
-        return Err(err_est(format!("{what}: the log has no effort (torque) data; identification needs measured torques")));
+        return Err(err_est(format!(
+            "{what}: the log has no effort (torque) data; identification needs measured torques"
+        )));
     }
     let c = prep::condition(log, &opts.condition)?;
     let fs = 1.0 / c.dt;
@@ -253,21 +262,28 @@ fn prepare(robot: &Robot, base: &BaseParams, log: &JointLog, opts: &IdentifyOpti
     let q = dec.apply(&c.d.q, n)?;
     let qd = dec.apply(&c.d.qd, n)?;
     let qdd = dec.apply(&c.d.qdd, n)?;
-    Ok(Prepared { n, dt: c.dt * dec.factor as f64, q, qd, qdd, phi, tau, z, instrument: inst_name, cutoff_hz: dec.filter.cutoff_hz, factor: dec.factor })
+    Ok(Prepared {
+        n,
+        dt: c.dt * dec.factor as f64,
+        q,
+        qd,
+        qdd,
+        phi,
+        tau,
+        z,
+        instrument: inst_name,
+        cutoff_hz: dec.filter.cutoff_hz,
+        factor: dec.factor,
+    })
 }
-
-
 
 pub(crate) fn rows_of(x: &[f64], width: usize, r: std::ops::Range<usize>) -> &[f64] {
     &x[r.start * width..r.end * width]
 }
 
-
-
 // ---------------------------------------------------------------------------------------
 // identify
 // ---------------------------------------------------------------------------------------
-
 
 /// The base parameters [`identify`] fits: [`ident::robot_base_params`] over the inertial
 /// parameters and the drive parameters of `opts.drive`.
@@ -280,7 +296,10 @@ pub fn identify_base(robot: &Robot, opts: &IdentifyOptions) -> Result<BaseParams
 /// Fit and held-out decimated-sample ranges of a prepared log of `t` samples: 1 % of the
 /// samples (at most 20) dropped at each end (filter edges), the last
 /// `validation_fraction` held out unless a validation log is given.
-pub(crate) fn split_ranges(t: usize, opts: &IdentifyOptions) -> (std::ops::Range<usize>, Option<std::ops::Range<usize>>) {
+pub(crate) fn split_ranges(
+    t: usize,
+    opts: &IdentifyOptions,
+) -> (std::ops::Range<usize>, Option<std::ops::Range<usize>>) {
     let edge = (t / 100).min(20);
     if opts.validation_log.is_some() || opts.validation_fraction <= 0.0 {
         (edge..t - edge, None)
@@ -353,7 +372,8 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
     };
     let idim = if opts.method == Method::IdimIv {
         let r = fit_range.clone();
-        let (q, qd, qdd) = (rows_of(&prep.q, n, r.clone()), rows_of(&prep.qd, n, r.clone()), rows_of(&prep.qdd, n, r.clone()));
+        let (q, qd, qdd) =
+            (rows_of(&prep.q, n, r.clone()), rows_of(&prep.qd, n, r.clone()), rows_of(&prep.qdd, n, r.clone()));
         let tf = r.len();
         let mut ff = vec![0.0; tf * n];
         crate::batch::rnea_batch(robot, q, qd, qdd, &mut ff)?;
@@ -378,23 +398,42 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
     if log.truncated {
         notes.push("the log was truncated; only the samples before the damage were used".into());
     }
-    let data = FitData { fit, validation, instrument: prep.instrument.clone(), dt: prep.dt, factor: prep.factor, cutoff_hz: prep.cutoff_hz, idim, notes };
+    let data = FitData {
+        fit,
+        validation,
+        instrument: prep.instrument.clone(),
+        dt: prep.dt,
+        factor: prep.factor,
+        cutoff_hz: prep.cutoff_hz,
+        idim,
+        notes,
+    };
     finish_identify(robot, &base, opts, data)
 }
 
 /// The fits (OLS, two-step WLS, IV), the DWH test, fit quality and validation, from the
 /// per-joint statistics of a prepared log: the part shared by the in-memory and the
 /// streaming `identify`.
-pub(crate) fn finish_identify(robot: &Robot, base: &BaseParams, opts: &IdentifyOptions, d: FitData) -> Result<IdentifyReport> {
+pub(crate) fn finish_identify(
+    robot: &Robot,
+    base: &BaseParams,
+    opts: &IdentifyOptions,
+    d: FitData,
+) -> Result<IdentifyReport> {
     let n = robot.dof();
     let b = base.base_count();
     let mut notes = d.notes;
     if d.fit.samples() * n < 2 * b {
-        return Err(err_est(format!("log too short: {} samples of {n} joints after conditioning for {b} base parameters", d.fit.samples())));
+        return Err(err_est(format!(
+            "log too short: {} samples of {n} joints after conditioning for {b} base parameters",
+            d.fit.samples()
+        )));
     }
     let nominal = robot.params();
     let nom_base = base.project(&nominal)?;
-    let fill = |theta: &[f64]| -> Vec<f64> { theta.iter().zip(&nom_base).map(|(t, nb)| if t.is_finite() { *t } else { *nb }).collect() };
+    let fill = |theta: &[f64]| -> Vec<f64> {
+        theta.iter().zip(&nom_base).map(|(t, nb)| if t.is_finite() { *t } else { *nb }).collect()
+    };
     let st = Stage::begin(&opts.progress, "fitting", 3);
     let ones = vec![1.0; n];
     let ols = fit_ls(&d.fit.ls(&ones)?, &base.names)?;
@@ -415,7 +454,11 @@ pub(crate) fn finish_identify(robot: &Robot, base: &BaseParams, opts: &IdentifyO
                         iv_fit = Some(Ok(f.clone()));
                         f
                     }
-                    Some(Err(e)) => return Err(err_est(format!("IV fit failed ({e}): the instrument is not correlated with the regressor; try --method wls or idim-iv"))),
+                    Some(Err(e)) => {
+                        return Err(err_est(format!(
+                            "IV fit failed ({e}): the instrument is not correlated with the regressor; try --method wls or idim-iv"
+                        )));
+                    }
                     None => return Err(err_est("IV fit: no instrument was built")),
                 }
             } else {
@@ -459,19 +502,39 @@ pub(crate) fn finish_identify(robot: &Robot, base: &BaseParams, opts: &IdentifyO
     let consistent = if opts.consistent {
         let _st = Stage::begin(&opts.progress, "consistent fit", 0);
         let cacc = d.fit.ls(&weights)?;
-        let cf = ident::consistent::fit_consistent(&cacc, base, &full, &nominal, &robot.link_names, &robot.joint_names, &Default::default())?;
-        let val = d.validation.as_ref().map(|(label, v)| v.quality(label.clone(), &cf.theta_base)).filter(|q| q.samples > 1);
+        let cf = ident::consistent::fit_consistent(
+            &cacc,
+            base,
+            &full,
+            &nominal,
+            &robot.link_names,
+            &robot.joint_names,
+            &Default::default(),
+        )?;
+        let val =
+            d.validation.as_ref().map(|(label, v)| v.quality(label.clone(), &cf.theta_base)).filter(|q| q.samples > 1);
         Some(ident::consistent::ConsistentReport {
             fit: d.fit.quality("fit".into(), &cf.theta_base),
             validation: val,
-            params: ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: cf.theta.clone() },
+            params: ParamsFile {
+                robot: robot.name.clone(),
+                joints: robot.joint_names.clone(),
+                names: robot.param_names(),
+                theta: cf.theta.clone(),
+            },
             result: cf,
         })
     } else {
         None
     };
     let base_vals = (0..b)
-        .map(|i| BaseValue { name: base.names[i].clone(), value: fit.theta[i], std: fit.std[i], rel_std_pct: fit.rel_std_pct[i], nominal: nom_base[i] })
+        .map(|i| BaseValue {
+            name: base.names[i].clone(),
+            value: fit.theta[i],
+            std: fit.std[i],
+            rel_std_pct: fit.rel_std_pct[i],
+            nominal: nom_base[i],
+        })
         .collect();
     Ok(IdentifyReport {
         method: opts.method.name().into(),
@@ -495,7 +558,12 @@ pub(crate) fn finish_identify(robot: &Robot, base: &BaseParams, opts: &IdentifyO
         fit: fit_q,
         validation,
         dwh,
-        params: ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: full },
+        params: ParamsFile {
+            robot: robot.name.clone(),
+            joints: robot.joint_names.clone(),
+            names: robot.param_names(),
+            theta: full,
+        },
         notes,
         physical,
         consistent,
@@ -511,7 +579,12 @@ pub(crate) fn finish_identify(robot: &Robot, base: &BaseParams, opts: &IdentifyO
 /// `rnea(q, qd, qdd)` of `model` at the smoothed state, the measured copy is the log's
 /// values at those samples (resampled like the torque if the stamps were uneven).
 /// Returns the samples written.
-pub fn write_prediction(path: &std::path::Path, model: &Robot, log: &JointLog, condition: &ConditionOptions) -> Result<usize> {
+pub fn write_prediction(
+    path: &std::path::Path,
+    model: &Robot,
+    log: &JointLog,
+    condition: &ConditionOptions,
+) -> Result<usize> {
     let n = model.dof();
     let c = prep::condition(log, condition)?;
     let tau = c.tau.as_ref().ok_or_else(|| err_est("the log has no effort (torque) data"))?;
@@ -532,5 +605,3 @@ pub fn write_prediction(path: &std::path::Path, model: &Robot, log: &JointLog, c
     w.finish()?;
     Ok(k)
 }
-
-

@@ -4,16 +4,16 @@
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
-use super::identify::{identify, write_prediction, IdentifyOptions, IdentifyReport};
-use super::io::{LogInput, LogSource};
-use crate::output::{write_atomic, write_json};
 use super::Outcome;
-use super::stream::{identify_mcap, write_prediction_mcap, Streamed};
+use super::identify::{IdentifyOptions, IdentifyReport, identify, write_prediction};
+use super::io::{LogInput, LogSource};
+use super::stream::{Streamed, identify_mcap, write_prediction_mcap};
+use crate::Robot;
 use crate::error::{Error, Result};
 use crate::log::JointLog;
+use crate::output::{write_atomic, write_json};
 use crate::progress::Stage;
 use crate::robot::{load::side_path, write as urdf_write};
-use crate::Robot;
 
 /// What `identify` writes (each optional).
 #[derive(Debug, Clone, Default)]
@@ -46,7 +46,6 @@ pub struct IdentifyJob {
     pub outputs: IdentifyOutputs,
 }
 
-
 /// Runs `job` on `robot`: MCAP logs are streamed (bounded memory) unless the options or
 /// the log need memory, then the outputs are written.
 pub fn identify_job(robot: &Robot, job: &IdentifyJob) -> Result<Outcome<IdentifyReport>> {
@@ -61,14 +60,17 @@ fn fit<'a>(robot: &Robot, job: &'a IdentifyJob) -> Result<(IdentifyReport, Optio
     let streamable = !job.in_memory && job.validate.as_ref().is_none_or(|v| v.mcap_path().is_some());
     if let (Some(path), true) = (job.log.mcap_path(), streamable) {
         let vpath = job.validate.as_ref().and_then(|v| v.mcap_path());
-        match identify_mcap(robot, path, vpath, &job.source.read_options(robot), &job.opts).map_err(|e| job.log.context(e))? {
+        match identify_mcap(robot, path, vpath, &job.source.read_options(robot), &job.opts)
+            .map_err(|e| job.log.context(e))?
+        {
             Streamed::Done(r) => return Ok((r, None)),
             Streamed::Unsupported(why) => why_not = Some(why),
         }
     }
     let log = read(robot, &job.log, &job.source, &job.opts)?;
     let mut opts = job.opts.clone();
-    opts.validation_log = job.validate.as_ref().map(|v| read(robot, v, &job.source, &opts).map(Cow::into_owned)).transpose()?;
+    opts.validation_log =
+        job.validate.as_ref().map(|v| read(robot, v, &job.source, &opts).map(Cow::into_owned)).transpose()?;
     let mut r = identify(robot, &log, &opts).map_err(|e| job.log.context(e))?;
     if let Some(w) = why_not {
         r.notes.push(format!("read into memory (not streamed): {w}"));
@@ -81,7 +83,12 @@ fn read<'a>(robot: &Robot, input: &'a LogInput, src: &LogSource, opts: &Identify
     input.load(robot, src)
 }
 
-fn write_outputs(robot: &Robot, job: &IdentifyJob, rep: &IdentifyReport, mem: Option<&JointLog>) -> Result<Vec<String>> {
+fn write_outputs(
+    robot: &Robot,
+    job: &IdentifyJob,
+    rep: &IdentifyReport,
+    mem: Option<&JointLog>,
+) -> Result<Vec<String>> {
     let out = &job.outputs;
     let mut written = vec![];
     let params = rep.consistent.as_ref().map(|c| &c.params).unwrap_or(&rep.params);
@@ -98,7 +105,11 @@ fn write_outputs(robot: &Robot, job: &IdentifyJob, rep: &IdentifyReport, mem: Op
         let text = std::fs::read_to_string(input).map_err(|e| Error::Io { file: input.clone(), source: e })?;
         let wb = urdf_write::write_back(&text, input, robot, Some(&params.theta), None, vec![source.to_string()])?;
         urdf_write::write_files(path, &wb)?;
-        written.push(format!("URDF written to {} (armature and offsets in {})", path.display(), side_path(path).display()));
+        written.push(format!(
+            "URDF written to {} (armature and offsets in {})",
+            path.display(),
+            side_path(path).display()
+        ));
     }
     if let Some(p) = &out.json {
         write_json(p, rep)?;
@@ -122,7 +133,8 @@ fn prediction(robot: &Robot, model: &Robot, job: &IdentifyJob, mem: Option<&Join
     let mut k = 0;
     write_atomic(out, |tmp| {
         if let (None, Some(path)) = (mem, job.log.mcap_path())
-            && let Streamed::Done(n) = write_prediction_mcap(tmp, model, path, &job.source.read_options(robot), &job.opts).map_err(in_file)?
+            && let Streamed::Done(n) =
+                write_prediction_mcap(tmp, model, path, &job.source.read_options(robot), &job.opts).map_err(in_file)?
         {
             k = n;
             return Ok(());

@@ -4,11 +4,11 @@
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
+use crate::Robot;
 use crate::error::{Error, Result};
-use crate::log::{read_pipeline_log, JointLog, ReadOptions};
+use crate::log::{JointLog, ReadOptions, read_pipeline_log};
 use crate::output::write_atomic;
 use crate::robot::load;
-use crate::Robot;
 
 /// Where a command's robot comes from: a URDF (with its side file, when present), the
 /// chain's base and tip links, and optionally a parameter file replacing every parameter.
@@ -58,7 +58,10 @@ impl Default for LogSource {
 impl LogSource {
     /// The streaming reader's options for `robot`'s joints.
     pub fn read_options(&self, robot: &Robot) -> ReadOptions {
-        ReadOptions::new(&robot.joint_names).topic(&self.topic).command_topic_opt(self.command_topic.as_deref()).log_time(self.log_time)
+        ReadOptions::new(&robot.joint_names)
+            .topic(&self.topic)
+            .command_topic_opt(self.command_topic.as_deref())
+            .log_time(self.log_time)
     }
 
     /// Reads a whole log file (`.csv`, or MCAP) and checks it ([`read_pipeline_log`]).
@@ -112,7 +115,12 @@ impl LogInput {
 pub fn write_log(path: &Path, log: &JointLog) -> Result<()> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     if ext != "csv" && ext != "mcap" {
-        return Err(Error::Log { file: path.to_path_buf(), msg: format!("unknown output format '.{ext}' (use .mcap or .csv)") });
+        return Err(Error::Log {
+            file: path.to_path_buf(),
+            msg: format!("unknown output format '.{ext}' (use .mcap or .csv)"),
+        });
     }
-    write_atomic(path, |tmp| if ext == "csv" { crate::log::write_csv(tmp, log) } else { crate::log::write_mcap(tmp, log, &[]).map(|_| ()) })
+    write_atomic(path, |tmp| {
+        if ext == "csv" { crate::log::write_csv(tmp, log) } else { crate::log::write_mcap(tmp, log, &[]).map(|_| ()) }
+    })
 }

@@ -16,13 +16,15 @@ pub mod payload;
 pub mod simulate;
 pub mod stream;
 
-pub use diagnose::{diagnose_job, DiagnoseJob};
-pub use excite::{excite_job, ExciteJob};
-pub use identify::{identify, identify_base, write_prediction, IdentifyOptions, IdentifyReport, Method};
-pub use identify_job::{identify_job, IdentifyJob, IdentifyOutputs};
+pub use diagnose::{DiagnoseJob, diagnose_job};
+pub use excite::{ExciteJob, excite_job};
+pub use identify::{IdentifyOptions, IdentifyReport, Method, identify, identify_base, write_prediction};
+pub use identify_job::{IdentifyJob, IdentifyOutputs, identify_job};
 pub use io::{LogInput, LogSource, RobotSource};
-pub use payload::{payload, payload_job, Hidden, PayloadJob, PayloadMode, PayloadOptions, PayloadReport};
-pub use simulate::{fourier_trajectory, simulate, simulate_job, true_robot, SimulateJob, SimulateOptions, SimulateSummary, Trajectory};
+pub use payload::{Hidden, PayloadJob, PayloadMode, PayloadOptions, PayloadReport, payload, payload_job};
+pub use simulate::{
+    SimulateJob, SimulateOptions, SimulateSummary, Trajectory, fourier_trajectory, simulate, simulate_job, true_robot,
+};
 
 /// A job's report and, in order, one line per file written (for the command line).
 #[derive(Debug, Clone)]

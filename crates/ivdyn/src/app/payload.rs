@@ -6,20 +6,20 @@ use serde::Serialize;
 
 use std::path::PathBuf;
 
-use super::identify::{identify, rows_of, IdentifyOptions, Method};
 use super::Outcome;
+use super::identify::{IdentifyOptions, Method, identify, rows_of};
 use super::io::{LogInput, LogSource};
-use crate::output::write_json;
-use crate::report::PayloadSpec;
-use crate::batch::stack_rows;
-use crate::ident::wls::{per_joint_weights, row_weights};
-use crate::report::quality;
-use crate::error::{Error, Result};
-use crate::ident::{self, fit_ls, BaseParams, LsAccumulator};
-use crate::log::JointLog;
-use crate::prep::{self, parallel_filter, ConditionOptions};
-use crate::progress::{ProgressSink, Stage};
 use crate::Robot;
+use crate::batch::stack_rows;
+use crate::error::{Error, Result};
+use crate::ident::wls::{per_joint_weights, row_weights};
+use crate::ident::{self, BaseParams, LsAccumulator, fit_ls};
+use crate::log::JointLog;
+use crate::output::write_json;
+use crate::prep::{self, ConditionOptions, parallel_filter};
+use crate::progress::{ProgressSink, Stage};
+use crate::report::PayloadSpec;
+use crate::report::quality;
 use ivdyn_core::estim::TerminalSpec;
 use ivdyn_core::params::LINK_PARAMS;
 use ivdyn_core::rng::Rng;
@@ -110,7 +110,12 @@ pub struct PayloadReport {
 
 /// Estimates the payload on the last link from `after` (see the module docs); with
 /// `before`, the unloaded arm is identified on it first and used as the nominal model.
-pub fn payload(robot: &Robot, after: &JointLog, before: Option<&JointLog>, opts: &PayloadOptions) -> Result<PayloadReport> {
+pub fn payload(
+    robot: &Robot,
+    after: &JointLog,
+    before: Option<&JointLog>,
+    opts: &PayloadOptions,
+) -> Result<PayloadReport> {
     let n = robot.dof();
     let mut notes = vec![];
     let mut nom = robot.clone();
@@ -208,7 +213,12 @@ pub fn payload(robot: &Robot, after: &JointLog, before: Option<&JointLog>, opts:
             rep.params = Some(e.params);
         }
         Err(ni) => {
-            rep.not_identifiable = ni.parameters.into_iter().zip(ni.combined_in).map(|(parameter, combined_in)| Hidden { parameter, combined_in }).collect();
+            rep.not_identifiable = ni
+                .parameters
+                .into_iter()
+                .zip(ni.combined_in)
+                .map(|(parameter, combined_in)| Hidden { parameter, combined_in })
+                .collect();
         }
     }
     Ok(rep)
@@ -224,7 +234,11 @@ fn random_rows(robot: &Robot, cols: &[usize], samples: usize, seed: u64) -> Resu
     for s in 0..samples {
         for j in 0..n {
             let l = &limits[j];
-            let (lo, hi) = if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower { (l.lower, l.upper) } else { (-std::f64::consts::PI, std::f64::consts::PI) };
+            let (lo, hi) = if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower {
+                (l.lower, l.upper)
+            } else {
+                (-std::f64::consts::PI, std::f64::consts::PI)
+            };
             q[j] = rng.uniform(lo, hi);
             qd[j] = rng.uniform(-1.0, 1.0);
             qdd[j] = rng.uniform(-2.0, 2.0);
@@ -274,17 +288,33 @@ pub fn payload_job(robot: &Robot, job: &PayloadJob) -> Result<Outcome<PayloadRep
         written.push(format!("report written to {}", p.display()));
     }
     if let (Some((input, out, mode)), true) = (&job.urdf, rep.identifiable) {
-        let spec = PayloadSpec { mass: rep.mass.unwrap_or(f64::NAN), com: rep.com.unwrap_or([f64::NAN; 3]), inertia: rep.inertia.unwrap_or([f64::NAN; 6]) };
+        let spec = PayloadSpec {
+            mass: rep.mass.unwrap_or(f64::NAN),
+            com: rep.com.unwrap_or([f64::NAN; 3]),
+            inertia: rep.inertia.unwrap_or([f64::NAN; 6]),
+        };
         let text = std::fs::read_to_string(input).map_err(|e| Error::Io { file: input.clone(), source: e })?;
         let note = "ivdyn payload: the arm as loaded (URDF, --params or side file) plus the identified payload";
-        let wb = crate::robot::write::write_back(&text, input, robot, Some(&robot.params()), Some((&spec, *mode)), vec![note.into()])?;
+        let wb = crate::robot::write::write_back(
+            &text,
+            input,
+            robot,
+            Some(&robot.params()),
+            Some((&spec, *mode)),
+            vec![note.into()],
+        )?;
         crate::robot::write::write_files(out, &wb)?;
         written.push(format!("URDF with the payload written to {}", out.display()));
     }
     Ok(Outcome { report: rep, written })
 }
 
-fn read<'a>(robot: &Robot, input: &'a LogInput, src: &LogSource, progress: &ProgressSink) -> Result<std::borrow::Cow<'a, JointLog>> {
+fn read<'a>(
+    robot: &Robot,
+    input: &'a LogInput,
+    src: &LogSource,
+    progress: &ProgressSink,
+) -> Result<std::borrow::Cow<'a, JointLog>> {
     let _st = input.path().map(|p| Stage::begin(progress, &format!("reading {}", p.display()), 0));
     input.load(robot, src)
 }

@@ -4,20 +4,20 @@
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
-use crate::error::{Error, Result};
 use crate::dsp;
+use crate::error::{Error, Result};
 use crate::log::JointLog;
 use std::path::{Path, PathBuf};
 
-use super::io::write_log;
-use crate::output::write_json;
 use super::Outcome;
+use super::io::write_log;
+use crate::Robot;
+use crate::output::write_json;
 use crate::progress::{ProgressSink, Stage};
 use crate::report::{ParamsFile, PayloadSpec};
-use crate::Robot;
+use ivdyn_core::LinkInertia;
 use ivdyn_core::params::LINK_PARAMS;
 use ivdyn_core::rng::Rng;
-use ivdyn_core::LinkInertia;
 
 fn err_est(msg: impl Into<String>) -> Error {
     Error::Estimation { msg: msg.into() }
@@ -26,7 +26,6 @@ fn err_est(msg: impl Into<String>) -> Error {
 // ---------------------------------------------------------------------------------------
 // simulate
 // ---------------------------------------------------------------------------------------
-
 
 /// The trajectory to simulate.
 #[derive(Debug, Clone, PartialEq)]
@@ -110,7 +109,12 @@ pub fn true_robot(robot: &Robot, opts: &SimulateOptions) -> Result<Robot> {
     if let Some(p) = &opts.payload {
         let ic = &p.inertia;
         let i_c = Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
-        let li = LinkInertia::from_mass_com_inertia(p.mass, &Vector3::new(p.com[0], p.com[1], p.com[2]), &Matrix3::identity(), &i_c);
+        let li = LinkInertia::from_mass_com_inertia(
+            p.mass,
+            &Vector3::new(p.com[0], p.com[1], p.com[2]),
+            &Matrix3::identity(),
+            &i_c,
+        );
         let off = (n - 1) * LINK_PARAMS;
         for k in 0..LINK_PARAMS {
             theta[off + k] += li.0[k];
@@ -119,7 +123,11 @@ pub fn true_robot(robot: &Robot, opts: &SimulateOptions) -> Result<Robot> {
     for (idx, v) in [(0usize, &opts.fc), (1, &opts.fv)] {
         if let Some(v) = v {
             if v.len() != n {
-                return Err(Error::Dimension { what: if idx == 0 { "fc (one per joint)".into() } else { "fv (one per joint)".into() }, expected: n, got: v.len() });
+                return Err(Error::Dimension {
+                    what: if idx == 0 { "fc (one per joint)".into() } else { "fv (one per joint)".into() },
+                    expected: n,
+                    got: v.len(),
+                });
             }
             for j in 0..n {
                 theta[LINK_PARAMS * n + 4 * j + idx] = v[j];
@@ -145,14 +153,16 @@ pub fn fourier_trajectory(robot: &Robot, opts: &SimulateOptions) -> (Vec<f64>, V
             q0[j] = if l.upper - l.lower < 2.0 * std::f64::consts::TAU { 0.5 * (l.lower + l.upper) } else { 0.0 };
             amp = amp.min(0.4 * (l.upper - l.lower));
         }
-        let raw: Vec<(f64, f64)> = (0..h).map(|k| (rng.uniform(0.3, 1.0) / (k + 1) as f64, rng.uniform(0.0, std::f64::consts::TAU))).collect();
+        let raw: Vec<(f64, f64)> =
+            (0..h).map(|k| (rng.uniform(0.3, 1.0) / (k + 1) as f64, rng.uniform(0.0, std::f64::consts::TAU))).collect();
         let s: f64 = raw.iter().map(|(a, _)| a).sum();
         for k in 0..h {
             coef[j * h + k] = (raw[k].0 * amp / s, raw[k].1);
         }
     }
     let steps = (opts.duration_s * opts.rate_hz).round().max(2.0) as usize;
-    let (mut t, mut q, mut qd, mut qdd) = (Vec::with_capacity(steps), vec![0.0; steps * n], vec![0.0; steps * n], vec![0.0; steps * n]);
+    let (mut t, mut q, mut qd, mut qdd) =
+        (Vec::with_capacity(steps), vec![0.0; steps * n], vec![0.0; steps * n], vec![0.0; steps * n]);
     for s in 0..steps {
         let ts = s as f64 / opts.rate_hz;
         t.push(ts);
@@ -182,7 +192,11 @@ pub fn simulate(robot: &Robot, traj: &Trajectory, opts: &SimulateOptions) -> Res
         Trajectory::Fourier => fourier_trajectory(robot, opts),
         Trajectory::Samples { t, q } => {
             if t.len() < 3 || q.len() != t.len() * n {
-                return Err(Error::Dimension { what: "trajectory q (T x N, T >= 3)".into(), expected: t.len().max(3) * n, got: q.len() });
+                return Err(Error::Dimension {
+                    what: "trajectory q (T x N, T >= 3)".into(),
+                    expected: t.len().max(3) * n,
+                    got: q.len(),
+                });
             }
             let dt = dsp::median_dt(t).ok_or_else(|| err_est("trajectory: need increasing times"))?;
             if t.windows(2).any(|w| ((w[1] - w[0]) - dt).abs() > 1e-6 * dt.max(1e-9) + 1e-9) {
@@ -249,7 +263,10 @@ impl PayloadSpec {
             return Err(bad_option("payload_com", "needs 3 values x, y, z (m), all finite".into()));
         }
         if inertia.is_some_and(|i| i.len() != 6 || i.iter().any(|x| !x.is_finite())) {
-            return Err(bad_option("payload_inertia", "needs 6 values Ixx, Ixy, Ixz, Iyy, Iyz, Izz (kg m^2), all finite".into()));
+            return Err(bad_option(
+                "payload_inertia",
+                "needs 6 values Ixx, Ixy, Ixz, Iyy, Iyz, Izz (kg m^2), all finite".into(),
+            ));
         }
         let com = com.map(|c| [c[0], c[1], c[2]]).unwrap_or([0.0; 3]);
         let inertia = inertia.map(|i| [i[0], i[1], i[2], i[3], i[4], i[5]]).unwrap_or([0.0; 6]);
@@ -314,7 +331,11 @@ impl Trajectory {
 
 /// Runs `job` on `robot`: the log, written to `job.out` (whole or not at all), then the
 /// summary.
-pub fn simulate_job(robot: &Robot, job: &SimulateJob, progress: &ProgressSink) -> Result<Outcome<(JointLog, SimulateSummary)>> {
+pub fn simulate_job(
+    robot: &Robot,
+    job: &SimulateJob,
+    progress: &ProgressSink,
+) -> Result<Outcome<(JointLog, SimulateSummary)>> {
     job.opts.check()?;
     let log = {
         let _st = Stage::begin(progress, "simulating", 0);
@@ -327,7 +348,12 @@ pub fn simulate_job(robot: &Robot, job: &SimulateJob, progress: &ProgressSink) -
         let secs = log.t.last().copied().unwrap_or(0.0);
         written.push(format!("wrote {} samples of {} joints ({secs:.2} s) to {}", log.len(), log.dof(), p.display()));
     }
-    let true_params = ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta: truth.params() };
+    let true_params = ParamsFile {
+        robot: robot.name.clone(),
+        joints: robot.joint_names.clone(),
+        names: robot.param_names(),
+        theta: truth.params(),
+    };
     let summary = SimulateSummary {
         out: job.out.as_ref().map(|p| p.display().to_string()),
         samples: log.len(),

@@ -25,23 +25,22 @@
 //! command topic, torque outlier rejection, Savitzky-Golay differentiation, a forced
 //! resampling step, and logs with uneven stamps.
 
-
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{sync_channel, Receiver};
+use std::sync::mpsc::{Receiver, sync_channel};
 
-use super::identify::{err_est, FitData, IdentifyOptions, IdentifyReport, Method};
+use super::identify::{FitData, IdentifyOptions, IdentifyReport, Method, err_est};
+use crate::Robot;
 use crate::dsp::{self, Butterworth, DiffMethod};
 use crate::error::{Error, Result};
+use crate::ident::BaseParams;
 use crate::ident::instrument::Tracker;
 use crate::ident::joint_acc::JointAccs;
-use crate::ident::BaseParams;
-use crate::log::{for_each_sample, ReadOptions, StreamSummary};
+use crate::log::{ReadOptions, StreamSummary, for_each_sample};
+use crate::prep;
 use crate::prep::filtfilt::StreamFiltfilt;
 use crate::prep::stream::{CondRows, StreamCondition};
-use crate::prep;
 use crate::progress::Stage;
-use crate::Robot;
 
 /// Samples whose median interval is the sample time.
 pub const DT_PROBE: usize = 10_000;
@@ -131,7 +130,10 @@ struct RawBatch {
 
 /// Starts the reader thread: batches of [`BATCH`] messages over a bounded channel (at
 /// most two batches in flight). The thread's result is the reader's.
-fn spawn_reader(path: &Path, read: &ReadOptions) -> (Receiver<RawBatch>, std::thread::JoinHandle<Result<StreamSummary>>) {
+fn spawn_reader(
+    path: &Path,
+    read: &ReadOptions,
+) -> (Receiver<RawBatch>, std::thread::JoinHandle<Result<StreamSummary>>) {
     let (tx, rx) = sync_channel::<RawBatch>(2);
     let (path, read) = (path.to_path_buf(), read.clone());
     let h = std::thread::spawn(move || {
@@ -253,10 +255,14 @@ impl Front {
     /// The sample time from the probe, then the probe is fed.
     fn start(&mut self, out: &mut Block) -> Result<std::result::Result<(), String>> {
         let t0 = self.probe.first().and_then(|b| b.stamps.first().copied()).unwrap_or(0);
-        let mut t: Vec<f64> = self.probe.iter().flat_map(|b| b.stamps.iter().map(|&s| (s - t0) as f64 * 1e-9)).collect();
+        let mut t: Vec<f64> =
+            self.probe.iter().flat_map(|b| b.stamps.iter().map(|&s| (s - t0) as f64 * 1e-9)).collect();
         t.dedup();
         let Some(dt) = dsp::median_dt(&t) else {
-            return Err(self.log_err(format!("all {} samples have the same stamp (header stamps not set?); try --log-time", self.probed)));
+            return Err(self.log_err(format!(
+                "all {} samples have the same stamp (header stamps not set?); try --log-time",
+                self.probed
+            )));
         };
         self.t0 = Some(t0);
         self.dt = Some(dt);
@@ -405,7 +411,12 @@ fn conditioned_pass(
         Err(why) => return Ok(Streamed::Unsupported(why)),
     }
     flush(&mut block, &front, &mut first)?;
-    Ok(Streamed::Done(PassInfo { dt: front.dt.expect("finished"), samples: front.samples, duplicates: front.duplicates, truncated: summary.truncated }))
+    Ok(Streamed::Done(PassInfo {
+        dt: front.dt.expect("finished"),
+        samples: front.samples,
+        duplicates: front.duplicates,
+        truncated: summary.truncated,
+    }))
 }
 
 // ---------------------------------------------------------------------------------------
@@ -480,10 +491,11 @@ impl RowPacker<'_> {
             let e = (s + PACK_CHUNK).min(t);
             self.full.resize((e - s) * n * p, 0.0);
             let r = s * n..e * n;
-            crate::batch::regressor_batch(self.robot, &q[r.clone()], &qd[r.clone()], &qdd[r], &mut self.full, false).map_err(|e| match e {
-                Error::Sample { index, source } => Error::Sample { index: index + first + s, source },
-                e => e,
-            })?;
+            crate::batch::regressor_batch(self.robot, &q[r.clone()], &qd[r.clone()], &qdd[r], &mut self.full, false)
+                .map_err(|e| match e {
+                    Error::Sample { index, source } => Error::Sample { index: index + first + s, source },
+                    e => e,
+                })?;
             for (o, y) in out[s * c..e * c].chunks_exact_mut(c).zip(self.full.chunks_exact(n * p)) {
                 for (o, &i) in o.iter_mut().zip(&self.src) {
                     *o = y[i];
@@ -510,7 +522,6 @@ impl RowPacker<'_> {
         }
         Ok(())
     }
-
 }
 
 impl<'a> Stacker<'a> {
@@ -544,12 +555,27 @@ impl<'a> Stacker<'a> {
         for s in (0..t).step_by(SUB_BLOCK) {
             let e = (s + SUB_BLOCK).min(t);
             let r = s * n..e * n;
-            self.push_rows(blk.first + s, &blk.c.q[r.clone()], &blk.c.qd[r.clone()], &blk.c.qdd[r.clone()], &blk.tau[r], out)?;
+            self.push_rows(
+                blk.first + s,
+                &blk.c.q[r.clone()],
+                &blk.c.qd[r.clone()],
+                &blk.c.qdd[r.clone()],
+                &blk.tau[r],
+                out,
+            )?;
         }
         Ok(())
     }
 
-    fn push_rows(&mut self, first: usize, q: &[f64], qd: &[f64], qdd: &[f64], tau: &[f64], out: &mut Vec<(usize, Vec<f64>)>) -> Result<()> {
+    fn push_rows(
+        &mut self,
+        first: usize,
+        q: &[f64],
+        qd: &[f64],
+        qdd: &[f64],
+        tau: &[f64],
+        out: &mut Vec<(usize, Vec<f64>)>,
+    ) -> Result<()> {
         let n = self.n;
         let t = tau.len() / n;
         let (mut y, mut z) = (std::mem::take(&mut self.y), std::mem::take(&mut self.z));
@@ -724,7 +750,9 @@ fn accumulate(
     let n = robot.dof();
     let b = base.base_count();
     let Some(hint) = message_count(path, &read.topic)?.map(|c| c as usize) else {
-        return Ok(Streamed::Unsupported(format!("{what}: the MCAP file has no summary statistics (message count unknown)")));
+        return Ok(Streamed::Unsupported(format!(
+            "{what}: the MCAP file has no summary statistics (message count unknown)"
+        )));
     };
     let st = Stage::begin(&opts.progress, &format!("{what}: streaming"), hint as u64);
     let mut state: Option<(Stacker, Route, dsp::Decimator)> = None;
@@ -736,10 +764,19 @@ fn accumulate(
             let stacker = Stacker::new(robot, base, dt, &dec, instrument)?;
             // the split of the in-memory path, placed from the message count
             expected = hint.div_ceil(dec.factor);
-            let split = IdentifyOptions { validation_fraction: if holdout { opts.validation_fraction } else { 0.0 }, ..IdentifyOptions::default() };
+            let split = IdentifyOptions {
+                validation_fraction: if holdout { opts.validation_fraction } else { 0.0 },
+                ..IdentifyOptions::default()
+            };
             let (fit, val) = super::identify::split_ranges(expected, &split);
             let (edge, cut) = (fit.start, val.map(|v| v.start));
-            let route = Route { edge, cut, pending: VecDeque::new(), fit: JointAccs::new(n, b, instrument), val: cut.map(|_| JointAccs::new(n, b, false)) };
+            let route = Route {
+                edge,
+                cut,
+                pending: VecDeque::new(),
+                fit: JointAccs::new(n, b, instrument),
+                val: cut.map(|_| JointAccs::new(n, b, false)),
+            };
             state = Some((stacker, route, dec));
         }
         let (stacker, route, _) = state.as_mut().expect("set");
@@ -763,7 +800,13 @@ fn accumulate(
 /// [`super::identify::identify`] streamed from the MCAP file `path` (and the validation log
 /// `validation`, if any), with bounded memory. The numbers are those of the in-memory
 /// path to rounding (see the module docs for what differs and what is not streamed).
-pub fn identify_mcap(robot: &Robot, path: &Path, validation: Option<&Path>, read: &ReadOptions, opts: &IdentifyOptions) -> Result<Streamed<IdentifyReport>> {
+pub fn identify_mcap(
+    robot: &Robot,
+    path: &Path,
+    validation: Option<&Path>,
+    read: &ReadOptions,
+    opts: &IdentifyOptions,
+) -> Result<Streamed<IdentifyReport>> {
     if let Some(why) = unsupported(opts, read) {
         return Ok(Streamed::Unsupported(why));
     }
@@ -818,12 +861,19 @@ pub fn identify_mcap(robot: &Robot, path: &Path, validation: Option<&Path>, read
 /// [`super::identify::write_prediction`] streamed: reads and conditions the MCAP log at `log`
 /// block by block and writes measured, predicted (`rnea` of `model`) and residual torques
 /// to `out`. Returns the samples written.
-pub fn write_prediction_mcap(out: &Path, model: &Robot, log: &Path, read: &ReadOptions, opts: &IdentifyOptions) -> Result<Streamed<usize>> {
+pub fn write_prediction_mcap(
+    out: &Path,
+    model: &Robot,
+    log: &Path,
+    read: &ReadOptions,
+    opts: &IdentifyOptions,
+) -> Result<Streamed<usize>> {
     if let Some(why) = unsupported(opts, read) {
         return Ok(Streamed::Unsupported(why));
     }
     let n = model.dof();
-    let st = Stage::begin(&opts.progress, "writing the prediction", message_count(log, &read.topic)?.unwrap_or(0) as u64);
+    let st =
+        Stage::begin(&opts.progress, "writing the prediction", message_count(log, &read.topic)?.unwrap_or(0) as u64);
     let mut w = crate::log::PredictionWriter::create(out, &model.joint_names)?;
     let mut pred = vec![];
     let pass = conditioned_pass(log, read, opts, Some(&st), |blk, _| {

@@ -18,12 +18,12 @@
 //! Also here: [`robot_from_dh`], a runtime-sized robot from a standard DH table.
 
 use crate::error::Error;
-use crate::robot::{Robot, MAX_DOF};
-use ivdyn_core::dh::{model_from_dh, DhRow};
+use crate::robot::{MAX_DOF, Robot};
+use ivdyn_core::dh::{DhRow, model_from_dh};
 use ivdyn_core::params::{DRIVE_PARAMS, LINK_PARAMS, PARAMS_PER_JOINT};
+use ivdyn_core::{self as core_, Data, Model, VecN};
 use nalgebra::{SVector, Vector3};
 use simba::simd::SimdValue;
-use ivdyn_core::{self as core_, Data, Model, VecN};
 
 /// Below this many samples per thread, spawning threads costs more than it saves.
 pub const MIN_SAMPLES_PER_THREAD: usize = 64;
@@ -50,7 +50,14 @@ pub(crate) fn dim_err(what: String, expected: usize, got: usize) -> Error {
 
 /// Checks the inputs (`names[k]` has `inputs[k]`, each `T x N`) and `out` (`T x out_row`),
 /// with `T` taken from the first input. Returns `T`.
-fn check_dims(n: usize, names: &[&str], inputs: &[&[f64]], out: &[f64], out_shape: &str, out_row: usize) -> BatchResult<usize> {
+fn check_dims(
+    n: usize,
+    names: &[&str],
+    inputs: &[&[f64]],
+    out: &[f64],
+    out_shape: &str,
+    out_row: usize,
+) -> BatchResult<usize> {
     let len0 = inputs[0].len();
     if !len0.is_multiple_of(n) {
         let t = len0 / n;
@@ -134,7 +141,14 @@ pub fn rnea_batch(robot: &Robot, q: &[f64], qd: &[f64], qdd: &[f64], out: &mut [
     crate::with_model!(&robot.model, m => rnea_n(&**m, t, q, qd, qdd, out))
 }
 
-fn rnea_n<const N: usize>(m: &Model<N>, t: usize, q: &[f64], qd: &[f64], qdd: &[f64], out: &mut [f64]) -> BatchResult<()> {
+fn rnea_n<const N: usize>(
+    m: &Model<N>,
+    t: usize,
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+    out: &mut [f64],
+) -> BatchResult<()> {
     packs_n(m, t, &States { q, qd: Some(qd), qdd: Some(qdd), what: What::Rnea { drive: true } }, out)
 }
 
@@ -152,9 +166,17 @@ fn gravity_n<const N: usize>(m: &Model<N>, t: usize, q: &[f64], out: &mut [f64])
 /// Joint-torque regressors for `T` samples, row-major `T x N x 14N` (the full regressor,
 /// `Y theta == rnea`), or `T x N x 10N` (the inertial part only, as Pinocchio's
 /// `computeJointTorqueRegressor`) when `rigid_only`.
-pub fn regressor_batch(robot: &Robot, q: &[f64], qd: &[f64], qdd: &[f64], out: &mut [f64], rigid_only: bool) -> BatchResult<()> {
+pub fn regressor_batch(
+    robot: &Robot,
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+    out: &mut [f64],
+    rigid_only: bool,
+) -> BatchResult<()> {
     let n = robot.dof();
-    let (cols, shape) = if rigid_only { (LINK_PARAMS * n, "T x N x 10N") } else { (PARAMS_PER_JOINT * n, "T x N x 14N") };
+    let (cols, shape) =
+        if rigid_only { (LINK_PARAMS * n, "T x N x 10N") } else { (PARAMS_PER_JOINT * n, "T x N x 14N") };
     let t = check_dims(n, &["q", "qd", "qdd"], &[q, qd, qdd], out, shape, n * cols)?;
     crate::with_model!(&robot.model, m => regressor_n(&**m, t, q, qd, qdd, out, rigid_only))
 }
@@ -214,7 +236,13 @@ struct States<'a> {
 
 impl States<'_> {
     /// Sample `s` on the f64 path (the same bits as in a pack).
-    fn sample<const N: usize>(&self, m: &Model<N>, data: &mut Data<N>, s: usize, o: &mut [f64]) -> Result<(), core_::Error> {
+    fn sample<const N: usize>(
+        &self,
+        m: &Model<N>,
+        data: &mut Data<N>,
+        s: usize,
+        o: &mut [f64],
+    ) -> Result<(), core_::Error> {
         let input = |name, a: Option<&[f64]>| a.map_or(Ok(VecN::<N>::zeros()), |a| row::<N>(name, a, s));
         let (q, qd, qdd) = (input("q", Some(self.q))?, input("qd", self.qd)?, input("qdd", self.qdd)?);
         match self.what {
@@ -227,7 +255,9 @@ impl States<'_> {
                 }
             }
             What::Rnea { drive: true } => o.copy_from_slice(core_::rnea(m, data, &q, &qd, &qdd).as_slice()),
-            What::Rnea { drive: false } => o.copy_from_slice(core_::rnea::rnea_rigid(m, data, &q, &qd, &qdd).as_slice()),
+            What::Rnea { drive: false } => {
+                o.copy_from_slice(core_::rnea::rnea_rigid(m, data, &q, &qd, &qdd).as_slice())
+            }
         }
         Ok(())
     }
@@ -265,7 +295,8 @@ fn packs_chunk_portable<const N: usize>(m: &Model<N>, first: usize, x: &States, 
     let mut kin = Box::new(core_::kinematics::Kinematics::<Pack, N>::new());
     let mut y = Box::new(core_::Regressor::<N, Pack>::zeros());
     let zero = Pack::splat(0.0);
-    let (mut f, mut n, mut tau) = ([Vector3::<Pack>::zeros(); N], [Vector3::<Pack>::zeros(); N], SVector::<Pack, N>::repeat(zero));
+    let (mut f, mut n, mut tau) =
+        ([Vector3::<Pack>::zeros(); N], [Vector3::<Pack>::zeros(); N], SVector::<Pack, N>::repeat(zero));
     let mut ins = [SVector::<Pack, N>::repeat(zero); 3];
     let arrays = [("q", Some(x.q)), ("qd", x.qd), ("qdd", x.qdd)];
     for p0 in (0..count).step_by(LANES) {
@@ -293,14 +324,16 @@ fn packs_chunk_portable<const N: usize>(m: &Model<N>, first: usize, x: &States, 
                         // fixed-size blocks: unrolled stores, no per-entry bounds checks
                         let (links, _) = oi.as_chunks_mut::<LINK_PARAMS>();
                         for (j, blk) in links[..N].iter_mut().enumerate() {
-                            *blk = if j < i { [0.0; LINK_PARAMS] } else { core::array::from_fn(|c| y.link[i][j][c].0[k]) };
+                            *blk =
+                                if j < i { [0.0; LINK_PARAMS] } else { core::array::from_fn(|c| y.link[i][j][c].0[k]) };
                         }
                         if !rigid_only {
                             // drive columns: joint i's [sign(qd), qd, qdd, 1], zero elsewhere
                             let d = &mut oi[lc..];
                             d.fill(0.0);
                             let (v, a) = (qdp[i].0[k], qddp[i].0[k]);
-                            d[DRIVE_PARAMS * i..DRIVE_PARAMS * (i + 1)].copy_from_slice(&core_::params::DriveParams::regressor(v, a));
+                            d[DRIVE_PARAMS * i..DRIVE_PARAMS * (i + 1)]
+                                .copy_from_slice(&core_::params::DriveParams::regressor(v, a));
                         }
                     }
                 }
@@ -313,7 +346,11 @@ fn packs_chunk_portable<const N: usize>(m: &Model<N>, first: usize, x: &States, 
                     let o = &mut out[(p0 + k) * N..(p0 + k + 1) * N];
                     for i in 0..N {
                         // as core_::rnea: the rigid-body torque, then the drive terms added
-                        o[i] = if drive { tau[i].0[k] + m.drive[i].torque(qdp[i].0[k], qddp[i].0[k]) } else { tau[i].0[k] };
+                        o[i] = if drive {
+                            tau[i].0[k] + m.drive[i].torque(qdp[i].0[k], qddp[i].0[k])
+                        } else {
+                            tau[i].0[k]
+                        };
                     }
                 }
             }
@@ -347,7 +384,14 @@ pub fn forward_dynamics_batch(robot: &Robot, q: &[f64], qd: &[f64], tau: &[f64],
     crate::with_model!(&robot.model, m => forward_dynamics_n(&**m, t, q, qd, tau, out))
 }
 
-fn forward_dynamics_n<const N: usize>(m: &Model<N>, t: usize, q: &[f64], qd: &[f64], tau: &[f64], out: &mut [f64]) -> BatchResult<()> {
+fn forward_dynamics_n<const N: usize>(
+    m: &Model<N>,
+    t: usize,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+    out: &mut [f64],
+) -> BatchResult<()> {
     run::<N, _>(t, out, N, |data, s, o| {
         let (q, qd, tau) = (row::<N>("q", q, s)?, row::<N>("qd", qd, s)?, row::<N>("tau", tau, s)?);
         o.copy_from_slice(core_::forward_dynamics(m, data, &q, &qd, &tau)?.as_slice());
@@ -365,14 +409,17 @@ pub fn robot_from_dh(a: &[f64], d: &[f64], alpha: &[f64], offset: Option<&[f64]>
     let offset = offset.unwrap_or(&zeros);
     for (what, x) in [("d", d), ("alpha", alpha), ("offset", offset)] {
         if x.len() != n {
-            return Err(Error::Dimension { what: format!("{what} (one per joint, as a: N = {n})"), expected: n, got: x.len() });
+            return Err(Error::Dimension {
+                what: format!("{what} (one per joint, as a: N = {n})"),
+                expected: n,
+                got: x.len(),
+            });
         }
     }
     for (what, x) in [("a", a), ("d", d), ("alpha", alpha), ("offset", offset)] {
         core_::error::check_finite(what, x)?;
     }
-    let rows: Vec<DhRow> =
-        (0..n).map(|i| DhRow { a: a[i], d: d[i], alpha: alpha[i], offset: offset[i] }).collect();
+    let rows: Vec<DhRow> = (0..n).map(|i| DhRow { a: a[i], d: d[i], alpha: alpha[i], offset: offset[i] }).collect();
     fn build<const N: usize>(rows: &[DhRow]) -> Robot {
         let rows: &[DhRow; N] = rows.try_into().expect("length checked by the caller");
         Robot::from_model_named("dh", model_from_dh(rows))
@@ -392,6 +439,38 @@ pub fn robot_from_dh(a: &[f64], d: &[f64], alpha: &[f64], offset: Option<&[f64]>
         12 => build::<12>(&rows),
         dof => return Err(Error::TooManyJoints { dof, max: MAX_DOF }),
     })
+}
+
+/// Base regressor rows (`T x n x b`) at the given states, in chunks, with progress.
+pub fn stack_rows(
+    robot: &Robot,
+    cols: &[usize],
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+    st: Option<&crate::progress::Stage>,
+) -> crate::error::Result<Vec<f64>> {
+    let (n, p, b) = (robot.dof(), robot.num_params(), cols.len());
+    let t = q.len() / n;
+    let mut out = Vec::with_capacity(t * n * b);
+    const CHUNK: usize = 2048;
+    let mut full = vec![];
+    for s in (0..t).step_by(CHUNK) {
+        let e = (s + CHUNK).min(t);
+        full.resize((e - s) * n * p, 0.0);
+        let r = s * n..e * n;
+        regressor_batch(robot, &q[r.clone()], &qd[r.clone()], &qdd[r], &mut full, false).map_err(|e| match e {
+            Error::Sample { index, source } => Error::Sample { index: index + s, source },
+            e => e,
+        })?;
+        for row in full.chunks_exact(p) {
+            out.extend(cols.iter().map(|&c| row[c]));
+        }
+        if let Some(st) = st {
+            st.advance((e - s) as u64);
+        }
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -592,29 +671,4 @@ mod tests {
         assert!(robot_from_dh(&[0.0; 13], &[0.0; 13], &[0.0; 13], None).is_err());
         assert!(robot_from_dh(&[f64::NAN], &[0.0], &[0.0], None).is_err());
     }
-}
-
-/// Base regressor rows (`T x n x b`) at the given states, in chunks, with progress.
-pub fn stack_rows(robot: &Robot, cols: &[usize], q: &[f64], qd: &[f64], qdd: &[f64], st: Option<&crate::progress::Stage>) -> crate::error::Result<Vec<f64>> {
-    let (n, p, b) = (robot.dof(), robot.num_params(), cols.len());
-    let t = q.len() / n;
-    let mut out = Vec::with_capacity(t * n * b);
-    const CHUNK: usize = 2048;
-    let mut full = vec![];
-    for s in (0..t).step_by(CHUNK) {
-        let e = (s + CHUNK).min(t);
-        full.resize((e - s) * n * p, 0.0);
-        let r = s * n..e * n;
-        regressor_batch(robot, &q[r.clone()], &qd[r.clone()], &qdd[r], &mut full, false).map_err(|e| match e {
-            Error::Sample { index, source } => Error::Sample { index: index + s, source },
-            e => e,
-        })?;
-        for row in full.chunks_exact(p) {
-            out.extend(cols.iter().map(|&c| row[c]));
-        }
-        if let Some(st) = st {
-            st.advance((e - s) as u64);
-        }
-    }
-    Ok(out)
 }

@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 pub mod report;
 pub mod search;
 
-pub use search::{diagnose, DiagnoseOptions};
+pub use search::{DiagnoseOptions, diagnose};
 
 /// The effect vocabulary of DESIGN.md, in its order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]

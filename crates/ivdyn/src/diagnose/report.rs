@@ -31,7 +31,11 @@ fn check_shapes(d: &Diagnosis) -> Result<(usize, usize)> {
     let tr = &d.traces;
     let t = tr.t.len();
     let dim = |what: &str, expected: usize, got: usize| -> Result<()> {
-        if expected == got { Ok(()) } else { Err(Error::Dimension { what: format!("diagnosis {what}"), expected, got }) }
+        if expected == got {
+            Ok(())
+        } else {
+            Err(Error::Dimension { what: format!("diagnosis {what}"), expected, got })
+        }
     };
     if n == 0 {
         return Err(Error::Dimension { what: "diagnosis json.joints".into(), expected: 1, got: 0 });
@@ -47,7 +51,11 @@ fn check_shapes(d: &Diagnosis) -> Result<(usize, usize)> {
         dim(&format!("traces.predicted[{i}]"), t * n, p.len())?;
     }
     dim("json.effects (one per step)", d.steps.len(), d.json.effects.len())?;
-    for (what, a) in [("json.baseline_rms", &d.json.baseline_rms), ("json.final_rms", &d.json.final_rms), ("noise_std", &d.noise_std)] {
+    for (what, a) in [
+        ("json.baseline_rms", &d.json.baseline_rms),
+        ("json.final_rms", &d.json.final_rms),
+        ("noise_std", &d.noise_std),
+    ] {
         dim(what, n, a.len())?;
     }
     dim("regimes_before", n, d.regimes_before.len())?;
@@ -115,7 +123,11 @@ fn figures(d: &Diagnosis, n: usize, dir: &Path) -> Result<html::Figures> {
     // RMS bars: nominal, then after each step.
     let mut bars = vec![("nominal model".to_string(), plots::step_color(0), d.json.baseline_rms.clone())];
     for (i, s) in d.steps.iter().enumerate() {
-        bars.push((format!("after step {}: + {}", i + 1, s.effect.label()), plots::step_color(i + 1), s.rms_after.clone()));
+        bars.push((
+            format!("after step {}: + {}", i + 1, s.effect.label()),
+            plots::step_color(i + 1),
+            s.rms_after.clone(),
+        ));
     }
     let rms_bars = plots::rms_bars(joints, &bars, &d.noise_std).map_err(|e| plot_error(dir, "the RMS bar chart", e))?;
 
@@ -143,7 +155,8 @@ fn figures(d: &Diagnosis, n: usize, dir: &Path) -> Result<html::Figures> {
             torque.push(Trace { label: final_label.clone(), color: plots::step_color(last), y: &pred[last], width: 2 });
         }
         let zoom = zoom_window(&tr.t, &res[0]);
-        let torque = plots::torque_vs_time(name, &tr.t, &torque, zoom).map_err(|e| plot_error(dir, &format!("the torque plot of joint '{name}'"), e))?;
+        let torque = plots::torque_vs_time(name, &tr.t, &torque, zoom)
+            .map_err(|e| plot_error(dir, &format!("the torque plot of joint '{name}'"), e))?;
 
         let residual: Vec<Trace> = (0..=k)
             .map(|i| Trace {
@@ -155,10 +168,17 @@ fn figures(d: &Diagnosis, n: usize, dir: &Path) -> Result<html::Figures> {
                 color: plots::step_color(i),
                 y: &res[i],
                 // unchanged: legend only, so the trace it would cover stays visible
-                width: if i > 0 && !changed[i] { 0 } else if i == last && last > 0 { 2 } else { 1 },
+                width: if i > 0 && !changed[i] {
+                    0
+                } else if i == last && last > 0 {
+                    2
+                } else {
+                    1
+                },
             })
             .collect();
-        let residual = plots::residual_vs_time(name, &tr.t, &residual).map_err(|e| plot_error(dir, &format!("the residual plot of joint '{name}'"), e))?;
+        let residual = plots::residual_vs_time(name, &tr.t, &residual)
+            .map_err(|e| plot_error(dir, &format!("the residual plot of joint '{name}'"), e))?;
 
         let (q, qd, qdd) = (column(&tr.q, n, j), column(&tr.qd, n, j), column(&tr.qdd, n, j));
         let axes = [
@@ -170,7 +190,8 @@ fn figures(d: &Diagnosis, n: usize, dir: &Path) -> Result<html::Figures> {
         if last > 0 {
             scatter.push(Trace { label: final_label, color: plots::step_color(last), y: &res[last], width: 1 });
         }
-        let state = plots::residual_vs_state(name, &axes, &scatter).map_err(|e| plot_error(dir, &format!("the residual-vs-state plot of joint '{name}'"), e))?;
+        let state = plots::residual_vs_state(name, &axes, &scatter)
+            .map_err(|e| plot_error(dir, &format!("the residual-vs-state plot of joint '{name}'"), e))?;
         out.push(html::JointFigures { torque, residual, state });
     }
     Ok(html::Figures { rms_bars, joints: out })
@@ -191,7 +212,9 @@ pub fn write_html(d: &Diagnosis, dir: &Path) -> Result<()> {
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path.parent().unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?;
-    crate::output::write_atomic(path, |tmp| std::fs::write(tmp, bytes).map_err(|e| Error::Io { file: path.to_path_buf(), source: e }))
+    crate::output::write_atomic(path, |tmp| {
+        std::fs::write(tmp, bytes).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })
+    })
 }
 
 /// Topic of the prediction after step `i` (1-based) that added `effect`:
@@ -232,7 +255,12 @@ pub fn write_mcap_stamped(d: &Diagnosis, joints: &[String], t0_ns: i64, dir: &Pa
     let pred_fin = w.add_joint_state_topic("/ivdyn/predicted/final")?;
     let res_nom = w.add_joint_state_topic("/ivdyn/residual/nominal")?;
     let res_fin = w.add_joint_state_topic("/ivdyn/residual/final")?;
-    let steps = d.steps.iter().enumerate().map(|(i, s)| w.add_joint_state_topic(&step_topic(i + 1, s.effect))).collect::<Result<Vec<_>>>()?;
+    let steps = d
+        .steps
+        .iter()
+        .enumerate()
+        .map(|(i, s)| w.add_joint_state_topic(&step_topic(i + 1, s.effect)))
+        .collect::<Result<Vec<_>>>()?;
     let (nominal, last) = (&tr.predicted[0], &tr.predicted[k]);
     let mut res = vec![0.0; n];
     for s in 0..t {

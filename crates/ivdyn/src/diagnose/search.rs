@@ -38,14 +38,16 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::{CandidateScore, Diagnosis, DiagnosisJson, EffectJson, EffectKind, JointScore, LogInfo, Regimes, Step, Traces};
+use super::{
+    CandidateScore, Diagnosis, DiagnosisJson, EffectJson, EffectKind, JointScore, LogInfo, Regimes, Step, Traces,
+};
+use crate::Robot;
 use crate::batch;
+use crate::dsp::{self, Butterworth};
 use crate::error::{Error, Result};
 use crate::ident::stats::f_sf;
 use crate::log::JointLog;
-use crate::dsp::{self, Butterworth};
 use crate::prep;
-use crate::Robot;
 
 /// Options of [`diagnose`].
 #[derive(Debug, Clone)]
@@ -228,7 +230,10 @@ fn bad(msg: impl Into<String>) -> Error {
 
 fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) -> Result<Signals> {
     let n = log.dof();
-    let tau = log.tau.as_ref().ok_or_else(|| bad("the log has no effort (torque) values: nothing to compare the model with"))?;
+    let tau = log
+        .tau
+        .as_ref()
+        .ok_or_else(|| bad("the log has no effort (torque) values: nothing to compare the model with"))?;
     let use_qd = log.qd.is_some() && !opts.ignore_log_velocity;
     let copts = prep::ConditionOptions {
         diff: dsp::DiffMethod::Butterworth { order: 4, cutoff_hz: Some(cutoff_hz) },
@@ -264,7 +269,9 @@ fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) -> Result<S
     // two time constants of the cutoff (at least 2 samples) are left out at both ends
     let trim = ((2.0 / (cutoff_hz * c.dt)).ceil() as usize).max(2);
     if t_len <= 2 * trim + 50 {
-        return Err(bad(format!("the log has {t_len} samples; with {trim} edge samples dropped at each end (cutoff {cutoff_hz} Hz) fewer than 50 are left")));
+        return Err(bad(format!(
+            "the log has {t_len} samples; with {trim} edge samples dropped at each end (cutoff {cutoff_hz} Hz) fewer than 50 are left"
+        )));
     }
     let cut = |x: &[f64]| x[trim * n..(t_len - trim) * n].to_vec();
     Ok(Signals {
@@ -472,7 +479,8 @@ fn rss_joint(f: &Fit, gr: &Grams, j: usize, folds: &[usize]) -> f64 {
 /// RMS over the log of the torque the parameters of `which` add on joint `j`.
 fn effect_rms(f: &Fit, gr: &Grams, j: usize, which: &dyn Fn(&Param) -> bool) -> f64 {
     let g = sum_folds(&gr.g[j], &[0, 1]);
-    let idx: Vec<(usize, usize)> = joint_index(&f.params, j).into_iter().filter(|&(i, _)| which(&f.params[i])).collect();
+    let idx: Vec<(usize, usize)> =
+        joint_index(&f.params, j).into_iter().filter(|&(i, _)| which(&f.params[i])).collect();
     let mut v = 0.0;
     for &(ia, ca) in &idx {
         for &(ib, cb) in &idx {
@@ -510,11 +518,7 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
     v.sort_by(|a, b| a.total_cmp(b));
     let m = v.len() / 2;
-    if v.len() % 2 == 1 {
-        v[m]
-    } else {
-        0.5 * (v[m - 1] + v[m])
-    }
+    if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) }
 }
 
 /// Noise std and integrated autocorrelation time of the residual `r` on joint `j`.
@@ -612,11 +616,7 @@ fn regimes(s: &Signals, r: &[f64], n: usize) -> Vec<Regimes> {
                     sxx += a * a;
                     syy += b * b;
                 }
-                if sxx > 0.0 && syy > 0.0 {
-                    sxy / (sxx * syy).sqrt()
-                } else {
-                    0.0
-                }
+                if sxx > 0.0 && syy > 0.0 { sxy / (sxx * syy).sqrt() } else { 0.0 }
             };
             Regimes {
                 rms: ms((0..t_len).map(|k| rv(k).powi(2)).sum(), t_len),
@@ -672,7 +672,8 @@ impl Ctx<'_> {
         let n_eff = self.n_eff(j);
         let d2 = (n_eff - k_large as f64).max(1.0);
         // RSS scaled to the effective count: the F statistic of an AR(1) residual
-        let f_stat = ((r0 - r1).max(0.0) / d1) / (r1 / d2).max(1e-300) * (n_eff / (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64);
+        let f_stat = ((r0 - r1).max(0.0) / d1) / (r1 / d2).max(1e-300)
+            * (n_eff / (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64);
         let p = f_sf(f_stat, d1, d2);
         // two-fold cross-validation
         let mut h0 = 0.0;
@@ -708,36 +709,42 @@ impl Ctx<'_> {
     /// better than that: not named as a missing effect.
     fn beyond_nominal_uncertainty(&self, f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> bool {
         f.params.iter().zip(&f.theta).all(|(p, &v)| {
-            let small_armature = p.joint == Some(j) && p.kind == Some(EffectKind::Armature) && v < NOMINAL_UNCERTAINTY * self.m_diag[j];
-            let small_payload = p.kind == Some(EffectKind::Payload) && p.col == C_PAYLOAD && v < NOMINAL_UNCERTAINTY * self.terminal_mass;
+            let small_armature =
+                p.joint == Some(j) && p.kind == Some(EffectKind::Armature) && v < NOMINAL_UNCERTAINTY * self.m_diag[j];
+            let small_payload = p.kind == Some(EffectKind::Payload)
+                && p.col == C_PAYLOAD
+                && v < NOMINAL_UNCERTAINTY * self.terminal_mass;
             !(added(p) && (small_armature || small_payload))
         })
     }
 
     /// Whether the added parameters touching joint `j` have their physical sign: friction,
-/// armature and spring stiffness dissipate or store energy only when positive, and a
-/// payload has a positive mass. A negative fit is how differentiation lag or a model
-/// error imitates an effect, never the effect itself.
-fn physical(f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> bool {
-    f.params.iter().zip(&f.theta).all(|(p, &v)| {
-        if !added(p) || p.joint.is_some_and(|x| x != j) {
-            return true;
-        }
-        match (p.kind, p.col) {
-            (Some(EffectKind::Coulomb), C_SIGN)
-            | (Some(EffectKind::Viscous), C_QD)
-            | (Some(EffectKind::Armature), C_QDD)
-            | (Some(EffectKind::JointSpring), C_Q)
-            | (Some(EffectKind::Payload), C_PAYLOAD) => v > 0.0,
-            _ => true,
-        }
-    })
-}
+    /// armature and spring stiffness dissipate or store energy only when positive, and a
+    /// payload has a positive mass. A negative fit is how differentiation lag or a model
+    /// error imitates an effect, never the effect itself.
+    fn physical(f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> bool {
+        f.params.iter().zip(&f.theta).all(|(p, &v)| {
+            if !added(p) || p.joint.is_some_and(|x| x != j) {
+                return true;
+            }
+            match (p.kind, p.col) {
+                (Some(EffectKind::Coulomb), C_SIGN)
+                | (Some(EffectKind::Viscous), C_QD)
+                | (Some(EffectKind::Armature), C_QDD)
+                | (Some(EffectKind::JointSpring), C_Q)
+                | (Some(EffectKind::Payload), C_PAYLOAD) => v > 0.0,
+                _ => true,
+            }
+        })
+    }
 
-/// Noise-weighted RSS reduction of `larger` over `smaller` (all joints, all data).
+    /// Noise-weighted RSS reduction of `larger` over `smaller` (all joints, all data).
     fn gain(&self, smaller: &Model, larger: &Model) -> f64 {
-        let (fs, fl) = (fit(&smaller.params(), self.gr, &self.w, &[0, 1]), fit(&larger.params(), self.gr, &self.w, &[0, 1]));
-        (0..self.n).map(|j| self.w[j] * (rss_joint(&fs, self.gr, j, &[0, 1]) - rss_joint(&fl, self.gr, j, &[0, 1]))).sum()
+        let (fs, fl) =
+            (fit(&smaller.params(), self.gr, &self.w, &[0, 1]), fit(&larger.params(), self.gr, &self.w, &[0, 1]));
+        (0..self.n)
+            .map(|j| self.w[j] * (rss_joint(&fs, self.gr, j, &[0, 1]) - rss_joint(&fl, self.gr, j, &[0, 1])))
+            .sum()
     }
 }
 
@@ -754,21 +761,24 @@ fn inertia_like(e: EffectKind) -> bool {
 /// inertials (by at most `LINK_SCALE_MAX`) explains the residual and the candidate is no
 /// longer significant on joint `j` once those scales are free, the candidate is imitated
 /// by a model error. Returns the largest scale (as a fraction) when it is.
-fn model_error_lookalike(ctx: &Ctx, m: &Model, larger: &Model, j: usize, added: &dyn Fn(&Param) -> bool) -> Option<f64> {
+fn model_error_lookalike(
+    ctx: &Ctx,
+    m: &Model,
+    larger: &Model,
+    j: usize,
+    added: &dyn Fn(&Param) -> bool,
+) -> Option<f64> {
     let mut base = m.clone();
     base.link_scale = true;
     let mut l = larger.clone();
     l.link_scale = true;
     let fb = fit(&base.params(), ctx.gr, &ctx.w, &[0, 1]);
-    let smax = fb.params.iter().zip(&fb.theta).filter(|(p, _)| p.kind.is_none()).map(|(_, v)| v.abs()).fold(0.0, f64::max);
+    let smax =
+        fb.params.iter().zip(&fb.theta).filter(|(p, _)| p.kind.is_none()).map(|(_, v)| v.abs()).fold(0.0, f64::max);
     if smax > LINK_SCALE_MAX {
         return None;
     }
-    if ctx.joint_score(&base, &l, j, added).significant {
-        None
-    } else {
-        Some(smax)
-    }
+    if ctx.joint_score(&base, &l, j, added).significant { None } else { Some(smax) }
 }
 
 /// The model with effect `e` added where it can go, for scoring on joint `j`.
@@ -799,11 +809,11 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
                 let is_payload = |p: &Param| p.kind == Some(EffectKind::Payload);
                 for j in 0..n {
                     let mut sc = ctx.joint_score(m, &l, j, &is_payload);
-                    if sc.significant {
-                        if let Some(s) = model_error_lookalike(ctx, m, &l, j, &is_payload) {
-                            sc.significant = false;
-                            lookalike.push((j, s));
-                        }
+                    if sc.significant
+                        && let Some(s) = model_error_lookalike(ctx, m, &l, j, &is_payload)
+                    {
+                        sc.significant = false;
+                        lookalike.push((j, s));
                     }
                     per_joint.push(sc);
                 }
@@ -814,7 +824,13 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
             EffectKind::Stribeck => {
                 for j in 0..n {
                     if !m.has(j, EffectKind::Coulomb) || m.has(j, EffectKind::Stribeck) {
-                        per_joint.push(JointScore { f: 0.0, p: 1.0, heldout_gain: 0.0, effect_rms: 0.0, significant: false });
+                        per_joint.push(JointScore {
+                            f: 0.0,
+                            p: 1.0,
+                            heldout_gain: 0.0,
+                            effect_rms: 0.0,
+                            significant: false,
+                        });
                         continue;
                     }
                     // best vs on the grid, and fs > 0 (static above Coulomb friction)
@@ -823,7 +839,11 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
                         let mut l = m.with(Some(j), EffectKind::Stribeck);
                         l.stribeck_vs[j] = g;
                         let f = fit(&l.params(), ctx.gr, &ctx.w, &[0, 1]);
-                        let fs = f.params.iter().position(|p| p.kind == Some(EffectKind::Stribeck) && p.joint == Some(j)).map(|i| f.theta[i]);
+                        let fs = f
+                            .params
+                            .iter()
+                            .position(|p| p.kind == Some(EffectKind::Stribeck) && p.joint == Some(j))
+                            .map(|i| f.theta[i]);
                         let mut sc = ctx.joint_score(m, &l, j, &|p| p.kind == Some(EffectKind::Stribeck));
                         if fs.is_none_or(|v| v <= 0.0) {
                             sc.significant = false;
@@ -843,16 +863,28 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
             _ => {
                 for j in 0..n {
                     match propose(m, e, j) {
-                        None => per_joint.push(JointScore { f: 0.0, p: 1.0, heldout_gain: 0.0, effect_rms: 0.0, significant: false }),
+                        None => per_joint.push(JointScore {
+                            f: 0.0,
+                            p: 1.0,
+                            heldout_gain: 0.0,
+                            effect_rms: 0.0,
+                            significant: false,
+                        }),
                         Some(l) => {
                             // a spring is named only if its position column matters beyond
                             // a constant: test it against the model with an offset
                             let (base, sel): (Model, &dyn Fn(&Param) -> bool) = if e == EffectKind::JointSpring {
-                                (m.with(Some(j), EffectKind::TorqueOffset), &|p: &Param| p.kind == Some(EffectKind::JointSpring) && p.col == C_Q)
+                                (m.with(Some(j), EffectKind::TorqueOffset), &|p: &Param| {
+                                    p.kind == Some(EffectKind::JointSpring) && p.col == C_Q
+                                })
                             } else {
                                 (m.clone(), &move |p: &Param| p.kind == Some(e))
                             };
-                            let l = if e == EffectKind::JointSpring { l.without(Some(j), EffectKind::TorqueOffset) } else { l };
+                            let l = if e == EffectKind::JointSpring {
+                                l.without(Some(j), EffectKind::TorqueOffset)
+                            } else {
+                                l
+                            };
                             let sc = ctx.joint_score(&base, &l, j, &|p| p.joint == Some(j) && sel(p));
                             if sc.significant {
                                 larger.per_joint[j] = l.per_joint[j].clone();
@@ -874,7 +906,9 @@ fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
                 let mut base = larger.without(Some(j), e);
                 let sel: Box<dyn Fn(&Param) -> bool> = if e == EffectKind::JointSpring {
                     base = base.with(Some(j), EffectKind::TorqueOffset);
-                    Box::new(move |p: &Param| p.joint == Some(j) && p.kind == Some(EffectKind::JointSpring) && p.col == C_Q)
+                    Box::new(move |p: &Param| {
+                        p.joint == Some(j) && p.kind == Some(EffectKind::JointSpring) && p.col == C_Q
+                    })
                 } else {
                     Box::new(move |p: &Param| p.joint == Some(j) && p.kind == Some(e))
                 };
@@ -919,7 +953,8 @@ fn backward(ctx: &Ctx, m: &Model) -> Model {
         }
         if m.payload {
             let smaller = m.without(None, EffectKind::Payload);
-            let any = (0..ctx.n).any(|j| ctx.joint_score(&smaller, &m, j, &|p| p.kind == Some(EffectKind::Payload)).significant);
+            let any = (0..ctx.n)
+                .any(|j| ctx.joint_score(&smaller, &m, j, &|p| p.kind == Some(EffectKind::Payload)).significant);
             if !any {
                 worst = Some((0.0, None, EffectKind::Payload));
             }
@@ -957,7 +992,13 @@ struct Prepared {
     gr: Grams,
 }
 
-fn prepare(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64, align: Option<f64>) -> Result<Prepared> {
+fn prepare(
+    robot: &Robot,
+    log: &JointLog,
+    opts: &DiagnoseOptions,
+    cutoff_hz: f64,
+    align: Option<f64>,
+) -> Result<Prepared> {
     let n = robot.dof();
     let mut s = condition(log, opts, cutoff_hz)?;
     if let Some(a) = align {
@@ -997,7 +1038,8 @@ fn accel_step(qd: &[f64], n: usize, dt: f64) -> Vec<f64> {
 fn all_model(n: usize) -> Model {
     let mut all = Model::new(n);
     for j in 0..n {
-        all.per_joint[j] = vec![EffectKind::Coulomb, EffectKind::Viscous, EffectKind::Armature, EffectKind::JointSpring];
+        all.per_joint[j] =
+            vec![EffectKind::Coulomb, EffectKind::Viscous, EffectKind::Armature, EffectKind::JointSpring];
     }
     all.payload = true;
     all
@@ -1099,7 +1141,12 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     let mut final_candidates = vec![];
     for _ in 0..opts.max_steps {
         let mut cands = score_candidates(&ctx, &m);
-        let best = cands.iter().enumerate().filter(|(_, c)| !c.0.joints.is_empty()).max_by(|a, b| a.1 .0.score.total_cmp(&b.1 .0.score)).map(|(i, _)| i);
+        let best = cands
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !c.0.joints.is_empty())
+            .max_by(|a, b| a.1.0.score.total_cmp(&b.1.0.score))
+            .map(|(i, _)| i);
         let Some(bi) = best else {
             for c in cands.iter_mut() {
                 if c.0.reason.is_empty() {
@@ -1118,7 +1165,10 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
             } else if c.0.joints.is_empty() {
                 if c.0.reason.is_empty() { "not significant on any joint".into() } else { c.0.reason.clone() }
             } else {
-                format!("explains less than {best_name} ({:.0} % of its weighted residual reduction)", 100.0 * c.0.score / best_score)
+                format!(
+                    "explains less than {best_name} ({:.0} % of its weighted residual reduction)",
+                    100.0 * c.0.score / best_score
+                )
             };
         }
         let effect = cands[bi].0.effect;
@@ -1175,7 +1225,11 @@ fn assemble(
     // effects in the order found, with the final fit's parameters; an effect whose
     // joints were all dropped by a later backward step is not reported
     let theta_of = |j: usize, kind: EffectKind, col: usize| -> f64 {
-        f.params.iter().position(|p| p.joint == Some(j) && p.kind == Some(kind) && p.col == col).map(|i| f.theta[i]).unwrap_or(0.0)
+        f.params
+            .iter()
+            .position(|p| p.joint == Some(j) && p.kind == Some(kind) && p.col == col)
+            .map(|i| f.theta[i])
+            .unwrap_or(0.0)
     };
     let mut effects = vec![];
     let mut out_steps = vec![];
@@ -1207,7 +1261,10 @@ fn assemble(
         let list = |v: Vec<f64>| serde_json::Value::from(v);
         match kind {
             EffectKind::Coulomb => {
-                params.insert("fc".into(), list(joints.iter().map(|&j| theta_of(j, EffectKind::Coulomb, C_SIGN)).collect()));
+                params.insert(
+                    "fc".into(),
+                    list(joints.iter().map(|&j| theta_of(j, EffectKind::Coulomb, C_SIGN)).collect()),
+                );
             }
             EffectKind::Viscous => {
                 params.insert("fv".into(), list(joints.iter().map(|&j| theta_of(j, kind, C_QD)).collect()));
@@ -1221,12 +1278,16 @@ fn assemble(
             EffectKind::JointSpring => {
                 // k (q - qm) + c = k (q - q0) with q0 = qm - c / k
                 let k: Vec<f64> = joints.iter().map(|&j| theta_of(j, kind, C_Q)).collect();
-                let q0: Vec<f64> = joints.iter().zip(&k).map(|(&j, &k)| d.q_mean[j] - theta_of(j, kind, C_ONE) / k).collect();
+                let q0: Vec<f64> =
+                    joints.iter().zip(&k).map(|(&j, &k)| d.q_mean[j] - theta_of(j, kind, C_ONE) / k).collect();
                 params.insert("k".into(), list(k));
                 params.insert("q0".into(), list(q0));
             }
             EffectKind::Stribeck => {
-                params.insert("fc".into(), list(joints.iter().map(|&j| theta_of(j, EffectKind::Coulomb, C_SIGN)).collect()));
+                params.insert(
+                    "fc".into(),
+                    list(joints.iter().map(|&j| theta_of(j, EffectKind::Coulomb, C_SIGN)).collect()),
+                );
                 params.insert(
                     "fs".into(),
                     list(joints.iter().map(|&j| theta_of(j, kind, C_STRIBECK + m.stribeck_vs[j])).collect()),
@@ -1262,13 +1323,18 @@ fn assemble(
         st.evidence = evidence(st, &params, names, d, &regimes_before, ctx);
         effects.push(EffectJson {
             name: kind.name().into(),
-            joints: if kind == EffectKind::Payload { vec![] } else { joints.iter().map(|&j| names[j].clone()).collect() },
+            joints: if kind == EffectKind::Payload {
+                vec![]
+            } else {
+                joints.iter().map(|&j| names[j].clone()).collect()
+            },
             parameters: params,
             rms_before: st.rms_before.clone(),
             rms_after: st.rms_after.clone(),
         });
     }
-    let kept: Vec<Step> = out_steps.into_iter().filter(|st| effects.iter().any(|e| e.name == st.effect.name())).collect();
+    let kept: Vec<Step> =
+        out_steps.into_iter().filter(|st| effects.iter().any(|e| e.name == st.effect.name())).collect();
     let predicted = step_predictions(&raw, &kept, ctx, d, tau_nom);
     let gaps = remaining_gaps(ctx, m, &final_rms, &regimes_after, names);
     let verdict = if effects.is_empty() && gaps.is_empty() {
@@ -1282,7 +1348,11 @@ fn assemble(
                 if st.effect == EffectKind::Payload {
                     st.effect.label().to_string()
                 } else {
-                    format!("{} on {}", st.effect.label(), st.joints.iter().map(|&j| names[j].as_str()).collect::<Vec<_>>().join(", "))
+                    format!(
+                        "{} on {}",
+                        st.effect.label(),
+                        st.joints.iter().map(|&j| names[j].as_str()).collect::<Vec<_>>().join(", ")
+                    )
                 }
             })
             .collect();
@@ -1292,7 +1362,8 @@ fn assemble(
             format!("missing: {}; after adding them no other effect is significant, but {gaps}", list.join("; "))
         }
     };
-    let traces = Traces { t: s.t.clone(), q: s.q.clone(), qd: s.qd.clone(), qdd: s.qdd.clone(), tau: s.tau.clone(), predicted };
+    let traces =
+        Traces { t: s.t.clone(), q: s.q.clone(), qd: s.qd.clone(), qdd: s.qdd.clone(), tau: s.tau.clone(), predicted };
     Ok(Diagnosis {
         json: DiagnosisJson { effects, baseline_rms, final_rms, joints: names.clone() },
         steps: kept,
@@ -1320,7 +1391,13 @@ fn assemble(
 /// step `i` shows the model after the last search step that added nothing reported later
 /// than `i` (effects not reported at all count as earlier): with nothing merged, the model
 /// after each search step; the last one is always the model after the last search step.
-fn step_predictions(raw: &[(EffectKind, Model)], kept: &[Step], ctx: &Ctx, d: &Dictionary, tau_nom: &[f64]) -> Vec<Vec<f64>> {
+fn step_predictions(
+    raw: &[(EffectKind, Model)],
+    kept: &[Step],
+    ctx: &Ctx,
+    d: &Dictionary,
+    tau_nom: &[f64],
+) -> Vec<Vec<f64>> {
     let (n, t_len) = (ctx.n, tau_nom.len() / ctx.n);
     let rank = |e: EffectKind| kept.iter().position(|st| st.effect == e).unwrap_or(0);
     let mut predicted = vec![tau_nom.to_vec()];
@@ -1344,7 +1421,8 @@ fn remaining_gaps(ctx: &Ctx, m: &Model, final_rms: &[f64], reg: &[Regimes], name
     let mut scaled = m.clone();
     scaled.link_scale = true;
     let (f0, f1) = (fit(&m.params(), ctx.gr, &ctx.w, &[0, 1]), fit(&scaled.params(), ctx.gr, &ctx.w, &[0, 1]));
-    let smax = f1.params.iter().zip(&f1.theta).filter(|(p, _)| p.kind.is_none()).map(|(_, v)| v.abs()).fold(0.0, f64::max);
+    let smax =
+        f1.params.iter().zip(&f1.theta).filter(|(p, _)| p.kind.is_none()).map(|(_, v)| v.abs()).fold(0.0, f64::max);
     let mut parts = vec![];
     for j in 0..ctx.n {
         if final_rms[j] <= 1.5 * ctx.sigma[j] {
@@ -1378,7 +1456,13 @@ fn remaining_gaps(ctx: &Ctx, m: &Model, final_rms: &[f64], reg: &[Regimes], name
         if why.is_empty() {
             why.push("not explained by any effect of the vocabulary".into());
         }
-        parts.push(format!("{}: {:.3} N m vs noise {:.3} N m, {}", names[j], final_rms[j], ctx.sigma[j], why.join("; ")));
+        parts.push(format!(
+            "{}: {:.3} N m vs noise {:.3} N m, {}",
+            names[j],
+            final_rms[j],
+            ctx.sigma[j],
+            why.join("; ")
+        ));
     }
     if parts.is_empty() {
         String::new()
@@ -1454,7 +1538,12 @@ fn evidence(
         let com = params
             .get("com")
             .and_then(|v| v.as_array())
-            .map(|a| format!("[{}]", a.iter().map(|x| format!("{:.4}", x.as_f64().unwrap_or(f64::NAN))).collect::<Vec<_>>().join(", ")))
+            .map(|a| {
+                format!(
+                    "[{}]",
+                    a.iter().map(|x| format!("{:.4}", x.as_f64().unwrap_or(f64::NAN))).collect::<Vec<_>>().join(", ")
+                )
+            })
             .unwrap_or_else(|| "(not identifiable)".into());
         let js: Vec<&str> = cand.map(|c| c.joints.iter().map(|&j| names[j].as_str()).collect()).unwrap_or_default();
         out.push(format!(
@@ -1463,7 +1552,10 @@ fn evidence(
         ));
         for &j in &st.joints {
             if st.rms_before[j] > 1.5 * ctx.sigma[j] {
-                out.push(format!("{}: RMS {:.3} -> {:.3} N m (noise {:.3} N m)", names[j], st.rms_before[j], st.rms_after[j], ctx.sigma[j]));
+                out.push(format!(
+                    "{}: RMS {:.3} -> {:.3} N m (noise {:.3} N m)",
+                    names[j], st.rms_before[j], st.rms_after[j], ctx.sigma[j]
+                ));
             }
         }
     }

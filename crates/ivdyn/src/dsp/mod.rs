@@ -107,9 +107,7 @@ impl Butterworth {
             return Err(bad(format!("Butterworth order {order} out of range 1..=20")));
         }
         if !(fs.is_finite() && fs > 0.0 && cutoff_hz.is_finite() && cutoff_hz > 0.0 && cutoff_hz < 0.5 * fs) {
-            return Err(bad(format!(
-                "cut-off {cutoff_hz} Hz must be in (0, fs/2) for sample rate {fs} Hz"
-            )));
+            return Err(bad(format!("cut-off {cutoff_hz} Hz must be in (0, fs/2) for sample rate {fs} Hz")));
         }
         let k = (std::f64::consts::PI * cutoff_hz / fs).tan() * scale;
         let mut sections = vec![];
@@ -502,7 +500,11 @@ pub enum Interp {
 pub fn resample_uniform(t: &[f64], x: &[f64], m: usize, dt: f64, interp: Interp) -> Result<(Vec<f64>, Vec<f64>)> {
     let n = check_shape(x, m, "resample_uniform")?;
     if n != t.len() {
-        return Err(Error::Dimension { what: "resample_uniform: rows of x vs stamps".into(), expected: t.len(), got: n });
+        return Err(Error::Dimension {
+            what: "resample_uniform: rows of x vs stamps".into(),
+            expected: t.len(),
+            got: n,
+        });
     }
     if !(dt.is_finite() && dt > 0.0) {
         return Err(bad(format!("resampling step {dt} must be positive")));

@@ -36,12 +36,12 @@ use std::path::Path;
 use nalgebra::DMatrix;
 use serde::Serialize;
 
+use crate::Robot;
 use crate::error::{Error, Result};
-use crate::ident::{robot_base_params, BaseParams, LsAccumulator};
+use crate::ident::{BaseParams, LsAccumulator, robot_base_params};
 use crate::log::JointLog;
 use crate::progress::ProgressSink;
-use crate::Robot;
-use ivdyn_core::params::{drive_col, FC, PARAMS_PER_JOINT};
+use ivdyn_core::params::{FC, PARAMS_PER_JOINT, drive_col};
 use ivdyn_core::rng::Rng;
 use ivdyn_core::trajectory::Fourier;
 
@@ -244,7 +244,8 @@ struct Basis {
 
 impl Basis {
     fn new(omega: f64, h: usize, times: &[f64]) -> Basis {
-        let (mut q, mut qd, mut qdd) = (vec![0.0; times.len() * 2 * h], vec![0.0; times.len() * 2 * h], vec![0.0; times.len() * 2 * h]);
+        let (mut q, mut qd, mut qdd) =
+            (vec![0.0; times.len() * 2 * h], vec![0.0; times.len() * 2 * h], vec![0.0; times.len() * 2 * h]);
         for (k, &t) in times.iter().enumerate() {
             for l in 0..h {
                 for (c, (a, b)) in [(l, (1.0, 0.0)), (h + l, (0.0, 1.0))] {
@@ -423,7 +424,8 @@ impl<'a> Problem<'a> {
         for k in 0..kk {
             let (mut q0, mut v0, mut a0) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
             for i in 0..n {
-                let e: Vec<f64> = (0..2 * h).map(|c| if c < h { co.a[i * h + c] } else { co.b[i * h + c - h] }).collect();
+                let e: Vec<f64> =
+                    (0..2 * h).map(|c| if c < h { co.a[i * h + c] } else { co.b[i * h + c - h] }).collect();
                 q0[i] = co.q0[i] + dot(g.row(&g.q, k), &e);
                 v0[i] = dot(g.row(&g.qd, k), &e);
                 a0[i] = dot(g.row(&g.qdd, k), &e);
@@ -496,13 +498,17 @@ impl<'a> Problem<'a> {
                 let w = (0..b).map(|j| 0.5 * (up[j] / su - dn[j] / sd) / lam[j]).collect();
                 (f, w)
             }
-            (Criterion::Logdet, _) => (-lam.iter().map(|l| (l / rows as f64).ln()).sum::<f64>(), lam.iter().map(|l| -1.0 / l).collect()),
+            (Criterion::Logdet, _) => {
+                (-lam.iter().map(|l| (l / rows as f64).ln()).sum::<f64>(), lam.iter().map(|l| -1.0 / l).collect())
+            }
         };
         if !want_grad {
             return Ok(Eval { f, grad: None });
         }
         // d lambda_j = 2 v_j^T Phi^T dPhi v_j, so dF = <dPhi, Phi M> with M = 2 V diag(w) V^T
-        let m = &eig.eigenvectors * DMatrix::from_diagonal(&nalgebra::DVector::from_vec(w.iter().map(|x| 2.0 * x).collect())) * eig.eigenvectors.transpose();
+        let m = &eig.eigenvectors
+            * DMatrix::from_diagonal(&nalgebra::DVector::from_vec(w.iter().map(|x| 2.0 * x).collect()))
+            * eig.eigenvectors.transpose();
         let gm = &phi * m;
         // per sample and joint: sensitivities to q_i, qd_i, qdd_i
         let mut ge = vec![0.0; n * 2 * h];
@@ -516,7 +522,8 @@ impl<'a> Problem<'a> {
                         let y0 = base_row(k, 0, r, c);
                         sq += w * (base_row(k, 1 + i, r, c) - base_row(k, 1 + n + i, r, c)) / (2.0 * hq);
                         if !self.coulomb[c] {
-                            sv += w * (base_row(k, 1 + 2 * n + i, r, c) - base_row(k, 1 + 3 * n + i, r, c)) / (2.0 * hv);
+                            sv +=
+                                w * (base_row(k, 1 + 2 * n + i, r, c) - base_row(k, 1 + 3 * n + i, r, c)) / (2.0 * hv);
                         }
                         sa += w * (base_row(k, 1 + 4 * n + i, r, c) - y0);
                     }
@@ -601,7 +608,13 @@ impl<'a> Problem<'a> {
 
 /// L-BFGS (memory 8) with Armijo backtracking; memory reset when a step fails, stop when
 /// steepest descent fails too or `iters` is reached. `tick` is called once per iteration.
-fn lbfgs(pr: &Problem, mut x: Vec<f64>, iters: usize, sharpness: Option<f64>, tick: &dyn Fn()) -> Result<(Vec<f64>, f64)> {
+fn lbfgs(
+    pr: &Problem,
+    mut x: Vec<f64>,
+    iters: usize,
+    sharpness: Option<f64>,
+    tick: &dyn Fn(),
+) -> Result<(Vec<f64>, f64)> {
     let mut e = pr.eval(&x, true, sharpness)?;
     if !e.f.is_finite() {
         return Ok((x, e.f));
@@ -621,7 +634,11 @@ fn lbfgs(pr: &Problem, mut x: Vec<f64>, iters: usize, sharpness: Option<f64>, ti
             alphas[j] = rho * dot(&ss[j], &d);
             d.iter_mut().zip(&ys[j]).for_each(|(v, y)| *v -= alphas[j] * y);
         }
-        let gamma = if let (Some(s), Some(y)) = (ss.last(), ys.last()) { dot(s, y) / dot(y, y) } else { 0.1 / dot(&g, &g).sqrt().max(1e-12) };
+        let gamma = if let (Some(s), Some(y)) = (ss.last(), ys.last()) {
+            dot(s, y) / dot(y, y)
+        } else {
+            0.1 / dot(&g, &g).sqrt().max(1e-12)
+        };
         d.iter_mut().for_each(|v| *v *= gamma);
         for j in 0..ss.len() {
             let rho = 1.0 / dot(&ys[j], &ss[j]);
@@ -712,13 +729,19 @@ pub fn joint_bounds(robot: &Robot, opts: &ExciteOptions) -> Result<Vec<JointBoun
     let acc = per_joint("acceleration limit", &opts.acc_limit, n)?;
     let vel = match &opts.vel_limit {
         Some(v) => per_joint("velocity limit", v, n)?,
-        None => lim.iter().map(|l| if l.velocity.is_finite() && l.velocity > 0.0 { l.velocity } else { DEFAULT_VEL_LIMIT }).collect(),
+        None => lim
+            .iter()
+            .map(|l| if l.velocity.is_finite() && l.velocity > 0.0 { l.velocity } else { DEFAULT_VEL_LIMIT })
+            .collect(),
     };
     (0..n)
         .map(|i| {
             let ok = |v: f64| v > 0.0 && v.is_finite(); // false for NaN too
             if !ok(acc[i]) || !ok(vel[i]) {
-                return Err(bad(format!("joint '{}': velocity and acceleration limits must be positive and finite (got {} and {})", robot.joint_names[i], vel[i], acc[i])));
+                return Err(bad(format!(
+                    "joint '{}': velocity and acceleration limits must be positive and finite (got {} and {})",
+                    robot.joint_names[i], vel[i], acc[i]
+                )));
             }
             Ok(JointBounds { lower: lim[i].lower, upper: lim[i].upper, velocity: vel[i], acceleration: acc[i] })
         })
@@ -756,7 +779,12 @@ pub fn scores(robot: &Robot, base: &BaseParams, s: &Samples) -> Result<Scores> {
 pub fn sample(co: &Coeffs, times: &[f64]) -> Samples {
     let (n, h) = (co.n, co.h);
     let g = Basis::new(co.omega, h, times);
-    let mut s = Samples { t: times.to_vec(), q: vec![0.0; times.len() * n], qd: vec![0.0; times.len() * n], qdd: vec![0.0; times.len() * n] };
+    let mut s = Samples {
+        t: times.to_vec(),
+        q: vec![0.0; times.len() * n],
+        qd: vec![0.0; times.len() * n],
+        qdd: vec![0.0; times.len() * n],
+    };
     for k in 0..times.len() {
         for i in 0..n {
             let e: Vec<f64> = (0..2 * h).map(|c| if c < h { co.a[i * h + c] } else { co.b[i * h + c - h] }).collect();
@@ -790,8 +818,14 @@ pub fn design(robot: &Robot, opts: &ExciteOptions) -> Result<ExciteReport> {
     let boxes: Vec<Box1> = bounds
         .iter()
         .map(|b| {
-            let d = if b.lower.is_finite() && b.upper.is_finite() { opts.margin * 0.5 * (b.upper - b.lower) } else { 0.0 };
-            Box1 { lower: b.lower + d, upper: b.upper - d, vel: b.velocity * (1.0 - opts.margin), acc: b.acceleration * (1.0 - opts.margin) }
+            let d =
+                if b.lower.is_finite() && b.upper.is_finite() { opts.margin * 0.5 * (b.upper - b.lower) } else { 0.0 };
+            Box1 {
+                lower: b.lower + d,
+                upper: b.upper - d,
+                vel: b.velocity * (1.0 - opts.margin),
+                acc: b.acceleration * (1.0 - opts.margin),
+            }
         })
         .collect();
     for (i, b) in boxes.iter().enumerate() {
@@ -875,7 +909,9 @@ pub fn design(robot: &Robot, opts: &ExciteOptions) -> Result<ExciteReport> {
             let it = opts.iterations * (si + 1) / stages.len() - opts.iterations * si / stages.len();
             (x, _) = lbfgs(&pr, x, it, sh, &tick)?;
             f = pr.eval(&x, false, None)?.f;
-            if std::env::var("IVDYN_DEBUG").is_ok() { eprintln!("stage {si} f {f}"); }
+            if std::env::var("IVDYN_DEBUG").is_ok() {
+                eprintln!("stage {si} f {f}");
+            }
         }
         if best.as_ref().is_none_or(|(_, fb)| f < *fb) {
             best = Some((x, f));
@@ -942,7 +978,16 @@ pub fn write_csv(path: &Path, joints: &[String], s: &Samples) -> Result<()> {
 /// Writes the trajectory as MCAP `/joint_states` (position and velocity; no effort) for a
 /// robot to replay.
 pub fn write_mcap(path: &Path, joints: &[String], s: &Samples) -> Result<()> {
-    let log = JointLog { joint_names: joints.to_vec(), t0_ns: 0, t: s.t.clone(), q: s.q.clone(), qd: Some(s.qd.clone()), tau: None, u: None, truncated: false };
+    let log = JointLog {
+        joint_names: joints.to_vec(),
+        t0_ns: 0,
+        t: s.t.clone(),
+        q: s.q.clone(),
+        qd: Some(s.qd.clone()),
+        tau: None,
+        u: None,
+        truncated: false,
+    };
     crate::log::write_mcap(path, &log, &[]).map(|_| ())
 }
 
@@ -953,34 +998,53 @@ mod tests {
     /// The analytic gradient matches central differences of the criterion.
     #[test]
     fn gradient_matches_finite_differences() {
-        let robot = Robot::from_urdf(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
+        let robot = Robot::from_urdf(
+            concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf"),
+            Some("base_link"),
+            Some("tool0"),
+        )
+        .unwrap();
         let opts = ExciteOptions { harmonics: 3, opt_samples: 30, ..Default::default() };
         for crit in [Criterion::Cond, Criterion::Logdet] {
             let n = robot.dof();
             let base = robot_base_params(&robot, 200, 1).unwrap();
             let bounds = joint_bounds(&robot, &opts).unwrap();
-            let boxes = bounds.iter().map(|b| Box1 { lower: b.lower, upper: b.upper, vel: b.velocity, acc: b.acceleration }).collect();
+            let boxes = bounds
+                .iter()
+                .map(|b| Box1 { lower: b.lower, upper: b.upper, vel: b.velocity, acc: b.acceleration })
+                .collect();
             let h = opts.harmonics;
             let omega = std::f64::consts::TAU * 0.1;
             let ct: Vec<f64> = (0..30).map(|k| 10.0 * (k as f64 + 0.5) / 30.0).collect();
             let bt: Vec<f64> = (0..=200).map(|k| 10.0 * k as f64 / 200.0).collect();
             let coulomb = base.independent.iter().map(|&c| (0..n).any(|j| drive_col(n, j, FC) == c)).collect();
-            let pr = Problem { robot: &robot, base: &base, n, h, omega, boxes, crit_grid: Basis::new(omega, h, &ct), bound_grid: Basis::new(omega, h, &bt), criterion: crit, coulomb };
+            let pr = Problem {
+                robot: &robot,
+                base: &base,
+                n,
+                h,
+                omega,
+                boxes,
+                crit_grid: Basis::new(omega, h, &ct),
+                bound_grid: Basis::new(omega, h, &bt),
+                criterion: crit,
+                coulomb,
+            };
             let mut rng = Rng::new(3);
             let x = pr.random_x(&mut rng);
             for sh in [None, Some(8.0)] {
-            let g = pr.eval(&x, true, sh).unwrap().grad.unwrap();
-            let mut worst: f64 = 0.0;
-            let gn = g.iter().map(|v| v * v).sum::<f64>().sqrt();
-            for j in 0..x.len() {
-                let eps = 1e-6;
-                let (mut xp, mut xm) = (x.clone(), x.clone());
-                xp[j] += eps;
-                xm[j] -= eps;
-                let fd = (pr.eval(&xp, false, sh).unwrap().f - pr.eval(&xm, false, sh).unwrap().f) / (2.0 * eps);
-                worst = worst.max((fd - g[j]).abs() / gn);
-            }
-            assert!(worst < 1e-5, "{crit:?} {sh:?}: gradient error {worst:e} relative to |g| = {gn:e}");
+                let g = pr.eval(&x, true, sh).unwrap().grad.unwrap();
+                let mut worst: f64 = 0.0;
+                let gn = g.iter().map(|v| v * v).sum::<f64>().sqrt();
+                for j in 0..x.len() {
+                    let eps = 1e-6;
+                    let (mut xp, mut xm) = (x.clone(), x.clone());
+                    xp[j] += eps;
+                    xm[j] -= eps;
+                    let fd = (pr.eval(&xp, false, sh).unwrap().f - pr.eval(&xm, false, sh).unwrap().f) / (2.0 * eps);
+                    worst = worst.max((fd - g[j]).abs() / gn);
+                }
+                assert!(worst < 1e-5, "{crit:?} {sh:?}: gradient error {worst:e} relative to |g| = {gn:e}");
             }
         }
     }

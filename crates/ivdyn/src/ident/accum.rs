@@ -134,30 +134,22 @@ pub(crate) fn triangular_factor(a: &DMatrix<f64>) -> DMatrix<f64> {
 fn check_block(p: usize, phi: &[f64], y: &[f64], w: Option<&[f64]>) -> Result<()> {
     let m = y.len();
     if phi.len() != m * p {
-        return Err(Error::Dimension {
-            what: "phi (rows x p, row-major)".into(),
-            expected: m * p,
-            got: phi.len(),
-        });
+        return Err(Error::Dimension { what: "phi (rows x p, row-major)".into(), expected: m * p, got: phi.len() });
     }
-    if let Some(w) = w {
-        if w.len() != m {
-            return Err(Error::Dimension {
-                what: "w".into(),
-                expected: m,
-                got: w.len(),
-            });
-        }
+    if let Some(w) = w
+        && w.len() != m
+    {
+        return Err(Error::Dimension { what: "w".into(), expected: m, got: w.len() });
     }
     for i in 0..m {
         check_row(p, "phi", phi, i)?;
         if !y[i].is_finite() {
             return Err(non_finite("y", i));
         }
-        if let Some(w) = w {
-            if !(w[i].is_finite() && w[i] >= 0.0) {
-                return Err(non_finite("w", i));
-            }
+        if let Some(w) = w
+            && !(w[i].is_finite() && w[i] >= 0.0)
+        {
+            return Err(non_finite("w", i));
         }
     }
     Ok(())
@@ -181,11 +173,7 @@ fn non_finite(what: &'static str, index: usize) -> Error {
 }
 
 fn mismatch(what: &str, expected: usize, got: usize) -> Error {
-    Error::Dimension {
-        what: what.into(),
-        expected,
-        got,
-    }
+    Error::Dimension { what: what.into(), expected, got }
 }
 
 /// Streaming weighted least-squares statistics: the triangular factor `R_aug` of
@@ -285,11 +273,7 @@ impl LsAccumulator {
     /// `self` describes the union of both row sets. Errors if the `p` differ.
     pub fn merge(&mut self, other: &LsAccumulator) -> Result<()> {
         if other.p != self.p {
-            return Err(mismatch(
-                "LsAccumulator::merge: p of the other accumulator",
-                self.p,
-                other.p,
-            ));
+            return Err(mismatch("LsAccumulator::merge: p of the other accumulator", self.p, other.p));
         }
         // [R_self; R_other; buffered rows of other] has the same Gram matrix as all rows.
         let n = self.p + 1;
@@ -338,10 +322,7 @@ impl LsAccumulator {
     /// `Q₁ᵀ √W y` (the last column of `R_aug` above the corner), so that
     /// `ΦᵀWy = Rᵀ (Q₁ᵀ √W y)`.
     pub fn qty(&self) -> DVector<f64> {
-        self.r_aug()
-            .view((0, self.p), (self.p, 1))
-            .column(0)
-            .into_owned()
+        self.r_aug().view((0, self.p), (self.p, 1)).column(0).into_owned()
     }
 
     /// Residual sum of squares of the full least-squares fit, `R_aug[p,p]²`.
@@ -368,10 +349,7 @@ impl LsAccumulator {
 
 /// Solves `R x = b` for upper-triangular `R` (`n x n`, non-zero diagonal) by back
 /// substitution: `x_i = (b_i - Σ_{j>i} R_ij x_j) / R_ii`.
-pub(crate) fn back_substitute<S>(
-    r: &nalgebra::Matrix<f64, nalgebra::Dyn, nalgebra::Dyn, S>,
-    b: &[f64],
-) -> Vec<f64>
+pub(crate) fn back_substitute<S>(r: &nalgebra::Matrix<f64, nalgebra::Dyn, nalgebra::Dyn, S>, b: &[f64]) -> Vec<f64>
 where
     S: nalgebra::storage::Storage<f64, nalgebra::Dyn, nalgebra::Dyn>,
 {
@@ -454,11 +432,7 @@ impl IvAccumulator {
     /// Merges another chunk's statistics (sums add; the LS factors merge).
     pub fn merge(&mut self, other: &IvAccumulator) -> Result<()> {
         if other.p != self.p {
-            return Err(mismatch(
-                "IvAccumulator::merge: p of the other accumulator",
-                self.p,
-                other.p,
-            ));
+            return Err(mismatch("IvAccumulator::merge: p of the other accumulator", self.p, other.p));
         }
         self.ls.merge(&other.ls)?;
         self.ztwphi += &other.ztwphi;

@@ -18,15 +18,14 @@
 //! assert!((fit.theta[0] - 2.0).abs() < 1e-12 && (fit.theta[1] - 1.0).abs() < 1e-12);
 //! ```
 
-
 use std::f64::consts::PI;
 
+use crate::Robot;
 use crate::error::{Error, Result};
 use crate::ident::{BaseParams, FitReport, IvAccumulator, LsAccumulator, NotIdentifiable, fit_iv, fit_ls};
-use crate::Robot;
 use ivdyn_core::estim::{InstrumentModel, Riv, Rls, TerminalLink, TerminalSpec};
 use ivdyn_core::rng::Rng;
-use ivdyn_core::{regressor, Data, Model, VecN};
+use ivdyn_core::{Data, Model, VecN, regressor};
 use nalgebra::{DMatrix, DVector, Dyn};
 
 /// Rows handed to an accumulator per call (bounds nothing but the granularity of the
@@ -90,7 +89,9 @@ fn check_start(p: usize, p0: f64, forgetting: f64) -> Result<()> {
         return Err(Error::Estimation { msg: format!("recursive estimator: p0 must be finite and > 0, got {p0}") });
     }
     if !(forgetting > 0.0 && forgetting <= 1.0) {
-        return Err(Error::Estimation { msg: format!("recursive estimator: forgetting must be in (0, 1], got {forgetting}") });
+        return Err(Error::Estimation {
+            msg: format!("recursive estimator: forgetting must be in (0, 1], got {forgetting}"),
+        });
     }
     Ok(())
 }
@@ -140,9 +141,7 @@ impl RecursiveLs {
         }
         for i in 0..m {
             self.phi.copy_from_slice(&phi[i * p..(i + 1) * p]);
-            self.inner
-                .update(&self.phi, y[i], weight(w, i))
-                .map_err(|source| Error::Sample { index: i, source })?;
+            self.inner.update(&self.phi, y[i], weight(w, i)).map_err(|source| Error::Sample { index: i, source })?;
         }
         Ok(())
     }
@@ -242,11 +241,9 @@ impl RecursiveIv {
     }
 }
 
-
 /// `"payload not identifiable from this data: link6.m*cx (in link6.m*cx + 0.1*link5.m), ..."`.
 pub fn not_identifiable_message(n: &NotIdentifiable) -> String {
-    let parts: Vec<String> =
-        n.parameters.iter().zip(&n.combined_in).map(|(p, c)| format!("{p} (in {c})")).collect();
+    let parts: Vec<String> = n.parameters.iter().zip(&n.combined_in).map(|(p, c)| format!("{p} (in {c})")).collect();
     format!("payload not identifiable from this data: {}", parts.join(", "))
 }
 
@@ -264,7 +261,6 @@ pub fn flatten3(x: &[Vec<Vec<f64>>], inner: usize) -> Result<(Vec<f64>, usize, u
     }
     Ok((out, a, b))
 }
-
 
 // ------------------------------------------------------------------ terminal link, batch
 
@@ -327,7 +323,10 @@ pub fn terminal_names(robot: &Robot, spec: &TerminalSpec) -> Vec<String> {
 fn check_spec(spec: &TerminalSpec, n: usize) -> Result<()> {
     if spec.k >= n || spec.first_row > spec.k {
         return Err(Error::Estimation {
-            msg: format!("terminal link: need first_row <= k < N = {n}, got k = {}, first_row = {}", spec.k, spec.first_row),
+            msg: format!(
+                "terminal link: need first_row <= k < N = {n}, got k = {}, first_row = {}",
+                spec.k, spec.first_row
+            ),
         });
     }
     Ok(())
@@ -353,7 +352,11 @@ fn terminal_rows_n<const N: usize>(m: &Model<N>, spec: &TerminalSpec, samples: u
     for s in 0..samples {
         let q = VecN::<N>::from_fn(|j, _| {
             let l = &m.limits[j];
-            if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower { rng.uniform(l.lower, l.upper) } else { rng.uniform(-PI, PI) }
+            if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower {
+                rng.uniform(l.lower, l.upper)
+            } else {
+                rng.uniform(-PI, PI)
+            }
         });
         let qd = VecN::<N>::from_fn(|_, _| rng.uniform(-2.0, 2.0));
         let qdd = VecN::<N>::from_fn(|_, _| rng.uniform(-10.0, 10.0));
@@ -391,7 +394,9 @@ pub fn terminal_link_run(
         TerminalInstrument::Qdd(z) => check_len("qdd_instr (T x N)", t * n, z.len())?,
         TerminalInstrument::Eq35(u) => check_len("u (T x N)", t * n, u.len())?,
         TerminalInstrument::None if opts.iv => {
-            return Err(Error::Estimation { msg: "terminal link: the IV method needs an instrument (qdd_instr or u)".into() });
+            return Err(Error::Estimation {
+                msg: "terminal link: the IV method needs an instrument (qdd_instr or u)".into(),
+            });
         }
         TerminalInstrument::None => {}
     }
@@ -401,11 +406,15 @@ pub fn terminal_link_run(
         return Err(Error::Estimation { msg: "terminal link: no columns to estimate".into() });
     }
     if let Some(&c) = opts.columns.iter().find(|&&c| c >= cols) {
-        return Err(Error::Estimation { msg: format!("terminal link: column {c} out of range (the unknown set has {cols} columns)") });
+        return Err(Error::Estimation {
+            msg: format!("terminal link: column {c} out of range (the unknown set has {cols} columns)"),
+        });
     }
     check_start(opts.columns.len(), opts.p0, 1.0)?;
     if opts.record.first() == Some(&0) || opts.record.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(Error::Estimation { msg: "terminal link: record must be strictly increasing positive sample counts".into() });
+        return Err(Error::Estimation {
+            msg: "terminal link: record must be strictly increasing positive sample counts".into(),
+        });
     }
     crate::with_model!(&robot.model, m => terminal_run_n(&**m, opts, t, q, qd, qdd, tau, instrument))
 }
@@ -468,7 +477,13 @@ fn terminal_run_n<const N: usize>(
         Method::Ls(r) => r.covariance().transpose().as_slice().to_vec(),
         Method::Iv(r) => r.p.transpose().as_slice().to_vec(),
     };
-    Ok(TerminalRun { theta: tl.theta().as_slice().to_vec(), trace, p, rows_used: tl.rows_used, rows_skipped: tl.rows_skipped })
+    Ok(TerminalRun {
+        theta: tl.theta().as_slice().to_vec(),
+        trace,
+        p,
+        rows_used: tl.rows_used,
+        rows_skipped: tl.rows_skipped,
+    })
 }
 
 #[cfg(test)]
@@ -529,7 +544,16 @@ mod tests {
         assert_eq!(&run.trace[want.len()..], &run.theta[..]);
         assert_eq!(run.rows_used, (t * n) as u64);
         // IV without an instrument, and a NaN sample, are refused with their reason
-        let e = terminal_link_run(&robot, &TerminalOptions { iv: true, ..opts.clone() }, &q, &qd, &qdd, &tau, TerminalInstrument::None).unwrap_err();
+        let e = terminal_link_run(
+            &robot,
+            &TerminalOptions { iv: true, ..opts.clone() },
+            &q,
+            &qd,
+            &qdd,
+            &tau,
+            TerminalInstrument::None,
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("instrument"), "{e}");
         let mut bad = tau.clone();
         bad[7 * n + 2] = f64::NAN;

@@ -20,8 +20,8 @@
 //! matrix, hence same column geometry) rather than on the `m x p` matrix itself.
 
 use super::accum::{back_substitute, triangular_factor};
-use ivdyn_core::rng::Rng;
 use crate::error::{Error, Result};
+use ivdyn_core::rng::Rng;
 use nalgebra::DMatrix;
 
 /// Rank tolerance of the pivoted QR, relative to the largest pivot `|R_00|` of the
@@ -57,9 +57,8 @@ impl BaseParams {
         let p = phi.ncols();
         let norms: Vec<f64> = (0..p).map(|j| phi.column(j).norm()).collect();
         let max_norm = norms.iter().cloned().fold(0.0, f64::max);
-        let zero_columns: Vec<usize> = (0..p)
-            .filter(|&j| !(norms[j] > ZERO_COL_TOL * max_norm) || max_norm == 0.0)
-            .collect();
+        let zero_columns: Vec<usize> =
+            (0..p).filter(|&j| !(norms[j] > ZERO_COL_TOL * max_norm) || max_norm == 0.0).collect();
         let nonzero: Vec<usize> = (0..p).filter(|j| !zero_columns.contains(j)).collect();
 
         // Column-scaled non-zero columns, compressed to their triangular factor.
@@ -69,9 +68,7 @@ impl BaseParams {
         }
         let (r, perm) = pivoted_qr(triangular_factor(&scaled));
         let r00 = if r.nrows() > 0 { r[(0, 0)].abs() } else { 0.0 };
-        let b = (0..r.nrows().min(r.ncols()))
-            .take_while(|&i| r[(i, i)].abs() > RANK_TOL * r00)
-            .count();
+        let b = (0..r.nrows().min(r.ncols())).take_while(|&i| r[(i, i)].abs() > RANK_TOL * r00).count();
 
         // K_s = R11⁻¹ R12 column by column, then unscale: K = D_i⁻¹ K_s D_d.
         let indep_piv: Vec<usize> = perm[..b].iter().map(|&c| nonzero[c]).collect();
@@ -79,40 +76,22 @@ impl BaseParams {
         let r11 = r.view((0, 0), (b, b));
         let mut independent = indep_piv.clone();
         independent.sort_unstable();
-        let mut dependent: Vec<usize> =
-            dep_piv.iter().chain(zero_columns.iter()).cloned().collect();
+        let mut dependent: Vec<usize> = dep_piv.iter().chain(zero_columns.iter()).cloned().collect();
         dependent.sort_unstable();
         let mut k = DMatrix::zeros(b, dependent.len());
         for (t, &jd) in dep_piv.iter().enumerate() {
             let rhs: Vec<f64> = (0..b).map(|i| r[(i, b + t)]).collect();
             let ks = back_substitute(&r11, &rhs);
-            let col = dependent
-                .binary_search(&jd)
-                .expect("dependent column listed");
+            let col = dependent.binary_search(&jd).expect("dependent column listed");
             for (s, &ji) in indep_piv.iter().enumerate() {
-                let row = independent
-                    .binary_search(&ji)
-                    .expect("independent column listed");
+                let row = independent.binary_search(&ji).expect("independent column listed");
                 k[(row, col)] = ks[s] * norms[jd] / norms[ji];
             }
         }
-        let full_names: Vec<String> = (0..p)
-            .map(|j| {
-                names
-                    .get(j)
-                    .cloned()
-                    .unwrap_or_else(|| format!("theta[{j}]"))
-            })
-            .collect();
+        let full_names: Vec<String> =
+            (0..p).map(|j| names.get(j).cloned().unwrap_or_else(|| format!("theta[{j}]"))).collect();
         let names = base_names(&independent, &dependent, &k, &full_names);
-        BaseParams {
-            full_cols: p,
-            independent,
-            dependent,
-            k,
-            zero_columns,
-            names,
-        }
+        BaseParams { full_cols: p, independent, dependent, k, zero_columns, names }
     }
 
     /// Number of base parameters `b`.
@@ -129,12 +108,7 @@ impl BaseParams {
             .enumerate()
             .map(|(r, &i)| {
                 theta_full[i]
-                    + self
-                        .dependent
-                        .iter()
-                        .enumerate()
-                        .map(|(c, &d)| self.k[(r, c)] * theta_full[d])
-                        .sum::<f64>()
+                    + self.dependent.iter().enumerate().map(|(c, &d)| self.k[(r, c)] * theta_full[d]).sum::<f64>()
             })
             .collect())
     }
@@ -185,11 +159,7 @@ impl BaseParams {
 
     fn check_len(&self, what: &str, expected: usize, got: usize) -> Result<()> {
         if expected != got {
-            return Err(Error::Dimension {
-                what: what.into(),
-                expected,
-                got,
-            });
+            return Err(Error::Dimension { what: what.into(), expected, got });
         }
         Ok(())
     }
@@ -204,13 +174,7 @@ pub(crate) fn pivoted_qr(mut a: DMatrix<f64>) -> (DMatrix<f64>, Vec<usize>) {
     let mut perm: Vec<usize> = (0..n).collect();
     for j in 0..m.min(n) {
         let norm_below = |a: &DMatrix<f64>, c: usize| a.view((j, c), (m - j, 1)).norm_squared();
-        let best = (j..n).fold(j, |best, c| {
-            if norm_below(&a, c) > norm_below(&a, best) {
-                c
-            } else {
-                best
-            }
-        });
+        let best = (j..n).fold(j, |best, c| if norm_below(&a, c) > norm_below(&a, best) { c } else { best });
         a.swap_columns(j, best);
         perm.swap(j, best);
         let x = a.view((j, j), (m - j, 1)).clone_owned();
@@ -239,12 +203,7 @@ pub(crate) fn pivoted_qr(mut a: DMatrix<f64>) -> (DMatrix<f64>, Vec<usize>) {
 }
 
 /// Names `names[i] ± c*names[d] ...` for every base parameter.
-fn base_names(
-    independent: &[usize],
-    dependent: &[usize],
-    k: &DMatrix<f64>,
-    names: &[String],
-) -> Vec<String> {
+fn base_names(independent: &[usize], dependent: &[usize], k: &DMatrix<f64>, names: &[String]) -> Vec<String> {
     independent
         .iter()
         .enumerate()
@@ -276,11 +235,7 @@ pub fn format_sig(x: f64, digits: usize) -> String {
         return format!("{x}");
     }
     let trim = |s: String| -> String {
-        if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
-        } else {
-            s
-        }
+        if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
     };
     if (1e-4..1e6).contains(&a) {
         let decimals = (digits as i32 - 1 - a.log10().floor() as i32).max(0) as usize;
@@ -314,7 +269,13 @@ pub fn robot_base_params_with(robot: &crate::Robot, samples: usize, seed: u64, r
 /// of the model: they are zeroed in the sampled regressor, so they become zero columns
 /// (no base parameter contains them; [`BaseParams::apply`] keeps their nominal values).
 /// Used to fit a chosen subset of the drive parameters (e.g. no Coulomb friction).
-pub fn robot_base_params_excluding(robot: &crate::Robot, samples: usize, seed: u64, rigid_only: bool, exclude: &[usize]) -> Result<BaseParams> {
+pub fn robot_base_params_excluding(
+    robot: &crate::Robot,
+    samples: usize,
+    seed: u64,
+    rigid_only: bool,
+    exclude: &[usize],
+) -> Result<BaseParams> {
     let (n, p_all) = (robot.dof(), robot.num_params());
     let p = if rigid_only { ivdyn_core::params::LINK_PARAMS * n } else { p_all };
     if samples * n < p {
@@ -336,11 +297,7 @@ pub fn robot_base_params_excluding(robot: &crate::Robot, samples: usize, seed: u
             } else {
                 (-std::f64::consts::PI, std::f64::consts::PI)
             };
-            let vmax = if l.velocity.is_finite() && l.velocity > 0.0 {
-                l.velocity.min(1.0)
-            } else {
-                1.0
-            };
+            let vmax = if l.velocity.is_finite() && l.velocity > 0.0 { l.velocity.min(1.0) } else { 1.0 };
             q[j] = rng.uniform(lo, hi);
             qd[j] = rng.uniform(-vmax, vmax);
             qdd[j] = rng.uniform(-2.0, 2.0);

@@ -1,12 +1,12 @@
 //! Least squares straight from states: the regressor evaluated and accumulated per
 //! thread, never stored.
 
-use crate::batch::{dim_err, row, threads_for};
-use ivdyn_core::params::{LINK_PARAMS, PARAMS_PER_JOINT};
-use ivdyn_core::Model;
-use crate::error::Error;
-use crate::ident::{fit_ls, BaseParams, FitReport, LsAccumulator};
 use crate::Robot;
+use crate::batch::{dim_err, row, threads_for};
+use crate::error::Error;
+use crate::ident::{BaseParams, FitReport, LsAccumulator, fit_ls};
+use ivdyn_core::Model;
+use ivdyn_core::params::{LINK_PARAMS, PARAMS_PER_JOINT};
 use ivdyn_core::{self as core_, Data};
 
 /// Least-squares fit of the base parameters `base` from `T` samples, fused and
@@ -28,7 +28,13 @@ pub fn fit_ls_batch(
     let rigid_only = match base.full_cols {
         c if c == LINK_PARAMS * n => true,
         c if c == PARAMS_PER_JOINT * n => false,
-        c => return Err(dim_err(format!("base parameters over {c} columns (must be 10 N or 14 N, N = {n})"), PARAMS_PER_JOINT * n, c)),
+        c => {
+            return Err(dim_err(
+                format!("base parameters over {c} columns (must be 10 N or 14 N, N = {n})"),
+                PARAMS_PER_JOINT * n,
+                c,
+            ));
+        }
     };
     let t = q.len() / n.max(1);
     for (what, x) in [("q", q), ("qd", qd), ("qdd", qdd), ("tau", tau)] {
@@ -36,12 +42,13 @@ pub fn fit_ls_batch(
             return Err(dim_err(format!("{what} (T x N = {t} x {n})"), t * n, x.len()));
         }
     }
-    if let Some(w) = joint_weight {
-        if w.len() != n {
-            return Err(dim_err("joint_weight (N)".into(), n, w.len()));
-        }
+    if let Some(w) = joint_weight
+        && w.len() != n
+    {
+        return Err(dim_err("joint_weight (N)".into(), n, w.len()));
     }
-    let acc = crate::with_model!(&robot.model, m => fit_ls_n(&**m, base, rigid_only, t, q, qd, qdd, tau, joint_weight))?;
+    let acc =
+        crate::with_model!(&robot.model, m => fit_ls_n(&**m, base, rigid_only, t, q, qd, qdd, tau, joint_weight))?;
     fit_ls(&acc, &base.names)
 }
 
@@ -65,11 +72,16 @@ fn fit_ls_n<const N: usize>(
         let mut acc = LsAccumulator::new(b);
         let mut data = Box::new(Data::<N>::new());
         let mut yrow = vec![0.0; N * cols];
-        let (mut phi, mut y, mut w) = (Vec::with_capacity(block * N * b), Vec::with_capacity(block * N), Vec::with_capacity(block * N));
+        let (mut phi, mut y, mut w) =
+            (Vec::with_capacity(block * N * b), Vec::with_capacity(block * N), Vec::with_capacity(block * N));
         let mut rb = vec![0.0; b];
         for s in first..last {
             let at = |e: core_::Error| Error::Sample { index: s, source: e };
-            let (qv, qdv, qddv) = (row::<N>("q", q, s).map_err(at)?, row::<N>("qd", qd, s).map_err(at)?, row::<N>("qdd", qdd, s).map_err(at)?);
+            let (qv, qdv, qddv) = (
+                row::<N>("q", q, s).map_err(at)?,
+                row::<N>("qd", qd, s).map_err(at)?,
+                row::<N>("qdd", qdd, s).map_err(at)?,
+            );
             let taus = row::<N>("tau", tau, s).map_err(at)?;
             let yr = core_::regressor(m, &mut data, &qv, &qdv, &qddv);
             if rigid_only {
@@ -111,4 +123,3 @@ fn fit_ls_n<const N: usize>(
     }
     Ok(total)
 }
-

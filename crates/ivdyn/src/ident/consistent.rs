@@ -52,9 +52,9 @@ use serde::Serialize;
 
 use super::accum::LsAccumulator;
 use super::base::BaseParams;
-use crate::robot::physical::{check_params, from_pseudo_inertia, pseudo_inertia, PhysicalCheck};
 use crate::error::{Error, Result};
-use ivdyn_core::params::{drive_col, link_col, FC, FV, IA, LINK_PARAMS, TAU0};
+use crate::robot::physical::{PhysicalCheck, check_params, from_pseudo_inertia, pseudo_inertia};
+use ivdyn_core::params::{FC, FV, IA, LINK_PARAMS, TAU0, drive_col, link_col};
 
 /// Margin of positive definiteness, relative to the nominal scales (module docs).
 pub const MARGIN: f64 = 1e-6;
@@ -171,7 +171,8 @@ fn link_with_margin(x: &[f64], margin: &Matrix4<f64>) -> [f64; LINK_PARAMS] {
 /// largest) when that is not positive definite.
 fn start_link(p: &[f64], margin: &Matrix4<f64>) -> Option<[f64; 10]> {
     let j = pseudo_inertia(p) - margin;
-    log_cholesky_from_link(&from_pseudo_inertia(&j)).or_else(|| log_cholesky_from_link(&project_link(&from_pseudo_inertia(&j))))
+    log_cholesky_from_link(&from_pseudo_inertia(&j))
+        .or_else(|| log_cholesky_from_link(&project_link(&from_pseudo_inertia(&j))))
 }
 
 /// Inverse of [`link_from_log_cholesky`] for a positive definite pseudo-inertia: `None`
@@ -183,7 +184,18 @@ pub fn log_cholesky_from_link(p: &[f64]) -> Option<[f64; 10]> {
     let l = rev.cholesky()?.l();
     let u = Matrix4::from_fn(|a, b| l[(3 - a, 3 - b)]);
     let s = u[(3, 3)];
-    Some([s.ln(), (u[(0, 0)] / s).ln(), (u[(1, 1)] / s).ln(), (u[(2, 2)] / s).ln(), u[(0, 1)] / s, u[(1, 2)] / s, u[(0, 2)] / s, u[(0, 3)] / s, u[(1, 3)] / s, u[(2, 3)] / s])
+    Some([
+        s.ln(),
+        (u[(0, 0)] / s).ln(),
+        (u[(1, 1)] / s).ln(),
+        (u[(2, 2)] / s).ln(),
+        u[(0, 1)] / s,
+        u[(1, 2)] / s,
+        u[(0, 2)] / s,
+        u[(0, 3)] / s,
+        u[(1, 3)] / s,
+        u[(2, 3)] / s,
+    ])
 }
 
 /// The nearest (Frobenius) pseudo-inertia with eigenvalues `>= 1e-6 max eigenvalue`.
@@ -199,7 +211,8 @@ fn project_link(p: &[f64]) -> [f64; LINK_PARAMS] {
 fn theta_of(x: &[f64], n: usize, margins: &[Matrix4<f64>]) -> Vec<f64> {
     let mut th = vec![0.0; 14 * n];
     for i in 0..n {
-        th[link_col(i, 0)..link_col(i, LINK_PARAMS)].copy_from_slice(&link_with_margin(&x[10 * i..10 * i + 10], &margins[i]));
+        th[link_col(i, 0)..link_col(i, LINK_PARAMS)]
+            .copy_from_slice(&link_with_margin(&x[10 * i..10 * i + 10], &margins[i]));
     }
     for j in 0..n {
         let o = 10 * n + 4 * j;
@@ -277,7 +290,11 @@ pub fn fit_consistent(
     let p = 14 * n;
     let b = base.base_count();
     if acc.p() != b || base.full_cols != p || theta_ls.len() != p || theta_nom.len() != p || links.len() != n {
-        return Err(Error::Dimension { what: "consistent fit: accumulator / base / parameter sizes".into(), expected: p, got: theta_ls.len() });
+        return Err(Error::Dimension {
+            what: "consistent fit: accumulator / base / parameter sizes".into(),
+            expected: p,
+            got: theta_ls.len(),
+        });
     }
     if let Some(i) = theta_ls.iter().chain(theta_nom).position(|v| !v.is_finite()) {
         return Err(bad(format!("parameter {} is not finite", i % p)));
@@ -323,7 +340,8 @@ pub fn fit_consistent(
         .collect();
     for i in 0..n {
         let pl = &theta_ls[link_col(i, 0)..link_col(i, LINK_PARAMS)];
-        let lc = start_link(pl, &margins[i]).ok_or_else(|| bad(format!("link '{}': cannot project onto a consistent inertia", links[i])))?;
+        let lc = start_link(pl, &margins[i])
+            .ok_or_else(|| bad(format!("link '{}': cannot project onto a consistent inertia", links[i])))?;
         x[10 * i..10 * i + 10].copy_from_slice(&lc);
     }
     for j in 0..n {
@@ -374,7 +392,8 @@ pub fn fit_consistent(
             converged = false;
             while sit < opts.max_iter {
                 sit += 1;
-                let jr = DMatrix::from_fn(rows, p, |i, j| if i < b { a[(i, j)] } else { nt[(i - b, j)] }) * jac_theta(&x, n, &margins);
+                let jr = DMatrix::from_fn(rows, p, |i, j| if i < b { a[(i, j)] } else { nt[(i - b, j)] })
+                    * jac_theta(&x, n, &margins);
                 let jtj = jr.tr_mul(&jr);
                 let jtr = jr.tr_mul(&rv);
                 let mut step_taken = false;
@@ -425,7 +444,8 @@ pub fn fit_consistent(
     let cont = lm(x, &weights);
     let (th, _, it, converged) = if cont.1 < direct.1 { cont } else { direct };
     let theta_base = base.project(&th)?;
-    let rss_of = |t: &[f64]| -> Result<f64> { Ok(rss_min + (&r * DVector::from_vec(base.project(t)?) - &qty).norm_squared()) };
+    let rss_of =
+        |t: &[f64]| -> Result<f64> { Ok(rss_min + (&r * DVector::from_vec(base.project(t)?) - &qty).norm_squared()) };
     let rss = rss_of(&th)?;
     let rss_ls = rss_of(theta_ls)?;
     let check = check_params(&th, links, joints);

@@ -53,6 +53,11 @@ impl DriveTerms {
         if friction.contains(&"none") && friction.len() > 1 {
             return Err(bad("none cannot be combined with other terms".into()));
         }
-        Ok(DriveTerms { coulomb: friction.contains(&"coulomb"), viscous: friction.contains(&"viscous"), armature, offset })
+        Ok(DriveTerms {
+            coulomb: friction.contains(&"coulomb"),
+            viscous: friction.contains(&"viscous"),
+            armature,
+            offset,
+        })
     }
 }

@@ -129,14 +129,8 @@ impl LsCore {
         if b == 0 {
             return f64::NAN;
         }
-        let sv = self
-            .r_sel
-            .view((0, 0), (b, b))
-            .into_owned()
-            .singular_values();
-        let (mx, mn) = sv
-            .iter()
-            .fold((0.0f64, f64::INFINITY), |(a, c), &s| (a.max(s), c.min(s)));
+        let sv = self.r_sel.view((0, 0), (b, b)).into_owned().singular_values();
+        let (mx, mn) = sv.iter().fold((0.0f64, f64::INFINITY), |(a, c), &s| (a.max(s), c.min(s)));
         mx / mn
     }
 }
@@ -154,32 +148,19 @@ fn ls_core(acc: &LsAccumulator) -> LsCore {
         a.set_column(c, &r_aug.column(j));
     }
     a.set_column(sel.len(), &r_aug.column(p));
-    LsCore {
-        r_sel: triangular_factor(&a),
-        sel,
-        unexcited: split.dependent,
-        r_aug,
-    }
+    LsCore { r_sel: triangular_factor(&a), sel, unexcited: split.dependent, r_aug }
 }
 
 fn check_names(names: &[String], p: usize) -> Result<()> {
     if names.len() != p {
-        return Err(Error::Dimension {
-            what: "names".into(),
-            expected: p,
-            got: names.len(),
-        });
+        return Err(Error::Dimension { what: "names".into(), expected: p, got: names.len() });
     }
     Ok(())
 }
 
 /// `rss / (rows - rank)`, `NaN` without residual degrees of freedom.
 fn sigma2(rss: f64, rows: usize, rank: usize) -> f64 {
-    if rows > rank {
-        rss / (rows - rank) as f64
-    } else {
-        f64::NAN
-    }
+    if rows > rank { rss / (rows - rank) as f64 } else { f64::NAN }
 }
 
 /// Spreads a vector on `sel` into a length-`p` vector (`NaN` elsewhere).
@@ -204,27 +185,10 @@ fn scatter_mat(p: usize, sel: &[usize], m: &DMatrix<f64>) -> DMatrix<f64> {
 
 /// Fills `std` and `rel_std_pct` from the covariance.
 fn std_and_rel(theta: &[f64], cov: &DMatrix<f64>) -> (Vec<f64>, Vec<f64>) {
-    let std: Vec<f64> = (0..theta.len())
-        .map(|i| cov[(i, i)])
-        .map(|c| {
-            if c.is_nan() {
-                f64::NAN
-            } else {
-                c.max(0.0).sqrt()
-            }
-        })
-        .collect();
-    let rel = theta
-        .iter()
-        .zip(&std)
-        .map(|(&t, &s)| {
-            if t == 0.0 {
-                f64::INFINITY
-            } else {
-                100.0 * s / t.abs()
-            }
-        })
-        .collect();
+    let std: Vec<f64> =
+        (0..theta.len()).map(|i| cov[(i, i)]).map(|c| if c.is_nan() { f64::NAN } else { c.max(0.0).sqrt() }).collect();
+    let rel =
+        theta.iter().zip(&std).map(|(&t, &s)| if t == 0.0 { f64::INFINITY } else { 100.0 * s / t.abs() }).collect();
     (std, rel)
 }
 
@@ -286,9 +250,7 @@ pub fn fit_iv(acc: &IvAccumulator, names: &[String]) -> Result<FitReport> {
     if b > 0 && !(sv.iter().cloned().fold(f64::INFINITY, f64::min) > 1e-13 * smax) {
         return Err(Error::Core(ivdyn_core::Error::Singular));
     }
-    let theta_sel = lu
-        .solve(&g)
-        .ok_or(Error::Core(ivdyn_core::Error::Singular))?;
+    let theta_sel = lu.solve(&g).ok_or(Error::Core(ivdyn_core::Error::Singular))?;
 
     // rss from the stored factor: ‖R_aug [θ; -1]‖² (unexcited entries as 0).
     let mut v = DVector::zeros(p + 1);
@@ -301,13 +263,8 @@ pub fn fit_iv(acc: &IvAccumulator, names: &[String]) -> Result<FitReport> {
 
     // V_IV = σ² A⁻¹ S A⁻ᵀ with two LU solves: X = A⁻¹ S, V = A⁻¹ Xᵀ.
     let s = sub(acc.ztwz(), sel);
-    let x = lu
-        .solve(&s)
-        .ok_or(Error::Core(ivdyn_core::Error::Singular))?;
-    let v_iv = lu
-        .solve(&x.transpose())
-        .ok_or(Error::Core(ivdyn_core::Error::Singular))?
-        * s2;
+    let x = lu.solve(&s).ok_or(Error::Core(ivdyn_core::Error::Singular))?;
+    let v_iv = lu.solve(&x.transpose()).ok_or(Error::Core(ivdyn_core::Error::Singular))? * s2;
     let v_iv = (&v_iv + v_iv.transpose()) * 0.5;
     let v_ls = core.unscaled_cov() * s2;
     let theta_ls_sel = core.theta();
@@ -315,12 +272,7 @@ pub fn fit_iv(acc: &IvAccumulator, names: &[String]) -> Result<FitReport> {
     // With an exact fit (rss at rounding level) both estimates agree to rounding and
     // the scale-free statistic would only measure rounding noise: no test.
     let dwh = if rss <= EXACT_FIT_TOL * EXACT_FIT_TOL * acc.sum_wyy() {
-        DwhTest {
-            statistic: 0.0,
-            dof: 0,
-            p_value: 1.0,
-            ls_biased: false,
-        }
+        DwhTest { statistic: 0.0, dof: 0, p_value: 1.0, ls_biased: false }
     } else {
         dwh_test(&d, &v_iv, &v_ls)
     };
@@ -358,14 +310,7 @@ pub fn dwh_test(d: &DVector<f64>, v_iv: &DMatrix<f64>, v_ls: &DMatrix<f64>) -> D
     });
     let corr = DMatrix::from_fn(b, b, |i, j| v_iv[(i, j)] * unit(i) * unit(j));
     let ds = DVector::from_fn(b, |i, _| d[i] * unit(i));
-    let top = if b > 0 {
-        corr.symmetric_eigenvalues()
-            .iter()
-            .cloned()
-            .fold(0.0, f64::max)
-    } else {
-        0.0
-    };
+    let top = if b > 0 { corr.symmetric_eigenvalues().iter().cloned().fold(0.0, f64::max) } else { 0.0 };
     let eig = diff.symmetric_eigen();
     let (mut h, mut dof) = (0.0, 0usize);
     for (k, &lambda) in eig.eigenvalues.iter().enumerate() {
@@ -375,17 +320,8 @@ pub fn dwh_test(d: &DVector<f64>, v_iv: &DMatrix<f64>, v_ls: &DMatrix<f64>) -> D
             dof += 1;
         }
     }
-    let p_value = if dof == 0 {
-        1.0
-    } else {
-        chi2_sf(h, dof as f64)
-    };
-    DwhTest {
-        statistic: h,
-        dof,
-        p_value,
-        ls_biased: p_value < 0.01,
-    }
+    let p_value = if dof == 0 { 1.0 } else { chi2_sf(h, dof as f64) };
+    DwhTest { statistic: h, dof, p_value, ls_biased: p_value < 0.01 }
 }
 
 impl fmt::Display for FitReport {
@@ -402,33 +338,21 @@ impl fmt::Display for FitReport {
         )?;
         let w = self.names.iter().map(|n| n.len()).max().unwrap_or(4).max(9);
         let with_ls = self.theta_ls.is_some();
-        write!(
-            f,
-            "{:<w$}  {:>14}  {:>12}  {:>9}",
-            "parameter", "theta", "std", "rel %"
-        )?;
+        write!(f, "{:<w$}  {:>14}  {:>12}  {:>9}", "parameter", "theta", "std", "rel %")?;
         if with_ls {
             write!(f, "  {:>14}", "theta_LS")?;
         }
         writeln!(f)?;
         for i in 0..self.theta.len() {
             let (t, s) = (format_sig(self.theta[i], 6), format_sig(self.std[i], 3));
-            write!(
-                f,
-                "{:<w$}  {t:>14}  {s:>12}  {:>9.2}",
-                self.names[i], self.rel_std_pct[i]
-            )?;
+            write!(f, "{:<w$}  {t:>14}  {s:>12}  {:>9.2}", self.names[i], self.rel_std_pct[i])?;
             if let Some(ls) = &self.theta_ls {
                 write!(f, "  {:>14}", format_sig(ls[i], 6))?;
             }
             writeln!(f)?;
         }
         if !self.unexcited.is_empty() {
-            writeln!(
-                f,
-                "not excited by this data (not estimated): {}",
-                self.unexcited.join(", ")
-            )?;
+            writeln!(f, "not excited by this data (not estimated): {}", self.unexcited.join(", "))?;
         }
         if let Some(t) = &self.dwh {
             writeln!(
@@ -437,11 +361,7 @@ impl fmt::Display for FitReport {
                 t.statistic,
                 t.dof,
                 t.p_value,
-                if t.ls_biased {
-                    ": LS is biased, use IV"
-                } else {
-                    ": no evidence of LS bias"
-                }
+                if t.ls_biased { ": LS is biased, use IV" } else { ": no evidence of LS bias" }
             )?;
         }
         Ok(())

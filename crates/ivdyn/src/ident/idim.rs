@@ -10,9 +10,9 @@
 //! The control law must be the robot's (it is part of the method); when the controller is
 //! unknown, a stiff PD on the commanded positions is the usual stand-in (say so).
 
-use crate::error::{Error, Result};
-use crate::ident::{fit_iv, fit_ls, BaseParams, FitReport, IvAccumulator, LsAccumulator};
 use crate::Robot;
+use crate::error::{Error, Result};
+use crate::ident::{BaseParams, FitReport, IvAccumulator, LsAccumulator, fit_iv, fit_ls};
 
 /// The measured experiment: `T x N` row-major arrays at a fixed sample time.
 #[derive(Debug, Clone, Copy)]
@@ -65,7 +65,11 @@ where
     let t = exp.q.len() / n;
     for (what, x) in [("qd", exp.qd), ("qdd", exp.qdd), ("tau", exp.tau)] {
         if x.len() != t * n {
-            return Err(Error::Dimension { what: format!("{what} (T x N = {t} x {n})"), expected: t * n, got: x.len() });
+            return Err(Error::Dimension {
+                what: format!("{what} (T x N = {t} x {n})"),
+                expected: t * n,
+                got: x.len(),
+            });
         }
     }
     // regressor rows at the measured states, once
@@ -109,7 +113,10 @@ where
         }
         let Some(alpha) = used else {
             return Err(Error::Estimation {
-                msg: format!("IDIM-IV iteration {iter}: even the nominal model's simulation failed: {}", last_err.map(|e| e.to_string()).unwrap_or_default()),
+                msg: format!(
+                    "IDIM-IV iteration {iter}: even the nominal model's simulation failed: {}",
+                    last_err.map(|e| e.to_string()).unwrap_or_default()
+                ),
             });
         };
         shrink.push(alpha);
@@ -130,7 +137,14 @@ where
 
 /// Closed-loop simulation of `sim` under `control` (semi-implicit Euler at the sample
 /// time), writing the instrument rows (base regressor at the simulated states) into `z`.
-fn simulate<F>(sim: &Robot, robot: &Robot, base: &BaseParams, exp: &Experiment, control: &mut F, z: &mut Vec<f64>) -> Result<()>
+fn simulate<F>(
+    sim: &Robot,
+    robot: &Robot,
+    base: &BaseParams,
+    exp: &Experiment,
+    control: &mut F,
+    z: &mut Vec<f64>,
+) -> Result<()>
 where
     F: FnMut(usize, &[f64], &[f64]) -> Vec<f64>,
 {
@@ -145,7 +159,9 @@ where
             msg: format!("sample {k}: simulating the current estimate failed ({e})"),
         })?;
         if qdd.iter().chain(&q).any(|v| !v.is_finite() || v.abs() > 1e6) {
-            return Err(Error::Estimation { msg: format!("sample {k}: the simulation of the current estimate diverged") });
+            return Err(Error::Estimation {
+                msg: format!("sample {k}: the simulation of the current estimate diverged"),
+            });
         }
         let y = robot.regressor(&q, &qd, &qdd)?;
         for i in 0..n {

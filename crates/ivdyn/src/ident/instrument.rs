@@ -1,8 +1,8 @@
 //! The instrument without a command topic: the regressor on a closed-loop simulation of
 //! the nominal model tracking the measured positions (the stand-in control law of IDIM-IV).
 
-use crate::error::{Error, Result};
 use crate::Robot;
+use crate::error::{Error, Result};
 
 fn err_est(msg: impl Into<String>) -> Error {
     Error::Estimation { msg: msg.into() }
@@ -14,7 +14,13 @@ pub const TRACKING_INSTRUMENT: &str = "regressor on a closed-loop simulation of 
 /// Closed-loop simulation (semi-implicit Euler at `dt`) of the nominal model tracking the
 /// measured motion: `tau = rnea(q_m, qd_m, qdd_m) + M(q_m) (kp (q_m - q) + kd (qd_m - qd))`.
 /// Returns the simulated `(q, qd, qdd)`.
-pub fn nominal_tracking(robot: &Robot, q: &[f64], qd: &[f64], qdd: &[f64], dt: f64) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
+pub fn nominal_tracking(
+    robot: &Robot,
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+    dt: f64,
+) -> Result<(Vec<f64>, Vec<f64>, Vec<f64>)> {
     Tracker::new(dt).run(robot, q, qd, qdd)
 }
 
@@ -59,7 +65,8 @@ impl Tracker {
         crate::batch::mass_matrix_batch(robot, q, &mut mm)?;
         let (kp, kd, dt) = (self.kp, self.kd, self.dt);
         let (mut qs, mut qds) = self.state.take().unwrap_or_else(|| (q[..n].to_vec(), qd[..n].to_vec()));
-        let (mut oq, mut oqd, mut oqdd) = (Vec::with_capacity(t * n), Vec::with_capacity(t * n), Vec::with_capacity(t * n));
+        let (mut oq, mut oqd, mut oqdd) =
+            (Vec::with_capacity(t * n), Vec::with_capacity(t * n), Vec::with_capacity(t * n));
         let done = self.done;
         // one work buffer for the block (the per-call `Robot::forward_dynamics` allocates one)
         crate::with_model!(&robot.model, m => {

@@ -48,7 +48,9 @@ impl JointAccs {
     /// Empty statistics for `n` joints and `b` base parameters; `with_iv`: also the
     /// instrument sums (then every [`add`](Self::add) needs `z`).
     pub fn new(n: usize, b: usize, with_iv: bool) -> Self {
-        let per = (0..n).map(|_| if with_iv { Acc::Iv(Box::new(IvAccumulator::new(b))) } else { Acc::Ls(LsAccumulator::new(b)) }).collect();
+        let per = (0..n)
+            .map(|_| if with_iv { Acc::Iv(Box::new(IvAccumulator::new(b))) } else { Acc::Ls(LsAccumulator::new(b)) })
+            .collect();
         JointAccs { n, b, per, sum_y: vec![0.0; n], sum_yy: vec![0.0; n], samples: 0 }
     }
 
@@ -68,7 +70,11 @@ impl JointAccs {
         let (n, b) = (self.n, self.b);
         let t = tau.len() / n.max(1);
         if phi.len() != t * n * b || tau.len() != t * n || z.is_some_and(|z| z.len() != t * n * b) {
-            return Err(crate::Error::Dimension { what: "JointAccs::add: phi, z (T x n x b) and tau (T x n)".into(), expected: t * n * b, got: phi.len() });
+            return Err(crate::Error::Dimension {
+                what: "JointAccs::add: phi, z (T x n x b) and tau (T x n)".into(),
+                expected: t * n * b,
+                got: phi.len(),
+            });
         }
         if self.has_iv() && z.is_none() {
             return Err(crate::Error::Estimation { msg: "JointAccs::add: instrument rows missing".into() });

@@ -47,8 +47,8 @@ pub mod wls;
 
 pub use accum::{IvAccumulator, LsAccumulator};
 pub use base::{BaseParams, robot_base_params, robot_base_params_excluding};
-pub use fit::{DwhTest, FitReport, dwh_test, fit_iv, fit_ls};
-pub use idim::{idim_iv, Experiment, IdimIvResult};
-pub use payload::{payload_from_fit, NotIdentifiable, PayloadEstimate};
-pub use drive::DriveTerms;
 pub use batch_fit::fit_ls_batch;
+pub use drive::DriveTerms;
+pub use fit::{DwhTest, FitReport, dwh_test, fit_iv, fit_ls};
+pub use idim::{Experiment, IdimIvResult, idim_iv};
+pub use payload::{NotIdentifiable, PayloadEstimate, payload_from_fit};

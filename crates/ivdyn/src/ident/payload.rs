@@ -49,7 +49,16 @@ fn to_physical(p: &SVector<f64, 10>) -> Option<SVector<f64, 10>> {
     let li = LinkInertia([p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9]]);
     let (m, c, ic) = li.to_mass_com_inertia(0).ok()?;
     Some(SVector::<f64, 10>::from_column_slice(&[
-        m, c.x, c.y, c.z, ic[(0, 0)], ic[(0, 1)], ic[(0, 2)], ic[(1, 1)], ic[(1, 2)], ic[(2, 2)],
+        m,
+        c.x,
+        c.y,
+        c.z,
+        ic[(0, 0)],
+        ic[(0, 1)],
+        ic[(0, 2)],
+        ic[(1, 1)],
+        ic[(1, 2)],
+        ic[(2, 2)],
     ]))
 }
 

@@ -210,7 +210,7 @@ fn chi2_pdf(x: f64, k: f64) -> f64 {
 /// Quantile of the chi-square distribution: the `x` with `chi2_cdf(x, k) = p`,
 /// `0 < p < 1`, `k > 0` (bisection on the CDF, then Newton polish).
 pub fn chi2_quantile(p: f64, k: f64) -> f64 {
-    if !(p > 0.0 && p < 1.0) || !(k > 0.0) {
+    if !(p > 0.0 && p < 1.0 && k > 0.0) {
         return match p {
             p if p == 0.0 && k > 0.0 => 0.0,
             p if p == 1.0 && k > 0.0 => f64::INFINITY,
@@ -250,7 +250,7 @@ fn f_pdf(x: f64, d1: f64, d2: f64) -> f64 {
 
 /// Quantile of the F distribution: the `x` with `f_cdf(x, d1, d2) = p`.
 pub fn f_quantile(p: f64, d1: f64, d2: f64) -> f64 {
-    if !(p > 0.0 && p < 1.0) || !(d1 > 0.0 && d2 > 0.0) {
+    if !(p > 0.0 && p < 1.0 && d1 > 0.0 && d2 > 0.0) {
         return f64::NAN;
     }
     invert_cdf(p, |x| f_cdf(x, d1, d2), |x| f_pdf(x, d1, d2), 1.0)
@@ -297,11 +297,7 @@ fn invert_cdf(p: f64, cdf: impl Fn(f64) -> f64, pdf: impl Fn(f64) -> f64, start:
 /// Complementary error function for any real `x`: `erfc(x) = Q(1/2, x^2)` for `x >= 0`,
 /// `2 - erfc(-x)` otherwise.
 pub fn erfc(x: f64) -> f64 {
-    if x >= 0.0 {
-        gamma_q(0.5, x * x)
-    } else {
-        2.0 - gamma_q(0.5, x * x)
-    }
+    if x >= 0.0 { gamma_q(0.5, x * x) } else { 2.0 - gamma_q(0.5, x * x) }
 }
 
 /// Standard normal CDF `Φ(x) = erfc(-x/√2) / 2`.
@@ -353,12 +349,8 @@ fn acklam(p: f64) -> f64 {
         4.374_664_141_464_968,
         2.938_163_982_698_783,
     ];
-    const D: [f64; 4] = [
-        7.784_695_709_041_462e-3,
-        3.224_671_290_700_398e-1,
-        2.445_134_137_142_996,
-        3.754_408_661_907_416,
-    ];
+    const D: [f64; 4] =
+        [7.784_695_709_041_462e-3, 3.224_671_290_700_398e-1, 2.445_134_137_142_996, 3.754_408_661_907_416];
     const P_LOW: f64 = 0.02425;
     let tail = |q: f64| {
         (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5])

@@ -49,11 +49,11 @@
 
 use nalgebra::DMatrix;
 
+use crate::Robot;
 use crate::batch::regressor_batch;
 use crate::error::{Error, Result};
-use crate::ident::{fit_ls, BaseParams, FitReport, LsAccumulator};
-use crate::Robot;
-use ivdyn_core::params::{DriveParams, DRIVE_PARAMS, DRIVE_PARAM_NAMES, LINK_PARAMS, PARAMS_PER_JOINT};
+use crate::ident::{BaseParams, FitReport, LsAccumulator, fit_ls};
+use ivdyn_core::params::{DRIVE_PARAM_NAMES, DRIVE_PARAMS, DriveParams, LINK_PARAMS, PARAMS_PER_JOINT};
 use ivdyn_core::rng::Rng;
 
 /// Relative tolerance for `K` being invertible (smallest / largest singular value).
@@ -76,7 +76,11 @@ fn dim(what: &str, expected: usize, got: usize) -> Error {
 fn map_rows(m: &DMatrix<f64>, x: &[f64], what: &str) -> Result<Vec<f64>> {
     let n = m.ncols();
     if !x.len().is_multiple_of(n) {
-        return Err(dim(&format!("{what} (T x {n}, row-major; length a multiple of {n})"), x.len().div_ceil(n) * n, x.len()));
+        return Err(dim(
+            &format!("{what} (T x {n}, row-major; length a multiple of {n})"),
+            x.len().div_ceil(n) * n,
+            x.len(),
+        ));
     }
     let mut y = vec![0.0; x.len()];
     for (xk, yk) in x.chunks_exact(n).zip(y.chunks_exact_mut(n)) {
@@ -95,15 +99,24 @@ impl Transmission {
             return Err(dim("K (n x n, row-major)", n * n, k_row_major.len()));
         }
         if let Some(i) = k_row_major.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Estimation { msg: format!("transmission: K[{}][{}] is {}", i / n, i % n, k_row_major[i]) });
+            return Err(Error::Estimation {
+                msg: format!("transmission: K[{}][{}] is {}", i / n, i % n, k_row_major[i]),
+            });
         }
         let k = DMatrix::from_row_slice(n, n, k_row_major);
         let sv = k.singular_values();
         let (smax, smin) = (sv.max(), sv.min());
         if !(smin > K_RCOND_TOL * smax) {
-            return Err(Error::Estimation { msg: format!("transmission: K is singular (singular values {smin:.3e} .. {smax:.3e}); every motor must drive an independent joint combination") });
+            return Err(Error::Estimation {
+                msg: format!(
+                    "transmission: K is singular (singular values {smin:.3e} .. {smax:.3e}); every motor must drive an independent joint combination"
+                ),
+            });
         }
-        let k_inv = k.clone().try_inverse().ok_or_else(|| Error::Estimation { msg: "transmission: K is not invertible".into() })?;
+        let k_inv = k
+            .clone()
+            .try_inverse()
+            .ok_or_else(|| Error::Estimation { msg: "transmission: K is not invertible".into() })?;
         let joint_offset = match joint_offset {
             Some(o) if o.len() != n => return Err(dim("joint_offset (n)", n, o.len())),
             Some(o) => o.to_vec(),
@@ -199,7 +212,14 @@ impl Transmission {
 /// Motor-side inverse dynamics by the Newton-Euler path (no regressor): joint states from
 /// motor states, `τ = rnea(q, qd, qdd)` (with the robot's joint-side drive terms), then
 /// `τ_m = K⁻ᵀ τ + D θ_m`. `motor` holds one [`DriveParams`] per motor. All `T x n`.
-pub fn motor_torque(robot: &Robot, trans: &Transmission, motor: &[DriveParams], q_m: &[f64], qd_m: &[f64], qdd_m: &[f64]) -> Result<Vec<f64>> {
+pub fn motor_torque(
+    robot: &Robot,
+    trans: &Transmission,
+    motor: &[DriveParams],
+    q_m: &[f64],
+    qd_m: &[f64],
+    qdd_m: &[f64],
+) -> Result<Vec<f64>> {
     let n = check_pair(robot, trans)?;
     if motor.len() != n {
         return Err(dim("motor drive parameters (one per motor)", n, motor.len()));
@@ -330,16 +350,22 @@ impl<'a> MotorRegressor<'a> {
         }
         let limits = crate::with_model!(&self.robot.model, m => m.limits.to_vec());
         let mut rng = Rng::new(seed);
-        let (mut q, mut qd, mut qdd) = (Vec::with_capacity(samples * n), Vec::with_capacity(samples * n), Vec::with_capacity(samples * n));
+        let (mut q, mut qd, mut qdd) =
+            (Vec::with_capacity(samples * n), Vec::with_capacity(samples * n), Vec::with_capacity(samples * n));
         for _ in 0..samples {
             for l in &limits {
-                let (lo, hi) = if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower { (l.lower, l.upper) } else { (-std::f64::consts::PI, std::f64::consts::PI) };
+                let (lo, hi) = if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower {
+                    (l.lower, l.upper)
+                } else {
+                    (-std::f64::consts::PI, std::f64::consts::PI)
+                };
                 q.push(rng.uniform(lo, hi));
                 qd.push(rng.uniform(-1.0, 1.0));
                 qdd.push(rng.uniform(-2.0, 2.0));
             }
         }
-        let (q_m, qd_m, qdd_m) = (self.trans.motor_positions(&q)?, self.trans.motor_rates(&qd)?, self.trans.motor_rates(&qdd)?);
+        let (q_m, qd_m, qdd_m) =
+            (self.trans.motor_positions(&q)?, self.trans.motor_rates(&qd)?, self.trans.motor_rates(&qdd)?);
         let rows = self.rows(&q_m, &qd_m, &qdd_m)?;
         let phi = DMatrix::from_row_slice(samples * n, p, &rows);
         Ok(BaseParams::from_rows(&phi, &self.param_names()))
@@ -394,14 +420,22 @@ pub const GAIN_NULL_TOL: f64 = 1e-8;
 /// version of the regressor at the estimate): a gain whose column takes part in a null
 /// direction of it (singular value below [`GAIN_NULL_TOL`] of the largest, columns
 /// scaled to unit norm) is reported as not identifiable, with `NaN`, never a number.
-pub fn fit_drive_gains(reg: &MotorRegressor, base: &BaseParams, unloaded: &CurrentLog, loaded: &CurrentLog, payload_mass: f64) -> Result<DriveGains> {
+pub fn fit_drive_gains(
+    reg: &MotorRegressor,
+    base: &BaseParams,
+    unloaded: &CurrentLog,
+    loaded: &CurrentLog,
+    payload_mass: f64,
+) -> Result<DriveGains> {
     let n = reg.robot.dof();
     let p = reg.num_params();
     if base.full_cols != p {
         return Err(dim("base parameters' full column count (the regressor's parameters)", p, base.full_cols));
     }
     if !(payload_mass.is_finite() && payload_mass > 0.0) {
-        return Err(Error::Estimation { msg: format!("drive gains: the known payload mass must be positive, got {payload_mass}") });
+        return Err(Error::Estimation {
+            msg: format!("drive gains: the known payload mass must be positive, got {payload_mass}"),
+        });
     }
     let b = base.base_count();
     let last = LINK_PARAMS * (n - 1);
@@ -443,7 +477,8 @@ pub fn fit_drive_gains(reg: &MotorRegressor, base: &BaseParams, unloaded: &Curre
         for r in 0..m {
             let gcol = b + LINK_PARAMS - 1 + r % n;
             let g = fit.theta[gcol];
-            let tau: f64 = (0..gcol.min(b + LINK_PARAMS - 1)).map(|c| a[r * cols + c] * nan0(fit.theta[c])).sum::<f64>() - y[r];
+            let tau: f64 =
+                (0..gcol.min(b + LINK_PARAMS - 1)).map(|c| a[r * cols + c] * nan0(fit.theta[c])).sum::<f64>() - y[r];
             a2[r * cols + gcol] = if g.is_finite() && g != 0.0 { -tau / g } else { a[r * cols + gcol] };
         }
         a2
@@ -476,4 +511,3 @@ pub fn fit_drive_gains(reg: &MotorRegressor, base: &BaseParams, unloaded: &Curre
 fn nan0(x: f64) -> f64 {
     if x.is_finite() { x } else { 0.0 }
 }
-

@@ -16,7 +16,7 @@ use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::Path;
 
-use super::{name_list, JointLog};
+use super::{JointLog, name_list};
 use crate::error::{Error, Result};
 
 const FIELDS: [&str; 4] = ["q", "qd", "tau", "u"];
@@ -126,10 +126,11 @@ pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Res
 /// temporary file and renamed on success.
 pub fn write_csv(path: impl AsRef<Path>, log: &JointLog) -> Result<()> {
     log.check_shapes()?;
-    let arrays: Vec<(&str, &[f64])> = [("q", Some(&log.q)), ("qd", log.qd.as_ref()), ("tau", log.tau.as_ref()), ("u", log.u.as_ref())]
-        .into_iter()
-        .filter_map(|(f, a)| a.map(|a| (f, a.as_slice())))
-        .collect();
+    let arrays: Vec<(&str, &[f64])> =
+        [("q", Some(&log.q)), ("qd", log.qd.as_ref()), ("tau", log.tau.as_ref()), ("u", log.u.as_ref())]
+            .into_iter()
+            .filter_map(|(f, a)| a.map(|a| (f, a.as_slice())))
+            .collect();
     write_columns(path.as_ref(), log.t0_ns, &log.joint_names, &log.t, &arrays)
 }
 
@@ -140,7 +141,11 @@ pub fn write_columns(path: &Path, t0_ns: i64, joints: &[String], t: &[f64], arra
     let n = joints.len();
     for (f, a) in arrays {
         if a.len() != t.len() * n {
-            return Err(Error::Dimension { what: format!("CSV column block {f}"), expected: t.len() * n, got: a.len() });
+            return Err(Error::Dimension {
+                what: format!("CSV column block {f}"),
+                expected: t.len() * n,
+                got: a.len(),
+            });
         }
     }
     let fname = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();

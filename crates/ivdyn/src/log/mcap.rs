@@ -13,12 +13,12 @@ use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 
+use ::mcap::McapError;
 use ::mcap::records::Record;
 use ::mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
-use ::mcap::McapError;
 
-use super::cdr::{decode_joint_state_into, JointState};
-use super::{name_list, JointLog};
+use super::cdr::{JointState, decode_joint_state_into};
+use super::{JointLog, name_list};
 use crate::error::{Error, Result};
 
 /// The schema names accepted for JointState (ROS 2, and the ROS 1 spelling some
@@ -205,20 +205,18 @@ impl TopicState {
             self.cached_names = m.name.clone();
         }
         let nn = m.name.len();
-        for (field, len) in [("position", m.position.len()), ("velocity", m.velocity.len()), ("effort", m.effort.len())] {
+        for (field, len) in [("position", m.position.len()), ("velocity", m.velocity.len()), ("effort", m.effort.len())]
+        {
             if len != 0 && len != nn {
-                return Err(format!(
-                    "topic {topic}, sample {k}: {field} has {len} entries for {nn} joint names"
-                ));
+                return Err(format!("topic {topic}, sample {k}: {field} has {len} entries for {nn} joint names"));
             }
         }
         if self.source == Source::Measured && m.position.is_empty() {
             return Err(format!("topic {topic}, sample {k}: position is empty"));
         }
-        for (field, len, has) in [
-            ("velocity", m.velocity.len(), &mut self.has_qd),
-            ("effort", m.effort.len(), &mut self.has_tau),
-        ] {
+        for (field, len, has) in
+            [("velocity", m.velocity.len(), &mut self.has_qd), ("effort", m.effort.len(), &mut self.has_tau)]
+        {
             let now = len != 0;
             match *has {
                 None => *has = Some(now),
@@ -227,7 +225,7 @@ impl TopicState {
                         "topic {topic}, sample {k}: {field} is {} but was {} in sample 0",
                         if now { "present" } else { "empty" },
                         if before { "present" } else { "empty" }
-                    ))
+                    ));
                 }
                 _ => {}
             }
@@ -311,9 +309,7 @@ where
     }
     let n = opts.joint_names.len();
     let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_validate_chunk_crcs(true)
-            .with_record_length_limit(1 << 30),
+        LinearReaderOptions::default().with_validate_chunk_crcs(true).with_record_length_limit(1 << 30),
     );
     let mut schemas: HashMap<u16, (String, String)> = HashMap::new();
     // channel id -> index into `states` (or None: a channel we ignore)
@@ -344,15 +340,17 @@ where
                     "truncated MCAP: the file ends in the middle of a record at byte {offset} after {records} records \
                      ({} messages on {}); set allow_truncated to keep what was read",
                     states[0].count, opts.topic
-                )))
+                )));
             }
             Err(McapError::BadMagic) => {
-                return Err(err(format!("not an MCAP file (bad magic bytes at the start or end; {offset} bytes read)")))
+                return Err(err(format!(
+                    "not an MCAP file (bad magic bytes at the start or end; {offset} bytes read)"
+                )));
             }
             Err(e) => {
                 return Err(err(format!(
                     "corrupt MCAP at or before byte {offset}{size_note} (after {records} records): {e}"
-                )))
+                )));
             }
         };
         match ev {
@@ -365,7 +363,9 @@ where
             LinearReadEvent::Record { opcode, data } => {
                 records += 1;
                 let rec = ::mcap::parse_record(opcode, data).map_err(|e| {
-                    err(format!("corrupt MCAP record #{records} (opcode {opcode:#04x}) at or before byte {offset}: {e}"))
+                    err(format!(
+                        "corrupt MCAP record #{records} (opcode {opcode:#04x}) at or before byte {offset}: {e}"
+                    ))
                 })?;
                 match rec {
                     Record::Schema { header, .. } => {
@@ -399,9 +399,8 @@ where
                     Record::Message { header, data } => {
                         let Some(&Some(w)) = channels.get(&header.channel_id) else { continue };
                         let st = &mut states[w];
-                        decode_joint_state_into(&data, &mut msg).map_err(|e| {
-                            err(format!("topic {}, sample {}: bad message: {e}", st.topic, st.count))
-                        })?;
+                        decode_joint_state_into(&data, &mut msg)
+                            .map_err(|e| err(format!("topic {}, sample {}: bad message: {e}", st.topic, st.count)))?;
                         let m = &msg;
                         let stamp = if opts.use_log_time {
                             i64::try_from(header.log_time).unwrap_or(i64::MAX)
@@ -432,7 +431,11 @@ where
             format!("the log has {}", l.join(", "))
         };
         return Err(err(if known {
-            format!("topic {} has no messages{}", st.topic, if summary.truncated { " before the truncation" } else { "" })
+            format!(
+                "topic {} has no messages{}",
+                st.topic,
+                if summary.truncated { " before the truncation" } else { "" }
+            )
         } else {
             format!("topic {} not found; {listing}", st.topic)
         }));
@@ -548,16 +551,21 @@ pub fn list_topics(path: impl AsRef<Path>) -> Result<Vec<(String, String, usize)
     let mut out: Vec<(String, String, usize)> = vec![];
     let mut offset = 0u64;
     while let Some(ev) = reader.next_event() {
-        match ev.map_err(|e| Error::Log { file: path.clone(), msg: format!("corrupt MCAP at or before byte {offset}: {e}") })? {
+        match ev.map_err(|e| Error::Log {
+            file: path.clone(),
+            msg: format!("corrupt MCAP at or before byte {offset}: {e}"),
+        })? {
             LinearReadEvent::ReadRequest(need) => {
-                let got = read_some(&mut src, reader.insert(need)).map_err(|e| Error::Io { file: path.clone(), source: e })?;
+                let got = read_some(&mut src, reader.insert(need))
+                    .map_err(|e| Error::Io { file: path.clone(), source: e })?;
                 reader.notify_read(got);
                 offset += got as u64;
             }
             LinearReadEvent::Record { opcode, data } => {
-                match ::mcap::parse_record(opcode, data)
-                    .map_err(|e| Error::Log { file: path.clone(), msg: format!("corrupt MCAP record near byte {offset}: {e}") })?
-                {
+                match ::mcap::parse_record(opcode, data).map_err(|e| Error::Log {
+                    file: path.clone(),
+                    msg: format!("corrupt MCAP record near byte {offset}: {e}"),
+                })? {
                     Record::Schema { header, .. } => {
                         schemas.insert(header.id, header.name);
                     }

@@ -11,8 +11,8 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 
-use super::cdr::encode_parts;
 use super::JointLog;
+use super::cdr::encode_parts;
 use crate::error::{Error, Result};
 
 /// The `ros2msg` text of `sensor_msgs/msg/JointState` with its dependencies, as
@@ -133,7 +133,11 @@ impl McapWriter {
     ) -> Result<()> {
         for (what, a) in [("position", position), ("velocity", velocity), ("effort", effort)] {
             if !a.is_empty() && a.len() != names.len() {
-                return Err(Error::Dimension { what: format!("JointState {what}"), expected: names.len(), got: a.len() });
+                return Err(Error::Dimension {
+                    what: format!("JointState {what}"),
+                    expected: names.len(),
+                    got: a.len(),
+                });
             }
         }
         let Some(slot) = self.topics.iter_mut().find(|t| t.0 == topic.0) else {
@@ -189,7 +193,9 @@ pub fn write_mcap(path: impl AsRef<Path>, log: &JointLog, extra: &[(&str, &[f64]
     let meas = w.add_joint_state_topic("/joint_states")?;
     let ids: Vec<TopicId> = extra.iter().map(|(tp, _)| w.add_joint_state_topic(tp)).collect::<Result<_>>()?;
     let cmd = if log.u.is_some() { Some(w.add_joint_state_topic("/ivdyn/command")?) } else { None };
-    let row = |a: &Option<Vec<f64>>, k: usize| -> Vec<f64> { a.as_ref().map(|a| a[k * n..(k + 1) * n].to_vec()).unwrap_or_default() };
+    let row = |a: &Option<Vec<f64>>, k: usize| -> Vec<f64> {
+        a.as_ref().map(|a| a[k * n..(k + 1) * n].to_vec()).unwrap_or_default()
+    };
     for k in 0..t {
         let stamp = log.t0_ns.saturating_add((log.t[k] * 1e9).round() as i64);
         w.write(meas, stamp, &log.joint_names, &log.q[k * n..(k + 1) * n], &row(&log.qd, k), &row(&log.tau, k))?;
@@ -228,18 +234,42 @@ impl PredictionWriter {
     /// Starts the file for these joints.
     pub fn create(path: impl AsRef<Path>, names: &[String]) -> Result<Self> {
         let mut w = McapWriter::create(path)?;
-        let ids = [w.add_joint_state_topic(MEASURED_TOPIC)?, w.add_joint_state_topic(PREDICTED_TOPIC)?, w.add_joint_state_topic(RESIDUAL_TOPIC)?];
+        let ids = [
+            w.add_joint_state_topic(MEASURED_TOPIC)?,
+            w.add_joint_state_topic(PREDICTED_TOPIC)?,
+            w.add_joint_state_topic(RESIDUAL_TOPIC)?,
+        ];
         Ok(PredictionWriter { w, ids, names: names.to_vec(), samples: 0 })
     }
 
     /// Writes `T` samples (`stamps` in ns; arrays `T x N`; `qd_meas` may be empty).
     #[allow(clippy::too_many_arguments)]
-    pub fn write_block(&mut self, stamps: &[i64], q_meas: &[f64], qd_meas: &[f64], tau_meas: &[f64], q_model: &[f64], qd_model: &[f64], tau_pred: &[f64]) -> Result<()> {
+    pub fn write_block(
+        &mut self,
+        stamps: &[i64],
+        q_meas: &[f64],
+        qd_meas: &[f64],
+        tau_meas: &[f64],
+        q_model: &[f64],
+        qd_model: &[f64],
+        tau_pred: &[f64],
+    ) -> Result<()> {
         let n = self.names.len();
         let t = stamps.len();
-        for (what, a, need) in [("q", q_meas, true), ("qd", qd_meas, false), ("tau", tau_meas, true), ("q model", q_model, true), ("qd model", qd_model, true), ("prediction", tau_pred, true)] {
+        for (what, a, need) in [
+            ("q", q_meas, true),
+            ("qd", qd_meas, false),
+            ("tau", tau_meas, true),
+            ("q model", q_model, true),
+            ("qd model", qd_model, true),
+            ("prediction", tau_pred, true),
+        ] {
             if (need || !a.is_empty()) && a.len() != t * n {
-                return Err(Error::Dimension { what: format!("PredictionWriter {what} (T x N)"), expected: t * n, got: a.len() });
+                return Err(Error::Dimension {
+                    what: format!("PredictionWriter {what} (T x N)"),
+                    expected: t * n,
+                    got: a.len(),
+                });
             }
         }
         let mut res = vec![0.0; n];
@@ -247,7 +277,14 @@ impl PredictionWriter {
             let r = k * n..(k + 1) * n;
             let qd = if qd_meas.is_empty() { &[][..] } else { &qd_meas[r.clone()] };
             self.w.write(self.ids[0], stamps[k], &self.names, &q_meas[r.clone()], qd, &tau_meas[r.clone()])?;
-            self.w.write(self.ids[1], stamps[k], &self.names, &q_model[r.clone()], &qd_model[r.clone()], &tau_pred[r.clone()])?;
+            self.w.write(
+                self.ids[1],
+                stamps[k],
+                &self.names,
+                &q_model[r.clone()],
+                &qd_model[r.clone()],
+                &tau_pred[r.clone()],
+            )?;
             for (j, v) in res.iter_mut().enumerate() {
                 *v = tau_meas[k * n + j] - tau_pred[k * n + j];
             }

@@ -30,11 +30,13 @@ pub mod read;
 use std::path::Path;
 
 pub use self::csv::{read_csv, write_csv};
-pub use self::read::{check_pipeline_log, read_joint_log, read_pipeline_log};
 pub use self::mcap::{
-    for_each_sample, read_mcap, CommandAlign, CommandField, ReadOptions, Sample, Source, StreamSummary,
+    CommandAlign, CommandField, ReadOptions, Sample, Source, StreamSummary, for_each_sample, read_mcap,
 };
-pub use self::mcap_out::{write_mcap, Compression, McapWriter, PredictionWriter, TopicId, MEASURED_TOPIC, PREDICTED_TOPIC, RESIDUAL_TOPIC};
+pub use self::mcap_out::{
+    Compression, MEASURED_TOPIC, McapWriter, PREDICTED_TOPIC, PredictionWriter, RESIDUAL_TOPIC, TopicId, write_mcap,
+};
+pub use self::read::{check_pipeline_log, read_joint_log, read_pipeline_log};
 
 use crate::error::{Error, Result};
 
@@ -105,15 +107,12 @@ impl JointLog {
         self.check_shapes()?;
         let (t, n) = (self.len(), self.dof());
         let err = |msg: String| Error::Log { file: file.to_path_buf(), msg };
-        for (field, a) in [("q", Some(&self.q)), ("qd", self.qd.as_ref()), ("tau", self.tau.as_ref()), ("u", self.u.as_ref())] {
+        for (field, a) in
+            [("q", Some(&self.q)), ("qd", self.qd.as_ref()), ("tau", self.tau.as_ref()), ("u", self.u.as_ref())]
+        {
             let Some(a) = a else { continue };
             if let Some(i) = a.iter().position(|x| !x.is_finite()) {
-                return Err(err(format!(
-                    "sample {}: joint '{}' {field} is {}",
-                    i / n,
-                    self.joint_names[i % n],
-                    a[i]
-                )));
+                return Err(err(format!("sample {}: joint '{}' {field} is {}", i / n, self.joint_names[i % n], a[i])));
             }
         }
         for k in 0..t {
@@ -137,11 +136,17 @@ impl JointLog {
     /// Checks that every array is `T x N`.
     pub fn check_shapes(&self) -> Result<()> {
         let (t, n) = (self.len(), self.dof());
-        for (field, a) in [("q", Some(&self.q)), ("qd", self.qd.as_ref()), ("tau", self.tau.as_ref()), ("u", self.u.as_ref())] {
+        for (field, a) in
+            [("q", Some(&self.q)), ("qd", self.qd.as_ref()), ("tau", self.tau.as_ref()), ("u", self.u.as_ref())]
+        {
             if let Some(a) = a
                 && a.len() != t * n
             {
-                return Err(Error::Dimension { what: format!("JointLog.{field} ({t} samples x {n} joints)"), expected: t * n, got: a.len() });
+                return Err(Error::Dimension {
+                    what: format!("JointLog.{field} ({t} samples x {n} joints)"),
+                    expected: t * n,
+                    got: a.len(),
+                });
             }
         }
         Ok(())

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::{read_csv, read_mcap, JointLog, ReadOptions};
+use super::{JointLog, ReadOptions, read_csv, read_mcap};
 use crate::error::{Error, Result};
 
 /// Reads a joint log by extension: `.mcap` with [`read_mcap`] (measured `topic`, optional
@@ -44,7 +44,10 @@ pub fn read_pipeline_log(
     let log = if ext.as_deref() == Some("csv") {
         read_csv(path, joint_names)?
     } else {
-        read_mcap(path, &ReadOptions::new(joint_names).topic(topic).command_topic_opt(command_topic).log_time(use_log_time))?
+        read_mcap(
+            path,
+            &ReadOptions::new(joint_names).topic(topic).command_topic_opt(command_topic).log_time(use_log_time),
+        )?
     };
     check_pipeline_log(&log, path, topic)?;
     Ok(log)

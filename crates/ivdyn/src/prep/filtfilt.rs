@@ -126,7 +126,12 @@ impl StreamFiltfilt {
 
     /// [`push`](Self::push) of `t` rows that `fill(k, dst)` appends to `dst` (row `k`, `m`
     /// values): the rows are built straight in the filter's buffer, without a copy.
-    pub fn push_with(&mut self, t: usize, mut fill: impl FnMut(usize, &mut Vec<f64>), out: &mut impl FnMut(usize, &[f64])) {
+    pub fn push_with(
+        &mut self,
+        t: usize,
+        mut fill: impl FnMut(usize, &mut Vec<f64>),
+        out: &mut impl FnMut(usize, &[f64]),
+    ) {
         let m = self.m;
         if !self.started {
             let mut rows = Vec::with_capacity(t * m);

@@ -7,8 +7,8 @@ pub mod filtfilt;
 pub mod stream;
 
 use crate::dsp::{
-    dedup_stamps, default_cutoff, differentiate, hampel, median_dt, resample_uniform, take_rows, Butterworth, Decimator,
-    Derivatives, DiffMethod, HampelOptions, Interp, OutlierReport,
+    Butterworth, Decimator, Derivatives, DiffMethod, HampelOptions, Interp, OutlierReport, dedup_stamps,
+    default_cutoff, differentiate, hampel, median_dt, resample_uniform, take_rows,
 };
 use crate::error::{Error, Result};
 use crate::log::JointLog;
@@ -35,7 +35,13 @@ pub struct ConditionOptions {
 
 impl Default for ConditionOptions {
     fn default() -> Self {
-        ConditionOptions { dt: None, max_jitter: 0.01, interp: Interp::Linear, tau_outliers: None, diff: DiffMethod::default() }
+        ConditionOptions {
+            dt: None,
+            max_jitter: 0.01,
+            interp: Interp::Linear,
+            tau_outliers: None,
+            diff: DiffMethod::default(),
+        }
     }
 }
 

@@ -42,7 +42,14 @@ pub struct StreamCondition {
 impl StreamCondition {
     /// `filter` is the differentiation filter at `1 / dt`.
     pub fn new(filter: &Butterworth, n: usize, dt: f64, block: usize) -> Self {
-        StreamCondition { n, dt, filt: StreamFiltfilt::new(filter, n, 1, block), win: Vec::with_capacity(4 * n), seen: 0, scratch: vec![] }
+        StreamCondition {
+            n,
+            dt,
+            filt: StreamFiltfilt::new(filter, n, 1, block),
+            win: Vec::with_capacity(4 * n),
+            seen: 0,
+            scratch: vec![],
+        }
     }
 
     /// Rows of delay between a position in and its conditioned row out (at most).

@@ -5,11 +5,11 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use super::Robot;
 use super::urdf;
 use crate::error::{Error, Result};
 use crate::report::{ParamsFile, PayloadSpec};
-use crate::Robot;
-use ivdyn_core::params::{drive_col, IA, TAU0};
+use ivdyn_core::params::{IA, TAU0, drive_col};
 
 /// Format marker of the side file.
 pub const SIDE_FORMAT: &str = "ivdyn-urdf-side/1";
@@ -53,12 +53,19 @@ impl Robot {
     /// robot, checking the format and the joint names.
     pub fn apply_side_file(&mut self, path: &Path) -> Result<()> {
         let text = std::fs::read_to_string(path).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })?;
-        let side: SideFile = serde_json::from_str(&text).map_err(|e| Error::Log { file: path.to_path_buf(), msg: format!("not an ivdyn URDF side file: {e}") })?;
+        let side: SideFile = serde_json::from_str(&text)
+            .map_err(|e| Error::Log { file: path.to_path_buf(), msg: format!("not an ivdyn URDF side file: {e}") })?;
         if side.format != SIDE_FORMAT {
-            return Err(Error::Log { file: path.to_path_buf(), msg: format!("format '{}', expected '{SIDE_FORMAT}'", side.format) });
+            return Err(Error::Log {
+                file: path.to_path_buf(),
+                msg: format!("format '{}', expected '{SIDE_FORMAT}'", side.format),
+            });
         }
         if side.joints != self.joint_names || side.armature.len() != self.dof() || side.tau0.len() != self.dof() {
-            return Err(Error::Log { file: path.to_path_buf(), msg: format!("side file for joints {:?}; this chain has {:?}", side.joints, self.joint_names) });
+            return Err(Error::Log {
+                file: path.to_path_buf(),
+                msg: format!("side file for joints {:?}; this chain has {:?}", side.joints, self.joint_names),
+            });
         }
         let n = self.dof();
         let mut th = self.params();
@@ -112,6 +119,7 @@ pub fn load_params(robot: &mut Robot, p: &ParamsFile) -> Result<()> {
 /// Loads the parameter file `text` (JSON, [`ParamsFile`]; `name` names it in errors) into
 /// `robot`.
 pub fn apply_params_json(robot: &mut Robot, text: &str, name: &Path) -> Result<()> {
-    let pf: ParamsFile = serde_json::from_str(text).map_err(|e| Error::Log { file: name.to_path_buf(), msg: format!("not a parameter file: {e}") })?;
+    let pf: ParamsFile = serde_json::from_str(text)
+        .map_err(|e| Error::Log { file: name.to_path_buf(), msg: format!("not a parameter file: {e}") })?;
     load_params(robot, &pf).map_err(|e| Error::Log { file: name.to_path_buf(), msg: e.to_string() })
 }

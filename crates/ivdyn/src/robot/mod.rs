@@ -8,10 +8,8 @@ pub mod urdf;
 pub mod write;
 
 use crate::error::{Error, Result};
-use ivdyn_core::params::{param_count, DRIVE_PARAM_NAMES, LINK_PARAM_NAMES};
-use ivdyn_core::{
-    self as core_, DriveParams, Joint, JointLimits, LinkInertia, Model, Transform, Vec3, VecN,
-};
+use ivdyn_core::params::{DRIVE_PARAM_NAMES, LINK_PARAM_NAMES, param_count};
+use ivdyn_core::{self as core_, DriveParams, Joint, JointLimits, LinkInertia, Model, Transform, Vec3, VecN};
 
 /// Largest supported number of movable joints.
 pub const MAX_DOF: usize = 12;
@@ -40,18 +38,18 @@ pub enum DynModel {
 macro_rules! with_model {
     ($model:expr, $m:ident => $body:expr) => {
         match $model {
-            $crate::DynModel::N1($m) => $body,
-            $crate::DynModel::N2($m) => $body,
-            $crate::DynModel::N3($m) => $body,
-            $crate::DynModel::N4($m) => $body,
-            $crate::DynModel::N5($m) => $body,
-            $crate::DynModel::N6($m) => $body,
-            $crate::DynModel::N7($m) => $body,
-            $crate::DynModel::N8($m) => $body,
-            $crate::DynModel::N9($m) => $body,
-            $crate::DynModel::N10($m) => $body,
-            $crate::DynModel::N11($m) => $body,
-            $crate::DynModel::N12($m) => $body,
+            $crate::robot::DynModel::N1($m) => $body,
+            $crate::robot::DynModel::N2($m) => $body,
+            $crate::robot::DynModel::N3($m) => $body,
+            $crate::robot::DynModel::N4($m) => $body,
+            $crate::robot::DynModel::N5($m) => $body,
+            $crate::robot::DynModel::N6($m) => $body,
+            $crate::robot::DynModel::N7($m) => $body,
+            $crate::robot::DynModel::N8($m) => $body,
+            $crate::robot::DynModel::N9($m) => $body,
+            $crate::robot::DynModel::N10($m) => $body,
+            $crate::robot::DynModel::N11($m) => $body,
+            $crate::robot::DynModel::N12($m) => $body,
         }
     };
 }

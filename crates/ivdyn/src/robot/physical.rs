@@ -17,7 +17,7 @@
 use nalgebra::{Matrix3, Matrix4, Vector3};
 use serde::Serialize;
 
-use ivdyn_core::params::{drive_col, link_col, FC, FV, IA, LINK_PARAMS};
+use ivdyn_core::params::{FC, FV, IA, LINK_PARAMS, drive_col, link_col};
 
 /// The violations found on one link or joint.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -42,7 +42,11 @@ pub struct PhysicalCheck {
 impl PhysicalCheck {
     /// All problems as `"<name>: <problem>"` lines.
     pub fn lines(&self) -> Vec<String> {
-        self.links.iter().chain(&self.joints).flat_map(|v| v.problems.iter().map(move |p| format!("{}: {p}", v.name))).collect()
+        self.links
+            .iter()
+            .chain(&self.joints)
+            .flat_map(|v| v.problems.iter().map(move |p| format!("{}: {p}", v.name)))
+            .collect()
     }
 }
 
@@ -93,7 +97,10 @@ pub fn check_link(p: &[f64]) -> Vec<String> {
         let mut eig: Vec<f64> = ic.symmetric_eigenvalues().iter().copied().collect();
         eig.sort_by(|a, b| a.total_cmp(b));
         if !(eig[0] > 0.0) {
-            out.push(format!("inertia about the centre of mass is not positive definite (principal moments {})", fmt3(&eig)));
+            out.push(format!(
+                "inertia about the centre of mass is not positive definite (principal moments {})",
+                fmt3(&eig)
+            ));
         }
         if eig[0] + eig[1] < eig[2] {
             out.push(format!(
@@ -126,7 +133,11 @@ pub fn check_params(theta: &[f64], links: &[String], joints: &[String]) -> Physi
     }
     for (j, name) in joints.iter().enumerate() {
         let mut problems = vec![];
-        for (k, what, unit) in [(FC, "Coulomb friction fc", "N m"), (FV, "viscous friction fv", "N m s/rad"), (IA, "armature ia", "kg m^2")] {
+        for (k, what, unit) in [
+            (FC, "Coulomb friction fc", "N m"),
+            (FV, "viscous friction fv", "N m s/rad"),
+            (IA, "armature ia", "kg m^2"),
+        ] {
             let v = theta[drive_col(n, j, k)];
             if !(v >= 0.0) {
                 problems.push(format!("{what} {v:.6e} {unit} is negative"));
@@ -141,6 +152,6 @@ pub fn check_params(theta: &[f64], links: &[String], joints: &[String]) -> Physi
 }
 
 /// [`check_params`] with the robot's link and joint names.
-pub fn check_robot_params(robot: &crate::Robot, theta: &[f64]) -> PhysicalCheck {
+pub fn check_robot_params(robot: &super::Robot, theta: &[f64]) -> PhysicalCheck {
     check_params(theta, &robot.link_names, &robot.joint_names)
 }

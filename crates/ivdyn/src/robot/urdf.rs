@@ -15,8 +15,8 @@
 //!   below the root on fixed joints.
 //! - `<dynamics damping friction>` become the viscous and Coulomb drive parameters.
 
+use super::{Chain, DynModel, Robot};
 use crate::error::{Error, Result};
-use crate::robot::{Chain, DynModel, Robot};
 use ivdyn_core::model::GRAVITY_Z;
 use ivdyn_core::{DriveParams, Joint, JointLimits, LinkInertia, Mat3, Transform, Vec3};
 use std::collections::HashMap;
@@ -133,8 +133,7 @@ impl<'a> Builder<'a> {
                 .copied()
                 .filter(|&j| {
                     let joint = &self.urdf.joints[j];
-                    is_movable(&joint.joint_type)
-                        || self.has_movable_below(self.link_index[joint.child.link.as_str()])
+                    is_movable(&joint.joint_type) || self.has_movable_below(self.link_index[joint.child.link.as_str()])
                 })
                 .collect();
             match branches.as_slice() {
@@ -144,8 +143,12 @@ impl<'a> Builder<'a> {
                     return Err(Error::Branching {
                         file: self.file.clone(),
                         link: self.urdf.links[link].name.clone(),
-                        branches: js.iter().map(|&j| format!("'{}'", self.urdf.joints[j].name)).collect::<Vec<_>>().join(", "),
-                    })
+                        branches: js
+                            .iter()
+                            .map(|&j| format!("'{}'", self.urdf.joints[j].name))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    });
                 }
             }
         }
@@ -240,7 +243,7 @@ impl<'a> Builder<'a> {
                         file: self.file.clone(),
                         joint: joint.name.clone(),
                         kind: type_name(t).to_string(),
-                    })
+                    });
                 }
             }
             segment[child] = Some((seg, acc));
@@ -273,7 +276,7 @@ impl<'a> Builder<'a> {
                                 file: self.file.clone(),
                                 joint: joint.name.clone(),
                                 kind: type_name(t).to_string(),
-                            })
+                            });
                         }
                     }
                     segment[child] = Some((seg_l, x_l.compose(&pose(&joint.origin))));
@@ -317,7 +320,8 @@ impl<'a> Builder<'a> {
     fn inertial(&self, l: usize) -> Result<LinkInertia> {
         let link = &self.urdf.links[l];
         let i = &link.inertial;
-        let vals = [i.mass.value, i.inertia.ixx, i.inertia.ixy, i.inertia.ixz, i.inertia.iyy, i.inertia.iyz, i.inertia.izz];
+        let vals =
+            [i.mass.value, i.inertia.ixx, i.inertia.ixy, i.inertia.ixz, i.inertia.iyy, i.inertia.iyz, i.inertia.izz];
         if vals.iter().any(|v| !v.is_finite()) || i.mass.value < 0.0 {
             return Err(self.structure(format!("link '{}': non-finite or negative inertial values", link.name)));
         }
@@ -330,9 +334,15 @@ impl<'a> Builder<'a> {
 pub fn link_inertia(i: &urdf_rs::Inertial) -> LinkInertia {
     let o = pose(&i.origin);
     let ic = Mat3::new(
-        i.inertia.ixx, i.inertia.ixy, i.inertia.ixz,
-        i.inertia.ixy, i.inertia.iyy, i.inertia.iyz,
-        i.inertia.ixz, i.inertia.iyz, i.inertia.izz,
+        i.inertia.ixx,
+        i.inertia.ixy,
+        i.inertia.ixz,
+        i.inertia.ixy,
+        i.inertia.iyy,
+        i.inertia.iyz,
+        i.inertia.ixz,
+        i.inertia.iyz,
+        i.inertia.izz,
     );
     LinkInertia::from_mass_com_inertia(i.mass.value, &o.trans, &o.rot, &ic)
 }

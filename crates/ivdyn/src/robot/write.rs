@@ -24,18 +24,17 @@
 use std::path::Path;
 
 use nalgebra::{Matrix3, Vector3};
-use quick_xml::events::Event;
 use quick_xml::Reader;
+use quick_xml::events::Event;
 use serde::Serialize;
 
+use super::Robot;
 use crate::error::{Error, Result};
-use crate::robot::physical::check_link;
 use crate::report::PayloadSpec;
-use crate::robot::load::{side_path, SideFile, SIDE_FORMAT};
-use crate::Robot;
-use ivdyn_core::params::{drive_col, link_col, FC, FV, IA, LINK_PARAMS, TAU0};
+use crate::robot::load::{SIDE_FORMAT, SideFile, side_path};
+use crate::robot::physical::check_link;
 use ivdyn_core::LinkInertia;
-
+use ivdyn_core::params::{FC, FV, IA, LINK_PARAMS, TAU0, drive_col, link_col};
 
 /// How a payload is written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -46,8 +45,6 @@ pub enum PayloadMode {
     /// Added to the last chain link's `<inertial>`.
     Merge,
 }
-
-
 
 /// The written URDF text and its side file.
 #[derive(Debug, Clone)]
@@ -75,8 +72,16 @@ fn inertial_xml(p: &[f64], indent: &str, link: &str) -> Result<String> {
     let i2 = format!("{indent}  ");
     Ok(format!(
         "<inertial>\n{i2}<origin xyz=\"{} {} {}\" rpy=\"0 0 0\" />\n{i2}<mass value=\"{}\" />\n{i2}<inertia ixx=\"{}\" ixy=\"{}\" ixz=\"{}\" iyy=\"{}\" iyz=\"{}\" izz=\"{}\" />\n{indent}</inertial>",
-        num(c.x), num(c.y), num(c.z), num(m),
-        num(ic[(0, 0)]), num(ic[(0, 1)]), num(ic[(0, 2)]), num(ic[(1, 1)]), num(ic[(1, 2)]), num(ic[(2, 2)])
+        num(c.x),
+        num(c.y),
+        num(c.z),
+        num(m),
+        num(ic[(0, 0)]),
+        num(ic[(0, 1)]),
+        num(ic[(0, 2)]),
+        num(ic[(1, 1)]),
+        num(ic[(1, 2)]),
+        num(ic[(2, 2)])
     ))
 }
 
@@ -189,24 +194,44 @@ fn indent_at(text: &str, pos: usize) -> String {
 /// Writes back `theta` (full parameters of `robot`, `None`: leave the arm as it is) and an
 /// optional payload into the URDF text `input` (the file `robot` was loaded from; `file`
 /// names it in errors). See the module docs.
-pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>, payload: Option<(&PayloadSpec, PayloadMode)>, notes: Vec<String>) -> Result<WriteBack> {
+pub fn write_back(
+    input: &str,
+    file: &Path,
+    robot: &Robot,
+    theta: Option<&[f64]>,
+    payload: Option<(&PayloadSpec, PayloadMode)>,
+    notes: Vec<String>,
+) -> Result<WriteBack> {
     let n = robot.dof();
     let nominal = crate::robot::urdf::load_str(input, file, Some(&robot.base_link), Some(&robot.tip_link))?;
     if nominal.joint_names != robot.joint_names {
-        return Err(xml_err(file, format!("the URDF's chain {:?} is not the robot's {:?}", nominal.joint_names, robot.joint_names)));
+        return Err(xml_err(
+            file,
+            format!("the URDF's chain {:?} is not the robot's {:?}", nominal.joint_names, robot.joint_names),
+        ));
     }
     let urdf = urdf_rs::read_from_string(input).map_err(|e| xml_err(file, e))?;
     let nom_theta = nominal.params();
     let theta: Vec<f64> = match theta {
         Some(t) if t.len() == robot.num_params() => t.to_vec(),
-        Some(t) => return Err(Error::Dimension { what: "theta (full parameters)".into(), expected: robot.num_params(), got: t.len() }),
+        Some(t) => {
+            return Err(Error::Dimension {
+                what: "theta (full parameters)".into(),
+                expected: robot.num_params(),
+                got: t.len(),
+            });
+        }
         None => nom_theta.clone(),
     };
     let mut notes = notes;
     // own share of each chain link: identified total - nominal of the links fused into it
     let mut own: Vec<[f64; LINK_PARAMS]> = vec![[0.0; LINK_PARAMS]; n];
     for k in 0..n {
-        let l = urdf.links.iter().find(|l| l.name == robot.link_names[k]).ok_or_else(|| xml_err(file, format!("no link '{}'", robot.link_names[k])))?;
+        let l = urdf
+            .links
+            .iter()
+            .find(|l| l.name == robot.link_names[k])
+            .ok_or_else(|| xml_err(file, format!("no link '{}'", robot.link_names[k])))?;
         let own_nom = crate::robot::urdf::link_inertia(&l.inertial).0;
         for c in 0..LINK_PARAMS {
             let others = nom_theta[link_col(k, c)] - own_nom[c];
@@ -218,7 +243,12 @@ pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>
     if let Some((p, mode)) = payload {
         let ic = &p.inertia;
         let i_c = Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
-        let li = LinkInertia::from_mass_com_inertia(p.mass, &Vector3::new(p.com[0], p.com[1], p.com[2]), &Matrix3::identity(), &i_c);
+        let li = LinkInertia::from_mass_com_inertia(
+            p.mass,
+            &Vector3::new(p.com[0], p.com[1], p.com[2]),
+            &Matrix3::identity(),
+            &i_c,
+        );
         side_payload = Some(*p);
         match mode {
             PayloadMode::Merge => {
@@ -240,7 +270,11 @@ pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>
                     "  <!-- payload identified by ivdyn: COM and inertia in the frame of '{parent}' -->\n  <link name=\"{name}\">\n    {inertial}\n  </link>\n  <joint name=\"{name}_joint\" type=\"fixed\">\n    <parent link=\"{parent}\" />\n    <child link=\"{name}\" />\n    <origin xyz=\"0 0 0\" rpy=\"0 0 0\" />\n  </joint>\n",
                     parent = robot.link_names[n - 1]
                 );
-                notes.push(format!("payload {} kg written as link '{name}' on a fixed joint to '{}'", p.mass, robot.link_names[n - 1]));
+                notes.push(format!(
+                    "payload {} kg written as link '{name}' on a fixed joint to '{}'",
+                    p.mass,
+                    robot.link_names[n - 1]
+                ));
             }
         }
     }
@@ -264,7 +298,11 @@ pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>
             continue;
         }
         let name = &robot.link_names[k];
-        let (_, head, end, inertial, empty) = sc.links.iter().find(|l| &l.0 == name).ok_or_else(|| xml_err(file, format!("no <link name=\"{name}\"> element")))?;
+        let (_, head, end, inertial, empty) = sc
+            .links
+            .iter()
+            .find(|l| &l.0 == name)
+            .ok_or_else(|| xml_err(file, format!("no <link name=\"{name}\"> element")))?;
         if *empty {
             let ind = indent_at(input, *head);
             let body = inertial_xml(own_k, &format!("{ind}  "), name)?;
@@ -280,8 +318,16 @@ pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>
     if theta != nom_theta {
         for j in 0..n {
             let name = &robot.joint_names[j];
-            let (_, _head, end, dynamics) = sc.joints.iter().find(|x| &x.0 == name).ok_or_else(|| xml_err(file, format!("no <joint name=\"{name}\"> element")))?;
-            let dyn_xml = format!("<dynamics damping=\"{}\" friction=\"{}\" />", num(theta[drive_col(n, j, FV)]), num(theta[drive_col(n, j, FC)]));
+            let (_, _head, end, dynamics) = sc
+                .joints
+                .iter()
+                .find(|x| &x.0 == name)
+                .ok_or_else(|| xml_err(file, format!("no <joint name=\"{name}\"> element")))?;
+            let dyn_xml = format!(
+                "<dynamics damping=\"{}\" friction=\"{}\" />",
+                num(theta[drive_col(n, j, FV)]),
+                num(theta[drive_col(n, j, FC)])
+            );
             match dynamics {
                 Some((s, e)) => edits.push((*s, *e, dyn_xml)),
                 None => {
@@ -326,10 +372,11 @@ pub fn write_back(input: &str, file: &Path, robot: &Robot, theta: Option<&[f64]>
 /// file renamed on success.
 pub fn write_files(path: &Path, wb: &WriteBack) -> Result<()> {
     let put = |p: &Path, text: &str| -> Result<()> {
-        crate::output::write_atomic(p, |tmp| std::fs::write(tmp, text).map_err(|e| Error::Io { file: p.to_path_buf(), source: e }))
+        crate::output::write_atomic(p, |tmp| {
+            std::fs::write(tmp, text).map_err(|e| Error::Io { file: p.to_path_buf(), source: e })
+        })
     };
     let side = serde_json::to_string_pretty(&wb.side).map_err(|e| Error::Estimation { msg: e.to_string() })? + "\n";
     put(path, &wb.urdf)?;
     put(&side_path(path), &side)
 }
-

@@ -243,7 +243,12 @@ fn rms_section(o: &mut String, d: &Diagnosis, figs: &Figures) {
     for i in 0..=k {
         let _ = write!(o, "<th>{}{}</th>", esc(&model_label(d, i)), unit("N m"));
     }
-    let _ = writeln!(o, "<th>final{}</th><th>noise std (estimate){}</th><th>final / noise</th></tr>", unit("N m"), unit("N m"));
+    let _ = writeln!(
+        o,
+        "<th>final{}</th><th>noise std (estimate){}</th><th>final / noise</th></tr>",
+        unit("N m"),
+        unit("N m")
+    );
     for (j, name) in d.json.joints.iter().enumerate() {
         let _ = write!(o, "<tr><td>{}</td>", esc(name));
         for i in 0..=k {
@@ -252,7 +257,13 @@ fn rms_section(o: &mut String, d: &Diagnosis, figs: &Figures) {
         }
         let (f, s) = (d.json.final_rms[j], d.noise_std[j]);
         let ratio = if s > 0.0 { f / s } else { f64::NAN };
-        let _ = writeln!(o, "<td class=\"n\"><b>{}</b></td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>", fmt_num(f), fmt_num(s), fmt_num(ratio));
+        let _ = writeln!(
+            o,
+            "<td class=\"n\"><b>{}</b></td><td class=\"n\">{}</td><td class=\"n\">{}</td></tr>",
+            fmt_num(f),
+            fmt_num(s),
+            fmt_num(ratio)
+        );
     }
     o.push_str("</table>\n");
     figure(
@@ -316,7 +327,14 @@ fn params_table(o: &mut String, e: &EffectJson, kind: EffectKind) {
         o.push_str("<table class=\"params\">\n<tr><th>parameter</th><th>value</th></tr>\n");
         for (key, v) in &e.parameters {
             let (u, what) = param_meta(key);
-            let _ = writeln!(o, "<tr><td><code>{}</code> {}{}</td><td class=\"n\">{}</td></tr>", esc(key), esc(what), unit(u), value_text(v));
+            let _ = writeln!(
+                o,
+                "<tr><td><code>{}</code> {}{}</td><td class=\"n\">{}</td></tr>",
+                esc(key),
+                esc(what),
+                unit(u),
+                value_text(v)
+            );
         }
         o.push_str("</table>\n");
     }
@@ -345,7 +363,12 @@ fn candidates_table(o: &mut String, d: &Diagnosis, cands: &[CandidateScore]) {
         for (j, s) in c.per_joint.iter().enumerate() {
             let _ = write!(o, "<tr{class}>");
             if j == 0 {
-                let _ = write!(o, "<td rowspan=\"{rows}\">{}<br><code>{}</code></td>", esc(c.effect.label()), c.effect.name());
+                let _ = write!(
+                    o,
+                    "<td rowspan=\"{rows}\">{}<br><code>{}</code></td>",
+                    esc(c.effect.label()),
+                    c.effect.name()
+                );
             }
             let joint = d.json.joints.get(j).map(|s| esc(s)).unwrap_or_else(|| format!("#{j}"));
             let sig = if s.significant { "<td class=\"sig\">yes</td>" } else { "<td class=\"dim\">no</td>" };
@@ -359,12 +382,22 @@ fn candidates_table(o: &mut String, d: &Diagnosis, cands: &[CandidateScore]) {
             );
             if j == 0 {
                 let verdict = if c.accepted { "<b>added</b>: " } else { "not added: " };
-                let _ = write!(o, "<td rowspan=\"{rows}\" class=\"n\">{}</td><td rowspan=\"{rows}\">{verdict}{}</td>", fmt_num(c.score), esc(&c.reason));
+                let _ = write!(
+                    o,
+                    "<td rowspan=\"{rows}\" class=\"n\">{}</td><td rowspan=\"{rows}\">{verdict}{}</td>",
+                    fmt_num(c.score),
+                    esc(&c.reason)
+                );
             }
             o.push_str("</tr>\n");
         }
         if c.per_joint.is_empty() {
-            let _ = writeln!(o, "<tr{class}><td>{}</td><td colspan=\"8\">{}</td></tr>", esc(c.effect.label()), esc(&c.reason));
+            let _ = writeln!(
+                o,
+                "<tr{class}><td>{}</td><td colspan=\"8\">{}</td></tr>",
+                esc(c.effect.label()),
+                esc(&c.reason)
+            );
         }
     }
     o.push_str("</table>\n");
@@ -438,7 +471,8 @@ fn regime_cells(r: &Regimes) -> String {
     }
     let _ = write!(s, "<td class=\"n\">{}</td>", r.reversals);
     for v in [r.corr_q, r.corr_qd, r.corr_qdd] {
-        let _ = write!(s, "<td class=\"n\">{}</td>", if v.is_finite() { format!("{v:+.2}") } else { "\u{2013}".into() });
+        let _ =
+            write!(s, "<td class=\"n\">{}</td>", if v.is_finite() { format!("{v:+.2}") } else { "\u{2013}".into() });
     }
     let _ = write!(s, "<td class=\"n\">{}</td>", fmt_num(r.mean));
     s
@@ -451,14 +485,21 @@ fn plots_section(o: &mut String, d: &Diagnosis, figs: &Figures, joints: &[String
         "<p>Long logs are drawn as the minimum and maximum of each pixel column (time plots) and as a \
          random subsample of the samples (scatter plots).</p>\n",
     );
-    let final_txt = if k == 0 { "no effect was added, so the final model is the nominal one".to_string() } else { format!("final model = nominal + the {k} effect(s) of the steps above") };
+    let final_txt = if k == 0 {
+        "no effect was added, so the final model is the nominal one".to_string()
+    } else {
+        format!("final model = nominal + the {k} effect(s) of the steps above")
+    };
     for (j, (name, f)) in joints.iter().zip(&figs.joints).enumerate() {
         let _ = writeln!(o, "<h3 id=\"joint{j}\">{}</h3>", esc(name));
         figure(
             o,
             &f.torque,
             &format!("{name}: measured and predicted torque vs time"),
-            &format!("Measured torque and the torques predicted by the nominal and final models ({}); top: whole log, bottom: zoom.", esc(&final_txt)),
+            &format!(
+                "Measured torque and the torques predicted by the nominal and final models ({}); top: whole log, bottom: zoom.",
+                esc(&final_txt)
+            ),
         );
         figure(
             o,

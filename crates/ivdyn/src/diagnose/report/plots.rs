@@ -14,9 +14,6 @@ use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::backend::Canvas;
 
-/// DejaVu Sans (licence: `assets/DejaVuSans-LICENSE.txt`).
-pub(super) static FONT: &[u8] = include_bytes!("../../../assets/DejaVuSans.ttf");
-
 /// Font family name the embedded font is registered under.
 const FAMILY: &str = "sans-serif";
 
@@ -82,8 +79,13 @@ fn font(size: u32) -> TextStyle<'static> {
 fn ensure_font() -> Result<(), String> {
     // plotters measures text with its registered font (layout), `Canvas` draws it.
     static OK: OnceLock<bool> = OnceLock::new();
-    let ok = *OK.get_or_init(|| plotters::style::register_font(FAMILY, FontStyle::Normal, FONT).is_ok());
-    if ok && super::backend::font().is_some() { Ok(()) } else { Err("the embedded font (DejaVuSans.ttf) cannot be parsed".into()) }
+    let ok = *OK
+        .get_or_init(|| plotters::style::register_font(FAMILY, FontStyle::Normal, super::backend::FONT_BYTES).is_ok());
+    if ok && super::backend::font().is_some() {
+        Ok(())
+    } else {
+        Err("the embedded font (DejaVuSans.ttf) cannot be parsed".into())
+    }
 }
 
 /// Draws into a white `width x height` RGB canvas and encodes it as PNG.
@@ -171,7 +173,8 @@ fn y_range<'a>(ys: impl IntoIterator<Item = &'a [f64]>) -> (f64, f64) {
         return (-1.0, 1.0);
     }
     let span = hi - lo;
-    let pad = if span > 1e-12 * (1.0 + lo.abs().max(hi.abs())) { 0.05 * span } else { 0.5 * (1.0 + lo.abs()) * 1e-3 + 0.5 };
+    let pad =
+        if span > 1e-12 * (1.0 + lo.abs().max(hi.abs())) { 0.05 * span } else { 0.5 * (1.0 + lo.abs()) * 1e-3 + 0.5 };
     (lo - pad, hi + pad)
 }
 
@@ -234,7 +237,14 @@ pub(super) fn subsample(n: usize, m: usize) -> Vec<usize> {
 }
 
 /// One time-series panel: every trace against `t` over `[t0, t1]`.
-fn time_panel(area: &Area<'_>, caption: &str, t: &[f64], (t0, t1): (f64, f64), traces: &[Trace<'_>], y_desc: &str) -> Result<(), DrawErr> {
+fn time_panel(
+    area: &Area<'_>,
+    caption: &str,
+    t: &[f64],
+    (t0, t1): (f64, f64),
+    traces: &[Trace<'_>],
+    y_desc: &str,
+) -> Result<(), DrawErr> {
     // a single sample still gets a (1 s wide) axis
     let t1 = if t1 > t0 { t1 } else { t0 + 1.0 };
     let lo = t.partition_point(|&x| x < t0);
@@ -255,7 +265,7 @@ fn time_panel(area: &Area<'_>, caption: &str, t: &[f64], (t0, t1): (f64, f64), t
         .axis_desc_style(font(15))
         .light_line_style(RGBColor(238, 238, 238))
         .bold_line_style(RGBColor(205, 205, 205))
-            .max_light_lines(1)
+        .max_light_lines(1)
         .x_labels(12)
         .y_labels(7)
         .x_label_formatter(&|v| tick(*v))
@@ -277,7 +287,12 @@ fn time_panel(area: &Area<'_>, caption: &str, t: &[f64], (t0, t1): (f64, f64), t
 }
 
 /// Measured vs predicted torque of one joint: the whole log, and a zoom on `zoom`.
-pub(super) fn torque_vs_time(joint: &str, t: &[f64], traces: &[Trace<'_>], zoom: Option<(f64, f64)>) -> Result<Png, String> {
+pub(super) fn torque_vs_time(
+    joint: &str,
+    t: &[f64],
+    traces: &[Trace<'_>],
+    zoom: Option<(f64, f64)>,
+) -> Result<Png, String> {
     let full = (t[0], *t.last().unwrap_or(&t[0]));
     let h_full = 330;
     let h_zoom = if zoom.is_some() { 290 } else { 0 };
@@ -289,7 +304,8 @@ pub(super) fn torque_vs_time(joint: &str, t: &[f64], traces: &[Trace<'_>], zoom:
         let (a, b) = rest.split_vertically(h_full);
         time_panel(&a, &format!("{joint}: measured and predicted torque, whole log"), t, full, traces, "torque (N m)")?;
         if let Some(z) = zoom {
-            let cap = format!("{joint}: zoom on t = {:.1} to {:.1} s (where the nominal residual is largest)", z.0, z.1);
+            let cap =
+                format!("{joint}: zoom on t = {:.1} to {:.1} s (where the nominal residual is largest)", z.0, z.1);
             time_panel(&b, &cap, t, z, traces, "torque (N m)")?;
         }
         Ok(())
@@ -304,7 +320,14 @@ pub(super) fn residual_vs_time(joint: &str, t: &[f64], traces: &[Trace<'_>]) -> 
         let (top, rest) = root.split_vertically(40);
         let items: Vec<_> = traces.iter().map(|tr| (tr.label.clone(), tr.color, Swatch::Line(tr.width))).collect();
         legend(&top, &items)?;
-        time_panel(&rest, &format!("{joint}: residual = measured - predicted torque"), t, full, traces, "residual (N m)")
+        time_panel(
+            &rest,
+            &format!("{joint}: residual = measured - predicted torque"),
+            t,
+            full,
+            traces,
+            "residual (N m)",
+        )
     })
 }
 
@@ -347,7 +370,7 @@ pub(super) fn residual_vs_state(joint: &str, axes: &[StateAxis<'_>], traces: &[T
                 .axis_desc_style(font(15))
                 .light_line_style(RGBColor(238, 238, 238))
                 .bold_line_style(RGBColor(205, 205, 205))
-            .max_light_lines(1)
+                .max_light_lines(1)
                 .x_labels(6)
                 .y_labels(7)
                 .x_label_formatter(&|v| tick(*v))
@@ -369,7 +392,8 @@ pub(super) fn residual_vs_state(joint: &str, axes: &[StateAxis<'_>], traces: &[T
 /// RMS residual per joint (groups) and model (bars), with the noise estimate as a line.
 pub(super) fn rms_bars(joints: &[String], bars: &[(String, RGBColor, Vec<f64>)], noise: &[f64]) -> Result<Png, String> {
     let nj = joints.len();
-    let ymax = bars.iter().flat_map(|b| b.2.iter()).chain(noise).copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max);
+    let ymax =
+        bars.iter().flat_map(|b| b.2.iter()).chain(noise).copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max);
     let ymax = if ymax > 0.0 { ymax * 1.1 } else { 1.0 };
     render(WIDTH, 40 + 400, |root| {
         root.fill(&WHITE)?;
@@ -411,9 +435,10 @@ pub(super) fn rms_bars(joints: &[String], bars: &[(String, RGBColor, Vec<f64>)],
             });
             chart.draw_series(rects)?;
         }
-        let lines = noise.iter().enumerate().filter(|(_, y)| y.is_finite()).map(|(j, &y)| {
-            PathElement::new(vec![(j as f64 + 0.06, y), (j as f64 + 0.94, y)], BLACK.stroke_width(2))
-        });
+        let lines =
+            noise.iter().enumerate().filter(|(_, y)| y.is_finite()).map(|(j, &y)| {
+                PathElement::new(vec![(j as f64 + 0.06, y), (j as f64 + 0.94, y)], BLACK.stroke_width(2))
+            });
         chart.draw_series(lines)?;
         Ok(())
     })
@@ -426,7 +451,17 @@ mod tests {
     #[test]
     fn envelope_keeps_extremes_in_time_order() {
         let t: Vec<f64> = (0..1000).map(|k| k as f64 * 1e-3).collect();
-        let y: Vec<f64> = (0..1000).map(|k| if k == 501 { 5.0 } else if k == 502 { -4.0 } else { (k % 7) as f64 * 0.1 }).collect();
+        let y: Vec<f64> = (0..1000)
+            .map(|k| {
+                if k == 501 {
+                    5.0
+                } else if k == 502 {
+                    -4.0
+                } else {
+                    (k % 7) as f64 * 0.1
+                }
+            })
+            .collect();
         let e = envelope(&t, &y, 0.0, 0.999, 10);
         assert!(e.len() <= 20);
         assert!(e.windows(2).all(|w| w[0].0 <= w[1].0), "time order");
