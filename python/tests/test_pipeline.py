@@ -1,9 +1,9 @@
-"""ivdyn.identify / payload / simulate (the command line's pipelines from Python) against the
-`ivdyn` command line's JSON on the same input, the known truth of the simulated logs
-(physics), and their error paths; progress callbacks and their abort.
+"""ivdyn.identify / payload / simulate / excite (the command line's jobs from Python)
+against the `ivdyn` command line's files on the same input, the known truth of the
+simulated logs (physics), and their error paths; progress callbacks and their abort.
 
-The command line is built with cargo (debug profile, as `cargo test` builds it) when
-target/debug/ivdyn is missing or older than the sources.
+Both front ends call the same `ivdyn::app` job; these tests show Python reaches it with
+every option (the binary is the `ivdyn_bin` fixture of the root conftest.py).
 """
 import json
 import math
@@ -210,3 +210,62 @@ def test_pipeline_errors(ur5, logs, tmp_path):
     with pytest.raises(ValueError, match="unknown output format"):
         ivdyn.simulate(ur5, tmp_path / "x.bag", duration=1)
     assert not list(tmp_path.glob("*.tmp")) and not (tmp_path / "x.bag").exists()
+
+
+def read_json(p):
+    with open(p) as f:
+        return json.load(f)
+
+
+def test_identify_writes_the_cli_outputs(ur5, logs, cli, tmp_path):
+    """Python reaches every output and option of `ivdyn identify` (the same app job): the
+    parameter file, the URDF write-back and its side file, the JSON report and the prediction
+    MCAP, with --consistent --friction coulomb --no-offset."""
+    c, p = tmp_path / "cli", tmp_path / "py"
+    c.mkdir(), p.mkdir()
+    run_cli(cli, "identify", *CHAIN, "--log", str(logs / "before.mcap"), "--consistent", "--friction", "coulomb",
+            "--no-offset", "--json", str(c / "id.json"), "--out-params", str(c / "p.json"),
+            "--write-urdf", str(c / "w.urdf"), "--out-mcap", str(c / "pred.mcap"))
+    rep = ivdyn.identify(ur5, logs / "before.mcap", consistent=True, friction=["coulomb"], offset=False,
+                         out_json=p / "id.json", out_params=p / "p.json", write_urdf=p / "w.urdf",
+                         out_mcap=p / "pred.mcap")
+    assert sorted(os.listdir(c)) == sorted(os.listdir(p)) == ["id.json", "p.json", "pred.mcap", "w.urdf", "w.urdf.json"]
+    same(read_json(p / "id.json"), read_json(c / "id.json"))
+    same(rep, read_json(c / "id.json"))
+    same(read_json(p / "p.json"), read_json(c / "p.json"))
+    assert rep["drive_terms"] == ["fc", "ia"] and "consistent" in rep
+    with open(p / "w.urdf") as f1, open(c / "w.urdf") as f2:
+        assert f1.read() == f2.read()
+    # the written URDF reloads with its side file (armature) from Python as from the CLI
+    back = ivdyn.Robot.from_urdf(p / "w.urdf", base="base_link", tip="tool0")
+    ia = [back.params[back.param_names.index(f"{j}.ia")] for j in back.joint_names]
+    want = [read_json(p / "p.json")["theta"][read_json(p / "p.json")["names"].index(f"{j}.ia")] for j in back.joint_names]
+    assert ia == pytest.approx(want, rel=1e-12, abs=1e-15)
+
+
+def test_identify_option_errors(ur5, logs):
+    with pytest.raises(ValueError, match="friction none cannot be combined"):
+        ivdyn.identify(ur5, logs / "before.mcap", friction=["none", "coulomb"])
+    with pytest.raises(ValueError, match="write_urdf needs a robot loaded from a URDF"):
+        ivdyn.identify(ivdyn.Robot.paper(), {"t": np.arange(50) * 0.01, "q": np.zeros((50, 6)),
+                                              "tau": np.zeros((50, 6))}, write_urdf="x.urdf")
+
+
+def test_payload_and_excite_write_the_cli_outputs(ur5, logs, cli, tmp_path):
+    c, p = tmp_path / "cli", tmp_path / "py"
+    c.mkdir(), p.mkdir()
+    run_cli(cli, "payload", *CHAIN, "--log", str(logs / "after.mcap"), "--before", str(logs / "before.mcap"),
+            "--json", str(c / "pl.json"), "--write-urdf", str(c / "pl.urdf"), "--payload-as", "merge")
+    pl = ivdyn.payload(ur5, logs / "after.mcap", before=logs / "before.mcap", out_json=p / "pl.json",
+                       write_urdf=p / "pl.urdf", payload_as="merge")
+    same(read_json(p / "pl.json"), read_json(c / "pl.json"))
+    same(pl, read_json(c / "pl.json"))
+    with open(p / "pl.urdf") as f1, open(c / "pl.urdf") as f2:
+        assert f1.read() == f2.read()
+    args = ["--duration", "5", "--starts", "1", "--iterations", "20", "--random", "5"]
+    run_cli(cli, "excite", *CHAIN, *args, "--out", str(c / "x.csv"), "--json", str(c / "x.json"))
+    ex = ivdyn.excite(ur5, p / "x.csv", out_json=p / "x.json", duration=5, starts=1, iterations=20, random=5)
+    same(read_json(p / "x.json"), read_json(c / "x.json"))
+    with open(p / "x.csv") as f1, open(c / "x.csv") as f2:
+        assert f1.read() == f2.read()
+    assert ex["trajectory"]["q"].shape == (len(ex["trajectory"]["t"]), 6)

@@ -125,31 +125,9 @@ impl Rows {
     }
 }
 
-/// Per-joint R² and RMS of a prediction (`T x n` each).
+/// Per-joint R² and RMS of a prediction (`T x n` each): [`ivdyn::report::quality_of`].
 pub fn quality(data: &str, measured: &[f64], predicted: &[f64], n: usize) -> Quality {
-    let t = measured.len() / n;
-    let (mut sse, mut sum, mut sum2) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    for k in 0..t {
-        for i in 0..n {
-            let (y, e) = (measured[k * n + i], measured[k * n + i] - predicted[k * n + i]);
-            sse[i] += e * e;
-            sum[i] += y;
-            sum2[i] += y * y;
-        }
-    }
-    let tf = t.max(1) as f64;
-    Quality {
-        data: data.into(),
-        samples: t,
-        rms: sse.iter().map(|s| (s / tf).sqrt()).collect(),
-        r2: (0..n)
-            .map(|i| {
-                let sst = sum2[i] - sum[i] * sum[i] / tf;
-                if sst > 0.0 { 1.0 - sse[i] / sst } else { f64::NAN }
-            })
-            .collect(),
-        tau_rms: sum2.iter().map(|s| (s / tf).sqrt()).collect(),
-    }
+    ivdyn::report::quality_of(data, measured, predicted, n)
 }
 
 /// A fitted model.

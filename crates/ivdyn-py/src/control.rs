@@ -1,17 +1,14 @@
-//! Closed-loop simulation from Python: the core's `Simulator` driven by its
-//! `ComputedTorque` or `Pd` controller along a reference given as arrays
-//! (`closed_loop`), and the Fig. 5 payload experiments of `ivdyn_lab::control::Experiment`
+//! Closed-loop simulation from Python: `ivdyn::closed_loop` (the core's `Simulator`
+//! driven by its `ComputedTorque` or `Pd` controller along a reference given as arrays),
+//! and the Fig. 5 payload experiments of `ivdyn_lab::control::Experiment`
 //! (`control_experiment`). Glue only, GIL released; the Python wrapper
 //! (`python/ivdyn/_control.py`) documents the API.
 
-use std::any::Any;
-
 use crate::PyRobot;
 use crate::error::to_py;
-use ivdyn::core::control::{ComputedTorque, CoulombVelocity, Gains, Pd, Reference};
-use ivdyn::core::sim::{Integrator, SimConfig, Simulator};
-use ivdyn::core::{Data, Model, VecN, mass_matrix};
-use ivdyn::{Error, Robot};
+use ivdyn::Error;
+use ivdyn::closed_loop::{Controller, LoopSettings};
+use ivdyn::core::sim::Integrator;
 use ivdyn_lab::control::{EstimatorKind, Experiment, Instrument, RunLog, Scheme};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2, PyReadonlyArray2, PyUntypedArrayMethods};
@@ -19,138 +16,12 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-/// The fixed-size model of `r` if it has `N` joints.
-fn model_n<const N: usize>(r: &Robot) -> Option<&Model<N>> {
-    ivdyn::with_model!(&r.model, m => (&**m as &dyn Any).downcast_ref::<Model<N>>())
-}
-
 fn arr2<'py>(py: Python<'py>, v: Vec<f64>, rows: usize, cols: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
     Ok(Array2::from_shape_vec((rows, cols), v).map_err(|e| PyValueError::new_err(e.to_string()))?.into_pyarray(py))
 }
 
 fn nested<'py>(py: Python<'py>, v: &[Vec<f64>], cols: usize) -> PyResult<Bound<'py, PyArray2<f64>>> {
     arr2(py, v.iter().flatten().copied().collect(), v.len(), cols)
-}
-
-#[derive(Clone, Copy, PartialEq)]
-enum Controller {
-    ComputedTorque,
-    Pd,
-    PdGravity,
-}
-
-/// Settings of one closed-loop run (checked in `closed_loop`).
-struct LoopSettings {
-    controller: Controller,
-    wn: f64,
-    zeta: f64,
-    coulomb_reference: bool,
-    dt: f64,
-    substeps: usize,
-    integrator: Integrator,
-    coulomb_band: f64,
-    tau_limit: Vec<f64>,
-    encoder_bits: Option<u32>,
-    q_noise: f64,
-    tau_noise: f64,
-    velocity_cutoff_hz: f64,
-    seed: u64,
-}
-
-/// Everything recorded, row-major `T x N` (`id_*`: `M x N`).
-#[derive(Default)]
-struct LoopRecord {
-    t: Vec<f64>,
-    q: Vec<f64>,
-    qd: Vec<f64>,
-    q_meas: Vec<f64>,
-    qd_meas: Vec<f64>,
-    u: Vec<f64>,
-    tau: Vec<f64>,
-    saturated: Vec<bool>,
-    id_t: Vec<f64>,
-    id_q: Vec<f64>,
-    id_qd: Vec<f64>,
-    id_qdd: Vec<f64>,
-    id_tau: Vec<f64>,
-    id_u: Vec<f64>,
-}
-
-#[allow(clippy::too_many_arguments)]
-fn closed_loop_n<const N: usize>(
-    truth: &Model<N>,
-    model: &Model<N>,
-    s: &LoopSettings,
-    q_des: &[f64],
-    qd_des: &[f64],
-    qdd_des: &[f64],
-    q0: &[f64],
-    qd0: &[f64],
-) -> Result<LoopRecord, Error> {
-    let t = q_des.len() / N;
-    let v = |x: &[f64], k: usize| VecN::<N>::from_column_slice(&x[k * N..(k + 1) * N]);
-    let mut cfg = SimConfig::<N>::ideal();
-    if let Some(b) = s.encoder_bits {
-        cfg = cfg.with_encoder_bits(b);
-    }
-    cfg.dt = s.dt;
-    cfg.substeps = s.substeps;
-    cfg.integrator = s.integrator;
-    cfg.coulomb_band = s.coulomb_band;
-    cfg.tau_limit = VecN::<N>::from_column_slice(&s.tau_limit);
-    cfg.q_noise = VecN::<N>::repeat(s.q_noise);
-    cfg.tau_noise = VecN::<N>::repeat(s.tau_noise);
-    cfg.velocity_cutoff_hz = s.velocity_cutoff_hz;
-    cfg.seed = s.seed;
-    let mut sim = Simulator::new(truth.clone(), cfg, &v(q0, 0), &v(qd0, 0))?;
-    let mut data = Data::<N>::new();
-    let gains = Gains::<N>::from_bandwidth(&VecN::<N>::repeat(s.wn), s.zeta);
-    let mut ct = ComputedTorque::new(gains);
-    if s.coulomb_reference {
-        ct.coulomb = CoulombVelocity::Reference;
-    }
-    // PD gains in torque units: the acceleration gains times the controller model's
-    // M_ii at the mean reference pose (as `ivdyn_lab::control::Experiment`)
-    let mut mean = VecN::<N>::zeros();
-    for k in 0..t {
-        mean += v(q_des, k);
-    }
-    let m0 = *mass_matrix(model, &mut data, &(mean / t.max(1) as f64));
-    let pd = Pd {
-        gains: gains.scaled(&m0.diagonal()),
-        tau_limit: VecN::<N>::repeat(f64::INFINITY),
-        gravity: s.controller == Controller::PdGravity,
-    };
-    let mut rec = LoopRecord::default();
-    for k in 0..t {
-        let r = Reference { q: v(q_des, k), qd: v(qd_des, k), qdd: v(qdd_des, k) };
-        let sens = *sim.sensors();
-        rec.t.push(sim.t);
-        rec.q.extend_from_slice(sim.q.as_slice());
-        rec.qd.extend_from_slice(sim.qd.as_slice());
-        rec.q_meas.extend_from_slice(sens.q.as_slice());
-        rec.qd_meas.extend_from_slice(sens.qd.as_slice());
-        let step = |sim: &mut Simulator<N>, data: &mut Data<N>| -> Result<_, ivdyn::core::Error> {
-            let u = match s.controller {
-                Controller::ComputedTorque => *ct.torque(model, data, &sens.q, &sens.qd, &r)?,
-                _ => *pd.torque(model, data, &sens.q, &sens.qd, &r)?,
-            };
-            Ok((u, sim.step(&u)?))
-        };
-        let (u, smp) = step(&mut sim, &mut data).map_err(|source| Error::Sample { index: k, source })?;
-        rec.u.extend_from_slice(u.as_slice());
-        rec.tau.extend_from_slice(sim.tau_applied.as_slice());
-        rec.saturated.push(sim.saturated);
-        if let Some(x) = smp {
-            rec.id_t.push(x.t);
-            rec.id_q.extend_from_slice(x.x.q.as_slice());
-            rec.id_qd.extend_from_slice(x.x.qd.as_slice());
-            rec.id_qdd.extend_from_slice(x.x.qdd.as_slice());
-            rec.id_tau.extend_from_slice(x.tau.as_slice());
-            rec.id_u.extend_from_slice(x.u.as_slice());
-        }
-    }
-    Ok(rec)
 }
 
 fn flat<'a>(x: &'a PyReadonlyArray2<'_, f64>, name: &str, t: usize, n: usize) -> PyResult<&'a [f64]> {
@@ -218,41 +89,6 @@ fn closed_loop<'py>(
         "reference" => true,
         c => return Err(bad(&format!("coulomb must be 'measured' or 'reference', got {c:?}"))),
     };
-    let positive = |name: &str, x: f64| {
-        if x > 0.0 && x.is_finite() { Ok(()) } else { Err(bad(&format!("{name} must be finite and > 0, got {x}"))) }
-    };
-    positive("dt", dt)?;
-    positive("wn", wn)?;
-    positive("zeta", zeta)?;
-    for (name, x) in [
-        ("q_noise", q_noise),
-        ("tau_noise", tau_noise),
-        ("coulomb_band", coulomb_band),
-        ("velocity_cutoff_hz", velocity_cutoff_hz),
-    ] {
-        if !(x >= 0.0 && x.is_finite()) {
-            return Err(bad(&format!("{name} must be finite and >= 0, got {x}")));
-        }
-    }
-    if substeps == 0 {
-        return Err(bad("substeps must be >= 1"));
-    }
-    if encoder_bits.is_some_and(|b| !(1..=62).contains(&b)) {
-        return Err(bad("encoder_bits must be in 1..=62"));
-    }
-    let vec_n = |name: &str, v: Option<Vec<f64>>, default: &[f64]| -> PyResult<Vec<f64>> {
-        let v = v.unwrap_or_else(|| default.to_vec());
-        if v.len() != n {
-            return Err(bad(&format!("{name} must have {n} entries (one per joint), got {}", v.len())));
-        }
-        Ok(v)
-    };
-    let q0 = vec_n("q0", q0, &qs[..n])?;
-    let qd0 = vec_n("qd0", qd0, &qds[..n])?;
-    let tau_limit = vec_n("tau_limit", tau_limit, &vec![f64::INFINITY; n])?;
-    if tau_limit.iter().any(|x| !(*x > 0.0)) {
-        return Err(bad("tau_limit must be > 0 (inf for none)"));
-    }
     let settings = LoopSettings {
         controller,
         wn,
@@ -262,24 +98,18 @@ fn closed_loop<'py>(
         substeps,
         integrator,
         coulomb_band,
-        tau_limit,
+        tau_limit: tau_limit.unwrap_or_else(|| vec![f64::INFINITY; n]),
         encoder_bits,
         q_noise,
         tau_noise,
         velocity_cutoff_hz,
         seed,
     };
-    let ctrl = match &model {
-        Some(m) if m.inner.dof() != n => {
-            return Err(bad(&format!("model has {} joints, the robot {n}", m.inner.dof())));
-        }
-        Some(m) => m.inner.clone(),
-        None => robot.inner.clone(),
-    };
+    let ctrl = model.as_ref().map(|m| m.inner.clone()).unwrap_or_else(|| robot.inner.clone());
     let truth = &robot.inner;
     let rec = py
         .detach(|| {
-            ivdyn::with_model!(&truth.model, m => closed_loop_n(&**m, model_n(&ctrl).expect("same dof"), &settings, qs, qds, qdds, &q0, &qd0))
+            ivdyn::closed_loop::closed_loop(truth, &ctrl, &settings, qs, qds, qdds, q0.as_deref(), qd0.as_deref())
         })
         .map_err(to_py)?;
     let mi = rec.id_t.len();

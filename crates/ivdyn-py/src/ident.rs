@@ -496,25 +496,7 @@ fn read_joint_states<'py>(
         return Err(PyValueError::new_err("joint_names must not be empty"));
     }
     let log = py.detach(|| ivdyn::log::read_joint_log(&path, &joint_names, topic, command_topic)).map_err(to_py)?;
-    let (t, n) = (log.len(), log.dof());
-    let as2 = |v: Option<Vec<f64>>| -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
-        v.map(|v| {
-            Array2::from_shape_vec((t, n), v)
-                .map(|a| a.into_pyarray(py))
-                .map_err(|e| PyValueError::new_err(e.to_string()))
-        })
-        .transpose()
-    };
-    let d = PyDict::new(py);
-    d.set_item("t", log.t.into_pyarray(py))?;
-    d.set_item("q", as2(Some(log.q))?)?;
-    d.set_item("qd", as2(log.qd)?)?;
-    d.set_item("tau", as2(log.tau)?)?;
-    d.set_item("u", as2(log.u)?)?;
-    d.set_item("joint_names", log.joint_names)?;
-    d.set_item("t0_ns", log.t0_ns)?;
-    d.set_item("truncated", log.truncated)?;
-    Ok(d)
+    crate::pipeline::log_dict(py, log)
 }
 
 // ------------------------------------------------------------------ paper reproduction

@@ -329,7 +329,9 @@ fn payload(
 
 // ------------------------------------------------------------------ simulate
 
-fn dict_of_log<'py>(py: Python<'py>, log: JointLog) -> PyResult<Bound<'py, PyDict>> {
+/// A log as the dict of arrays every Python function takes and returns: `t` (T,), `q`,
+/// `qd`, `tau`, `u` (T, N) or None, `joint_names`, `t0_ns` (the first stamp), `truncated`.
+pub(crate) fn log_dict<'py>(py: Python<'py>, log: JointLog) -> PyResult<Bound<'py, PyDict>> {
     let (t, nn) = (log.len(), log.dof());
     let as2 = |v: Option<Vec<f64>>| -> PyResult<Option<Bound<'py, numpy::PyArray2<f64>>>> {
         v.map(|v| {
@@ -346,6 +348,8 @@ fn dict_of_log<'py>(py: Python<'py>, log: JointLog) -> PyResult<Bound<'py, PyDic
     d.set_item("tau", as2(log.tau)?)?;
     d.set_item("u", as2(log.u)?)?;
     d.set_item("joint_names", log.joint_names)?;
+    d.set_item("t0_ns", log.t0_ns)?;
+    d.set_item("truncated", log.truncated)?;
     Ok(d)
 }
 
@@ -418,7 +422,7 @@ fn simulate<'py>(
     let job = app::SimulateJob { opts, traj, out, json: json_out };
     let done = run(py, None, |p| app::simulate_job(&r, &job, &p))?;
     let (log, summary) = done.report;
-    Ok((json(&summary)?, dict_of_log(py, log)?))
+    Ok((json(&summary)?, log_dict(py, log)?))
 }
 
 // ------------------------------------------------------------------ diagnose / excite

@@ -111,8 +111,67 @@ pub enum Error {
         /// The underlying error.
         source: std::io::Error,
     },
-    /// An identification step that cannot proceed (a simulation of the current estimate
-    /// diverging, a degenerate fit); the message says which step, iteration and sample.
+    /// The log has no effort (torque) data, which the named step needs.
+    #[error("the log has no effort (torque) data; {needed_by} needs measured torques")]
+    NoTorque {
+        /// What needs the torques ("identification", "payload estimation").
+        needed_by: String,
+    },
+    /// A log whose joints are not the robot's (names or order after matching).
+    #[error("log joints {log:?} are not the robot's {robot:?}")]
+    JointMismatch {
+        /// The log's joints.
+        log: Vec<String>,
+        /// The robot's joints.
+        robot: Vec<String>,
+    },
+    /// Fewer samples than the fit needs.
+    #[error("log too short: {samples} samples of {joints} joints after conditioning for {params} base parameters")]
+    TooFewSamples {
+        /// Samples left after conditioning.
+        samples: usize,
+        /// Joints.
+        joints: usize,
+        /// Base parameters to fit.
+        params: usize,
+    },
+    /// A simulation inside an estimator (an instrument, an IDIM-IV iteration) left the
+    /// range of finite states.
+    #[error("{what} diverged at sample {sample}{detail}")]
+    Diverged {
+        /// Which simulation.
+        what: String,
+        /// The sample where it happened.
+        sample: usize,
+        /// The cause, when known (", mass matrix not positive definite ...").
+        detail: String,
+    },
+    /// An instrument that the IV fit cannot use (not correlated with the regressor).
+    #[error("IV fit failed ({msg}): the instrument is not correlated with the regressor; try --method wls or idim-iv")]
+    SingularInstrument {
+        /// The fit's own message.
+        msg: String,
+    },
+    /// A parameter file written for another chain.
+    #[error(
+        "parameter file for robot '{robot}' (joints {file_joints:?}) does not match this chain (joints {joints:?})"
+    )]
+    ParamsMismatch {
+        /// The robot named in the file.
+        robot: String,
+        /// The file's joints.
+        file_joints: Vec<String>,
+        /// This chain's joints.
+        joints: Vec<String>,
+    },
+    /// A transmission (motor-to-joint matrix) that cannot be used.
+    #[error("transmission: {msg}")]
+    Transmission {
+        /// What is wrong.
+        msg: String,
+    },
+    /// An identification step that cannot proceed for a reason none of the variants above
+    /// covers (a degenerate fit, an empty stream); the message says which step and where.
     #[error("identification: {msg}")]
     Estimation {
         /// What went wrong, where.

@@ -15,7 +15,7 @@
 //! | conditioning | [`prep`] (the one conditioning policy, and its streaming twin) |
 //! | dynamics | [`batch`] (batched, multi-threaded, SIMD packs) |
 //! | estimation | [`ident`] |
-//! | uses | [`excite`], [`diagnose`] |
+//! | uses | [`excite`], [`diagnose`], [`closed_loop`] |
 //! | orchestration | [`app`] |
 //!
 //! ```no_run
@@ -44,6 +44,7 @@ pub mod batch;
 
 pub mod ident;
 
+pub mod closed_loop;
 pub mod diagnose;
 pub mod excite;
 

@@ -73,18 +73,15 @@ pub struct PayloadSpec {
     pub inertia: [f64; 6],
 }
 
-/// Per-joint quality of the prediction `phi theta` of `tau` (`T x n` rows, `phi`
-/// row-major `T n x b`).
-pub fn quality(data: String, phi: &[f64], tau: &[f64], theta: &[f64], n: usize) -> Quality {
-    let b = theta.len();
-    let t = tau.len() / n;
+/// Per-joint quality of `predicted` against `measured` (`T x n` each, row-major): RMS of
+/// the difference, R^2 = 1 - SSE / SST (NaN for a constant joint), RMS of the measurement.
+pub fn quality_of(data: &str, measured: &[f64], predicted: &[f64], n: usize) -> Quality {
+    let t = measured.len() / n;
     let (mut sse, mut sum, mut sum2) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     for k in 0..t {
         for i in 0..n {
-            let r = k * n + i;
-            let pred: f64 = phi[r * b..(r + 1) * b].iter().zip(theta).map(|(a, b)| a * b).sum();
-            let y = tau[r];
-            sse[i] += (y - pred).powi(2);
+            let (y, e) = (measured[k * n + i], measured[k * n + i] - predicted[k * n + i]);
+            sse[i] += e * e;
             sum[i] += y;
             sum2[i] += y * y;
         }
@@ -98,5 +95,14 @@ pub fn quality(data: String, phi: &[f64], tau: &[f64], theta: &[f64], n: usize) 
         })
         .collect();
     let tau_rms = sum2.iter().map(|s| (s / tf).sqrt()).collect();
-    Quality { data, samples: t, rms, r2, tau_rms }
+    Quality { data: data.into(), samples: t, rms, r2, tau_rms }
+}
+
+/// Per-joint quality of the prediction `phi theta` of `tau` (`T x n` rows, `phi`
+/// row-major `T n x b`).
+pub fn quality(data: String, phi: &[f64], tau: &[f64], theta: &[f64], n: usize) -> Quality {
+    let b = theta.len();
+    let predicted: Vec<f64> =
+        (0..tau.len()).map(|r| phi[r * b..(r + 1) * b].iter().zip(theta).map(|(a, b)| a * b).sum()).collect();
+    quality_of(&data, tau, &predicted, n)
 }

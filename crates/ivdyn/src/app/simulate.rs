@@ -19,10 +19,6 @@ use ivdyn_core::LinkInertia;
 use ivdyn_core::params::LINK_PARAMS;
 use ivdyn_core::rng::Rng;
 
-fn err_est(msg: impl Into<String>) -> Error {
-    Error::Estimation { msg: msg.into() }
-}
-
 // ---------------------------------------------------------------------------------------
 // simulate
 // ---------------------------------------------------------------------------------------
@@ -198,9 +194,9 @@ pub fn simulate(robot: &Robot, traj: &Trajectory, opts: &SimulateOptions) -> Res
                     got: q.len(),
                 });
             }
-            let dt = dsp::median_dt(t).ok_or_else(|| err_est("trajectory: need increasing times"))?;
+            let dt = dsp::median_dt(t).ok_or_else(|| bad_option("traj", "needs increasing times".into()))?;
             if t.windows(2).any(|w| ((w[1] - w[0]) - dt).abs() > 1e-6 * dt.max(1e-9) + 1e-9) {
-                return Err(err_est("trajectory: times must be uniformly spaced"));
+                return Err(bad_option("traj", "times must be uniformly spaced".into()));
             }
             (t.clone(), q.clone(), dsp::central_diff(q, n, dt)?, dsp::second_diff(q, n, dt)?)
         }

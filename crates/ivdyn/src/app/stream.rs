@@ -238,7 +238,7 @@ impl Front {
     /// the stamps need resampling.
     fn push(&mut self, b: RawBatch, out: &mut Block) -> Result<std::result::Result<(), String>> {
         if b.tau.is_none() {
-            return Err(err_est("log: the log has no effort (torque) data; identification needs measured torques"));
+            return Err(Error::NoTorque { needed_by: "identification".into() });
         }
         self.has_qd = b.qd.is_some();
         if self.dt.is_none() {
@@ -811,7 +811,7 @@ pub fn identify_mcap(
         return Ok(Streamed::Unsupported(why));
     }
     if read.joint_names != robot.joint_names {
-        return Err(err_est(format!("log joints {:?} are not the robot's {:?}", read.joint_names, robot.joint_names)));
+        return Err(Error::JointMismatch { log: read.joint_names.clone(), robot: robot.joint_names.clone() });
     }
     let base = {
         let _st = Stage::begin(&opts.progress, "base parameters", 0);

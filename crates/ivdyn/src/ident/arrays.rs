@@ -83,14 +83,21 @@ pub fn fit_iv_rows(phi: &[f64], z: &[f64], y: &[f64], w: Option<&[f64]>, names: 
 
 fn check_start(p: usize, p0: f64, forgetting: f64) -> Result<()> {
     if p == 0 {
-        return Err(Error::Estimation { msg: "recursive estimator: p must be at least 1".into() });
+        return Err(Error::Option {
+            option: "p".into(),
+            msg: "must be at least 1 (parameters of the recursive estimator)".into(),
+        });
     }
     if !(p0 > 0.0 && p0.is_finite()) {
-        return Err(Error::Estimation { msg: format!("recursive estimator: p0 must be finite and > 0, got {p0}") });
+        return Err(Error::Option {
+            option: "p0".into(),
+            msg: format!("must be finite and > 0, got {p0} (initial covariance of the recursive estimator)"),
+        });
     }
     if !(forgetting > 0.0 && forgetting <= 1.0) {
-        return Err(Error::Estimation {
-            msg: format!("recursive estimator: forgetting must be in (0, 1], got {forgetting}"),
+        return Err(Error::Option {
+            option: "forgetting".into(),
+            msg: format!("must be in (0, 1], got {forgetting} (forgetting factor of the recursive estimator)"),
         });
     }
     Ok(())

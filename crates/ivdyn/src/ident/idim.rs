@@ -155,13 +155,14 @@ where
     let (mut q, mut qd) = (exp.q[..n].to_vec(), exp.qd[..n].to_vec());
     for k in 0..t {
         let tau = control(k, &q, &qd);
-        let qdd = sim.forward_dynamics(&q, &qd, &tau).map_err(|e| Error::Estimation {
-            msg: format!("sample {k}: simulating the current estimate failed ({e})"),
+        let what = || "IDIM-IV: the simulation of the current estimate".to_string();
+        let qdd = sim.forward_dynamics(&q, &qd, &tau).map_err(|e| Error::Diverged {
+            what: what(),
+            sample: k,
+            detail: format!(" ({e})"),
         })?;
         if qdd.iter().chain(&q).any(|v| !v.is_finite() || v.abs() > 1e6) {
-            return Err(Error::Estimation {
-                msg: format!("sample {k}: the simulation of the current estimate diverged"),
-            });
+            return Err(Error::Diverged { what: what(), sample: k, detail: String::new() });
         }
         let y = robot.regressor(&q, &qd, &qdd)?;
         for i in 0..n {

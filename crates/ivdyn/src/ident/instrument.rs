@@ -4,10 +4,6 @@
 use crate::Robot;
 use crate::error::{Error, Result};
 
-fn err_est(msg: impl Into<String>) -> Error {
-    Error::Estimation { msg: msg.into() }
-}
-
 /// The instrument without a command topic, in words.
 pub const TRACKING_INSTRUMENT: &str = "regressor on a closed-loop simulation of the nominal model tracking the measured positions (stand-in M-scaled PD, 10 Hz, damping 0.7, plus nominal inverse-dynamics feed-forward; no command topic in the log)";
 
@@ -80,9 +76,9 @@ impl Tracker {
                 }
                 let (qv, qdv) = (ivdyn_core::VecN::from_column_slice(&qs), ivdyn_core::VecN::from_column_slice(&qds));
                 let a = ivdyn_core::forward_dynamics(&**m, &mut data, &qv, &qdv, &tau)
-                    .map_err(|e| err_est(format!("instrument: simulating the nominal model failed at sample {s}: {e}")))?;
+                    .map_err(|e| Error::Diverged { what: "instrument: the simulation of the nominal model".into(), sample: s, detail: format!(" ({e})") })?;
                 if a.iter().chain(&qs).any(|v| !v.is_finite() || v.abs() > 1e6) {
-                    return Err(err_est(format!("instrument: the simulation of the nominal model diverged at sample {s}")));
+                    return Err(Error::Diverged { what: "instrument: the simulation of the nominal model".into(), sample: s, detail: String::new() });
                 }
                 oq.extend_from_slice(&qs);
                 oqd.extend_from_slice(&qds);

@@ -77,7 +77,11 @@ impl JointAccs {
             });
         }
         if self.has_iv() && z.is_none() {
-            return Err(crate::Error::Estimation { msg: "JointAccs::add: instrument rows missing".into() });
+            return Err(crate::Error::Dimension {
+                what: "JointAccs::add: instrument rows z (T x n x b)".into(),
+                expected: t * n * b,
+                got: 0,
+            });
         }
         for k in 0..t {
             for i in 0..n {

@@ -99,24 +99,19 @@ impl Transmission {
             return Err(dim("K (n x n, row-major)", n * n, k_row_major.len()));
         }
         if let Some(i) = k_row_major.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Estimation {
-                msg: format!("transmission: K[{}][{}] is {}", i / n, i % n, k_row_major[i]),
-            });
+            return Err(Error::Transmission { msg: format!("K[{}][{}] is {}", i / n, i % n, k_row_major[i]) });
         }
         let k = DMatrix::from_row_slice(n, n, k_row_major);
         let sv = k.singular_values();
         let (smax, smin) = (sv.max(), sv.min());
         if !(smin > K_RCOND_TOL * smax) {
-            return Err(Error::Estimation {
+            return Err(Error::Transmission {
                 msg: format!(
-                    "transmission: K is singular (singular values {smin:.3e} .. {smax:.3e}); every motor must drive an independent joint combination"
+                    "K is singular (singular values {smin:.3e} .. {smax:.3e}); every motor must drive an independent joint combination"
                 ),
             });
         }
-        let k_inv = k
-            .clone()
-            .try_inverse()
-            .ok_or_else(|| Error::Estimation { msg: "transmission: K is not invertible".into() })?;
+        let k_inv = k.clone().try_inverse().ok_or_else(|| Error::Transmission { msg: "K is not invertible".into() })?;
         let joint_offset = match joint_offset {
             Some(o) if o.len() != n => return Err(dim("joint_offset (n)", n, o.len())),
             Some(o) => o.to_vec(),
@@ -433,8 +428,9 @@ pub fn fit_drive_gains(
         return Err(dim("base parameters' full column count (the regressor's parameters)", p, base.full_cols));
     }
     if !(payload_mass.is_finite() && payload_mass > 0.0) {
-        return Err(Error::Estimation {
-            msg: format!("drive gains: the known payload mass must be positive, got {payload_mass}"),
+        return Err(Error::Option {
+            option: "payload_mass".into(),
+            msg: format!("must be positive, got {payload_mass} (the known payload of the drive-gain fit)"),
         });
     }
     let b = base.base_count();

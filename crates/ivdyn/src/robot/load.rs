@@ -106,11 +106,10 @@ pub fn load(urdf: &Path, base: Option<&str>, tip: Option<&str>, params: Option<&
 pub fn load_params(robot: &mut Robot, p: &ParamsFile) -> Result<()> {
     let names = robot.param_names();
     if p.names != names {
-        return Err(Error::Estimation {
-            msg: format!(
-                "parameter file for robot '{}' (joints {:?}) does not match this chain (joints {:?})",
-                p.robot, p.joints, robot.joint_names
-            ),
+        return Err(Error::ParamsMismatch {
+            robot: p.robot.clone(),
+            file_joints: p.joints.clone(),
+            joints: robot.joint_names.clone(),
         });
     }
     robot.set_params(&p.theta)
