@@ -4,7 +4,7 @@
 //! torque.
 
 use super::{DiagnoseOptions, bad};
-use crate::dsp::{self, Butterworth};
+use crate::dsp;
 use crate::error::Result;
 use crate::log::JointLog;
 use crate::prep;
@@ -24,40 +24,30 @@ pub(super) struct Signals {
     pub(super) align: f64,
 }
 
+/// The log conditioned with zero-phase cutoff `cutoff_hz` (module docs); errors when it
+/// has no torque, non-finite values, or fewer than 50 samples left.
 pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) -> Result<Signals> {
     let n = log.dof();
     let tau = log
         .tau
         .as_ref()
         .ok_or_else(|| bad("the log has no effort (torque) values: nothing to compare the model with"))?;
-    let use_qd = log.qd.is_some() && !opts.ignore_log_velocity;
     let copts = prep::ConditionOptions {
         diff: dsp::DiffMethod::Butterworth { order: 4, cutoff_hz: Some(cutoff_hz) },
         ..Default::default()
     };
-    // resampling, duplicates, and q-derived derivatives
-    let c = prep::condition(log, &copts)?;
+    // prep's one policy: duplicates, resampling and smoothing, with the log's velocity
+    // where it has one unless told not to
+    let c = if opts.ignore_log_velocity {
+        prep::condition(log, &copts)?
+    } else {
+        prep::condition_with_log_velocity(log, &copts)?
+    };
     let t_len = c.t.len();
     if t_len < 50 {
         return Err(bad(format!("the log has {t_len} usable samples; the diagnosis needs at least 50")));
     }
-    let tau = c.tau.clone().unwrap_or_else(|| tau.clone());
-    let (q, qd, qdd) = if use_qd && !c.resampled && c.duplicates == 0 {
-        // the log's velocity (an encoder or simulator velocity is better than a
-        // differentiated position), smoothed by the same zero-phase filter, and its
-        // central difference for qdd
-        let fs = 1.0 / c.dt;
-        let f = Butterworth::zero_phase(4, cutoff_hz, fs)?;
-        let qd_raw = log.qd.as_ref().expect("checked");
-        if let Some(i) = qd_raw.iter().position(|v| !v.is_finite()) {
-            return Err(bad(format!("sample {}, joint {}: velocity is {}", i / n, log.joint_names[i % n], qd_raw[i])));
-        }
-        let qd = f.filtfilt_columns(qd_raw, n)?;
-        let qdd = dsp::central_diff(&qd, n, c.dt)?;
-        (c.d.q.clone(), qd, qdd)
-    } else {
-        (c.d.q.clone(), c.d.qd.clone(), c.d.qdd.clone())
-    };
+    let tau = c.tau.as_ref().unwrap_or(tau);
     if let Some(i) = tau.iter().position(|v| !v.is_finite()) {
         return Err(bad(format!("sample {}, joint {}: effort is {}", i / n, log.joint_names[i % n], tau[i])));
     }
@@ -72,11 +62,13 @@ pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) 
     let cut = |x: &[f64]| x[trim * n..(t_len - trim) * n].to_vec();
     Ok(Signals {
         t: c.t[trim..t_len - trim].to_vec(),
-        q: cut(&q),
-        qd: cut(&qd),
-        qdd: cut(&qdd),
-        tau: cut(&tau),
-        velocity_in_log: use_qd,
+        q: cut(&c.d.q),
+        qd: cut(&c.d.qd),
+        qdd: cut(&c.d.qdd),
+        tau: cut(tau),
+        // whether the log has velocities and they were not to be ignored (also when
+        // resampling made prep fall back to differentiating q)
+        velocity_in_log: log.qd.is_some() && !opts.ignore_log_velocity,
         dt: c.dt,
         cutoff_hz,
         align: 0.0,
