@@ -3,20 +3,86 @@
 //! disagree, name the missing effect from a fixed vocabulary, add it, refit, and repeat
 //! until nothing significant is left.
 //!
-//! * [`search`]: the candidate effects, their regressor columns, the scoring and the
-//!   rules for look-alikes (the algorithm).
-//! * [`report`]: `report.html` (self-contained, PNG plots) and `residuals.mcap`.
+//! The algorithm, one job per file, each importing only from the ones above it:
+//! * `signals`: the log conditioned for the diagnosis (trimmed edges, torque alignment).
+//! * `residual`: what a residual looks like: noise level, autocorrelation, regimes.
+//! * `dictionary`: the candidate effects' regressor columns and their Gram matrices.
+//! * `model`: a model of effects, its parameters and its fit from the Gram matrices.
+//! * `prepare`: the differentiation cutoff and torque alignment chosen on the log.
+//! * `rules`: scoring a candidate (F test, held-out share, size, physics, look-alikes).
+//! * [`search`]: the add / drop / refit loop ([`diagnose`]).
+//! * `assemble`: the [`Diagnosis`] of the model found (parameters, evidence, verdict).
 //!
-//! The output types below are shared by both: [`DiagnosisJson`] is `diagnosis.json`
-//! exactly; [`Diagnosis`] adds what a person needs to trust it (evidence, candidate
-//! scores, regimes, traces for the plots).
+//! And [`report`]: `report.html` (self-contained, PNG plots) and `residuals.mcap`.
+//!
+//! The types below are shared by all of them: [`DiagnoseOptions`] is the input;
+//! [`DiagnosisJson`] is `diagnosis.json` exactly; [`Diagnosis`] adds what a person needs
+//! to trust it (evidence, candidate scores, regimes, traces for the plots).
 
 use serde::{Deserialize, Serialize};
 
-pub mod report;
-pub mod search;
+use crate::error::Error;
 
-pub use search::{DiagnoseOptions, diagnose};
+mod assemble;
+mod dictionary;
+mod model;
+mod prepare;
+pub mod report;
+mod residual;
+mod rules;
+pub mod search;
+mod signals;
+
+pub use search::diagnose;
+
+/// Options of [`diagnose`].
+#[derive(Debug, Clone)]
+pub struct DiagnoseOptions {
+    /// Significance level of the per-joint F test on the effective sample count (default
+    /// 1e-3; the held-out share, the size and the physics rules guard against what an
+    /// F test on correlated residuals lets through).
+    pub alpha: f64,
+    /// An effect must add at least this many noise standard deviations of RMS torque on
+    /// a joint to be named there (default 0.5).
+    pub min_effect: f64,
+    /// Share of the held-out residual above the noise a candidate must remove on a joint
+    /// to be named there (default 0.75).
+    pub min_share: f64,
+    /// Zero-phase low-pass cutoff (Hz) for q / qd before differentiation (default: the
+    /// one on a grid of 10-160 Hz, at most fs/4, that leaves the least residual).
+    pub cutoff_hz: Option<f64>,
+    /// Ignore the log's velocities and differentiate positions.
+    pub ignore_log_velocity: bool,
+    /// Cross-validation blocks per fold (default 8).
+    pub blocks_per_fold: usize,
+    /// Most effects to add (default 10).
+    pub max_steps: usize,
+    /// Log file name for the report (informational).
+    pub log_name: String,
+    /// URDF file name for the report (informational).
+    pub urdf_name: String,
+}
+
+impl Default for DiagnoseOptions {
+    fn default() -> Self {
+        DiagnoseOptions {
+            alpha: 1e-3,
+            min_effect: 0.5,
+            min_share: 0.75,
+            cutoff_hz: None,
+            ignore_log_velocity: false,
+            blocks_per_fold: 8,
+            max_steps: 10,
+            log_name: String::new(),
+            urdf_name: String::new(),
+        }
+    }
+}
+
+/// The error of a log or model the diagnosis cannot work with.
+fn bad(msg: impl Into<String>) -> Error {
+    Error::Estimation { msg: msg.into() }
+}
 
 /// The effect vocabulary of DESIGN.md, in its order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]

@@ -1,14 +1,16 @@
 //! The one conditioning policy of identify, payload, diagnose and prediction: a log's
-//! stamps deduplicated and made uniform, `q` smoothed and differentiated ([`condition`]),
-//! and the parallel filter that torque and regressor share ([`parallel_filter`]).
+//! stamps deduplicated and made uniform, `q` smoothed and differentiated ([`condition`];
+//! the diagnosis takes the log's own velocity instead where it can,
+//! [`condition_with_log_velocity`]), and the parallel filter that torque and regressor
+//! share ([`parallel_filter`]).
 //! [`stream`] and [`filtfilt`] are its block-by-block twins for logs larger than memory.
 
 pub mod filtfilt;
 pub mod stream;
 
 use crate::dsp::{
-    Butterworth, Decimator, Derivatives, DiffMethod, HampelOptions, Interp, OutlierReport, dedup_stamps,
-    default_cutoff, differentiate, hampel, median_dt, resample_uniform, take_rows,
+    Butterworth, Decimator, Derivatives, DiffMethod, HampelOptions, Interp, OutlierReport, SavitzkyGolay, central_diff,
+    dedup_stamps, default_cutoff, differentiate, hampel, median_dt, resample_uniform, take_rows,
 };
 use crate::error::{Error, Result};
 use crate::log::JointLog;
@@ -66,6 +68,9 @@ pub struct Conditioned {
     pub resampled: bool,
     /// Outliers replaced in the torque.
     pub outliers: Option<OutlierReport>,
+    /// Whether `d.qd` (and so `d.qdd`) comes from the log's own velocity
+    /// ([`condition_with_log_velocity`]) rather than from differentiating `q`.
+    pub velocity_from_log: bool,
 }
 
 /// Drops duplicated stamps, resamples if the stamps are uneven, rejects torque outliers
@@ -94,7 +99,51 @@ pub fn condition(log: &JointLog, opts: &ConditionOptions) -> Result<Conditioned>
         _ => None,
     };
     let d = differentiate(&q, n, dt, &opts.diff)?;
-    Ok(Conditioned { t: tg, dt, d, tau, u, duplicates: dd.dropped, resampled: uneven || opts.dt.is_some(), outliers })
+    let resampled = uneven || opts.dt.is_some();
+    Ok(Conditioned { t: tg, dt, d, tau, u, duplicates: dd.dropped, resampled, outliers, velocity_from_log: false })
+}
+
+/// [`condition`], but with the log's own velocity when it has one and its samples were
+/// kept as they are (no duplicated stamps, no resampling): an encoder or simulator
+/// velocity is better than a differentiated position when it is not lagged (the
+/// diagnosis; identification keeps [`condition`]). The velocity is smoothed by the same
+/// method as `q` and differentiated for `qdd` ([`log_velocity`]); `q` stays as
+/// [`condition`] smooths it. Otherwise the same as [`condition`].
+pub fn condition_with_log_velocity(log: &JointLog, opts: &ConditionOptions) -> Result<Conditioned> {
+    let mut c = condition(log, opts)?;
+    let Some(qd) = log.qd.as_ref() else {
+        return Ok(c);
+    };
+    if c.resampled || c.duplicates > 0 {
+        // its rows no longer match the conditioned stamps
+        return Ok(c);
+    }
+    let n = log.dof();
+    if let Some(i) = qd.iter().position(|v| !v.is_finite()) {
+        return Err(bad(&format!("sample {}, joint {}: velocity is {}", i / n, log.joint_names[i % n], qd[i])));
+    }
+    (c.d.qd, c.d.qdd) = log_velocity(qd, n, c.dt, &opts.diff)?;
+    c.velocity_from_log = true;
+    Ok(c)
+}
+
+/// A measured velocity (`T x n`) smoothed like `q` in [`differentiate`], and its
+/// derivative: the zero-phase Butterworth low-pass then central differences, or the
+/// Savitzky-Golay fit's value and first derivative.
+fn log_velocity(qd: &[f64], n: usize, dt: f64, method: &DiffMethod) -> Result<(Vec<f64>, Vec<f64>)> {
+    match method {
+        DiffMethod::Butterworth { order, cutoff_hz } => {
+            let fs = 1.0 / dt;
+            let f = Butterworth::zero_phase(*order, cutoff_hz.unwrap_or_else(|| default_cutoff(fs)), fs)?;
+            let qd = f.filtfilt_columns(qd, n)?;
+            let qdd = central_diff(&qd, n, dt)?;
+            Ok((qd, qdd))
+        }
+        DiffMethod::SavitzkyGolay { window, order } => {
+            let sg = SavitzkyGolay::new(*window, *order)?;
+            Ok((sg.apply(qd, n, 0, dt)?, sg.apply(qd, n, 1, dt)?))
+        }
+    }
 }
 
 /// Decimation factor chosen by `decimate == 0` ("auto"): the output rate is about 2.5x the
@@ -113,4 +162,62 @@ pub fn auto_decimation(fs: f64, condition: &ConditionOptions) -> usize {
 pub(crate) fn parallel_filter(decimate: usize, fs: f64, condition: &ConditionOptions) -> Result<Decimator> {
     let f = if decimate == 0 { auto_decimation(fs, condition) } else { decimate };
     if f > 1 { Decimator::new(f, fs) } else { Decimator::with_filter(1, Butterworth::default_for(fs)?) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2-joint sine log at 1 kHz with its exact velocity, optionally one stamp repeated.
+    fn sine_log(duplicate: bool) -> JointLog {
+        let mut t: Vec<f64> = (0..1000).map(|k| k as f64 * 1e-3).collect();
+        if duplicate {
+            t.insert(100, t[99]);
+        }
+        let w = 2.0 * std::f64::consts::PI;
+        JointLog {
+            joint_names: vec!["a".into(), "b".into()],
+            q: t.iter().flat_map(|&s| [(w * s).sin(), 0.5 * (w * s).cos()]).collect(),
+            qd: Some(t.iter().flat_map(|&s| [w * (w * s).cos(), -0.5 * w * (w * s).sin()]).collect()),
+            tau: Some(t.iter().flat_map(|&s| [s, -s]).collect()),
+            t,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn log_velocity_only_on_kept_samples() {
+        let opts = ConditionOptions::default();
+        let log = sine_log(false);
+        let plain = condition(&log, &opts).unwrap();
+        assert!(!plain.velocity_from_log);
+        let c = condition_with_log_velocity(&log, &opts).unwrap();
+        assert!(c.velocity_from_log);
+        // q and everything but the derivatives as `condition` gives them
+        assert_eq!((&c.t, &c.d.q, &c.tau), (&plain.t, &plain.d.q, &plain.tau));
+        // the log's velocity through the same filter as q (the default: DEFAULT_ORDER at
+        // the default cutoff)
+        let fs = 1.0 / c.dt;
+        let f = Butterworth::zero_phase(crate::dsp::DEFAULT_ORDER, default_cutoff(fs), fs).unwrap();
+        let qd = f.filtfilt_columns(log.qd.as_ref().unwrap(), 2).unwrap();
+        assert!(c.d.qd == qd);
+        assert!(c.d.qdd == central_diff(&qd, 2, c.dt).unwrap());
+        // and close to the exact velocity inside (not the differentiated q's lag or noise)
+        let exact = log.qd.as_ref().unwrap();
+        assert!((200..1600).all(|i| (c.d.qd[i] - exact[i]).abs() < 1e-3 * 6.3), "smoothed velocity off");
+        // a repeated stamp: the log's rows no longer match, `condition` as is
+        let log = sine_log(true);
+        let c = condition_with_log_velocity(&log, &opts).unwrap();
+        assert!(!c.velocity_from_log);
+        assert!(c == condition(&log, &opts).unwrap());
+    }
+
+    #[test]
+    fn log_velocity_must_be_finite() {
+        let mut log = sine_log(false);
+        log.qd.as_mut().unwrap()[7] = f64::NAN;
+        let e = condition_with_log_velocity(&log, &ConditionOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("sample 3, joint b: velocity is NaN"), "{e}");
+        assert!(condition(&log, &ConditionOptions::default()).is_ok());
+    }
 }

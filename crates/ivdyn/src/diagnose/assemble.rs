@@ -1,0 +1,450 @@
+//! The [`Diagnosis`] of the model the search found: the effects with the final fit's
+//! parameters, the evidence in words, the predictions after each step, what is left above
+//! the noise, and the verdict.
+
+use super::dictionary::{C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, Dictionary};
+use super::model::{Fit, Model, effect_torque, fit, rss_joint};
+use super::prepare::Prepared;
+use super::residual::{regimes, rms_per_joint};
+use super::rules::{Ctx, LINK_SCALE_MAX};
+use super::signals::Signals;
+use super::{
+    CandidateScore, DiagnoseOptions, Diagnosis, DiagnosisJson, EffectJson, EffectKind, LogInfo, Regimes, Step, Traces,
+};
+use crate::Robot;
+use crate::error::Result;
+
+type Params = serde_json::Map<String, serde_json::Value>;
+
+/// What the search found.
+pub(super) struct Found {
+    /// The steps, each with the model after it.
+    pub(super) steps: Vec<(Step, Model)>,
+    /// The candidates scored at the final step, when none was significant.
+    pub(super) final_candidates: Vec<CandidateScore>,
+    /// The final model.
+    pub(super) model: Model,
+}
+
+/// The diagnosis of `found` on the prepared log (`r_nom`: the nominal residual, `T x N`).
+pub(super) fn assemble(
+    robot: &Robot,
+    opts: &DiagnoseOptions,
+    p: &Prepared,
+    ctx: &Ctx,
+    found: Found,
+    baseline_rms: Vec<f64>,
+    r_nom: &[f64],
+) -> Result<Diagnosis> {
+    let Found { steps, final_candidates, model: m } = found;
+    let (s, d) = (&p.s, &p.d);
+    let n = ctx.n;
+    let t_len = s.t.len();
+    let names = &robot.joint_names;
+    let f = fit(&m.params(), ctx.gr, &ctx.w, &[0, 1]);
+    let e = effect_torque(&f, d, n, t_len);
+    let r_final: Vec<f64> = (0..t_len * n).map(|i| r_nom[i] - e[i]).collect();
+    let final_rms = rms_per_joint(&r_final, n);
+    let raw: Vec<(EffectKind, Model)> = steps.iter().map(|(st, ms)| (st.effect, ms.clone())).collect();
+    let regimes_before = regimes(s, r_nom, n);
+    let regimes_after = regimes(s, &r_final, n);
+
+    let mut out_steps = merge_repeats(steps);
+    let effects = report_effects(&mut out_steps, &f, &m, d, names, &regimes_before, ctx);
+    let kept: Vec<Step> =
+        out_steps.into_iter().filter(|st| effects.iter().any(|e| e.name == st.effect.name())).collect();
+    let predicted = step_predictions(&raw, &kept, ctx, d, &p.tau_nom);
+    let gaps = remaining_gaps(ctx, &m, &final_rms, &regimes_after, names);
+    let verdict = verdict(&effects, &kept, &gaps, names);
+    let traces =
+        Traces { t: s.t.clone(), q: s.q.clone(), qd: s.qd.clone(), qdd: s.qdd.clone(), tau: s.tau.clone(), predicted };
+    Ok(Diagnosis {
+        json: DiagnosisJson { effects, baseline_rms, final_rms, joints: names.clone() },
+        steps: kept,
+        final_candidates,
+        noise_std: ctx.sigma.clone(),
+        regimes_before,
+        regimes_after,
+        verdict,
+        traces,
+        info: log_info(opts, s),
+    })
+}
+
+/// The steps in the order found, an effect found again later (on more joints) merged
+/// into its first step: the report names each effect once.
+fn merge_repeats(steps: Vec<(Step, Model)>) -> Vec<Step> {
+    let mut out_steps = vec![];
+    let mut seen: Vec<EffectKind> = vec![];
+    for (mut st, _) in steps {
+        if seen.contains(&st.effect) {
+            // the same effect found again on more joints: merge into the first entry
+            let pos = out_steps.iter().position(|x: &Step| x.effect == st.effect).expect("seen");
+            out_steps[pos].joints.extend(st.joints.iter().copied());
+            out_steps[pos].rms_after = st.rms_after.clone();
+            continue;
+        }
+        seen.push(st.effect);
+        st.joints.sort();
+        out_steps.push(st);
+    }
+    out_steps
+}
+
+/// The effects in the order found, with the final fit's parameters; an effect whose
+/// joints were all dropped by a later backward step is not reported. Sets each reported
+/// step's joints (those of the final model) and evidence.
+fn report_effects(
+    out_steps: &mut [Step],
+    f: &Fit,
+    m: &Model,
+    d: &Dictionary,
+    names: &[String],
+    regimes_before: &[Regimes],
+    ctx: &Ctx,
+) -> Vec<EffectJson> {
+    let n = ctx.n;
+    let mut effects = vec![];
+    for st in out_steps.iter_mut() {
+        let kind = st.effect;
+        let joints: Vec<usize> = match kind {
+            EffectKind::Payload => (0..n).collect(),
+            // Stribeck replaces Coulomb on its joints
+            EffectKind::Coulomb => (0..n).filter(|&j| m.has(j, kind) && !m.has(j, EffectKind::Stribeck)).collect(),
+            _ => (0..n).filter(|&j| m.has(j, kind)).collect(),
+        };
+        if kind != EffectKind::Payload && joints.is_empty() || kind == EffectKind::Payload && !m.payload {
+            continue;
+        }
+        let params = effect_parameters(kind, &joints, f, m, d, n);
+        st.joints = joints.clone();
+        st.evidence = evidence(st, &params, names, regimes_before, ctx);
+        effects.push(EffectJson {
+            name: kind.name().into(),
+            joints: if kind == EffectKind::Payload {
+                vec![]
+            } else {
+                joints.iter().map(|&j| names[j].clone()).collect()
+            },
+            parameters: params,
+            rms_before: st.rms_before.clone(),
+            rms_after: st.rms_after.clone(),
+        });
+    }
+    effects
+}
+
+/// The fitted value of joint `j`'s parameter of `kind` in column `col` (0 if absent).
+fn theta_of(f: &Fit, j: usize, kind: EffectKind, col: usize) -> f64 {
+    f.params
+        .iter()
+        .position(|p| p.joint == Some(j) && p.kind == Some(kind) && p.col == col)
+        .map(|i| f.theta[i])
+        .unwrap_or(0.0)
+}
+
+/// The `parameters` of an effect in `diagnosis.json` (DESIGN.md), lists over `joints`.
+fn effect_parameters(kind: EffectKind, joints: &[usize], f: &Fit, m: &Model, d: &Dictionary, n: usize) -> Params {
+    let mut params = serde_json::Map::new();
+    let list = |v: Vec<f64>| serde_json::Value::from(v);
+    let per_joint = |kind: EffectKind, col: usize| list(joints.iter().map(|&j| theta_of(f, j, kind, col)).collect());
+    match kind {
+        EffectKind::Coulomb => {
+            params.insert("fc".into(), per_joint(EffectKind::Coulomb, C_SIGN));
+        }
+        EffectKind::Viscous => {
+            params.insert("fv".into(), per_joint(kind, C_QD));
+        }
+        EffectKind::Armature => {
+            params.insert("ia".into(), per_joint(kind, C_QDD));
+        }
+        EffectKind::TorqueOffset => {
+            params.insert("tau0".into(), per_joint(kind, C_ONE));
+        }
+        EffectKind::JointSpring => {
+            // k (q - qm) + c = k (q - q0) with q0 = qm - c / k
+            let k: Vec<f64> = joints.iter().map(|&j| theta_of(f, j, kind, C_Q)).collect();
+            let q0: Vec<f64> =
+                joints.iter().zip(&k).map(|(&j, &k)| d.q_mean[j] - theta_of(f, j, kind, C_ONE) / k).collect();
+            params.insert("k".into(), list(k));
+            params.insert("q0".into(), list(q0));
+        }
+        EffectKind::Stribeck => {
+            params.insert("fc".into(), per_joint(EffectKind::Coulomb, C_SIGN));
+            params.insert(
+                "fs".into(),
+                list(joints.iter().map(|&j| theta_of(f, j, kind, C_STRIBECK + m.stribeck_vs[j])).collect()),
+            );
+            params.insert("vs".into(), list(joints.iter().map(|&j| d.vs[j][m.stribeck_vs[j]]).collect()));
+        }
+        EffectKind::Payload => payload_parameters(f, n, &mut params),
+    }
+    params
+}
+
+/// A payload's mass, centre of mass and inertia from its 10 fitted inertial parameters
+/// (only the mass when they are not physically consistent).
+fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
+    let list = |v: Vec<f64>| serde_json::Value::from(v);
+    let mut p10 = [0.0; 10];
+    for (i, p) in f.params.iter().enumerate() {
+        if p.kind == Some(EffectKind::Payload) {
+            p10[p.col - C_PAYLOAD] = f.theta[i];
+        }
+    }
+    let li = ivdyn_core::LinkInertia(p10);
+    match li.to_mass_com_inertia(n - 1) {
+        Ok((mass, c, ic)) => {
+            params.insert("mass".into(), mass.into());
+            params.insert("com".into(), list(vec![c.x, c.y, c.z]));
+            params.insert(
+                "inertia".into(),
+                list(vec![ic[(0, 0)], ic[(0, 1)], ic[(0, 2)], ic[(1, 1)], ic[(1, 2)], ic[(2, 2)]]),
+            );
+        }
+        Err(_) => {
+            params.insert("mass".into(), p10[0].into());
+            params.insert("com".into(), serde_json::Value::Null);
+            params.insert("inertia".into(), serde_json::Value::Null);
+        }
+    }
+}
+
+/// The verdict in one sentence: what was added, and what is left.
+fn verdict(effects: &[EffectJson], kept: &[Step], gaps: &str, names: &[String]) -> String {
+    if effects.is_empty() && gaps.is_empty() {
+        return "nothing significant missing: the nominal model explains the log down to the noise".to_string();
+    }
+    if effects.is_empty() {
+        return format!("no effect of the vocabulary is significantly missing, but {gaps}");
+    }
+    let list: Vec<String> = kept
+        .iter()
+        .map(|st| {
+            if st.effect == EffectKind::Payload {
+                st.effect.label().to_string()
+            } else {
+                format!(
+                    "{} on {}",
+                    st.effect.label(),
+                    st.joints.iter().map(|&j| names[j].as_str()).collect::<Vec<_>>().join(", ")
+                )
+            }
+        })
+        .collect();
+    if gaps.is_empty() {
+        format!("missing: {}; after adding them nothing significant is left", list.join("; "))
+    } else {
+        format!("missing: {}; after adding them no other effect is significant, but {gaps}", list.join("; "))
+    }
+}
+
+/// The facts about the input the report shows.
+fn log_info(opts: &DiagnoseOptions, s: &Signals) -> LogInfo {
+    LogInfo {
+        file: opts.log_name.clone(),
+        urdf: opts.urdf_name.clone(),
+        samples: s.t.len(),
+        duration: s.t.last().copied().unwrap_or(0.0) - s.t.first().copied().unwrap_or(0.0),
+        rate: 1.0 / s.dt,
+        velocity_in_log: s.velocity_in_log,
+        cutoff_hz: s.cutoff_hz,
+        align_samples: s.align,
+    }
+}
+
+/// The predicted torques of the report: the nominal model, then one per reported step.
+/// A step found again later (more joints) is merged into its first report, so reported
+/// step `i` shows the model after the last search step that added nothing reported later
+/// than `i` (effects not reported at all count as earlier): with nothing merged, the model
+/// after each search step; the last one is always the model after the last search step.
+fn step_predictions(
+    raw: &[(EffectKind, Model)],
+    kept: &[Step],
+    ctx: &Ctx,
+    d: &Dictionary,
+    tau_nom: &[f64],
+) -> Vec<Vec<f64>> {
+    let (n, t_len) = (ctx.n, tau_nom.len() / ctx.n);
+    let rank = |e: EffectKind| kept.iter().position(|st| st.effect == e).unwrap_or(0);
+    let mut predicted = vec![tau_nom.to_vec()];
+    for i in 0..kept.len() {
+        let Some(k) = raw.iter().take_while(|(e, _)| rank(*e) <= i).count().checked_sub(1) else {
+            predicted.push(tau_nom.to_vec());
+            continue;
+        };
+        let fs = fit(&raw[k].1.params(), ctx.gr, &ctx.w, &[0, 1]);
+        let es = effect_torque(&fs, d, n, t_len);
+        predicted.push((0..t_len * n).map(|j| tau_nom[j] + es[j]).collect());
+    }
+    predicted
+}
+
+/// What is left above the noise after the final model, in words (empty if nothing): per
+/// joint whose final RMS exceeds 1.5 noise std, where the residual is (velocity reversals)
+/// and whether per-link scale factors of the nominal inertials explain it (a wrong nominal
+/// model rather than a missing effect).
+fn remaining_gaps(ctx: &Ctx, m: &Model, final_rms: &[f64], reg: &[Regimes], names: &[String]) -> String {
+    let mut scaled = m.clone();
+    scaled.link_scale = true;
+    let (f0, f1) = (fit(&m.params(), ctx.gr, &ctx.w, &[0, 1]), fit(&scaled.params(), ctx.gr, &ctx.w, &[0, 1]));
+    let smax =
+        f1.params.iter().zip(&f1.theta).filter(|(p, _)| p.kind.is_none()).map(|(_, v)| v.abs()).fold(0.0, f64::max);
+    let mut parts = vec![];
+    for j in 0..ctx.n {
+        if final_rms[j] <= 1.5 * ctx.sigma[j] {
+            continue;
+        }
+        let rows = (ctx.gr.rows[j][0] + ctx.gr.rows[j][1]) as f64;
+        let (r0, r1) = (rss_joint(&f0, ctx.gr, j, &[0, 1]), rss_joint(&f1, ctx.gr, j, &[0, 1]));
+        let above = (r0 - rows * ctx.sigma[j].powi(2)).max(1e-300);
+        let share = ((r0 - r1) / above).clamp(0.0, 1.0);
+        let mut why = vec![];
+        let r = &reg[j];
+        if r.rms_reversal.is_finite() && r.rms_reversal > 2.0 * r.rms_rest {
+            why.push(format!(
+                "concentrated at velocity reversals ({:.3} N m there vs {:.3} elsewhere: friction near zero speed that the friction models describe only roughly)",
+                r.rms_reversal, r.rms_rest
+            ));
+        }
+        if share >= 0.5 && smax <= LINK_SCALE_MAX {
+            why.push(format!(
+                "scaling the nominal link inertials by up to {:.0} % explains {:.0} % of it: the nominal model's own parameters look off (re-identify them: ivdyn identify)",
+                100.0 * smax,
+                100.0 * share
+            ));
+        } else if share >= 0.5 {
+            why.push(format!(
+                "it follows the rigid-body terms (per-link scale factors of the nominal inertials explain {:.0} % of it, with factors up to {:.1}): the nominal inertials are far off (re-identify them: ivdyn identify)",
+                100.0 * share,
+                1.0 + smax
+            ));
+        }
+        if why.is_empty() {
+            why.push("not explained by any effect of the vocabulary".into());
+        }
+        parts.push(format!(
+            "{}: {:.3} N m vs noise {:.3} N m, {}",
+            names[j],
+            final_rms[j],
+            ctx.sigma[j],
+            why.join("; ")
+        ));
+    }
+    if parts.is_empty() {
+        String::new()
+    } else {
+        format!("the residual stays above the noise on {}", parts.join(" | "))
+    }
+}
+
+/// Sentences a user understands, from the regimes of the nominal residual and the fit.
+fn evidence(st: &Step, params: &Params, names: &[String], reg: &[Regimes], ctx: &Ctx) -> Vec<String> {
+    let mut out = vec![];
+    let cand = st.candidates.iter().find(|c| c.effect == st.effect);
+    for (i, &j) in st.joints.iter().enumerate() {
+        let gain = cand.map(|c| c.per_joint[j].heldout_gain).unwrap_or(f64::NAN);
+        let tail = format!(
+            "on held-out data it removes {:.0} % of the residual that any effect can explain (RMS {:.3} -> {:.3} N m, noise {:.3} N m)",
+            100.0 * gain,
+            st.rms_before[j],
+            st.rms_after[j],
+            ctx.sigma[j]
+        );
+        let s = joint_evidence(st.effect, &names[j], &reg[j], |k| param_at(params, k, i), &tail);
+        if !s.is_empty() {
+            out.push(s);
+        }
+    }
+    if st.effect == EffectKind::Payload {
+        payload_evidence(st, params, names, cand, ctx, &mut out);
+    }
+    // the look-alikes it beat
+    for c in &st.candidates {
+        if c.effect != st.effect && !c.joints.is_empty() {
+            out.push(format!("{} also explains part of it, {}", c.effect.label(), c.reason));
+        }
+    }
+    out
+}
+
+/// Entry `i` of the parameter list `k` (NaN if absent).
+fn param_at(params: &Params, k: &str, i: usize) -> f64 {
+    params.get(k).and_then(|v| v.get(i)).and_then(|v| v.as_f64()).unwrap_or(f64::NAN)
+}
+
+/// The sentence for one joint of a per-joint effect: the regime of the nominal residual
+/// that gives the effect away, and its fitted parameters (`get`); empty for a payload.
+fn joint_evidence(effect: EffectKind, name: &str, r: &Regimes, get: impl Fn(&str) -> f64, tail: &str) -> String {
+    match effect {
+        EffectKind::Coulomb => format!(
+            "{name}: the residual jumps by {:.3} N m at each of its {} velocity reversals, in the direction of the new velocity: Coulomb friction fc = {:.3} N m; {tail}",
+            r.reversal_jump,
+            r.reversals,
+            get("fc")
+        ),
+        EffectKind::Stribeck => format!(
+            "{name}: near zero velocity the friction rises {:.3} N m above its Coulomb level {:.3} N m and decays within {:.3} rad/s: Stribeck friction; {tail}",
+            get("fs"),
+            get("fc"),
+            get("vs")
+        ),
+        EffectKind::Viscous => format!(
+            "{name}: the residual grows in proportion to the velocity (correlation {:.2}), {:.3} N m per rad/s: viscous friction; {tail}",
+            r.corr_qd,
+            get("fv")
+        ),
+        EffectKind::Armature => format!(
+            "{name}: the residual follows the acceleration (correlation {:.2}), {:.4} kg m^2: inertia the links do not have, rotor inertia (armature); {tail}",
+            r.corr_qdd,
+            get("ia")
+        ),
+        EffectKind::TorqueOffset => format!(
+            "{name}: the residual has a constant mean of {:.3} N m at every pose and speed: torque offset; {tail}",
+            get("tau0")
+        ),
+        EffectKind::JointSpring => format!(
+            "{name}: the residual grows with the position (correlation {:.2}), {:.3} N m per rad, zero at q = {:.3} rad: joint spring; {tail}",
+            r.corr_q,
+            get("k"),
+            get("q0")
+        ),
+        EffectKind::Payload => String::new(),
+    }
+}
+
+/// A payload's sentences: one rigid body on the last link explains the joints together
+/// (mass and centre of mass), then the RMS of each joint it moved above the noise.
+fn payload_evidence(
+    st: &Step,
+    params: &Params,
+    names: &[String],
+    cand: Option<&CandidateScore>,
+    ctx: &Ctx,
+    out: &mut Vec<String>,
+) {
+    let m = params.get("mass").and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+    let com = params
+        .get("com")
+        .and_then(|v| v.as_array())
+        .map(|a| {
+            format!(
+                "[{}]",
+                a.iter().map(|x| format!("{:.4}", x.as_f64().unwrap_or(f64::NAN))).collect::<Vec<_>>().join(", ")
+            )
+        })
+        .unwrap_or_else(|| "(not identifiable)".into());
+    let js: Vec<&str> = cand.map(|c| c.joints.iter().map(|&j| names[j].as_str()).collect()).unwrap_or_default();
+    out.push(format!(
+        "the residuals of {} follow pose and acceleration together, as the torques of one rigid body on the last link would: a payload of {m:.3} kg with its centre of mass at {com} m (terminal link frame)",
+        js.join(", ")
+    ));
+    for &j in &st.joints {
+        if st.rms_before[j] > 1.5 * ctx.sigma[j] {
+            out.push(format!(
+                "{}: RMS {:.3} -> {:.3} N m (noise {:.3} N m)",
+                names[j], st.rms_before[j], st.rms_after[j], ctx.sigma[j]
+            ));
+        }
+    }
+}

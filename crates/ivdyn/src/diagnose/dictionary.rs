@@ -1,0 +1,158 @@
+//! The candidate effects' regressor columns and their Gram matrices.
+//!
+//! Every effect of the vocabulary is linear in its parameters once its shape is fixed
+//! (Stribeck's `vs` is chosen on a grid), so the torque the nominal model misses is
+//! `r = tau - rnea_nominal(q, qd, qdd) = X theta + e`, with `X` built from a small
+//! per-joint dictionary: `1, q, qd, sign(qd), qdd`, Stribeck shapes, and the terminal
+//! link's 10 regressor columns (a payload is a change of the terminal link's inertial
+//! parameters, eq. 14 of the paper: the terminal-link estimator with every joint's row).
+//! The data enter only through per-joint, per-fold Gram matrices of that dictionary, so
+//! scoring dozens of candidate models costs microseconds each, whatever the log length.
+
+use nalgebra::DMatrix;
+
+use super::bad;
+use super::signals::Signals;
+use crate::Robot;
+use crate::batch;
+use crate::error::Result;
+
+pub(super) const C_ONE: usize = 0;
+pub(super) const C_Q: usize = 1;
+pub(super) const C_QD: usize = 2;
+pub(super) const C_SIGN: usize = 3;
+pub(super) const C_QDD: usize = 4;
+/// Stribeck shapes `exp(-(qd/vs)^2) sign(qd)`, `vs` = these fractions of the joint's RMS speed.
+pub(super) const STRIBECK_VS: [f64; 5] = [0.02, 0.05, 0.1, 0.2, 0.4];
+pub(super) const C_STRIBECK: usize = 5;
+pub(super) const C_PAYLOAD: usize = C_STRIBECK + STRIBECK_VS.len();
+/// Link-scale columns of the look-alike check: link i's nominal torque on the joint,
+/// `Y_i(q, qd, qdd) theta_i` (a wrong link mass or inertia scales it).
+pub(super) const C_LINK: usize = C_PAYLOAD + 10;
+const NCOLS: usize = C_LINK + crate::MAX_DOF;
+/// The target (the nominal residual) is the last Gram column.
+pub(super) const C_TARGET: usize = NCOLS;
+
+/// Per joint: the dictionary columns over the log (`NCOLS` vectors of length `T`).
+pub(super) struct Dictionary {
+    pub(super) cols: Vec<Vec<Vec<f64>>>,
+    /// Nominal residual per joint.
+    pub(super) r0: Vec<Vec<f64>>,
+    /// Stribeck `vs` values per joint (rad/s or m/s).
+    pub(super) vs: Vec<[f64; 5]>,
+    /// Mean position per joint (the spring's reference for conditioning).
+    pub(super) q_mean: Vec<f64>,
+}
+
+/// The dictionary over the conditioned log `s`, and the nominal residual `tau - tau_nom`.
+pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> Result<Dictionary> {
+    let n = robot.dof();
+    let t_len = s.t.len();
+    let p_full = robot.num_params();
+    let mut cols = vec![vec![vec![0.0; t_len]; NCOLS]; n];
+    let mut vs = vec![[0.0; 5]; n];
+    let mut q_mean = vec![0.0; n];
+    for j in 0..n {
+        let qd_rms = ((0..t_len).map(|k| s.qd[k * n + j].powi(2)).sum::<f64>() / t_len as f64).sqrt().max(1e-9);
+        q_mean[j] = (0..t_len).map(|k| s.q[k * n + j]).sum::<f64>() / t_len as f64;
+        for (g, f) in STRIBECK_VS.iter().enumerate() {
+            vs[j][g] = f * qd_rms;
+        }
+        let c = &mut cols[j];
+        for k in 0..t_len {
+            let (q, qd, qdd) = (s.q[k * n + j], s.qd[k * n + j], s.qdd[k * n + j]);
+            let sg = if qd > 0.0 {
+                1.0
+            } else if qd < 0.0 {
+                -1.0
+            } else {
+                0.0
+            };
+            c[C_ONE][k] = 1.0;
+            c[C_Q][k] = q - q_mean[j];
+            c[C_QD][k] = qd;
+            c[C_SIGN][k] = sg;
+            c[C_QDD][k] = qdd;
+            for g in 0..STRIBECK_VS.len() {
+                c[C_STRIBECK + g][k] = (-(qd / vs[j][g]).powi(2)).exp() * sg;
+            }
+        }
+    }
+    // the terminal link's 10 regressor columns, in blocks (the whole regressor would be
+    // T x N x 14N doubles)
+    let link = 10 * (n - 1);
+    let theta_nom = robot.params();
+    let block = 2048;
+    let mut y = vec![0.0; block * n * p_full];
+    for k0 in (0..t_len).step_by(block) {
+        let k1 = (k0 + block).min(t_len);
+        let m = k1 - k0;
+        let out = &mut y[..m * n * p_full];
+        batch::regressor_batch(robot, &s.q[k0 * n..k1 * n], &s.qd[k0 * n..k1 * n], &s.qdd[k0 * n..k1 * n], out, false)
+            .map_err(|e| bad(format!("regressor: {e}")))?;
+        for kk in 0..m {
+            for j in 0..n {
+                let row = &out[(kk * n + j) * p_full..(kk * n + j + 1) * p_full];
+                for c in 0..10 {
+                    cols[j][C_PAYLOAD + c][k0 + kk] = row[link + c];
+                }
+                for i in 0..n {
+                    cols[j][C_LINK + i][k0 + kk] = (0..10).map(|c| row[10 * i + c] * theta_nom[10 * i + c]).sum();
+                }
+            }
+        }
+    }
+    let r0 = (0..n).map(|j| (0..t_len).map(|k| s.tau[k * n + j] - tau_nom[k * n + j]).collect()).collect();
+    Ok(Dictionary { cols, r0, vs, q_mean })
+}
+
+/// Gram matrices `[X r]^T [X r]` per joint and fold.
+pub(super) struct Grams {
+    pub(super) g: Vec<[DMatrix<f64>; 2]>,
+    pub(super) rows: Vec<[usize; 2]>,
+}
+
+/// The fold of sample `k`: the log cut into `2 blocks_per_fold` blocks, alternately in
+/// fold 0 and 1, so that both folds see every part of the motion.
+fn fold_of(k: usize, t_len: usize, blocks_per_fold: usize) -> usize {
+    let nb = 2 * blocks_per_fold;
+    (k * nb / t_len) % 2
+}
+
+/// The Gram matrices of `d` (and its target), per joint and fold.
+pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Grams {
+    let n = d.cols.len();
+    let mut g = Vec::with_capacity(n);
+    let mut rows = vec![[0usize; 2]; n];
+    for j in 0..n {
+        let mut gj = [DMatrix::<f64>::zeros(NCOLS + 1, NCOLS + 1), DMatrix::<f64>::zeros(NCOLS + 1, NCOLS + 1)];
+        let mut x = [0.0; NCOLS + 1];
+        for k in 0..t_len {
+            let f = fold_of(k, t_len, blocks_per_fold);
+            rows[j][f] += 1;
+            for c in 0..NCOLS {
+                x[c] = d.cols[j][c][k];
+            }
+            x[C_TARGET] = d.r0[j][k];
+            let m = &mut gj[f];
+            for a in 0..=NCOLS {
+                let xa = x[a];
+                if xa == 0.0 {
+                    continue;
+                }
+                for b in a..=NCOLS {
+                    m[(a, b)] += xa * x[b];
+                }
+            }
+        }
+        for m in gj.iter_mut() {
+            for a in 0..=NCOLS {
+                for b in 0..a {
+                    m[(a, b)] = m[(b, a)];
+                }
+            }
+        }
+        g.push(gj);
+    }
+    Grams { g, rows }
+}

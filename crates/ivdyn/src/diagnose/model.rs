@@ -1,0 +1,220 @@
+//! A model of effects (which effect on which joint, a payload), its parameters as
+//! dictionary columns, and its weighted least-squares fit from the Gram matrices.
+
+use nalgebra::{DMatrix, DVector};
+
+use super::EffectKind;
+use super::dictionary::{C_LINK, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, C_TARGET, Dictionary, Grams};
+use super::residual::noise_and_tau;
+
+/// One parameter of a model: which joints' rows it touches and through which column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Param {
+    /// `None`: a link-scale parameter of the look-alike check (not an effect).
+    pub(super) kind: Option<EffectKind>,
+    /// `Some(j)`: a per-joint parameter; `None`: payload (all joints).
+    pub(super) joint: Option<usize>,
+    /// Dictionary column (for payload: `C_PAYLOAD + k`).
+    pub(super) col: usize,
+}
+
+/// The model: per joint, the effects on it (and the Stribeck shape), plus payload.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub(super) struct Model {
+    pub(super) per_joint: Vec<Vec<EffectKind>>,
+    pub(super) stribeck_vs: Vec<usize>,
+    pub(super) payload: bool,
+    /// Per-link scale factors of the nominal inertials (look-alike check only).
+    pub(super) link_scale: bool,
+}
+
+impl Model {
+    pub(super) fn new(n: usize) -> Self {
+        Model { per_joint: vec![vec![]; n], stribeck_vs: vec![0; n], payload: false, link_scale: false }
+    }
+
+    pub(super) fn has(&self, j: usize, e: EffectKind) -> bool {
+        self.per_joint[j].contains(&e)
+    }
+
+    pub(super) fn with(&self, j: Option<usize>, e: EffectKind) -> Model {
+        let mut m = self.clone();
+        match j {
+            None => m.payload = true,
+            Some(j) => {
+                if !m.has(j, e) {
+                    m.per_joint[j].push(e);
+                }
+            }
+        }
+        m
+    }
+
+    pub(super) fn without(&self, j: Option<usize>, e: EffectKind) -> Model {
+        let mut m = self.clone();
+        match j {
+            None => m.payload = false,
+            Some(j) => m.per_joint[j].retain(|&x| x != e),
+        }
+        m
+    }
+
+    /// The parameters, in a fixed order.
+    pub(super) fn params(&self) -> Vec<Param> {
+        let mut p = vec![];
+        for (j, effects) in self.per_joint.iter().enumerate() {
+            let mut kinds = effects.clone();
+            kinds.sort();
+            for e in kinds {
+                let cols: &[usize] = match e {
+                    EffectKind::Coulomb => &[C_SIGN],
+                    EffectKind::Viscous => &[C_QD],
+                    EffectKind::Armature => &[C_QDD],
+                    EffectKind::TorqueOffset => &[C_ONE],
+                    // k (q - q0) = k q + c: the constant is the offset's column, so a
+                    // spring and an offset on one joint share it (never both: see rules)
+                    EffectKind::JointSpring => &[C_Q, C_ONE],
+                    EffectKind::Stribeck => &[C_STRIBECK],
+                    EffectKind::Payload => &[],
+                };
+                for &c in cols {
+                    let c = if c == C_STRIBECK { C_STRIBECK + self.stribeck_vs[j] } else { c };
+                    if !p.iter().any(|x: &Param| x.joint == Some(j) && x.col == c) {
+                        p.push(Param { kind: Some(e), joint: Some(j), col: c });
+                    }
+                }
+            }
+        }
+        if self.payload {
+            for k in 0..10 {
+                p.push(Param { kind: Some(EffectKind::Payload), joint: None, col: C_PAYLOAD + k });
+            }
+        }
+        if self.link_scale {
+            for i in 0..self.per_joint.len() {
+                p.push(Param { kind: None, joint: None, col: C_LINK + i });
+            }
+        }
+        p
+    }
+}
+
+/// The model with every candidate on every joint (and a payload): what is left after it
+/// is the noise plus what no effect of the vocabulary explains.
+pub(super) fn all_model(n: usize) -> Model {
+    let mut all = Model::new(n);
+    for j in 0..n {
+        all.per_joint[j] =
+            vec![EffectKind::Coulomb, EffectKind::Viscous, EffectKind::Armature, EffectKind::JointSpring];
+    }
+    all.payload = true;
+    all
+}
+
+/// A fitted model.
+#[derive(Debug, Clone)]
+pub(super) struct Fit {
+    pub(super) params: Vec<Param>,
+    pub(super) theta: Vec<f64>,
+}
+
+pub(super) fn joint_index(params: &[Param], j: usize) -> Vec<(usize, usize)> {
+    params.iter().enumerate().filter(|(_, p)| p.joint.is_none_or(|x| x == j)).map(|(i, p)| (i, p.col)).collect()
+}
+
+fn sum_folds(g: &[DMatrix<f64>; 2], folds: &[usize]) -> DMatrix<f64> {
+    let mut m = g[folds[0]].clone();
+    for &f in &folds[1..] {
+        m += &g[f];
+    }
+    m
+}
+
+/// Weighted LS over `folds` (weights `w[j]` per joint). Rank-deficient directions (e.g.
+/// payload parameters this motion cannot see) get the minimum-norm solution.
+pub(super) fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]) -> Fit {
+    let p = model_params.len();
+    let n = gr.g.len();
+    let mut a = DMatrix::<f64>::zeros(p, p);
+    let mut b = DVector::<f64>::zeros(p);
+    for j in 0..n {
+        let g = sum_folds(&gr.g[j], folds);
+        let idx = joint_index(model_params, j);
+        for &(ia, ca) in &idx {
+            b[ia] += w[j] * g[(ca, C_TARGET)];
+            for &(ib, cb) in &idx {
+                a[(ia, ib)] += w[j] * g[(ca, cb)];
+            }
+        }
+    }
+    if p == 0 {
+        return Fit { params: vec![], theta: vec![] };
+    }
+    // scale to unit diagonal, then a pseudo-inverse with a relative threshold
+    let s: Vec<f64> = (0..p).map(|i| if a[(i, i)] > 0.0 { 1.0 / a[(i, i)].sqrt() } else { 0.0 }).collect();
+    let an = DMatrix::from_fn(p, p, |i, k| a[(i, k)] * s[i] * s[k]);
+    let bn = DVector::from_fn(p, |i, _| b[i] * s[i]);
+    let svd = an.clone().svd(true, true);
+    let tol = 1e-10 * svd.singular_values.max();
+    let pinv = svd.pseudo_inverse(tol).unwrap_or_else(|_| DMatrix::zeros(p, p));
+    let xn = &pinv * &bn;
+    let theta: Vec<f64> = (0..p).map(|i| xn[i] * s[i]).collect();
+    Fit { params: model_params.to_vec(), theta }
+}
+
+/// Residual sum of squares of joint `j` over `folds` (unweighted, N m^2).
+pub(super) fn rss_joint(f: &Fit, gr: &Grams, j: usize, folds: &[usize]) -> f64 {
+    let g = sum_folds(&gr.g[j], folds);
+    let idx = joint_index(&f.params, j);
+    let mut v = g[(C_TARGET, C_TARGET)];
+    for &(ia, ca) in &idx {
+        v -= 2.0 * f.theta[ia] * g[(ca, C_TARGET)];
+        for &(ib, cb) in &idx {
+            v += f.theta[ia] * f.theta[ib] * g[(ca, cb)];
+        }
+    }
+    v.max(0.0)
+}
+
+/// RMS over the log of the torque the parameters of `which` add on joint `j`.
+pub(super) fn effect_rms(f: &Fit, gr: &Grams, j: usize, which: &dyn Fn(&Param) -> bool) -> f64 {
+    let g = sum_folds(&gr.g[j], &[0, 1]);
+    let idx: Vec<(usize, usize)> =
+        joint_index(&f.params, j).into_iter().filter(|&(i, _)| which(&f.params[i])).collect();
+    let mut v = 0.0;
+    for &(ia, ca) in &idx {
+        for &(ib, cb) in &idx {
+            v += f.theta[ia] * f.theta[ib] * g[(ca, cb)];
+        }
+    }
+    (v.max(0.0) / (gr.rows[j][0] + gr.rows[j][1]) as f64).sqrt()
+}
+
+/// Predicted extra torque of a fit over the whole log (`T x N`).
+pub(super) fn effect_torque(f: &Fit, d: &Dictionary, n: usize, t_len: usize) -> Vec<f64> {
+    let mut out = vec![0.0; t_len * n];
+    for (i, p) in f.params.iter().enumerate() {
+        let js: Vec<usize> = match p.joint {
+            Some(j) => vec![j],
+            None => (0..n).collect(),
+        };
+        for j in js {
+            let c = &d.cols[j][p.col];
+            for k in 0..t_len {
+                out[k * n + j] += f.theta[i] * c[k];
+            }
+        }
+    }
+    out
+}
+
+/// Noise std and integrated autocorrelation time per joint from the residual of
+/// [`all_model`], and that residual.
+pub(super) fn noise_of_all_model(d: &Dictionary, gr: &Grams, n: usize, t_len: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let unit = vec![1.0; n];
+    let f_all = fit(&all_model(n).params(), gr, &unit, &[0, 1]);
+    let e_all = effect_torque(&f_all, d, n, t_len);
+    let r_all: Vec<f64> = (0..t_len * n).map(|i| d.r0[i % n][i / n] - e_all[i]).collect();
+    let (sigma, rho): (Vec<f64>, Vec<f64>) = (0..n).map(|j| noise_and_tau(&r_all, n, j)).unzip();
+    (sigma, rho, r_all)
+}

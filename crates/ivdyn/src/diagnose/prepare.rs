@@ -1,0 +1,104 @@
+//! Everything derived from the log before the search: the conditioned signals, the
+//! nominal prediction, the dictionary and its Gram matrices, at the differentiation
+//! cutoff and torque-to-motion alignment that explain the log best.
+
+use super::dictionary::{Dictionary, Grams, build_dictionary, grams};
+use super::model::{all_model, fit, noise_of_all_model, rss_joint};
+use super::signals::{Signals, accel_step, condition};
+use super::{DiagnoseOptions, bad};
+use crate::Robot;
+use crate::batch;
+use crate::dsp;
+use crate::error::Result;
+use crate::log::JointLog;
+
+/// Differentiation cutoffs tried (Hz), at most a quarter of the sample rate.
+const CUTOFF_GRID: [f64; 5] = [10.0, 20.0, 40.0, 80.0, 160.0];
+
+/// Everything derived from the log for one conditioning.
+pub(super) struct Prepared {
+    pub(super) s: Signals,
+    pub(super) tau_nom: Vec<f64>,
+    pub(super) d: Dictionary,
+    pub(super) gr: Grams,
+}
+
+/// The log prepared at the best cutoff, then again with the acceleration aligned to the
+/// torque.
+pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result<Prepared> {
+    let fs = 1.0 / log.median_dt().ok_or_else(|| bad("need at least two distinct stamps"))?;
+    // the differentiation cutoff: given, or the one on a grid that leaves the least
+    // residual once every candidate effect is in (too low a cutoff removes real
+    // acceleration the torque contains, too high lets differentiation noise through)
+    let cutoffs: Vec<f64> = match opts.cutoff_hz {
+        Some(c) => vec![c],
+        None => CUTOFF_GRID.iter().copied().filter(|&c| c <= 0.25 * fs).collect(),
+    };
+    let cutoffs = if cutoffs.is_empty() { vec![dsp::default_cutoff(fs)] } else { cutoffs };
+    let mut best: Option<(f64, Prepared)> = None;
+    for &c in &cutoffs {
+        let p = prepare(robot, log, opts, c, None)?;
+        let score = p.log_rss_all();
+        if best.as_ref().is_none_or(|b| score < b.0) {
+            best = Some((score, p));
+        }
+    }
+    let p = best.expect("at least one cutoff").1;
+    // torque-to-motion alignment (a fraction of a sample), then everything again
+    let alpha = p.alignment(robot)?;
+    prepare(robot, log, opts, p.s.cutoff_hz, Some(alpha))
+}
+
+fn prepare(
+    robot: &Robot,
+    log: &JointLog,
+    opts: &DiagnoseOptions,
+    cutoff_hz: f64,
+    align: Option<f64>,
+) -> Result<Prepared> {
+    let n = robot.dof();
+    let mut s = condition(log, opts, cutoff_hz)?;
+    if let Some(a) = align {
+        s.align_acceleration(a, n);
+    }
+    let t_len = s.t.len();
+    let mut tau_nom = vec![0.0; t_len * n];
+    batch::rnea_batch(robot, &s.q, &s.qd, &s.qdd, &mut tau_nom).map_err(|e| bad(format!("nominal model: {e}")))?;
+    let d = build_dictionary(robot, &s, &tau_nom)?;
+    let gr = grams(&d, t_len, opts.blocks_per_fold.max(1));
+    Ok(Prepared { s, tau_nom, d, gr })
+}
+
+impl Prepared {
+    /// Sum over joints of log(RSS) of the all-candidates model (scale-free across joints).
+    fn log_rss_all(&self) -> f64 {
+        let n = self.d.cols.len();
+        let unit = vec![1.0; n];
+        let f = fit(&all_model(n).params(), &self.gr, &unit, &[0, 1]);
+        (0..n).map(|j| rss_joint(&f, &self.gr, j, &[0, 1]).max(1e-300).ln()).sum()
+    }
+
+    /// The time alignment `a` (samples, clamped to +-1) between torque and motion that
+    /// best explains the residual of the all-candidates model: the torque of the shift,
+    /// `M(q) a accel_step`, regressed on it, weighted by the noise.
+    fn alignment(&self, robot: &Robot) -> Result<f64> {
+        let n = self.d.cols.len();
+        let t_len = self.s.t.len();
+        let (sigma, _, r_all) = noise_of_all_model(&self.d, &self.gr, n, t_len);
+        let delta = accel_step(&self.s.qd, n, self.s.dt);
+        let zero = vec![0.0; t_len * n];
+        let (mut m_d, mut m_0) = (vec![0.0; t_len * n], vec![0.0; t_len * n]);
+        batch::rnea_batch(robot, &self.s.q, &zero, &delta, &mut m_d).map_err(|e| bad(format!("alignment: {e}")))?;
+        batch::rnea_batch(robot, &self.s.q, &zero, &zero, &mut m_0).map_err(|e| bad(format!("alignment: {e}")))?;
+        let (mut num, mut den) = (0.0, 0.0);
+        for k in 0..t_len {
+            for j in 0..n {
+                let c = m_d[k * n + j] - m_0[k * n + j];
+                let w = 1.0 / (sigma[j] * sigma[j]);
+                num += w * c * r_all[k * n + j];
+                den += w * c * c;
+            }
+        }
+        Ok(if den > 0.0 { (num / den).clamp(-1.0, 1.0) } else { 0.0 })
+    }
+}

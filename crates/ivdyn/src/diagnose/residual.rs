@@ -1,0 +1,131 @@
+//! What a residual (measured minus predicted torque, row-major `T x N`) looks like: its
+//! noise level and autocorrelation time (which set the F tests' effective sample count),
+//! its RMS, and where it is (the regimes the report and the evidence quote).
+
+use super::Regimes;
+use super::signals::Signals;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(|a, b| a.total_cmp(b));
+    let m = v.len() / 2;
+    if v.len() % 2 == 1 { v[m] } else { 0.5 * (v[m - 1] + v[m]) }
+}
+
+/// Noise std and integrated autocorrelation time of the residual `r` on joint `j`.
+///
+/// The noise comes from sample-to-sample differences (MAD, robust to jumps), which slow
+/// structure barely moves, when the residual is rough (lag-1 autocorrelation below 0.5,
+/// a raw sensor). A smooth residual (a log low-passed by its authors) says nothing about
+/// the noise through its differences: then its RMS is used, i.e. what no candidate
+/// explains. The autocorrelation time `1 + 2 sum rho_k` (summed while `rho_k > 0.05`)
+/// turns the sample count into an effective count for the F tests.
+pub(super) fn noise_and_tau(r: &[f64], n: usize, j: usize) -> (f64, f64) {
+    let t_len = r.len() / n;
+    let x = |k: usize| r[k * n + j];
+    let mean = (0..t_len).map(x).sum::<f64>() / t_len as f64;
+    let c0: f64 = (0..t_len).map(|k| (x(k) - mean).powi(2)).sum();
+    let rho = |lag: usize| -> f64 {
+        if c0 <= 0.0 {
+            return 0.0;
+        }
+        (lag..t_len).map(|k| (x(k) - mean) * (x(k - lag) - mean)).sum::<f64>() / c0
+    };
+    let rho1 = rho(1);
+    let mut tau = 1.0;
+    for lag in 1..(t_len / 10).max(2) {
+        let rk = if lag == 1 { rho1 } else { rho(lag) };
+        if rk < 0.05 {
+            break;
+        }
+        tau += 2.0 * rk;
+    }
+    let sigma = if rho1 < 0.5 {
+        let dif: Vec<f64> = (1..t_len).map(|k| x(k) - x(k - 1)).collect();
+        let med = median(dif.clone());
+        let mad = median(dif.iter().map(|d| (d - med).abs()).collect());
+        1.4826 * mad / 2f64.sqrt()
+    } else {
+        ((0..t_len).map(|k| x(k) * x(k)).sum::<f64>() / t_len as f64).sqrt()
+    };
+    (sigma.max(1e-12), tau)
+}
+
+/// RMS per joint of a residual (N m).
+pub(super) fn rms_per_joint(r: &[f64], n: usize) -> Vec<f64> {
+    let t_len = r.len() / n;
+    (0..n).map(|j| ((0..t_len).map(|k| r[k * n + j].powi(2)).sum::<f64>() / t_len as f64).sqrt()).collect()
+}
+
+/// Where the residual `r` is on each joint: near velocity reversals, at high acceleration
+/// or elsewhere, and how it correlates with the joint's motion.
+pub(super) fn regimes(s: &Signals, r: &[f64], n: usize) -> Vec<Regimes> {
+    let t_len = s.t.len();
+    let window = ((0.02 / s.dt).round() as usize).max(2);
+    (0..n)
+        .map(|j| {
+            let qd = |k: usize| s.qd[k * n + j];
+            let rv = |k: usize| r[k * n + j];
+            let mut near = vec![false; t_len];
+            let mut jumps = vec![];
+            for k in 1..t_len {
+                if qd(k - 1) * qd(k) < 0.0 || (qd(k - 1) == 0.0 && qd(k) != 0.0 && k > 1 && qd(k - 2) * qd(k) < 0.0) {
+                    let lo = k.saturating_sub(window);
+                    let hi = (k + window).min(t_len);
+                    for x in near.iter_mut().take(hi).skip(lo) {
+                        *x = true;
+                    }
+                    if k >= 3 * window && k + 3 * window < t_len {
+                        let before: f64 = (k - 3 * window..k - window).map(rv).sum::<f64>() / (2 * window) as f64;
+                        let after: f64 = (k + window..k + 3 * window).map(rv).sum::<f64>() / (2 * window) as f64;
+                        jumps.push((after - before) * qd(k).signum());
+                    }
+                }
+            }
+            let mut acc: Vec<f64> = (0..t_len).map(|k| s.qdd[k * n + j].abs()).collect();
+            acc.sort_by(|a, b| a.total_cmp(b));
+            let thr = acc[(0.8 * t_len as f64) as usize];
+            let (mut sr, mut nr, mut sa, mut na, mut so, mut no) = (0.0, 0, 0.0, 0, 0.0, 0);
+            for (k, &nk) in near.iter().enumerate() {
+                let v = rv(k).powi(2);
+                if nk {
+                    sr += v;
+                    nr += 1;
+                } else if s.qdd[k * n + j].abs() >= thr {
+                    sa += v;
+                    na += 1;
+                } else {
+                    so += v;
+                    no += 1;
+                }
+            }
+            let ms = |s: f64, c: usize| if c > 0 { (s / c as f64).sqrt() } else { f64::NAN };
+            let corr = |x: &dyn Fn(usize) -> f64| {
+                let mx = (0..t_len).map(x).sum::<f64>() / t_len as f64;
+                let mr = (0..t_len).map(rv).sum::<f64>() / t_len as f64;
+                let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+                for k in 0..t_len {
+                    let (a, b) = (x(k) - mx, rv(k) - mr);
+                    sxy += a * b;
+                    sxx += a * a;
+                    syy += b * b;
+                }
+                if sxx > 0.0 && syy > 0.0 { sxy / (sxx * syy).sqrt() } else { 0.0 }
+            };
+            Regimes {
+                rms: ms((0..t_len).map(|k| rv(k).powi(2)).sum(), t_len),
+                rms_reversal: ms(sr, nr),
+                rms_high_acc: ms(sa, na),
+                rms_rest: ms(so, no),
+                reversal_jump: if jumps.is_empty() { f64::NAN } else { jumps.iter().sum::<f64>() / jumps.len() as f64 },
+                reversals: jumps.len(),
+                corr_q: corr(&|k| s.q[k * n + j]),
+                corr_qd: corr(&|k| s.qd[k * n + j]),
+                corr_qdd: corr(&|k| s.qdd[k * n + j]),
+                mean: (0..t_len).map(rv).sum::<f64>() / t_len as f64,
+            }
+        })
+        .collect()
+}

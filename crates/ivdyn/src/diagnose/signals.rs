@@ -1,0 +1,104 @@
+//! The log conditioned for the diagnosis: uniform samples, smoothed positions and their
+//! derivatives (or the log's own velocities), the measured torque, with the filters' edge
+//! transients cut off; and the time shift of the acceleration that aligns it with the
+//! torque.
+
+use super::{DiagnoseOptions, bad};
+use crate::dsp;
+use crate::error::Result;
+use crate::log::JointLog;
+use crate::prep;
+
+/// Conditioned signals, row-major `T x N`.
+pub(super) struct Signals {
+    pub(super) t: Vec<f64>,
+    pub(super) q: Vec<f64>,
+    pub(super) qd: Vec<f64>,
+    pub(super) qdd: Vec<f64>,
+    pub(super) tau: Vec<f64>,
+    pub(super) velocity_in_log: bool,
+    pub(super) dt: f64,
+    /// Zero-phase cutoff used (Hz).
+    pub(super) cutoff_hz: f64,
+    /// Torque-to-motion alignment in samples (see [`accel_step`]).
+    pub(super) align: f64,
+}
+
+/// The log conditioned with zero-phase cutoff `cutoff_hz` (module docs); errors when it
+/// has no torque, non-finite values, or fewer than 50 samples left.
+pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) -> Result<Signals> {
+    let n = log.dof();
+    let tau = log
+        .tau
+        .as_ref()
+        .ok_or_else(|| bad("the log has no effort (torque) values: nothing to compare the model with"))?;
+    let copts = prep::ConditionOptions {
+        diff: dsp::DiffMethod::Butterworth { order: 4, cutoff_hz: Some(cutoff_hz) },
+        ..Default::default()
+    };
+    // prep's one policy: duplicates, resampling and smoothing, with the log's velocity
+    // where it has one unless told not to
+    let c = if opts.ignore_log_velocity {
+        prep::condition(log, &copts)?
+    } else {
+        prep::condition_with_log_velocity(log, &copts)?
+    };
+    let t_len = c.t.len();
+    if t_len < 50 {
+        return Err(bad(format!("the log has {t_len} usable samples; the diagnosis needs at least 50")));
+    }
+    let tau = c.tau.as_ref().unwrap_or(tau);
+    if let Some(i) = tau.iter().position(|v| !v.is_finite()) {
+        return Err(bad(format!("sample {}, joint {}: effort is {}", i / n, log.joint_names[i % n], tau[i])));
+    }
+    // the first and last samples carry the filters' and differences' edge transients:
+    // two time constants of the cutoff (at least 2 samples) are left out at both ends
+    let trim = ((2.0 / (cutoff_hz * c.dt)).ceil() as usize).max(2);
+    if t_len <= 2 * trim + 50 {
+        return Err(bad(format!(
+            "the log has {t_len} samples; with {trim} edge samples dropped at each end (cutoff {cutoff_hz} Hz) fewer than 50 are left"
+        )));
+    }
+    let cut = |x: &[f64]| x[trim * n..(t_len - trim) * n].to_vec();
+    Ok(Signals {
+        t: c.t[trim..t_len - trim].to_vec(),
+        q: cut(&c.d.q),
+        qd: cut(&c.d.qd),
+        qdd: cut(&c.d.qdd),
+        tau: cut(tau),
+        // whether the log has velocities and they were not to be ignored (also when
+        // resampling made prep fall back to differentiating q)
+        velocity_in_log: log.qd.is_some() && !opts.ignore_log_velocity,
+        dt: c.dt,
+        cutoff_hz,
+        align: 0.0,
+    })
+}
+
+impl Signals {
+    /// Moves the acceleration `a` samples in time ([`accel_step`]) and records the shift.
+    pub(super) fn align_acceleration(&mut self, a: f64, n: usize) {
+        let delta = accel_step(&self.qd, n, self.dt);
+        for (x, dl) in self.qdd.iter_mut().zip(&delta) {
+            *x += a * dl;
+        }
+        self.align = a;
+    }
+}
+
+/// `qdd_fwd[k] - qdd_fwd[k-1]` with `qdd_fwd[k] = (qd[k+1] - qd[k]) / dt`: adding `a` times
+/// it to the central-difference acceleration moves it by `a` samples in time
+/// (`a = 1/2`: the forward difference, the acceleration a torque applied over
+/// `[t_k, t_k+1)` produces; `-1/2`: the backward difference).
+pub(super) fn accel_step(qd: &[f64], n: usize, dt: f64) -> Vec<f64> {
+    let t_len = qd.len() / n;
+    let mut out = vec![0.0; qd.len()];
+    for k in 1..t_len.saturating_sub(1) {
+        for j in 0..n {
+            let f1 = (qd[(k + 1) * n + j] - qd[k * n + j]) / dt;
+            let f0 = (qd[k * n + j] - qd[(k - 1) * n + j]) / dt;
+            out[k * n + j] = f1 - f0;
+        }
+    }
+    out
+}
