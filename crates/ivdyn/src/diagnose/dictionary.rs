@@ -5,7 +5,7 @@
 //! `r = tau - rnea_nominal(q, qd, qdd) = X theta + e`, with `X` built from a small
 //! per-joint dictionary: `1, q, qd, sign(qd), qdd`, Stribeck shapes, and the terminal
 //! link's 10 regressor columns (a payload is a change of the terminal link's inertial
-//! parameters, eq. 14 of the paper: the terminal-link estimator with every joint's row).
+//! parameters, eqs 39-40 of the paper: the terminal-link model with every joint's row).
 //! The data enter only through per-joint, per-fold Gram matrices of that dictionary, so
 //! scoring dozens of candidate models costs microseconds each, whatever the log length.
 
