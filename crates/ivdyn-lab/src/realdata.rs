@@ -171,8 +171,7 @@ pub fn fit_rows(rows: &Rows, base: &BaseParams, est: Estimator, consistent: Opti
         Estimator::Wls => {
             let full = base.to_full(&nan_to_zero(&ols.theta))?;
             let q = quality("", &rows.tau, &rows.predict(&full), n);
-            let floor = q.rms.iter().cloned().fold(0.0, f64::max) * 1e-6 + 1e-12;
-            let w: Vec<f64> = q.rms.iter().map(|r| 1.0 / (r * r).max(floor * floor)).collect();
+            let w = ivdyn::ident::wls::per_joint_weights(&q.rms);
             (fit_with(&w)?, w)
         }
     };
