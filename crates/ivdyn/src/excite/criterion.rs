@@ -21,7 +21,9 @@ const HV: f64 = 1e-2;
 
 /// The optimisation problem: robot, base columns, grids, bounds.
 pub(super) struct Problem<'a> {
+    /// The robot whose regressor is evaluated.
     pub(super) robot: &'a Robot,
+    /// Base parameters: the regressor's independent columns.
     pub(super) base: &'a BaseParams,
     /// Joints.
     pub(super) n: usize,
@@ -35,6 +37,7 @@ pub(super) struct Problem<'a> {
     pub(super) crit_grid: Basis,
     /// Samples of the bound scaling.
     pub(super) bound_grid: Basis,
+    /// The criterion minimised.
     pub(super) criterion: Criterion,
     /// base columns that are Coulomb columns (zero derivative in qd)
     pub(super) coulomb: Vec<bool>,

@@ -121,9 +121,9 @@ fn problem<'a>(
     }
 }
 
-/// The written samples: variables are realised with the final scaling on the written grid
-/// within the span (a superset of nothing: the samples a robot will follow), sampled over
-/// the whole duration, and scored.
+/// The written samples: the final scaling into the bounds is done on the written samples
+/// themselves (those within the span), so the trajectory a robot replays is inside the
+/// limits at every written sample; then sampled over the whole duration and scored.
 struct Written<'p, 'a> {
     pr: &'p Problem<'a>,
     /// Every written time, `0..=duration` at the rate.

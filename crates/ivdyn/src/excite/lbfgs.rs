@@ -1,5 +1,6 @@
-//! The optimiser: L-BFGS (memory 8) with Armijo backtracking (Nocedal & Wright 2006,
-//! Algorithms 7.4 and 7.5, and 3.1 for the line search).
+//! The optimiser: L-BFGS (memory 8) with Armijo backtracking (Nocedal & Wright,
+//! Numerical Optimization, 2nd ed. 2006: Algorithms 7.4 and 7.5, and 3.1 for the line
+//! search).
 
 use super::criterion::{Eval, Problem};
 use super::fourier::dot;
@@ -64,10 +65,12 @@ struct Memory {
 }
 
 impl Memory {
+    /// No pair kept (the next direction is a scaled gradient).
     fn is_empty(&self) -> bool {
         self.ss.is_empty()
     }
 
+    /// Forgets every pair (after a failed step or a renormalisation, which invalidate them).
     fn clear(&mut self) {
         self.ss.clear();
         self.ys.clear();

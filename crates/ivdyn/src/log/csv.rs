@@ -65,6 +65,7 @@ pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Res
     Ok(log)
 }
 
+/// A log error naming the file `path`.
 fn log_err(path: &Path, msg: String) -> Error {
     Error::Log { file: path.to_path_buf(), msg }
 }

@@ -331,6 +331,7 @@ where
     pass.finish()
 }
 
+/// A log error naming the file `path`.
 fn log_err(path: &Path, msg: String) -> Error {
     Error::Log { file: path.to_path_buf(), msg }
 }
@@ -382,6 +383,7 @@ impl<'o> Pass<'o> {
         })
     }
 
+    /// A log error naming this pass's file.
     fn err(&self, msg: String) -> Error {
         log_err(self.path, msg)
     }
