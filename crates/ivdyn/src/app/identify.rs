@@ -418,11 +418,11 @@ pub(crate) fn finish_identify(
     robot: &Robot,
     base: &BaseParams,
     opts: &IdentifyOptions,
-    d: FitData,
+    mut d: FitData,
 ) -> Result<IdentifyReport> {
     let n = robot.dof();
     let b = base.base_count();
-    let mut notes = d.notes;
+    let mut notes = std::mem::take(&mut d.notes);
     if d.fit.samples() * n < 2 * b {
         return Err(err_est(format!(
             "log too short: {} samples of {n} joints after conditioning for {b} base parameters",
@@ -431,50 +431,103 @@ pub(crate) fn finish_identify(
     }
     let nominal = robot.params();
     let nom_base = base.project(&nominal)?;
-    let fill = |theta: &[f64]| -> Vec<f64> {
-        theta.iter().zip(&nom_base).map(|(t, nb)| if t.is_finite() { *t } else { *nb }).collect()
+    let Fits { fit, weights, iv } = fits(n, &d, base, opts, &nom_base)?;
+    let theta = fill_nominal(&fit.theta, &nom_base);
+    let fit_q = d.fit.quality("fit".into(), &theta);
+    let validation = d.validation.as_ref().map(|(label, v)| v.quality(label.clone(), &theta)).filter(|q| q.samples > 1);
+    let dwh = dwh_report(opts.method, &fit, &iv, &mut notes);
+    // full parameters: nominal + base correction
+    let full = base.apply(&theta, &nominal, 1.0)?;
+    let physical = physical::check_robot_params(robot, &full);
+    let consistent = if opts.consistent {
+        Some(consistent_report(robot, base, &d, &weights, &full, &nominal, &opts.progress)?)
+    } else {
+        None
     };
+    Ok(IdentifyReport {
+        method: opts.method.name().into(),
+        instrument: instrument_text(opts.method, &d.instrument),
+        joints: robot.joint_names.clone(),
+        drive_terms: opts.drive.names(),
+        sample_rate_hz: 1.0 / d.dt,
+        decimation: d.factor,
+        filter_cutoff_hz: d.cutoff_hz,
+        rows: fit.rows,
+        rank: fit.rank,
+        condition_number: fit.condition_number,
+        sigma2: fit.sigma2,
+        weights,
+        base: base_values(base, &fit, &nom_base),
+        unexcited: fit.unexcited.clone(),
+        fit: fit_q,
+        validation,
+        dwh,
+        params: params_file(robot, full),
+        notes,
+        physical,
+        consistent,
+        streamed: false,
+        fit_report: Some(fit),
+    })
+}
+
+/// `theta` with its non-finite entries (unexcited base parameters) replaced by the nominal
+/// base values `nom_base`.
+fn fill_nominal(theta: &[f64], nom_base: &[f64]) -> Vec<f64> {
+    theta.iter().zip(nom_base).map(|(t, nb)| if t.is_finite() { *t } else { *nb }).collect()
+}
+
+/// The fit of [`finish_identify`]'s method, the per-joint weights it used and the IV fit
+/// (for the DWH test; `None` when no instrument was built or not asked).
+struct Fits {
+    fit: FitReport,
+    weights: Vec<f64>,
+    iv: Option<std::result::Result<FitReport, Error>>,
+}
+
+/// Runs the fits of `opts.method` (`n` joints): OLS; two-step WLS (weights `1 / rms` of the OLS
+/// residual per joint) with the IV fit alongside; IV (an error when it fails); or the
+/// IDIM-IV fit computed earlier.
+fn fits(n: usize, d: &FitData, base: &BaseParams, opts: &IdentifyOptions, nom_base: &[f64]) -> Result<Fits> {
     let st = Stage::begin(&opts.progress, "fitting", 3);
     let ones = vec![1.0; n];
     let ols = fit_ls(&d.fit.ls(&ones)?, &base.names)?;
     st.advance(1);
-    let mut weights = vec![1.0; n];
-    let mut iv_fit: Option<std::result::Result<FitReport, Error>> = None;
-    let fit = match opts.method {
-        Method::Ols => ols.clone(),
-        Method::Wls | Method::Iv => {
-            weights = per_joint_weights(&d.fit.quality(String::new(), &fill(&ols.theta)).rms);
-            let wls = fit_ls(&d.fit.ls(&weights)?, &base.names)?;
-            st.advance(1);
-            let iv = d.fit.iv(&weights).map(|acc| acc.and_then(|a| fit_iv(&a, &base.names)));
-            st.advance(1);
-            if opts.method == Method::Iv {
-                match iv {
-                    Some(Ok(f)) => {
-                        iv_fit = Some(Ok(f.clone()));
-                        f
-                    }
-                    Some(Err(e)) => {
-                        return Err(err_est(format!(
-                            "IV fit failed ({e}): the instrument is not correlated with the regressor; try --method wls or idim-iv"
-                        )));
-                    }
-                    None => return Err(err_est("IV fit: no instrument was built")),
-                }
-            } else {
-                iv_fit = iv;
-                wls
-            }
-        }
-        Method::IdimIv => d.idim.clone().ok_or_else(|| err_est("IDIM-IV: no fit"))?,
-    };
-    drop(st);
-    let theta = fill(&fit.theta);
-    let fit_q = d.fit.quality("fit".into(), &theta);
-    let validation = d.validation.as_ref().map(|(label, v)| v.quality(label.clone(), &theta)).filter(|q| q.samples > 1);
-    let dwh_src = match opts.method {
+    if opts.method == Method::Ols {
+        return Ok(Fits { fit: ols, weights: ones, iv: None });
+    }
+    if opts.method == Method::IdimIv {
+        let fit = d.idim.clone().ok_or_else(|| err_est("IDIM-IV: no fit"))?;
+        return Ok(Fits { fit, weights: ones, iv: None });
+    }
+    let weights = per_joint_weights(&d.fit.quality(String::new(), &fill_nominal(&ols.theta, nom_base)).rms);
+    let wls = fit_ls(&d.fit.ls(&weights)?, &base.names)?;
+    st.advance(1);
+    let iv = d.fit.iv(&weights).map(|acc| acc.and_then(|a| fit_iv(&a, &base.names)));
+    st.advance(1);
+    if opts.method == Method::Wls {
+        return Ok(Fits { fit: wls, weights, iv });
+    }
+    match iv {
+        Some(Ok(f)) => Ok(Fits { fit: f.clone(), weights, iv: Some(Ok(f)) }),
+        Some(Err(e)) => Err(err_est(format!(
+            "IV fit failed ({e}): the instrument is not correlated with the regressor; try --method wls or idim-iv"
+        ))),
+        None => Err(err_est("IV fit: no instrument was built")),
+    }
+}
+
+/// The LS-vs-IV (Durbin-Wu-Hausman) test as reported, from the IDIM-IV fit or the IV fit
+/// (a note when that failed).
+fn dwh_report(
+    method: Method,
+    fit: &FitReport,
+    iv: &Option<std::result::Result<FitReport, Error>>,
+    notes: &mut Vec<String>,
+) -> Option<Dwh> {
+    let dwh_src = match method {
         Method::IdimIv => fit.dwh,
-        _ => match &iv_fit {
+        _ => match iv {
             Some(Ok(f)) => f.dwh,
             Some(Err(e)) => {
                 notes.push(format!("no LS-vs-IV test: the IV fit failed ({e})"));
@@ -483,7 +536,7 @@ pub(crate) fn finish_identify(
             None => None,
         },
     };
-    let dwh = dwh_src.map(|d| Dwh {
+    dwh_src.map(|d| Dwh {
         statistic: d.statistic,
         dof: d.dof,
         p_value: d.p_value,
@@ -495,39 +548,44 @@ pub(crate) fn finish_identify(
         } else {
             format!("no evidence of LS bias (p = {:.3})", d.p_value)
         },
-    });
-    // full parameters: nominal + base correction
-    let full = base.apply(&theta, &nominal, 1.0)?;
-    let physical = physical::check_robot_params(robot, &full);
-    let consistent = if opts.consistent {
-        let _st = Stage::begin(&opts.progress, "consistent fit", 0);
-        let cacc = d.fit.ls(&weights)?;
-        let cf = ident::consistent::fit_consistent(
-            &cacc,
-            base,
-            &full,
-            &nominal,
-            &robot.link_names,
-            &robot.joint_names,
-            &Default::default(),
-        )?;
-        let val =
-            d.validation.as_ref().map(|(label, v)| v.quality(label.clone(), &cf.theta_base)).filter(|q| q.samples > 1);
-        Some(ident::consistent::ConsistentReport {
-            fit: d.fit.quality("fit".into(), &cf.theta_base),
-            validation: val,
-            params: ParamsFile {
-                robot: robot.name.clone(),
-                joints: robot.joint_names.clone(),
-                names: robot.param_names(),
-                theta: cf.theta.clone(),
-            },
-            result: cf,
-        })
-    } else {
-        None
-    };
-    let base_vals = (0..b)
+    })
+}
+
+/// The consistent fit ([`ident::consistent`]) on the same weighted statistics, started from
+/// the identified full parameters `full`, with its fit quality and validation.
+fn consistent_report(
+    robot: &Robot,
+    base: &BaseParams,
+    d: &FitData,
+    weights: &[f64],
+    full: &[f64],
+    nominal: &[f64],
+    progress: &ProgressSink,
+) -> Result<ident::consistent::ConsistentReport> {
+    let _st = Stage::begin(progress, "consistent fit", 0);
+    let cacc = d.fit.ls(weights)?;
+    let cf = ident::consistent::fit_consistent(
+        &cacc,
+        base,
+        full,
+        nominal,
+        &robot.link_names,
+        &robot.joint_names,
+        &Default::default(),
+    )?;
+    let val =
+        d.validation.as_ref().map(|(label, v)| v.quality(label.clone(), &cf.theta_base)).filter(|q| q.samples > 1);
+    Ok(ident::consistent::ConsistentReport {
+        fit: d.fit.quality("fit".into(), &cf.theta_base),
+        validation: val,
+        params: params_file(robot, cf.theta.clone()),
+        result: cf,
+    })
+}
+
+/// The base parameters as reported: value, standard deviation and nominal value.
+fn base_values(base: &BaseParams, fit: &FitReport, nom_base: &[f64]) -> Vec<BaseValue> {
+    (0..base.base_count())
         .map(|i| BaseValue {
             name: base.names[i].clone(),
             value: fit.theta[i],
@@ -535,41 +593,21 @@ pub(crate) fn finish_identify(
             rel_std_pct: fit.rel_std_pct[i],
             nominal: nom_base[i],
         })
-        .collect();
-    Ok(IdentifyReport {
-        method: opts.method.name().into(),
-        instrument: match opts.method {
-            Method::Ols | Method::Wls => d.instrument.clone().map(|s| format!("(DWH test only) {s}")),
-            Method::Iv => d.instrument.clone(),
-            Method::IdimIv => Some("IDIM-IV closed-loop simulation of the current estimate".into()),
-        },
-        joints: robot.joint_names.clone(),
-        drive_terms: opts.drive.names(),
-        sample_rate_hz: 1.0 / d.dt,
-        decimation: d.factor,
-        filter_cutoff_hz: d.cutoff_hz,
-        rows: fit.rows,
-        rank: fit.rank,
-        condition_number: fit.condition_number,
-        sigma2: fit.sigma2,
-        weights,
-        base: base_vals,
-        unexcited: fit.unexcited.clone(),
-        fit: fit_q,
-        validation,
-        dwh,
-        params: ParamsFile {
-            robot: robot.name.clone(),
-            joints: robot.joint_names.clone(),
-            names: robot.param_names(),
-            theta: full,
-        },
-        notes,
-        physical,
-        consistent,
-        streamed: false,
-        fit_report: Some(fit),
-    })
+        .collect()
+}
+
+/// The instrument in words for the report: for LS only used by the DWH test.
+fn instrument_text(method: Method, instrument: &Option<String>) -> Option<String> {
+    match method {
+        Method::Ols | Method::Wls => instrument.clone().map(|s| format!("(DWH test only) {s}")),
+        Method::Iv => instrument.clone(),
+        Method::IdimIv => Some("IDIM-IV closed-loop simulation of the current estimate".into()),
+    }
+}
+
+/// Full parameters `theta` of `robot` as a reloadable params file.
+fn params_file(robot: &Robot, theta: Vec<f64>) -> ParamsFile {
+    ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta }
 }
 
 /// Writes `log`'s measured torques, the torques predicted by `model` (e.g. the identified

@@ -11,9 +11,10 @@ use super::identify::{IdentifyOptions, Method, identify, rows_of};
 use super::io::{LogInput, LogSource};
 use crate::Robot;
 use crate::batch::stack_rows;
+use crate::dsp::Decimator;
 use crate::error::{Error, Result};
 use crate::ident::wls::{per_joint_weights, row_weights};
-use crate::ident::{self, BaseParams, LsAccumulator, fit_ls};
+use crate::ident::{self, BaseParams, FitReport, LsAccumulator, fit_ls};
 use crate::log::JointLog;
 use crate::output::write_json;
 use crate::prep::{self, ConditionOptions, parallel_filter};
@@ -118,72 +119,30 @@ pub fn payload(
 ) -> Result<PayloadReport> {
     let n = robot.dof();
     let mut notes = vec![];
-    let mut nom = robot.clone();
-    let nominal = if let Some(b) = before {
-        let mut o = opts.before.clone();
-        o.progress = opts.progress.clone();
-        let rep = identify(robot, b, &o)?;
-        nom.set_params(&rep.params.theta)?;
-        "before log".to_string()
-    } else {
-        "urdf".to_string()
-    };
-    let spec = TerminalSpec::payload(n);
-    let cols: Vec<usize> = (0..spec.cols(n)).map(|c| spec.theta_index(n, c)).collect();
-    debug_assert_eq!(cols.len(), LINK_PARAMS);
-    let all_names = robot.param_names();
-    let names10: Vec<String> = cols.iter().map(|&c| all_names[c].clone()).collect();
+    let (nom, nominal) = nominal_model(robot, before, opts)?;
+    let (cols, names10) = payload_columns(robot);
     // payload base columns from random states
     let bp = {
         let _st = Stage::begin(&opts.progress, "payload base columns", 0);
         let rows = random_rows(robot, &cols, opts.base_samples, opts.seed)?;
         BaseParams::from_rows(&rows, &names10)
     };
-    if after.tau.is_none() {
-        return Err(err_est("the log has no effort (torque) data; payload estimation needs measured torques"));
-    }
-    if after.joint_names != robot.joint_names {
-        return Err(err_est(format!("log joints {:?} are not the robot's {:?}", after.joint_names, robot.joint_names)));
-    }
-    let c = prep::condition(after, &opts.condition)?;
-    let fs = 1.0 / c.dt;
-    let dec = parallel_filter(opts.decimate, fs, &opts.condition)?;
-    let t = c.t.len();
-    let mut tau_nom = vec![0.0; t * n];
-    crate::batch::rnea_batch(&nom, &c.d.q, &c.d.qd, &c.d.qdd, &mut tau_nom)?;
-    let res: Vec<f64> = c.tau.as_ref().expect("checked").iter().zip(&tau_nom).map(|(a, b)| a - b).collect();
-    let st = Stage::begin(&opts.progress, "payload regressor", t as u64);
-    let phi10 = stack_rows(robot, &cols, &c.d.q, &c.d.qd, &c.d.qdd, Some(&st))?;
-    drop(st);
+    check_log(robot, after)?;
+    let raw = RawRows::new(robot, &nom, after, &cols, opts)?;
     let _st = Stage::begin(&opts.progress, "filtering and fitting", 0);
-    let phi10 = dec.apply(&phi10, n * 10)?;
-    let res = dec.apply(&res, n)?;
-    let tt = res.len() / n;
-    let edge = (tt / 100).min(20);
-    let r = edge..tt - edge;
-    let phi10 = rows_of(&phi10, n * 10, r.clone());
-    let res = rows_of(&res, n, r.clone());
-    let phib = bp.select_rows(phi10, res.len())?;
-    let nb = bp.base_count();
-    // 2-step WLS
-    let mut acc = LsAccumulator::new(nb);
-    acc.add_rows(&phib, res, None)?;
-    let ols = fit_ls(&acc, &bp.names)?;
-    let th0: Vec<f64> = ols.theta.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
-    let w = per_joint_weights(&quality(String::new(), &phib, res, &th0, n).rms);
-    let mut acc = LsAccumulator::new(nb);
-    acc.add_rows(&phib, res, Some(&row_weights(&w, res.len())))?;
-    let fit = fit_ls(&acc, &bp.names)?;
+    let (phi10, res) = raw.filtered(n)?;
+    let phib = bp.select_rows(&phi10, res.len())?;
+    let fit = fit_wls(&bp, &phib, &res, n)?;
     let thf: Vec<f64> = fit.theta.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
-    let zero = vec![0.0; nb];
-    let before_q = quality(String::new(), &phib, res, &zero, n);
-    let after_q = quality(String::new(), &phib, res, &thf, n);
+    let zero = vec![0.0; bp.base_count()];
+    let before_q = quality(String::new(), &phib, &res, &zero, n);
+    let after_q = quality(String::new(), &phib, &res, &thf, n);
     let idx: [usize; 10] = std::array::from_fn(|k| k);
     let est = ident::payload_from_fit(&bp, &fit, &idx, &names10)?;
     if after.truncated {
         notes.push("the log was truncated; only the samples before the damage were used".into());
     }
-    let mut rep = PayloadReport {
+    let rep = PayloadReport {
         link: robot.link_names[n - 1].clone(),
         identifiable: false,
         mass: None,
@@ -201,6 +160,105 @@ pub fn payload(
         rms_after: after_q.rms,
         notes,
     };
+    Ok(with_estimate(rep, est))
+}
+
+/// The model the residual is taken against, and its name for the report: the unloaded
+/// arm identified on `before` when given (`"before log"`), else the URDF's (`"urdf"`).
+fn nominal_model(robot: &Robot, before: Option<&JointLog>, opts: &PayloadOptions) -> Result<(Robot, String)> {
+    let mut nom = robot.clone();
+    let nominal = if let Some(b) = before {
+        let mut o = opts.before.clone();
+        o.progress = opts.progress.clone();
+        let rep = identify(robot, b, &o)?;
+        nom.set_params(&rep.params.theta)?;
+        "before log".to_string()
+    } else {
+        "urdf".to_string()
+    };
+    Ok((nom, nominal))
+}
+
+/// The full-parameter columns of the last link (the payload's 10 parameters) and their names.
+fn payload_columns(robot: &Robot) -> (Vec<usize>, Vec<String>) {
+    let n = robot.dof();
+    let spec = TerminalSpec::payload(n);
+    let cols: Vec<usize> = (0..spec.cols(n)).map(|c| spec.theta_index(n, c)).collect();
+    debug_assert_eq!(cols.len(), LINK_PARAMS);
+    let all_names = robot.param_names();
+    let names10: Vec<String> = cols.iter().map(|&c| all_names[c].clone()).collect();
+    (cols, names10)
+}
+
+/// The log must have torques and the robot's joints.
+fn check_log(robot: &Robot, after: &JointLog) -> Result<()> {
+    if after.tau.is_none() {
+        return Err(err_est("the log has no effort (torque) data; payload estimation needs measured torques"));
+    }
+    if after.joint_names != robot.joint_names {
+        return Err(err_est(format!("log joints {:?} are not the robot's {:?}", after.joint_names, robot.joint_names)));
+    }
+    Ok(())
+}
+
+/// The conditioned log's torque residual (measured - nominal `rnea`) and payload regressor
+/// rows, before the parallel filter.
+struct RawRows {
+    /// `T x n x 10`.
+    phi10: Vec<f64>,
+    /// `T x n`.
+    res: Vec<f64>,
+    /// The parallel filter and decimation for this log's rate.
+    dec: Decimator,
+}
+
+impl RawRows {
+    /// Conditions `after`, takes the residual against `nom` and stacks the regressor columns `cols`.
+    fn new(robot: &Robot, nom: &Robot, after: &JointLog, cols: &[usize], opts: &PayloadOptions) -> Result<Self> {
+        let n = robot.dof();
+        let c = prep::condition(after, &opts.condition)?;
+        let fs = 1.0 / c.dt;
+        let dec = parallel_filter(opts.decimate, fs, &opts.condition)?;
+        let t = c.t.len();
+        let mut tau_nom = vec![0.0; t * n];
+        crate::batch::rnea_batch(nom, &c.d.q, &c.d.qd, &c.d.qdd, &mut tau_nom)?;
+        let res: Vec<f64> = c.tau.as_ref().expect("checked").iter().zip(&tau_nom).map(|(a, b)| a - b).collect();
+        let st = Stage::begin(&opts.progress, "payload regressor", t as u64);
+        let phi10 = stack_rows(robot, cols, &c.d.q, &c.d.qd, &c.d.qdd, Some(&st))?;
+        Ok(RawRows { phi10, res, dec })
+    }
+
+    /// Both through the same zero-phase filter and decimation, with the filter edges (1 %
+    /// of the samples, at most 20, at each end) dropped.
+    fn filtered(self, n: usize) -> Result<(Vec<f64>, Vec<f64>)> {
+        let phi10 = self.dec.apply(&self.phi10, n * 10)?;
+        let res = self.dec.apply(&self.res, n)?;
+        let tt = res.len() / n;
+        let edge = (tt / 100).min(20);
+        let r = edge..tt - edge;
+        Ok((rows_of(&phi10, n * 10, r.clone()).to_vec(), rows_of(&res, n, r).to_vec()))
+    }
+}
+
+/// Two-step WLS of the residual on the payload's base columns: OLS, then weights
+/// `1 / rms` of the OLS residual per joint.
+fn fit_wls(bp: &BaseParams, phib: &[f64], res: &[f64], n: usize) -> Result<FitReport> {
+    let nb = bp.base_count();
+    let mut acc = LsAccumulator::new(nb);
+    acc.add_rows(phib, res, None)?;
+    let ols = fit_ls(&acc, &bp.names)?;
+    let th0: Vec<f64> = ols.theta.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
+    let w = per_joint_weights(&quality(String::new(), phib, res, &th0, n).rms);
+    let mut acc = LsAccumulator::new(nb);
+    acc.add_rows(phib, res, Some(&row_weights(&w, res.len())))?;
+    fit_ls(&acc, &bp.names)
+}
+
+/// `rep` with the payload estimate filled in, or the parameters that are not identifiable.
+fn with_estimate(
+    mut rep: PayloadReport,
+    est: std::result::Result<ident::PayloadEstimate, ident::NotIdentifiable>,
+) -> PayloadReport {
     match est {
         Ok(e) => {
             rep.identifiable = true;
@@ -221,7 +279,7 @@ pub fn payload(
                 .collect();
         }
     }
-    Ok(rep)
+    rep
 }
 
 /// Regressor columns `cols` at `samples` random states (as [`ident::robot_base_params`]).

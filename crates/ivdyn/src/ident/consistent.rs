@@ -288,6 +288,79 @@ pub fn fit_consistent(
 ) -> Result<ConsistentFit> {
     let n = joints.len();
     let p = 14 * n;
+    check_inputs(acc, base, theta_ls, theta_nom, links, n)?;
+    let r = acc.r();
+    let qty = acc.qty();
+    let rss_min = acc.rss();
+    let a = &r * &base_map(base, p); // b x p
+    let s = scales(theta_nom, n);
+    let as_ = DMatrix::from_fn(base.base_count(), p, |i, j| a[(i, j)] * s[j]);
+    let nt0 = null_rows(&as_, &s)?;
+
+    // start: the LS full parameters projected onto the consistent set
+    let ls_check = check_params(theta_ls, links, joints);
+    let margins = margins(&s, n);
+    let x = start_point(theta_ls, &s, &margins, links)?;
+
+    // Levenberg-Marquardt (Marquardt's diagonal scaling) from two paths, keeping the one
+    // that ends at the lower cost (both end on the same objective, at `reg_weight`):
+    // - direct, at `reg_weight` only;
+    // - by continuation in the weight: a strong pull toward the nominal parameters first,
+    //   then weaker ones (x100 each) down to `reg_weight`, each warm-started from the last.
+    // Direct, LM can wander along the unidentifiable directions into the boundary of the
+    // consistent set (a link's pseudo-inertia near singular), where the log-Cholesky
+    // variables run off to -inf and LM crawls: on exact UR5 data it stalled at a relative
+    // RSS of 1.5e-9 (continuation: 1e-27). On the real arms' data the direct path ends
+    // lower (continuation holds the parameters near the nominal ones it started from).
+    let weights = continuation_weights(opts.reg_weight);
+    let lm = Lm {
+        a: &a,
+        qty: &qty,
+        nt0: &nt0,
+        norm_as: as_.norm_squared() / p as f64,
+        theta_nom,
+        margins: &margins,
+        n,
+        opts,
+    };
+    let direct = lm.run(x.clone(), &weights[weights.len() - 1..]);
+    let cont = lm.run(x, &weights);
+    let end = if cont.cost < direct.cost { cont } else { direct };
+
+    let rss_of =
+        |t: &[f64]| -> Result<f64> { Ok(rss_min + (&r * DVector::from_vec(base.project(t)?) - &qty).norm_squared()) };
+    let theta_base = base.project(&end.theta)?;
+    let rss = rss_of(&end.theta)?;
+    let rss_ls = rss_of(theta_ls)?;
+    let check = check_params(&end.theta, links, joints);
+    Ok(ConsistentFit {
+        theta_base,
+        ls_check,
+        check,
+        sum_wyy: acc.sum_wyy(),
+        cost: ConsistentCost {
+            rss_ls,
+            rss,
+            rss_increase: if rss_ls > 0.0 { rss / rss_ls - 1.0 } else { f64::NAN },
+            iterations: end.iterations,
+            converged: end.converged,
+            regularised_directions: nt0.nrows(),
+        },
+        theta: end.theta,
+    })
+}
+
+/// Checks that the accumulator, the base map and the parameter vectors agree on `n` joints
+/// (`14 n` full parameters) and that the start and nominal parameters are finite.
+fn check_inputs(
+    acc: &LsAccumulator,
+    base: &BaseParams,
+    theta_ls: &[f64],
+    theta_nom: &[f64],
+    links: &[String],
+    n: usize,
+) -> Result<()> {
+    let p = 14 * n;
     let b = base.base_count();
     if acc.p() != b || base.full_cols != p || theta_ls.len() != p || theta_nom.len() != p || links.len() != n {
         return Err(Error::Dimension {
@@ -299,45 +372,56 @@ pub fn fit_consistent(
     if let Some(i) = theta_ls.iter().chain(theta_nom).position(|v| !v.is_finite()) {
         return Err(bad(format!("parameter {} is not finite", i % p)));
     }
-    let r = acc.r();
-    let qty = acc.qty();
-    let rss_min = acc.rss();
-    // P: b x p with theta_b = P theta
-    let mut pm = DMatrix::zeros(b, p);
+    Ok(())
+}
+
+/// `P` (`b x p`) with `theta_b = P theta`: the identity on the independent columns plus the
+/// dependent columns' combinations ([`BaseParams::project`] as a matrix).
+fn base_map(base: &BaseParams, p: usize) -> DMatrix<f64> {
+    let mut pm = DMatrix::zeros(base.base_count(), p);
     for (row, &i) in base.independent.iter().enumerate() {
         pm[(row, i)] = 1.0;
         for (c, &d) in base.dependent.iter().enumerate() {
             pm[(row, d)] += base.k[(row, c)];
         }
     }
-    let a = &r * &pm; // b x p
-    let s = scales(theta_nom, n);
-    let as_ = DMatrix::from_fn(b, p, |i, j| a[(i, j)] * s[j]);
+    pm
+}
+
+/// `N^T S^-1`: the rows that pull the directions the data do not see (singular values of
+/// `A S = R P S` below [`NULL_TOL`] of the largest) toward the nominal parameters.
+fn null_rows(as_: &DMatrix<f64>, s: &[f64]) -> Result<DMatrix<f64>> {
+    let (b, p) = as_.shape();
     // null space of A S from its SVD (padded to p x p rows so that V^T is complete). Not
     // from the eigenvalues of (A S)^T (A S): squared, a 1e-9 singular-value ratio is 1e-18,
     // below the eigenvalues' rounding (~1e-16 of the largest), and which directions counted
     // as null then changed with the last bits of the data.
     let mut padded = DMatrix::zeros(p.max(b), p);
-    padded.rows_mut(0, b).copy_from(&as_);
+    padded.rows_mut(0, b).copy_from(as_);
     let svd = padded.svd(false, true);
     let vt = svd.v_t.as_ref().ok_or_else(|| bad("consistent fit: SVD failed".to_string()))?;
     let top = svd.singular_values.max().max(0.0);
     let null: Vec<usize> = (0..vt.nrows()).filter(|&k| !(svd.singular_values[k] > NULL_TOL * top)).collect();
-    let nt0 = DMatrix::from_fn(null.len(), p, |r_, c| vt[(null[r_], c)] / s[c]); // N^T S^-1
-    let rows = b + null.len();
+    Ok(DMatrix::from_fn(null.len(), p, |r_, c| vt[(null[r_], c)] / s[c]))
+}
 
-    // start: the LS full parameters projected onto the consistent set
-    let ls_check = check_params(theta_ls, links, joints);
-    let mut x = vec![0.0; p];
-    // strict positive definiteness with room for rounding: J = U U^T + MARGIN diag(m L^2 (x3), m)
-    // in the nominal scales (the constrained optimum often lies on the boundary: a mass
-    // distribution flattened to a plane or a line)
-    let margins: Vec<Matrix4<f64>> = (0..n)
+/// Per link, the margin matrix `MARGIN diag(m L^2, m L^2, m L^2, m)` in the nominal scales:
+/// strict positive definiteness with room for rounding (the constrained optimum often lies
+/// on the boundary: a mass distribution flattened to a plane or a line).
+fn margins(s: &[f64], n: usize) -> Vec<Matrix4<f64>> {
+    (0..n)
         .map(|i| {
             let (m, ml2) = (s[link_col(i, 0)], s[link_col(i, 4)]);
             Matrix4::from_diagonal(&nalgebra::Vector4::new(ml2, ml2, ml2, m)) * MARGIN
         })
-        .collect();
+        .collect()
+}
+
+/// The LM start `x`: the LS full parameters projected onto the consistent set (links by
+/// [`start_link`]; negative friction and armature raised to ~0 before the square root).
+fn start_point(theta_ls: &[f64], s: &[f64], margins: &[Matrix4<f64>], links: &[String]) -> Result<Vec<f64>> {
+    let n = links.len();
+    let mut x = vec![0.0; 14 * n];
     for i in 0..n {
         let pl = &theta_ls[link_col(i, 0)..link_col(i, LINK_PARAMS)];
         let lc = start_link(pl, &margins[i])
@@ -353,115 +437,160 @@ pub fn fit_consistent(
         }
         x[o + 3] = theta_ls[drive_col(n, j, TAU0)];
     }
+    Ok(x)
+}
 
-    // Levenberg-Marquardt (Marquardt's diagonal scaling) from two paths, keeping the one
-    // that ends at the lower cost (both end on the same objective, at `reg_weight`):
-    // - direct, at `reg_weight` only;
-    // - by continuation in the weight: a strong pull toward the nominal parameters first,
-    //   then weaker ones (x100 each) down to `reg_weight`, each warm-started from the last.
-    // Direct, LM can wander along the unidentifiable directions into the boundary of the
-    // consistent set (a link's pseudo-inertia near singular), where the log-Cholesky
-    // variables run off to -inf and LM crawls: on exact UR5 data it stalled at a relative
-    // RSS of 1.5e-9 (continuation: 1e-27). On the real arms' data the direct path ends
-    // lower (continuation holds the parameters near the nominal ones it started from).
-    let mut weights = vec![opts.reg_weight];
+/// The weights of the continuation path: [`CONTINUATION_START`], then x100 smaller each
+/// stage, down to `reg_weight` (just `[reg_weight]` when it is not below the start).
+fn continuation_weights(reg_weight: f64) -> Vec<f64> {
+    let mut weights = vec![reg_weight];
     while weights.last().is_some_and(|w| *w < CONTINUATION_START) {
         let w = weights.last().map_or(CONTINUATION_START, |w| w * 100.0);
         weights.push(w.min(CONTINUATION_START));
     }
     weights.reverse();
-    let norm_as = as_.norm_squared() / p as f64;
-    let lm = |mut x: Vec<f64>, weights: &[f64]| -> (Vec<f64>, f64, usize, bool) {
-        let mut th = theta_of(&x, n, &margins);
-        let (mut it, mut converged, mut cost) = (0, false, f64::INFINITY);
+    weights
+}
+
+/// The Levenberg-Marquardt problem of the module docs: residual `[A theta(x) - Q^T y;
+/// sqrt(lambda) N^T S^-1 (theta(x) - theta_nom)]` over the log-Cholesky variables `x`.
+struct Lm<'a> {
+    /// `R P` (`b x p`).
+    a: &'a DMatrix<f64>,
+    /// `Q^T y` (`b`).
+    qty: &'a DVector<f64>,
+    /// `N^T S^-1` ([`null_rows`]).
+    nt0: &'a DMatrix<f64>,
+    /// `||R P S||_F^2 / p`: `lambda = weight * norm_as`.
+    norm_as: f64,
+    /// Nominal full parameters (the pull's target).
+    theta_nom: &'a [f64],
+    /// Per-link margin matrices ([`margins`]).
+    margins: &'a [Matrix4<f64>],
+    /// Joints.
+    n: usize,
+    /// Iteration limit and tolerance.
+    opts: &'a ConsistentOptions,
+}
+
+/// Where an LM path ended.
+struct LmEnd {
+    /// Consistent full parameters `theta(x)`.
+    theta: Vec<f64>,
+    /// Final cost (at the last stage's weight).
+    cost: f64,
+    /// Iterations over all stages.
+    iterations: usize,
+    /// Whether the last stage met its stopping rule.
+    converged: bool,
+}
+
+/// An accepted LM step: the new variables, parameters, residual and cost.
+struct LmStep {
+    x: Vec<f64>,
+    theta: Vec<f64>,
+    resid: DVector<f64>,
+    cost: f64,
+}
+
+impl Lm<'_> {
+    /// Runs the stages at `weights` in order, each warm-started from the last.
+    fn run(&self, mut x: Vec<f64>, weights: &[f64]) -> LmEnd {
+        let mut th = theta_of(&x, self.n, self.margins);
+        let mut end = LmEnd { theta: vec![], cost: f64::INFINITY, iterations: 0, converged: false };
         for (stage, w) in weights.iter().enumerate() {
-            let nt = &nt0 * (w * norm_as).sqrt(); // sqrt(lambda) N^T S^-1
-            let resid = |th: &[f64]| -> DVector<f64> {
-                let thv = DVector::from_column_slice(th);
-                let mut out = DVector::zeros(rows);
-                out.rows_mut(0, b).copy_from(&(&a * &thv - &qty));
-                let d = DVector::from_iterator(p, th.iter().zip(theta_nom).map(|(x, y)| x - y));
-                out.rows_mut(b, null.len()).copy_from(&(&nt * d));
-                out
-            };
-            let mut rv = resid(&th);
-            cost = rv.norm_squared();
-            let mut mu = 1e-3;
-            let mut history = vec![cost];
-            let (mut sit, last) = (0, stage + 1 == weights.len());
-            converged = false;
-            while sit < opts.max_iter {
-                sit += 1;
-                let jr = DMatrix::from_fn(rows, p, |i, j| if i < b { a[(i, j)] } else { nt[(i - b, j)] })
-                    * jac_theta(&x, n, &margins);
-                let jtj = jr.tr_mul(&jr);
-                let jtr = jr.tr_mul(&rv);
-                let mut step_taken = false;
-                for _ in 0..30 {
-                    let mut m = jtj.clone();
-                    for k in 0..p {
-                        m[(k, k)] += mu * jtj[(k, k)].max(1e-12 * jtj.diagonal().max());
-                    }
-                    let Some(ch) = m.cholesky() else {
-                        mu *= 10.0;
-                        continue;
-                    };
-                    let dx = ch.solve(&(-&jtr));
-                    let xn: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, d)| a + d).collect();
-                    let thn = theta_of(&xn, n, &margins);
-                    let rn = resid(&thn);
-                    let cn = rn.norm_squared();
-                    if cn.is_finite() && cn < cost {
-                        x = xn;
-                        th = thn;
-                        rv = rn;
-                        cost = cn;
-                        mu = (mu / 3.0).max(1e-12);
-                        step_taken = true;
-                        break;
-                    }
-                    mu *= 4.0;
-                }
-                history.push(cost);
-                // earlier stages only need to get close: a looser stopping rule
-                let tol = if last { opts.tol } else { opts.tol.max(1e-4) };
-                if history.len() > 20 && history[history.len() - 21] - cost <= tol * history[history.len() - 21] {
-                    converged = true;
-                }
-                if !step_taken {
-                    // no decrease possible at any damping: a (local) minimum to rounding
-                    converged = true;
-                }
-                if converged {
-                    break;
-                }
-            }
-            it += sit;
+            let (cost, iterations, converged) = self.stage(&mut x, &mut th, *w, stage + 1 == weights.len());
+            (end.cost, end.converged) = (cost, converged);
+            end.iterations += iterations;
         }
-        (th, cost, it, converged)
-    };
-    let direct = lm(x.clone(), &weights[weights.len() - 1..]);
-    let cont = lm(x, &weights);
-    let (th, _, it, converged) = if cont.1 < direct.1 { cont } else { direct };
-    let theta_base = base.project(&th)?;
-    let rss_of =
-        |t: &[f64]| -> Result<f64> { Ok(rss_min + (&r * DVector::from_vec(base.project(t)?) - &qty).norm_squared()) };
-    let rss = rss_of(&th)?;
-    let rss_ls = rss_of(theta_ls)?;
-    let check = check_params(&th, links, joints);
-    Ok(ConsistentFit {
-        theta_base,
-        ls_check,
-        check,
-        sum_wyy: acc.sum_wyy(),
-        cost: ConsistentCost {
-            rss_ls,
-            rss,
-            rss_increase: if rss_ls > 0.0 { rss / rss_ls - 1.0 } else { f64::NAN },
-            iterations: it,
-            converged,
-            regularised_directions: null.len(),
-        },
-        theta: th,
-    })
+        end.theta = th;
+        end
+    }
+
+    /// One continuation stage at weight `w`: LM iterations until the cost stalls (the last
+    /// stage at `opts.tol`, earlier ones only need to get close: at least `1e-4`), no
+    /// damping gives a decrease, or `opts.max_iter`. Returns (cost, iterations, converged).
+    fn stage(&self, x: &mut Vec<f64>, th: &mut Vec<f64>, w: f64, last: bool) -> (f64, usize, bool) {
+        let nt = self.nt0 * (w * self.norm_as).sqrt(); // sqrt(lambda) N^T S^-1
+        let mut rv = self.resid(&nt, th);
+        let mut cost = rv.norm_squared();
+        let mut mu = 1e-3;
+        let mut history = vec![cost];
+        let tol = if last { self.opts.tol } else { self.opts.tol.max(1e-4) };
+        let (mut sit, mut converged) = (0, false);
+        while sit < self.opts.max_iter {
+            sit += 1;
+            let jr = self.jacobian(&nt, x);
+            let step = self.damped_step(x, &nt, &jr.tr_mul(&jr), &jr.tr_mul(&rv), &mut mu, cost);
+            // no decrease possible at any damping: a (local) minimum to rounding
+            converged = step.is_none();
+            if let Some(st) = step {
+                (*x, *th, rv, cost) = (st.x, st.theta, st.resid, st.cost);
+            }
+            history.push(cost);
+            let h = history.len();
+            if h > 20 && history[h - 21] - cost <= tol * history[h - 21] {
+                converged = true;
+            }
+            if converged {
+                break;
+            }
+        }
+        (cost, sit, converged)
+    }
+
+    /// Residual at `th` with the pull rows `nt`: `[A th - Q^T y; nt (th - theta_nom)]`.
+    fn resid(&self, nt: &DMatrix<f64>, th: &[f64]) -> DVector<f64> {
+        let (b, p) = self.a.shape();
+        let thv = DVector::from_column_slice(th);
+        let mut out = DVector::zeros(b + nt.nrows());
+        out.rows_mut(0, b).copy_from(&(self.a * &thv - self.qty));
+        let d = DVector::from_iterator(p, th.iter().zip(self.theta_nom).map(|(x, y)| x - y));
+        out.rows_mut(b, nt.nrows()).copy_from(&(nt * d));
+        out
+    }
+
+    /// Jacobian of the residual in `x`: `[A; nt] d theta / d x`.
+    fn jacobian(&self, nt: &DMatrix<f64>, x: &[f64]) -> DMatrix<f64> {
+        let (b, p) = self.a.shape();
+        let a = self.a;
+        DMatrix::from_fn(b + nt.nrows(), p, |i, j| if i < b { a[(i, j)] } else { nt[(i - b, j)] })
+            * jac_theta(x, self.n, self.margins)
+    }
+
+    /// Solves `(J^T J + mu diag(J^T J)) dx = -J^T r` with growing damping `mu` (x10 when
+    /// not positive definite, x4 when the cost does not decrease; up to 30 tries) and
+    /// returns the first step that lowers `cost` (then `mu` shrinks by 3).
+    fn damped_step(
+        &self,
+        x: &[f64],
+        nt: &DMatrix<f64>,
+        jtj: &DMatrix<f64>,
+        jtr: &DVector<f64>,
+        mu: &mut f64,
+        cost: f64,
+    ) -> Option<LmStep> {
+        let p = x.len();
+        for _ in 0..30 {
+            let mut m = jtj.clone();
+            for k in 0..p {
+                m[(k, k)] += *mu * jtj[(k, k)].max(1e-12 * jtj.diagonal().max());
+            }
+            let Some(ch) = m.cholesky() else {
+                *mu *= 10.0;
+                continue;
+            };
+            let dx = ch.solve(&(-jtr));
+            let xn: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, d)| a + d).collect();
+            let thn = theta_of(&xn, self.n, self.margins);
+            let rn = self.resid(nt, &thn);
+            let cn = rn.norm_squared();
+            if cn.is_finite() && cn < cost {
+                *mu = (*mu / 3.0).max(1e-12);
+                return Some(LmStep { x: xn, theta: thn, resid: rn, cost: cn });
+            }
+            *mu *= 4.0;
+        }
+        None
+    }
 }

@@ -24,18 +24,14 @@ const FIELDS: [&str; 4] = ["q", "qd", "tau", "u"];
 /// Reads a CSV joint log, returning the joints in the order of `joint_names`.
 pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Result<JointLog> {
     let path = path.as_ref();
-    let err = |msg: String| Error::Log { file: path.to_path_buf(), msg };
+    let err = |msg: String| log_err(path, msg);
     let io = |e: std::io::Error| Error::Io { file: path.to_path_buf(), source: e };
     let want: Vec<String> = joint_names.iter().map(|s| s.as_ref().to_string()).collect();
     if want.is_empty() {
         return Err(err("no joint names given to match the log against".into()));
     }
-    let n = want.len();
     let rd = BufReader::new(File::open(path).map_err(io)?);
-    let mut header: Option<Vec<String>> = None;
-    // column index of t, and of each (field, joint)
-    let mut tcol = 0usize;
-    let mut cols: [Option<Vec<usize>>; 4] = [None, None, None, None];
+    let mut header: Option<Header> = None;
     let mut log = JointLog { joint_names: want.clone(), ..Default::default() };
     let mut data: [Vec<f64>; 4] = Default::default();
     for (ln, line) in rd.lines().enumerate() {
@@ -52,32 +48,83 @@ pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Res
             continue;
         }
         let cells: Vec<&str> = s.split(',').map(str::trim).collect();
-        let Some(h) = &header else {
-            let h: Vec<String> = cells.iter().map(|c| c.trim_matches('"').to_string()).collect();
-            tcol = h.iter().position(|c| c == "t").ok_or_else(|| {
-                err(format!("line {lineno}: no time column 't' in the header; columns are {}", name_list(&h)))
-            })?;
-            for (fi, f) in FIELDS.iter().enumerate() {
-                let idx: Vec<Option<usize>> =
-                    want.iter().map(|j| h.iter().position(|c| *c == format!("{j}.{f}"))).collect();
-                let missing: Vec<&str> =
-                    want.iter().zip(&idx).filter(|(_, i)| i.is_none()).map(|(j, _)| j.as_str()).collect();
-                if missing.is_empty() {
-                    cols[fi] = Some(idx.into_iter().map(Option::unwrap).collect());
-                } else if *f == "q" || missing.len() < n {
-                    let have: Vec<&String> = h.iter().filter(|c| c.ends_with(&format!(".{f}"))).collect();
-                    return Err(err(format!(
-                        "columns {} are missing (joints {}); the file has {}",
-                        name_list(&missing.iter().map(|j| format!("{j}.{f}")).collect::<Vec<_>>()),
-                        name_list(&missing),
-                        name_list(&have)
-                    )));
-                }
+        match &header {
+            None => header = Some(Header::parse(path, &cells, &want, lineno)?),
+            Some(h) => h.read_row(path, &cells, lineno, &mut log.t, &mut data)?,
+        }
+    }
+    let Some(header) = header.filter(|_| !log.t.is_empty()) else {
+        return Err(err("no samples (a header row and at least one data row are needed)".into()));
+    };
+    let [q, qd, tau, u] = data;
+    let cols = header.cols;
+    log.q = q;
+    log.qd = cols[1].is_some().then_some(qd);
+    log.tau = cols[2].is_some().then_some(tau);
+    log.u = cols[3].is_some().then_some(u);
+    Ok(log)
+}
+
+/// A log error naming the file `path`.
+fn log_err(path: &Path, msg: String) -> Error {
+    Error::Log { file: path.to_path_buf(), msg }
+}
+
+/// The columns named by the header row.
+struct Header {
+    /// Column names (quotes stripped).
+    names: Vec<String>,
+    /// Wanted joints.
+    want: Vec<String>,
+    /// Column of `t`.
+    tcol: usize,
+    /// Per field of [`FIELDS`], the column of each wanted joint (`None`: the field is absent).
+    cols: [Option<Vec<usize>>; 4],
+}
+
+impl Header {
+    /// Finds `t` and each wanted joint's field columns in the header `cells` (line `lineno`):
+    /// `q` must be there for every joint, another field for all joints or none.
+    fn parse(path: &Path, cells: &[&str], want: &[String], lineno: usize) -> Result<Header> {
+        let err = |msg: String| log_err(path, msg);
+        let h: Vec<String> = cells.iter().map(|c| c.trim_matches('"').to_string()).collect();
+        let tcol = h.iter().position(|c| c == "t").ok_or_else(|| {
+            err(format!("line {lineno}: no time column 't' in the header; columns are {}", name_list(&h)))
+        })?;
+        let mut cols: [Option<Vec<usize>>; 4] = [None, None, None, None];
+        for (fi, f) in FIELDS.iter().enumerate() {
+            let idx: Vec<Option<usize>> =
+                want.iter().map(|j| h.iter().position(|c| *c == format!("{j}.{f}"))).collect();
+            let missing: Vec<&str> =
+                want.iter().zip(&idx).filter(|(_, i)| i.is_none()).map(|(j, _)| j.as_str()).collect();
+            if missing.is_empty() {
+                cols[fi] = Some(idx.into_iter().map(Option::unwrap).collect());
+            } else if *f == "q" || missing.len() < want.len() {
+                let have: Vec<&String> = h.iter().filter(|c| c.ends_with(&format!(".{f}"))).collect();
+                return Err(err(format!(
+                    "columns {} are missing (joints {}); the file has {}",
+                    name_list(&missing.iter().map(|j| format!("{j}.{f}")).collect::<Vec<_>>()),
+                    name_list(&missing),
+                    name_list(&have)
+                )));
             }
-            header = Some(h);
-            continue;
-        };
-        let k = log.t.len();
+        }
+        Ok(Header { names: h, want: want.to_vec(), tcol, cols })
+    }
+
+    /// Reads the data row `cells` (line `lineno`): the time (finite, non-decreasing) onto
+    /// `t`, each present field's finite values onto `data`.
+    fn read_row(
+        &self,
+        path: &Path,
+        cells: &[&str],
+        lineno: usize,
+        t: &mut Vec<f64>,
+        data: &mut [Vec<f64>; 4],
+    ) -> Result<()> {
+        let err = |msg: String| log_err(path, msg);
+        let h = &self.names;
+        let k = t.len();
         if cells.len() != h.len() {
             return Err(err(format!("line {lineno} (sample {k}): {} cells, the header has {}", cells.len(), h.len())));
         }
@@ -86,39 +133,31 @@ pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Res
                 err(format!("line {lineno} (sample {k}): column '{}': '{}' is not a number", h[c], cells[c]))
             })
         };
-        let t = num(tcol)?;
-        if !t.is_finite() {
-            return Err(err(format!("line {lineno} (sample {k}): time is {t}")));
+        let tk = num(self.tcol)?;
+        if !tk.is_finite() {
+            return Err(err(format!("line {lineno} (sample {k}): time is {tk}")));
         }
-        if let Some(&prev) = log.t.last()
-            && t < prev
+        if let Some(&prev) = t.last()
+            && tk < prev
         {
             return Err(err(format!(
-                "line {lineno} (sample {k}): time goes back ({t} s after {prev} s at sample {})",
+                "line {lineno} (sample {k}): time goes back ({tk} s after {prev} s at sample {})",
                 k - 1
             )));
         }
-        log.t.push(t);
+        t.push(tk);
         for (fi, f) in FIELDS.iter().enumerate() {
-            let Some(ix) = &cols[fi] else { continue };
+            let Some(ix) = &self.cols[fi] else { continue };
             for (j, &c) in ix.iter().enumerate() {
                 let v = num(c)?;
                 if !v.is_finite() {
-                    return Err(err(format!("line {lineno} (sample {k}): joint '{}' {f} is {v}", want[j])));
+                    return Err(err(format!("line {lineno} (sample {k}): joint '{}' {f} is {v}", self.want[j])));
                 }
                 data[fi].push(v);
             }
         }
+        Ok(())
     }
-    if header.is_none() || log.t.is_empty() {
-        return Err(err("no samples (a header row and at least one data row are needed)".into()));
-    }
-    let [q, qd, tau, u] = data;
-    log.q = q;
-    log.qd = cols[1].is_some().then_some(qd);
-    log.tau = cols[2].is_some().then_some(tau);
-    log.u = cols[3].is_some().then_some(u);
-    Ok(log)
 }
 
 /// Writes a joint log as CSV (columns `t`, then `<joint>.q` for every joint, then `.qd`,

@@ -298,149 +298,220 @@ where
     stream(source, name, None, opts, f)
 }
 
+/// The streaming pass behind [`for_each_sample`]: reads `src` through a [`LinearReader`]
+/// and hands each record to a [`Pass`].
 fn stream<R: Read, F>(mut src: R, path: &Path, size: Option<u64>, opts: &ReadOptions, mut f: F) -> Result<StreamSummary>
 where
     F: FnMut(&Sample<'_>) -> Result<()>,
 {
-    let file = || path.to_path_buf();
-    let err = |msg: String| Error::Log { file: file(), msg };
-    if opts.joint_names.is_empty() {
-        return Err(err("no joint names given to match the log against".into()));
-    }
-    let n = opts.joint_names.len();
+    let mut pass = Pass::new(path, opts)?;
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default().with_validate_chunk_crcs(true).with_record_length_limit(1 << 30),
     );
-    let mut schemas: HashMap<u16, (String, String)> = HashMap::new();
-    // channel id -> index into `states` (or None: a channel we ignore)
-    let mut channels: HashMap<u16, Option<usize>> = HashMap::new();
-    let mut states = vec![TopicState::new(&opts.topic, Source::Measured, n)];
-    if let Some(c) = &opts.command_topic {
-        if *c == opts.topic {
-            return Err(err(format!("command topic {c} is the measured topic")));
-        }
-        states.push(TopicState::new(c, Source::Command, n));
-    }
-    let mut summary = StreamSummary::default();
-    // one decoded message, overwritten in place by each message (no allocation per message)
-    let mut msg = JointState::default();
-    let mut offset: u64 = 0;
-    let mut records: u64 = 0;
     let size_note = size.map(|s| format!(" of {s}")).unwrap_or_default();
-
     while let Some(ev) = reader.next_event() {
         let ev = match ev {
             Ok(ev) => ev,
-            Err(McapError::UnexpectedEof) | Err(McapError::UnexpectedEoc) if opts.allow_truncated && offset > 8 => {
-                summary.truncated = true;
-                break;
-            }
-            Err(McapError::UnexpectedEof) => {
-                return Err(err(format!(
-                    "truncated MCAP: the file ends in the middle of a record at byte {offset} after {records} records \
-                     ({} messages on {}); set allow_truncated to keep what was read",
-                    states[0].count, opts.topic
-                )));
-            }
-            Err(McapError::BadMagic) => {
-                return Err(err(format!(
-                    "not an MCAP file (bad magic bytes at the start or end; {offset} bytes read)"
-                )));
-            }
             Err(e) => {
-                return Err(err(format!(
-                    "corrupt MCAP at or before byte {offset}{size_note} (after {records} records): {e}"
-                )));
+                // returns only when a truncated file is accepted
+                pass.read_error(e, &size_note)?;
+                break;
             }
         };
         match ev {
             LinearReadEvent::ReadRequest(need) => {
                 let buf = reader.insert(need);
-                let got = read_some(&mut src, buf).map_err(|e| Error::Io { file: file(), source: e })?;
+                let got = read_some(&mut src, buf).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })?;
                 reader.notify_read(got);
-                offset += got as u64;
+                pass.offset += got as u64;
             }
-            LinearReadEvent::Record { opcode, data } => {
-                records += 1;
-                let rec = ::mcap::parse_record(opcode, data).map_err(|e| {
-                    err(format!(
-                        "corrupt MCAP record #{records} (opcode {opcode:#04x}) at or before byte {offset}: {e}"
-                    ))
-                })?;
-                match rec {
-                    Record::Schema { header, .. } => {
-                        schemas.insert(header.id, (header.name, header.encoding));
-                    }
-                    Record::Channel(c) => {
-                        if channels.contains_key(&c.id) {
-                            continue; // repeated in the summary section
-                        }
-                        let schema = schemas.get(&c.schema_id).cloned();
-                        let schema_name = schema.as_ref().map(|s| s.0.clone()).unwrap_or_else(|| "(no schema)".into());
-                        if !summary.topics.iter().any(|(t, _)| *t == c.topic) {
-                            summary.topics.push((c.topic.clone(), schema_name.clone()));
-                        }
-                        let which = states.iter().position(|s| s.topic == c.topic);
-                        if which.is_some() {
-                            let ok = schema.as_ref().is_some_and(|(name, enc)| {
-                                JOINT_STATE_SCHEMAS.contains(&name.as_str()) && (enc == "ros2msg" || enc == "ros2idl")
-                            }) && c.message_encoding == "cdr";
-                            if !ok {
-                                let enc = schema.as_ref().map(|s| s.1.as_str()).unwrap_or("");
-                                return Err(err(format!(
-                                    "topic {} has schema '{schema_name}' (schema encoding '{enc}', message encoding '{}'); \
-                                     expected sensor_msgs/msg/JointState (ros2msg, cdr)",
-                                    c.topic, c.message_encoding
-                                )));
-                            }
-                        }
-                        channels.insert(c.id, which);
-                    }
-                    Record::Message { header, data } => {
-                        let Some(&Some(w)) = channels.get(&header.channel_id) else { continue };
-                        let st = &mut states[w];
-                        decode_joint_state_into(&data, &mut msg)
-                            .map_err(|e| err(format!("topic {}, sample {}: bad message: {e}", st.topic, st.count)))?;
-                        let m = &msg;
-                        let stamp = if opts.use_log_time {
-                            i64::try_from(header.log_time).unwrap_or(i64::MAX)
-                        } else {
-                            m.stamp_ns()
-                        };
-                        st.load(m, stamp, &opts.joint_names).map_err(err)?;
-                        f(&st.sample(stamp, m))?;
-                        st.count += 1;
-                    }
-                    _ => {}
-                }
+            LinearReadEvent::Record { opcode, data } => pass.record(opcode, data, &mut f)?,
+        }
+    }
+    pass.finish()
+}
+
+/// A log error naming the file `path`.
+fn log_err(path: &Path, msg: String) -> Error {
+    Error::Log { file: path.to_path_buf(), msg }
+}
+
+/// What a streaming pass keeps between records: schemas, channels, per-topic decoding
+/// state and the position in the file.
+struct Pass<'o> {
+    opts: &'o ReadOptions,
+    path: &'o Path,
+    /// schema id -> (name, encoding)
+    schemas: HashMap<u16, (String, String)>,
+    /// channel id -> index into `states` (or None: a channel we ignore)
+    channels: HashMap<u16, Option<usize>>,
+    /// The measured topic, then the command topic if any.
+    states: Vec<TopicState>,
+    summary: StreamSummary,
+    /// one decoded message, overwritten in place by each message (no allocation per message)
+    msg: JointState,
+    /// Bytes read so far.
+    offset: u64,
+    /// Records parsed so far.
+    records: u64,
+}
+
+impl<'o> Pass<'o> {
+    /// Checks the options (joint names given, command topic distinct) and sets up the topics.
+    fn new(path: &'o Path, opts: &'o ReadOptions) -> Result<Self> {
+        if opts.joint_names.is_empty() {
+            return Err(log_err(path, "no joint names given to match the log against".into()));
+        }
+        let n = opts.joint_names.len();
+        let mut states = vec![TopicState::new(&opts.topic, Source::Measured, n)];
+        if let Some(c) = &opts.command_topic {
+            if *c == opts.topic {
+                return Err(log_err(path, format!("command topic {c} is the measured topic")));
+            }
+            states.push(TopicState::new(c, Source::Command, n));
+        }
+        Ok(Pass {
+            opts,
+            path,
+            schemas: HashMap::new(),
+            channels: HashMap::new(),
+            states,
+            summary: StreamSummary::default(),
+            msg: JointState::default(),
+            offset: 0,
+            records: 0,
+        })
+    }
+
+    /// A log error naming this pass's file.
+    fn err(&self, msg: String) -> Error {
+        log_err(self.path, msg)
+    }
+
+    /// A reader error as the error to report; `Ok` (and `summary.truncated`) when the file
+    /// ends mid-record and `allow_truncated` accepts it (past the 8 magic bytes).
+    fn read_error(&mut self, e: McapError, size_note: &str) -> Result<()> {
+        let (offset, records) = (self.offset, self.records);
+        match e {
+            McapError::UnexpectedEof | McapError::UnexpectedEoc if self.opts.allow_truncated && offset > 8 => {
+                self.summary.truncated = true;
+                Ok(())
+            }
+            McapError::UnexpectedEof => Err(self.err(format!(
+                "truncated MCAP: the file ends in the middle of a record at byte {offset} after {records} records \
+                 ({} messages on {}); set allow_truncated to keep what was read",
+                self.states[0].count, self.opts.topic
+            ))),
+            McapError::BadMagic => {
+                Err(self.err(format!("not an MCAP file (bad magic bytes at the start or end; {offset} bytes read)")))
+            }
+            e => {
+                Err(self
+                    .err(format!("corrupt MCAP at or before byte {offset}{size_note} (after {records} records): {e}")))
             }
         }
     }
-    summary.bytes = offset;
-    summary.measured = states[0].count;
-    summary.commands = states.get(1).map_or(0, |s| s.count);
-    for st in &states {
-        if st.count > 0 {
-            continue;
+
+    /// Parses one record: schemas and channels are remembered, messages of our topics
+    /// decoded and passed to `f`, everything else skipped.
+    fn record<F>(&mut self, opcode: u8, data: &[u8], f: &mut F) -> Result<()>
+    where
+        F: FnMut(&Sample<'_>) -> Result<()>,
+    {
+        self.records += 1;
+        let (offset, records) = (self.offset, self.records);
+        let rec = ::mcap::parse_record(opcode, data).map_err(|e| {
+            self.err(format!("corrupt MCAP record #{records} (opcode {opcode:#04x}) at or before byte {offset}: {e}"))
+        })?;
+        match rec {
+            Record::Schema { header, .. } => {
+                self.schemas.insert(header.id, (header.name, header.encoding));
+            }
+            Record::Channel(c) => self.channel(&c)?,
+            Record::Message { header, data } => self.message(&header, &data, f)?,
+            _ => {}
         }
-        let known = summary.topics.iter().any(|(t, _)| *t == st.topic);
-        let listing = if summary.topics.is_empty() {
-            "the log has no topics".to_string()
-        } else {
-            let l: Vec<String> = summary.topics.iter().map(|(t, s)| format!("{t} ({s})")).collect();
-            format!("the log has {}", l.join(", "))
-        };
-        return Err(err(if known {
-            format!(
-                "topic {} has no messages{}",
-                st.topic,
-                if summary.truncated { " before the truncation" } else { "" }
-            )
-        } else {
-            format!("topic {} not found; {listing}", st.topic)
-        }));
+        Ok(())
     }
-    Ok(summary)
+
+    /// Notes a channel's topic in the summary and maps it to one of our topics (whose
+    /// schema must be JointState in CDR) or to none.
+    fn channel(&mut self, c: &::mcap::records::Channel) -> Result<()> {
+        if self.channels.contains_key(&c.id) {
+            return Ok(()); // repeated in the summary section
+        }
+        let schema = self.schemas.get(&c.schema_id).cloned();
+        let schema_name = schema.as_ref().map(|s| s.0.clone()).unwrap_or_else(|| "(no schema)".into());
+        if !self.summary.topics.iter().any(|(t, _)| *t == c.topic) {
+            self.summary.topics.push((c.topic.clone(), schema_name.clone()));
+        }
+        let which = self.states.iter().position(|s| s.topic == c.topic);
+        if which.is_some() {
+            let ok = schema.as_ref().is_some_and(|(name, enc)| {
+                JOINT_STATE_SCHEMAS.contains(&name.as_str()) && (enc == "ros2msg" || enc == "ros2idl")
+            }) && c.message_encoding == "cdr";
+            if !ok {
+                let enc = schema.as_ref().map(|s| s.1.as_str()).unwrap_or("");
+                return Err(self.err(format!(
+                    "topic {} has schema '{schema_name}' (schema encoding '{enc}', message encoding '{}'); \
+                     expected sensor_msgs/msg/JointState (ros2msg, cdr)",
+                    c.topic, c.message_encoding
+                )));
+            }
+        }
+        self.channels.insert(c.id, which);
+        Ok(())
+    }
+
+    /// Decodes a message of one of our topics into its [`TopicState`] and calls `f` on it.
+    fn message<F>(&mut self, header: &::mcap::records::MessageHeader, data: &[u8], f: &mut F) -> Result<()>
+    where
+        F: FnMut(&Sample<'_>) -> Result<()>,
+    {
+        let Some(&Some(w)) = self.channels.get(&header.channel_id) else { return Ok(()) };
+        let path = self.path;
+        let st = &mut self.states[w];
+        decode_joint_state_into(data, &mut self.msg)
+            .map_err(|e| log_err(path, format!("topic {}, sample {}: bad message: {e}", st.topic, st.count)))?;
+        let m = &self.msg;
+        let stamp =
+            if self.opts.use_log_time { i64::try_from(header.log_time).unwrap_or(i64::MAX) } else { m.stamp_ns() };
+        st.load(m, stamp, &self.opts.joint_names).map_err(|msg| log_err(path, msg))?;
+        f(&st.sample(stamp, m))?;
+        st.count += 1;
+        Ok(())
+    }
+
+    /// The summary of the pass; an error naming the topic when one of ours had no message
+    /// (not in the file, or empty).
+    fn finish(mut self) -> Result<StreamSummary> {
+        self.summary.bytes = self.offset;
+        self.summary.measured = self.states[0].count;
+        self.summary.commands = self.states.get(1).map_or(0, |s| s.count);
+        let summary = &self.summary;
+        for st in &self.states {
+            if st.count > 0 {
+                continue;
+            }
+            let known = summary.topics.iter().any(|(t, _)| *t == st.topic);
+            let listing = if summary.topics.is_empty() {
+                "the log has no topics".to_string()
+            } else {
+                let l: Vec<String> = summary.topics.iter().map(|(t, s)| format!("{t} ({s})")).collect();
+                format!("the log has {}", l.join(", "))
+            };
+            return Err(self.err(if known {
+                format!(
+                    "topic {} has no messages{}",
+                    st.topic,
+                    if summary.truncated { " before the truncation" } else { "" }
+                )
+            } else {
+                format!("topic {} not found; {listing}", st.topic)
+            }));
+        }
+        Ok(self.summary)
+    }
 }
 
 /// Reads until `buf` is full or EOF (a short read from a pipe is not EOF).

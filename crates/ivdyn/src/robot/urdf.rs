@@ -46,6 +46,17 @@ struct Builder<'a> {
     child_joints: Vec<Vec<usize>>,
 }
 
+/// The model chain being built, with names and each link's segment.
+struct ChainWalk {
+    chain: Chain,
+    joint_names: Vec<String>,
+    link_names: Vec<String>,
+    /// Segment of each link: `Some(k)` = fused into model link `k`, `None` = base (ignored);
+    /// with the link's placement in that segment's frame (at locked q = 0). `None`: not
+    /// reached yet.
+    segment: Vec<Option<(Option<usize>, Transform)>>,
+}
+
 fn is_movable(t: &JointType) -> bool {
     !matches!(t, JointType::Fixed)
 }
@@ -154,6 +165,7 @@ impl<'a> Builder<'a> {
         }
     }
 
+    /// Builds the robot from `base` (default: the root) to `tip` (default: [`Self::default_tip`]).
     fn build(&self, base: Option<&str>, tip: Option<&str>) -> Result<Robot> {
         let root = self.root()?;
         let base = match base {
@@ -164,6 +176,23 @@ impl<'a> Builder<'a> {
             Some(t) => self.link(t)?,
             None => self.default_tip(base)?,
         };
+        let path = self.chain_path(base, tip)?;
+        let gravity = self.base_gravity(base)?;
+        let mut walk = self.walk_chain(&path, base, tip, gravity)?;
+        let locked = self.fuse_off_chain(base, &mut walk)?;
+        Ok(Robot {
+            name: self.urdf.name.clone(),
+            joint_names: walk.joint_names,
+            link_names: walk.link_names,
+            base_link: self.urdf.links[base].name.clone(),
+            tip_link: self.urdf.links[tip].name.clone(),
+            locked_joints: locked,
+            model: DynModel::from_chain(&walk.chain)?,
+        })
+    }
+
+    /// The joints from `base` down to `tip`, in that order (an error when the tip is not below the base).
+    fn chain_path(&self, base: usize, tip: usize) -> Result<Vec<usize>> {
         // path tip -> base through parent joints
         let mut path = Vec::new();
         let mut l = tip;
@@ -178,8 +207,12 @@ impl<'a> Builder<'a> {
             l = self.link_index[self.urdf.joints[j].parent.link.as_str()];
         }
         path.reverse();
+        Ok(path)
+    }
 
-        // gravity: rotate the root's -z gravity into the base frame (fixed joints only)
+    /// Gravity in the base frame: the root's `-z` gravity rotated through the fixed joints
+    /// above the base (a movable one there is an error).
+    fn base_gravity(&self, base: usize) -> Result<Vec3> {
         let mut base_rot = Mat3::identity();
         let mut l = base;
         while let Some(j) = self.parent_joint[l] {
@@ -193,27 +226,31 @@ impl<'a> Builder<'a> {
             base_rot = pose(&joint.origin).rot * base_rot;
             l = self.link_index[joint.parent.link.as_str()];
         }
-        let gravity = base_rot.transpose() * GRAVITY_Z;
+        Ok(base_rot.transpose() * GRAVITY_Z)
+    }
 
-        // walk the chain: movable joints become model joints; fixed ones accumulate
-        let mut chain = Chain {
-            joints: vec![],
-            x_tree: vec![],
-            inertia: vec![],
-            drive: vec![],
-            limits: vec![],
-            gravity,
-            tool: Transform::IDENTITY,
+    /// Walks the chain `path`: movable joints become model joints (placement = the fixed
+    /// origins accumulated since the last one), fixed ones accumulate; records each chain
+    /// link's segment and sets the tool frame (what is left after the last movable joint).
+    fn walk_chain(&self, path: &[usize], base: usize, tip: usize, gravity: Vec3) -> Result<ChainWalk> {
+        let mut w = ChainWalk {
+            chain: Chain {
+                joints: vec![],
+                x_tree: vec![],
+                inertia: vec![],
+                drive: vec![],
+                limits: vec![],
+                gravity,
+                tool: Transform::IDENTITY,
+            },
+            joint_names: vec![],
+            link_names: vec![],
+            segment: vec![None; self.urdf.links.len()],
         };
-        let mut joint_names = vec![];
-        let mut link_names = vec![];
-        // segment of each link: Some(k) = fused into model link k, None = base (ignored);
-        // with the link's placement in that segment's frame (at locked q = 0).
-        let mut segment: Vec<Option<(Option<usize>, Transform)>> = vec![None; self.urdf.links.len()];
-        segment[base] = Some((None, Transform::IDENTITY));
+        w.segment[base] = Some((None, Transform::IDENTITY));
         let mut acc = Transform::IDENTITY; // placement of the current link in the last segment frame
         let mut seg: Option<usize> = None;
-        for &j in &path {
+        for &j in path {
             let joint = &self.urdf.joints[j];
             let child = self.link_index[joint.child.link.as_str()];
             let origin = pose(&joint.origin);
@@ -222,82 +259,81 @@ impl<'a> Builder<'a> {
                     acc = acc.compose(&origin);
                 }
                 JointType::Revolute | JointType::Continuous | JointType::Prismatic => {
-                    if joint.mimic.is_some() {
-                        return Err(Error::MimicJoint { file: self.file.clone(), joint: joint.name.clone() });
-                    }
-                    chain.x_tree.push(acc.compose(&origin));
-                    chain.joints.push(self.joint(joint)?);
-                    chain.limits.push(limits(joint));
-                    chain.drive.push(match &joint.dynamics {
-                        Some(d) => DriveParams { fc: d.friction, fv: d.damping, ia: 0.0, tau0: 0.0 },
-                        None => DriveParams::ZERO,
-                    });
-                    chain.inertia.push(LinkInertia::ZERO);
-                    joint_names.push(joint.name.clone());
-                    link_names.push(joint.child.link.clone());
-                    seg = Some(chain.joints.len() - 1);
+                    self.push_joint(&mut w, joint, acc.compose(&origin))?;
+                    seg = Some(w.chain.joints.len() - 1);
                     acc = Transform::IDENTITY;
                 }
-                ref t => {
-                    return Err(Error::UnsupportedJoint {
-                        file: self.file.clone(),
-                        joint: joint.name.clone(),
-                        kind: type_name(t).to_string(),
-                    });
-                }
+                _ => return Err(self.unsupported(joint)),
             }
-            segment[child] = Some((seg, acc));
+            w.segment[child] = Some((seg, acc));
         }
-        if chain.joints.is_empty() {
+        if w.chain.joints.is_empty() {
             return Err(self.structure(format!(
                 "no movable joint between base '{}' and tip '{}'",
                 self.urdf.links[base].name, self.urdf.links[tip].name
             )));
         }
-        chain.tool = acc;
+        w.chain.tool = acc;
+        Ok(w)
+    }
 
-        // fuse every link below the base into its segment; lock off-chain movable joints
+    /// Appends movable `joint` at placement `x_tree` to the chain (axis, limits, URDF
+    /// `<dynamics>` as drive friction, zero inertia until the links are fused).
+    fn push_joint(&self, w: &mut ChainWalk, joint: &urdf_rs::Joint, x_tree: Transform) -> Result<()> {
+        if joint.mimic.is_some() {
+            return Err(Error::MimicJoint { file: self.file.clone(), joint: joint.name.clone() });
+        }
+        w.chain.x_tree.push(x_tree);
+        w.chain.joints.push(self.joint(joint)?);
+        w.chain.limits.push(limits(joint));
+        w.chain.drive.push(match &joint.dynamics {
+            Some(d) => DriveParams { fc: d.friction, fv: d.damping, ia: 0.0, tau0: 0.0 },
+            None => DriveParams::ZERO,
+        });
+        w.chain.inertia.push(LinkInertia::ZERO);
+        w.joint_names.push(joint.name.clone());
+        w.link_names.push(joint.child.link.clone());
+        Ok(())
+    }
+
+    /// Fuses every link below the base into its segment's inertia, off-chain links rigidly
+    /// attached at q = 0 (as Pinocchio's `buildReducedModel`); returns the locked joints.
+    fn fuse_off_chain(&self, base: usize, w: &mut ChainWalk) -> Result<Vec<String>> {
         let mut locked = vec![];
         let mut stack = vec![base];
         while let Some(l) = stack.pop() {
-            let (seg_l, x_l) = segment[l].expect("visited links have a segment");
+            let (seg_l, x_l) = w.segment[l].expect("visited links have a segment");
             for &j in &self.child_joints[l] {
                 let joint = &self.urdf.joints[j];
                 let child = self.link_index[joint.child.link.as_str()];
-                if segment[child].is_none() {
+                if w.segment[child].is_none() {
                     // off the chain: rigidly attached at q = 0
                     match joint.joint_type {
                         JointType::Fixed => {}
                         JointType::Revolute | JointType::Continuous | JointType::Prismatic => {
                             locked.push(joint.name.clone())
                         }
-                        ref t => {
-                            return Err(Error::UnsupportedJoint {
-                                file: self.file.clone(),
-                                joint: joint.name.clone(),
-                                kind: type_name(t).to_string(),
-                            });
-                        }
+                        _ => return Err(self.unsupported(joint)),
                     }
-                    segment[child] = Some((seg_l, x_l.compose(&pose(&joint.origin))));
+                    w.segment[child] = Some((seg_l, x_l.compose(&pose(&joint.origin))));
                 }
                 stack.push(child);
             }
             if let Some(k) = seg_l {
                 let body = self.inertial(l)?;
-                chain.inertia[k] = chain.inertia[k].add(&body.transformed(&x_l));
+                w.chain.inertia[k] = w.chain.inertia[k].add(&body.transformed(&x_l));
             }
         }
+        Ok(locked)
+    }
 
-        Ok(Robot {
-            name: self.urdf.name.clone(),
-            joint_names,
-            link_names,
-            base_link: self.urdf.links[base].name.clone(),
-            tip_link: self.urdf.links[tip].name.clone(),
-            locked_joints: locked,
-            model: DynModel::from_chain(&chain)?,
-        })
+    /// The error for a floating, planar or spherical joint.
+    fn unsupported(&self, joint: &urdf_rs::Joint) -> Error {
+        Error::UnsupportedJoint {
+            file: self.file.clone(),
+            joint: joint.name.clone(),
+            kind: type_name(&joint.joint_type).to_string(),
+        }
     }
 
     fn joint(&self, joint: &urdf_rs::Joint) -> Result<Joint> {

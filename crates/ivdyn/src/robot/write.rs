@@ -191,6 +191,9 @@ fn indent_at(text: &str, pos: usize) -> String {
     text[line_start..].chars().take_while(|c| *c == ' ' || *c == '\t').collect()
 }
 
+/// A text edit: replace bytes `start..end` of the input with the string.
+type Edit = (usize, usize, String);
+
 /// Writes back `theta` (full parameters of `robot`, `None`: leave the arm as it is) and an
 /// optional payload into the URDF text `input` (the file `robot` was loaded from; `file`
 /// names it in errors). See the module docs.
@@ -212,21 +215,53 @@ pub fn write_back(
     }
     let urdf = urdf_rs::read_from_string(input).map_err(|e| xml_err(file, e))?;
     let nom_theta = nominal.params();
-    let theta: Vec<f64> = match theta {
-        Some(t) if t.len() == robot.num_params() => t.to_vec(),
-        Some(t) => {
-            return Err(Error::Dimension {
-                what: "theta (full parameters)".into(),
-                expected: robot.num_params(),
-                got: t.len(),
-            });
-        }
-        None => nom_theta.clone(),
-    };
+    let theta = theta_or_nominal(robot, theta, &nom_theta)?;
     let mut notes = notes;
-    // own share of each chain link: identified total - nominal of the links fused into it
-    let mut own: Vec<[f64; LINK_PARAMS]> = vec![[0.0; LINK_PARAMS]; n];
-    for k in 0..n {
+    let mut own = own_shares(&urdf, file, robot, &theta, &nom_theta)?;
+    let mut extra = String::new();
+    if let Some((p, mode)) = payload {
+        extra = add_payload(p, mode, &urdf, robot, &mut own[n - 1], &mut notes)?;
+    }
+    note_inconsistent_own(robot, &theta, &own, &mut notes);
+
+    let sc = scan(input, file)?;
+    let arm_changed = theta != nom_theta;
+    let write_arm = arm_changed || payload.is_some_and(|(_, m)| m == PayloadMode::Merge);
+    let mut edits = inertial_edits(input, file, &sc, robot, &own, write_arm, arm_changed)?;
+    if arm_changed {
+        edits.extend(dynamics_edits(input, file, &sc, robot, &theta)?);
+    }
+    if !extra.is_empty() {
+        let pos = sc.robot_end.expect("checked in scan");
+        let line_start = input[..pos].rfind('\n').map(|i| i + 1).unwrap_or(pos);
+        edits.push((line_start, line_start, extra));
+    }
+    Ok(WriteBack { urdf: apply_edits(input, edits), side: side_file(robot, &theta, payload.map(|(p, _)| *p), notes) })
+}
+
+/// `theta` checked against the robot's parameter count, or the nominal parameters when
+/// none is given (leave the arm as it is).
+fn theta_or_nominal(robot: &Robot, theta: Option<&[f64]>, nom_theta: &[f64]) -> Result<Vec<f64>> {
+    match theta {
+        Some(t) if t.len() == robot.num_params() => Ok(t.to_vec()),
+        Some(t) => {
+            Err(Error::Dimension { what: "theta (full parameters)".into(), expected: robot.num_params(), got: t.len() })
+        }
+        None => Ok(nom_theta.to_vec()),
+    }
+}
+
+/// Own share of each chain link: identified total minus the nominal of the links fused into
+/// it (those keep their nominal `<inertial>`, so reloading gives back `theta`).
+fn own_shares(
+    urdf: &urdf_rs::Robot,
+    file: &Path,
+    robot: &Robot,
+    theta: &[f64],
+    nom_theta: &[f64],
+) -> Result<Vec<[f64; LINK_PARAMS]>> {
+    let mut own: Vec<[f64; LINK_PARAMS]> = vec![[0.0; LINK_PARAMS]; robot.dof()];
+    for k in 0..robot.dof() {
         let l = urdf
             .links
             .iter()
@@ -238,46 +273,66 @@ pub fn write_back(
             own[k][c] = theta[link_col(k, c)] - others;
         }
     }
-    let mut side_payload = None;
-    let mut extra = String::new();
-    if let Some((p, mode)) = payload {
-        let ic = &p.inertia;
-        let i_c = Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
-        let li = LinkInertia::from_mass_com_inertia(
-            p.mass,
-            &Vector3::new(p.com[0], p.com[1], p.com[2]),
-            &Matrix3::identity(),
-            &i_c,
-        );
-        side_payload = Some(*p);
-        match mode {
-            PayloadMode::Merge => {
-                for (o, v) in own[n - 1].iter_mut().zip(li.0) {
-                    *o += v;
-                }
-                notes.push(format!("payload {} kg merged into link '{}'", p.mass, robot.link_names[n - 1]));
+    Ok(own)
+}
+
+/// Adds the payload `p`: merged into the last link's own share `own_last`, or as the text
+/// of a new link on a fixed joint (returned, to insert before `</robot>`; empty when
+/// merged). Says which in `notes`.
+fn add_payload(
+    p: &PayloadSpec,
+    mode: PayloadMode,
+    urdf: &urdf_rs::Robot,
+    robot: &Robot,
+    own_last: &mut [f64; LINK_PARAMS],
+    notes: &mut Vec<String>,
+) -> Result<String> {
+    let last = &robot.link_names[robot.dof() - 1];
+    let ic = &p.inertia;
+    let i_c = Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
+    let li = LinkInertia::from_mass_com_inertia(
+        p.mass,
+        &Vector3::new(p.com[0], p.com[1], p.com[2]),
+        &Matrix3::identity(),
+        &i_c,
+    );
+    match mode {
+        PayloadMode::Merge => {
+            for (o, v) in own_last.iter_mut().zip(li.0) {
+                *o += v;
             }
-            PayloadMode::Link => {
-                let taken = |s: &str| urdf.links.iter().any(|l| l.name == s) || urdf.joints.iter().any(|j| j.name == s);
-                let mut name = "ivdyn_payload".to_string();
-                let mut k = 2;
-                while taken(&name) || taken(&format!("{name}_joint")) {
-                    name = format!("ivdyn_payload_{k}");
-                    k += 1;
-                }
-                let inertial = inertial_xml(&li.0, "    ", &name)?;
-                extra = format!(
-                    "  <!-- payload identified by ivdyn: COM and inertia in the frame of '{parent}' -->\n  <link name=\"{name}\">\n    {inertial}\n  </link>\n  <joint name=\"{name}_joint\" type=\"fixed\">\n    <parent link=\"{parent}\" />\n    <child link=\"{name}\" />\n    <origin xyz=\"0 0 0\" rpy=\"0 0 0\" />\n  </joint>\n",
-                    parent = robot.link_names[n - 1]
-                );
-                notes.push(format!(
-                    "payload {} kg written as link '{name}' on a fixed joint to '{}'",
-                    p.mass,
-                    robot.link_names[n - 1]
-                ));
-            }
+            notes.push(format!("payload {} kg merged into link '{last}'", p.mass));
+            Ok(String::new())
+        }
+        PayloadMode::Link => {
+            let name = payload_link_name(urdf);
+            let inertial = inertial_xml(&li.0, "    ", &name)?;
+            let extra = format!(
+                "  <!-- payload identified by ivdyn: COM and inertia in the frame of '{parent}' -->\n  <link name=\"{name}\">\n    {inertial}\n  </link>\n  <joint name=\"{name}_joint\" type=\"fixed\">\n    <parent link=\"{parent}\" />\n    <child link=\"{name}\" />\n    <origin xyz=\"0 0 0\" rpy=\"0 0 0\" />\n  </joint>\n",
+                parent = last
+            );
+            notes.push(format!("payload {} kg written as link '{name}' on a fixed joint to '{last}'", p.mass));
+            Ok(extra)
         }
     }
+}
+
+/// `ivdyn_payload`, or `ivdyn_payload_<k>` for the first `k >= 2` whose link and
+/// `_joint` names are both free in the URDF.
+fn payload_link_name(urdf: &urdf_rs::Robot) -> String {
+    let taken = |s: &str| urdf.links.iter().any(|l| l.name == s) || urdf.joints.iter().any(|j| j.name == s);
+    let mut name = "ivdyn_payload".to_string();
+    let mut k = 2;
+    while taken(&name) || taken(&format!("{name}_joint")) {
+        name = format!("ivdyn_payload_{k}");
+        k += 1;
+    }
+    name
+}
+
+/// Notes each link whose own share is less consistent than the segment total: only the sum
+/// with the fused links' nominal inertials is what the data identify.
+fn note_inconsistent_own(robot: &Robot, theta: &[f64], own: &[[f64; LINK_PARAMS]], notes: &mut Vec<String>) {
     for (k, own_k) in own.iter().enumerate() {
         let total = &theta[link_col(k, 0)..link_col(k, LINK_PARAMS)];
         if check_link(own_k).len() > check_link(total).len() && !own_k.iter().all(|v| *v == 0.0) {
@@ -287,13 +342,24 @@ pub fn write_back(
             ));
         }
     }
+}
 
-    // edits: (start, end, replacement), applied back to front
-    let sc = scan(input, file)?;
-    let mut edits: Vec<(usize, usize, String)> = vec![];
-    let write_arm = theta != nom_theta || payload.is_some_and(|(_, m)| m == PayloadMode::Merge);
+/// The `<inertial>` edits of the chain links: every link when the arm changed (`arm_changed`),
+/// else only the last one (a merged payload), nothing unless `write_arm`. An empty `<link/>`
+/// is expanded, an existing `<inertial>` replaced, a missing one inserted after the start tag.
+fn inertial_edits(
+    input: &str,
+    file: &Path,
+    sc: &Scan,
+    robot: &Robot,
+    own: &[[f64; LINK_PARAMS]],
+    write_arm: bool,
+    arm_changed: bool,
+) -> Result<Vec<Edit>> {
+    let n = robot.dof();
+    let mut edits = vec![];
     for (k, own_k) in own.iter().enumerate() {
-        let touch = write_arm && (theta != nom_theta || k == n - 1);
+        let touch = write_arm && (arm_changed || k == n - 1);
         if !touch {
             continue;
         }
@@ -315,57 +381,67 @@ pub fn write_back(
             edits.push((*head, *head, format!("\n{ind}{}", inertial_xml(own_k, &ind, name)?)));
         }
     }
-    if theta != nom_theta {
-        for j in 0..n {
-            let name = &robot.joint_names[j];
-            let (_, _head, end, dynamics) = sc
-                .joints
-                .iter()
-                .find(|x| &x.0 == name)
-                .ok_or_else(|| xml_err(file, format!("no <joint name=\"{name}\"> element")))?;
-            let dyn_xml = format!(
-                "<dynamics damping=\"{}\" friction=\"{}\" />",
-                num(theta[drive_col(n, j, FV)]),
-                num(theta[drive_col(n, j, FC)])
-            );
-            match dynamics {
-                Some((s, e)) => edits.push((*s, *e, dyn_xml)),
-                None => {
-                    let ind = format!("{}  ", indent_at(input, *end));
-                    // insert before the line of </joint>
-                    let line_start = input[..*end].rfind('\n').map(|i| i + 1).unwrap_or(*end);
-                    edits.push((line_start, line_start, format!("{ind}{dyn_xml}\n")));
-                }
+    Ok(edits)
+}
+
+/// The `<dynamics damping="fv" friction="fc"/>` edits of the movable chain joints: an
+/// existing element replaced, a missing one inserted on its own line before `</joint>`.
+fn dynamics_edits(input: &str, file: &Path, sc: &Scan, robot: &Robot, theta: &[f64]) -> Result<Vec<Edit>> {
+    let n = robot.dof();
+    let mut edits = vec![];
+    for j in 0..n {
+        let name = &robot.joint_names[j];
+        let (_, _head, end, dynamics) = sc
+            .joints
+            .iter()
+            .find(|x| &x.0 == name)
+            .ok_or_else(|| xml_err(file, format!("no <joint name=\"{name}\"> element")))?;
+        let dyn_xml = format!(
+            "<dynamics damping=\"{}\" friction=\"{}\" />",
+            num(theta[drive_col(n, j, FV)]),
+            num(theta[drive_col(n, j, FC)])
+        );
+        match dynamics {
+            Some((s, e)) => edits.push((*s, *e, dyn_xml)),
+            None => {
+                let ind = format!("{}  ", indent_at(input, *end));
+                // insert before the line of </joint>
+                let line_start = input[..*end].rfind('\n').map(|i| i + 1).unwrap_or(*end);
+                edits.push((line_start, line_start, format!("{ind}{dyn_xml}\n")));
             }
         }
     }
-    if !extra.is_empty() {
-        let pos = sc.robot_end.expect("checked in scan");
-        let line_start = input[..pos].rfind('\n').map(|i| i + 1).unwrap_or(pos);
-        edits.push((line_start, line_start, extra));
-    }
+    Ok(edits)
+}
+
+/// `input` with the edits applied back to front (so earlier byte offsets stay valid).
+fn apply_edits(input: &str, mut edits: Vec<Edit>) -> String {
     edits.sort_by_key(|e| std::cmp::Reverse(e.0));
     let mut out = input.to_string();
     for (s, e, t) in edits {
         out.replace_range(s..e, &t);
     }
+    out
+}
+
+/// The side file: what URDF cannot hold (armature, torque offset), the drive friction
+/// again, the payload and the notes.
+fn side_file(robot: &Robot, theta: &[f64], payload: Option<PayloadSpec>, notes: Vec<String>) -> SideFile {
+    let n = robot.dof();
     let col = |k: usize| (0..n).map(|j| theta[drive_col(n, j, k)]).collect::<Vec<f64>>();
-    Ok(WriteBack {
-        urdf: out,
-        side: SideFile {
-            format: SIDE_FORMAT.into(),
-            robot: robot.name.clone(),
-            base_link: robot.base_link.clone(),
-            tip_link: robot.tip_link.clone(),
-            joints: robot.joint_names.clone(),
-            armature: col(IA),
-            tau0: col(TAU0),
-            friction: col(FC),
-            damping: col(FV),
-            payload: side_payload,
-            notes,
-        },
-    })
+    SideFile {
+        format: SIDE_FORMAT.into(),
+        robot: robot.name.clone(),
+        base_link: robot.base_link.clone(),
+        tip_link: robot.tip_link.clone(),
+        joints: robot.joint_names.clone(),
+        armature: col(IA),
+        tau0: col(TAU0),
+        friction: col(FC),
+        damping: col(FV),
+        payload,
+        notes,
+    }
 }
 
 /// Writes `wb` to `path` (URDF) and [`side_path`]`(path)` (JSON), each through a temporary
