@@ -112,14 +112,18 @@ pub enum Error {
         source: std::io::Error,
     },
     /// The log has no effort (torque) data, which the named step needs.
-    #[error("the log has no effort (torque) data; {needed_by} needs measured torques")]
+    #[error("{what} has no effort (torque) data; {needed_by} needs measured torques")]
     NoTorque {
+        /// Which log ("log", "validation log", "before log").
+        what: String,
         /// What needs the torques ("identification", "payload estimation").
         needed_by: String,
     },
     /// A log whose joints are not the robot's (names or order after matching).
-    #[error("log joints {log:?} are not the robot's {robot:?}")]
+    #[error("{what} joints {log:?} are not the robot's {robot:?}")]
     JointMismatch {
+        /// Which log ("log", "validation log", "before log").
+        what: String,
         /// The log's joints.
         log: Vec<String>,
         /// The robot's joints.

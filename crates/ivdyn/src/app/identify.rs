@@ -217,15 +217,14 @@ fn prepare(
 ) -> Result<Prepared> {
     let n = robot.dof();
     if log.dof() != n || log.joint_names != robot.joint_names {
-        return Err(err_est(format!(
-            "{what}: log joints {:?} are not the robot's {:?}",
-            log.joint_names, robot.joint_names
-        )));
+        return Err(Error::JointMismatch {
+            what: what.into(),
+            log: log.joint_names.clone(),
+            robot: robot.joint_names.clone(),
+        });
     }
     if log.tau.is_none() {
-        return Err(err_est(format!(
-            "{what}: the log has no effort (torque) data; identification needs measured torques"
-        )));
+        return Err(Error::NoTorque { what: what.into(), needed_by: "identification".into() });
     }
     let c = prep::condition(log, &opts.condition)?;
     let fs = 1.0 / c.dt;
@@ -344,10 +343,7 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
     let t = prep.len();
     let (fit_range, val_range) = split_ranges(t, opts);
     if fit_range.len() * n < 2 * b {
-        return Err(err_est(format!(
-            "log too short: {} samples of {n} joints after conditioning for {b} base parameters",
-            fit_range.len()
-        )));
+        return Err(Error::TooFewSamples { samples: fit_range.len(), joints: n, params: b });
     }
     let w_row = n * b;
     let phi_fit = rows_of(&prep.phi, w_row, fit_range.clone());
@@ -424,10 +420,7 @@ pub(crate) fn finish_identify(
     let b = base.base_count();
     let mut notes = std::mem::take(&mut d.notes);
     if d.fit.samples() * n < 2 * b {
-        return Err(err_est(format!(
-            "log too short: {} samples of {n} joints after conditioning for {b} base parameters",
-            d.fit.samples()
-        )));
+        return Err(Error::TooFewSamples { samples: d.fit.samples(), joints: n, params: b });
     }
     let nominal = robot.params();
     let nom_base = base.project(&nominal)?;
@@ -510,9 +503,7 @@ fn fits(n: usize, d: &FitData, base: &BaseParams, opts: &IdentifyOptions, nom_ba
     }
     match iv {
         Some(Ok(f)) => Ok(Fits { fit: f.clone(), weights, iv: Some(Ok(f)) }),
-        Some(Err(e)) => Err(err_est(format!(
-            "IV fit failed ({e}): the instrument is not correlated with the regressor; try --method wls or idim-iv"
-        ))),
+        Some(Err(e)) => Err(Error::SingularInstrument { msg: e.to_string() }),
         None => Err(err_est("IV fit: no instrument was built")),
     }
 }
@@ -625,7 +616,8 @@ pub fn write_prediction(
 ) -> Result<usize> {
     let n = model.dof();
     let c = prep::condition(log, condition)?;
-    let tau = c.tau.as_ref().ok_or_else(|| err_est("the log has no effort (torque) data"))?;
+    let tau =
+        c.tau.as_ref().ok_or_else(|| Error::NoTorque { what: "log".into(), needed_by: "the prediction".into() })?;
     let dd = dsp::dedup_stamps(&log.t)?;
     let t_kept: Vec<f64> = dd.keep.iter().map(|&k| log.t[k]).collect();
     let measured = |a: &[f64]| -> Result<Vec<f64>> {

@@ -1,7 +1,6 @@
 //! `payload`: the payload on the last link from a log after the grasp, with the unloaded
 //! arm identified first on a before-log when one is given (see `docs/cli.md`).
 
-use nalgebra::DMatrix;
 use serde::Serialize;
 
 use std::path::PathBuf;
@@ -23,11 +22,6 @@ use crate::report::PayloadSpec;
 use crate::report::quality;
 use ivdyn_core::estim::TerminalSpec;
 use ivdyn_core::params::LINK_PARAMS;
-use ivdyn_core::rng::Rng;
-
-fn err_est(msg: impl Into<String>) -> Error {
-    Error::Estimation { msg: msg.into() }
-}
 
 // ---------------------------------------------------------------------------------------
 // payload
@@ -124,7 +118,7 @@ pub fn payload(
     // payload base columns from random states
     let bp = {
         let _st = Stage::begin(&opts.progress, "payload base columns", 0);
-        let rows = random_rows(robot, &cols, opts.base_samples, opts.seed)?;
+        let rows = ident::base::random_rows(robot, &cols, opts.base_samples, opts.seed)?;
         BaseParams::from_rows(&rows, &names10)
     };
     check_log(robot, after)?;
@@ -193,10 +187,14 @@ fn payload_columns(robot: &Robot) -> (Vec<usize>, Vec<String>) {
 /// The log must have torques and the robot's joints.
 fn check_log(robot: &Robot, after: &JointLog) -> Result<()> {
     if after.tau.is_none() {
-        return Err(err_est("the log has no effort (torque) data; payload estimation needs measured torques"));
+        return Err(Error::NoTorque { what: "log".into(), needed_by: "payload estimation".into() });
     }
     if after.joint_names != robot.joint_names {
-        return Err(err_est(format!("log joints {:?} are not the robot's {:?}", after.joint_names, robot.joint_names)));
+        return Err(Error::JointMismatch {
+            what: "log".into(),
+            log: after.joint_names.clone(),
+            robot: robot.joint_names.clone(),
+        });
     }
     Ok(())
 }
@@ -280,35 +278,6 @@ fn with_estimate(
         }
     }
     rep
-}
-
-/// Regressor columns `cols` at `samples` random states (as [`ident::robot_base_params`]).
-fn random_rows(robot: &Robot, cols: &[usize], samples: usize, seed: u64) -> Result<DMatrix<f64>> {
-    let (n, p) = (robot.dof(), robot.num_params());
-    let limits = crate::with_model!(&robot.model, m => m.limits.to_vec());
-    let mut rng = Rng::new(seed);
-    let mut phi = DMatrix::zeros(samples * n, cols.len());
-    let (mut q, mut qd, mut qdd) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-    for s in 0..samples {
-        for j in 0..n {
-            let l = &limits[j];
-            let (lo, hi) = if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower {
-                (l.lower, l.upper)
-            } else {
-                (-std::f64::consts::PI, std::f64::consts::PI)
-            };
-            q[j] = rng.uniform(lo, hi);
-            qd[j] = rng.uniform(-1.0, 1.0);
-            qdd[j] = rng.uniform(-2.0, 2.0);
-        }
-        let y = robot.regressor(&q, &qd, &qdd)?;
-        for r in 0..n {
-            for (c, &col) in cols.iter().enumerate() {
-                phi[(s * n + r, c)] = y[r * p + col];
-            }
-        }
-    }
-    Ok(phi)
 }
 
 /// How `payload` writes the payload into a URDF copy.

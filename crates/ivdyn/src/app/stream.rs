@@ -238,7 +238,7 @@ impl Front {
     /// the stamps need resampling.
     fn push(&mut self, b: RawBatch, out: &mut Block) -> Result<std::result::Result<(), String>> {
         if b.tau.is_none() {
-            return Err(Error::NoTorque { needed_by: "identification".into() });
+            return Err(Error::NoTorque { what: "log".into(), needed_by: "identification".into() });
         }
         self.has_qd = b.qd.is_some();
         if self.dt.is_none() {
@@ -811,7 +811,11 @@ pub fn identify_mcap(
         return Ok(Streamed::Unsupported(why));
     }
     if read.joint_names != robot.joint_names {
-        return Err(Error::JointMismatch { log: read.joint_names.clone(), robot: robot.joint_names.clone() });
+        return Err(Error::JointMismatch {
+            what: "log".into(),
+            log: read.joint_names.clone(),
+            robot: robot.joint_names.clone(),
+        });
     }
     let base = {
         let _st = Stage::begin(&opts.progress, "base parameters", 0);

@@ -329,10 +329,9 @@ pub fn terminal_names(robot: &Robot, spec: &TerminalSpec) -> Vec<String> {
 
 fn check_spec(spec: &TerminalSpec, n: usize) -> Result<()> {
     if spec.k >= n || spec.first_row > spec.k {
-        return Err(Error::Option {
-            option: "k".into(),
+        return Err(Error::Estimation {
             msg: format!(
-                "(first changed link of the terminal-link model) needs first_row <= k < N = {n}, got k = {}, first_row = {}",
+                "terminal link: need first_row <= k < N = {n}, got k = {}, first_row = {}",
                 spec.k, spec.first_row
             ),
         });
@@ -402,9 +401,8 @@ pub fn terminal_link_run(
         TerminalInstrument::Qdd(z) => check_len("qdd_instr (T x N)", t * n, z.len())?,
         TerminalInstrument::Eq35(u) => check_len("u (T x N)", t * n, u.len())?,
         TerminalInstrument::None if opts.iv => {
-            return Err(Error::Option {
-                option: "method".into(),
-                msg: "'iv' of the terminal-link estimator needs an instrument (qdd_instr or u)".into(),
+            return Err(Error::Estimation {
+                msg: "terminal link: the IV method needs an instrument (qdd_instr or u)".into(),
             });
         }
         TerminalInstrument::None => {}
@@ -412,24 +410,17 @@ pub fn terminal_link_run(
     check_len("row_weight (one per joint)", n, opts.row_weight.len())?;
     let cols = opts.spec.cols(n);
     if opts.columns.is_empty() {
-        return Err(Error::Option {
-            option: "columns".into(),
-            msg: "(of the terminal-link estimator) is empty".into(),
-        });
+        return Err(Error::Estimation { msg: "terminal link: no columns to estimate".into() });
     }
     if let Some(&c) = opts.columns.iter().find(|&&c| c >= cols) {
-        return Err(Error::Option {
-            option: "columns".into(),
-            msg: format!(
-                "(of the terminal-link estimator): column {c} out of range (the unknown set has {cols} columns)"
-            ),
+        return Err(Error::Estimation {
+            msg: format!("terminal link: column {c} out of range (the unknown set has {cols} columns)"),
         });
     }
     check_start(opts.columns.len(), opts.p0, 1.0)?;
     if opts.record.first() == Some(&0) || opts.record.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(Error::Option {
-            option: "record".into(),
-            msg: "(of the terminal-link estimator) must be strictly increasing positive sample counts".into(),
+        return Err(Error::Estimation {
+            msg: "terminal link: record must be strictly increasing positive sample counts".into(),
         });
     }
     crate::with_model!(&robot.model, m => terminal_run_n(&**m, opts, t, q, qd, qdd, tau, instrument))

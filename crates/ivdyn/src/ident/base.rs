@@ -285,9 +285,24 @@ pub fn robot_base_params_excluding(
             got: samples * n,
         });
     }
+    let cols: Vec<usize> = (0..p).collect();
+    let mut phi = random_rows(robot, &cols, samples, seed)?;
+    for &c in exclude.iter().filter(|&&c| c < p) {
+        phi.column_mut(c).fill(0.0);
+    }
+    Ok(BaseParams::from_rows(&phi, &robot.param_names()[..p]))
+}
+
+/// The regressor columns `cols` at `samples` random states, stacked (`samples * n` rows):
+/// `q` uniform within the joint limits (`[-pi, pi]` where there are none), `qd` within
+/// the velocity limit capped at 1 rad/s, `qdd` within 2 rad/s^2. What the numerical
+/// identifiability tests (base parameters, the payload's visible columns) sample: states
+/// of the size an excitation reaches, so that no column is hidden by scale alone.
+pub fn random_rows(robot: &crate::Robot, cols: &[usize], samples: usize, seed: u64) -> Result<DMatrix<f64>> {
+    let (n, p_all) = (robot.dof(), robot.num_params());
     let limits = crate::with_model!(&robot.model, m => m.limits.to_vec());
     let mut rng = Rng::new(seed);
-    let mut phi = DMatrix::zeros(samples * n, p);
+    let mut phi = DMatrix::zeros(samples * n, cols.len());
     let (mut q, mut qd, mut qdd) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
     for s in 0..samples {
         for j in 0..n {
@@ -304,13 +319,10 @@ pub fn robot_base_params_excluding(
         }
         let y = robot.regressor(&q, &qd, &qdd)?;
         for r in 0..n {
-            for c in 0..p {
-                phi[(s * n + r, c)] = y[r * p_all + c];
+            for (c, &col) in cols.iter().enumerate() {
+                phi[(s * n + r, c)] = y[r * p_all + col];
             }
         }
     }
-    for &c in exclude.iter().filter(|&&c| c < p) {
-        phi.column_mut(c).fill(0.0);
-    }
-    Ok(BaseParams::from_rows(&phi, &robot.param_names()[..p]))
+    Ok(phi)
 }
