@@ -5,9 +5,9 @@ use super::bounds::{Box1, joint_bounds, margin_boxes};
 use super::criterion::{Problem, scores};
 use super::fourier::{Basis, Coeffs, Samples, sample};
 use super::lbfgs::lbfgs;
-use super::{Criterion, ExciteOptions, ExciteReport, RandomComparison, Scores, bad};
+use super::{Criterion, ExciteOptions, ExciteReport, RandomComparison, Scores};
 use crate::Robot;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::ident::{BaseParams, robot_base_params};
 use ivdyn_core::params::{FC, drive_col};
 use ivdyn_core::rng::Rng;
@@ -69,20 +69,24 @@ pub fn design(robot: &Robot, opts: &ExciteOptions) -> Result<ExciteReport> {
 /// Rejects options the design cannot use: fewer than 2 harmonics, non-positive duration,
 /// f0 or rate, a margin outside `[0, 0.5)`, no start or fewer than 2 samples.
 fn check_options(opts: &ExciteOptions) -> Result<()> {
+    let bad = |option: &str, msg: String| Error::Option { option: option.into(), msg };
     let h = opts.harmonics;
     if h < 2 {
-        return Err(bad(format!("--harmonics must be at least 2 (one is used by the rest constraints), got {h}")));
+        return Err(bad("harmonics", format!("must be at least 2 (one is used by the rest constraints), got {h}")));
     }
     for (what, v) in [("duration", opts.duration_s), ("f0", opts.f0_hz), ("rate", opts.rate_hz)] {
         if !(v > 0.0 && v.is_finite()) {
-            return Err(bad(format!("{what} must be positive, got {v}")));
+            return Err(bad(what, format!("must be positive, got {v}")));
         }
     }
     if !(0.0..0.5).contains(&opts.margin) {
-        return Err(bad(format!("margin must be in [0, 0.5), got {}", opts.margin)));
+        return Err(bad("margin", format!("must be in [0, 0.5), got {}", opts.margin)));
     }
-    if opts.starts == 0 || opts.opt_samples < 2 {
-        return Err(bad("need at least one start and two optimisation samples".into()));
+    if opts.starts == 0 {
+        return Err(bad("starts", "must be at least 1".into()));
+    }
+    if opts.opt_samples < 2 {
+        return Err(bad("opt_samples", format!("must be at least 2, got {}", opts.opt_samples)));
     }
     Ok(())
 }
