@@ -12,16 +12,20 @@ use super::model::{Model, effect_torque, fit};
 use super::prepare::prepare_best;
 use super::residual::rms_per_joint;
 use super::rules::{Ctx, score_candidates};
-use super::{CandidateScore, Diagnosis, EffectKind, Step, bad};
+use super::{CandidateScore, Diagnosis, EffectKind, Step};
 use crate::Robot;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::log::JointLog;
 
 /// Diagnoses `log` against the nominal `robot` (module docs for the method).
 pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result<Diagnosis> {
     let n = robot.dof();
     if log.dof() != n {
-        return Err(bad(format!("the log has {} joints, the robot {n}", log.dof())));
+        return Err(Error::JointMismatch {
+            what: "log".into(),
+            log: log.joint_names.clone(),
+            robot: robot.joint_names.clone(),
+        });
     }
     let p = prepare_best(robot, log, opts)?;
     let ctx = Ctx::new(robot, &p, opts)?;

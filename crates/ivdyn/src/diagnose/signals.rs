@@ -5,7 +5,7 @@
 
 use super::{DiagnoseOptions, bad};
 use crate::dsp;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::log::JointLog;
 use crate::prep;
 
@@ -28,10 +28,8 @@ pub(super) struct Signals {
 /// has no torque, non-finite values, or fewer than 50 samples left.
 pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) -> Result<Signals> {
     let n = log.dof();
-    let tau = log
-        .tau
-        .as_ref()
-        .ok_or_else(|| bad("the log has no effort (torque) values: nothing to compare the model with"))?;
+    let tau =
+        log.tau.as_ref().ok_or_else(|| Error::NoTorque { what: "log".into(), needed_by: "the diagnosis".into() })?;
     let copts = prep::ConditionOptions {
         diff: dsp::DiffMethod::Butterworth { order: 4, cutoff_hz: Some(cutoff_hz) },
         ..Default::default()
