@@ -30,11 +30,12 @@ use ivdyn_core::control::{ComputedTorque, CoulombVelocity, Gains, PayloadEstimat
 use ivdyn_core::estim::terminal::Method;
 use ivdyn_core::estim::{InstrumentModel, Riv, Rls};
 use ivdyn_core::params::{LINK_PARAM_NAMES, LINK_PARAMS};
-use ivdyn_core::sim::{IdSample, SimConfig, Simulator};
+use ivdyn_core::sim::{IdSample, Sensors, SimConfig, Simulator};
 use ivdyn_core::trajectory::Fourier;
-use ivdyn_core::{Data, LinkInertia, Mat3, Model, Vec3, VecN, mass_matrix, regressor};
+use ivdyn_core::{Data, LinkInertia, Mat3, MatN, Model, Vec3, VecN, mass_matrix, regressor};
 use nalgebra::{DMatrix, DVector, Dyn};
 use std::collections::VecDeque;
+use std::time::{Duration, Instant};
 
 /// Tolerance of the physical-consistency test of the estimated last link (kg m^2 scale):
 /// far below any real link's inertia, so only clearly impossible estimates are refused.
@@ -422,20 +423,44 @@ impl<const N: usize> Experiment<N> {
         let mut data = Data::<N>::new();
         let m0 = *mass_matrix(&self.nominal, &mut data, &self.mean_pose());
         let gains = Gains::<N>::critically_damped(self.wn);
-        let mut ct = ComputedTorque::new(gains);
-        ct.coulomb = self.coulomb;
-        let pd = Pd {
-            gains: gains.scaled(&m0.diagonal()),
-            tau_limit: VecN::<N>::repeat(f64::INFINITY),
-            gravity: scheme == Scheme::PdGravity,
-        };
-        let mut ctrl_model = self.nominal.clone();
-        let mut est = self.make_estimator()?;
-        let instr = InstrumentModel::from_nominal(&self.nominal, &mut data, &self.mean_pose());
-        let mut history: VecDeque<IdSample<N>> = VecDeque::new();
-        let mass_col = est.column_of(0);
+        let mut ctrl = SchemeController::new(self, scheme, gains, &m0);
+        let mut online = OnlineEstimation::new(self, &mut data, m0, gains)?;
         let steps = (self.duration / self.sim.dt).round() as usize;
-        let mut log = RunLog {
+        let mut log = RunLog::with_capacity(scheme, steps);
+        let mut grasped = false;
+        let mut busy = Duration::ZERO;
+        for k in 0..steps {
+            let t = k as f64 * self.sim.dt;
+            if !grasped && t >= self.grasp_time {
+                grasped = true;
+                sim.set_model(loaded.clone());
+                ctrl.grasp(&loaded);
+            }
+            let r = Reference::from_tuple(self.traj.eval(t));
+            let s = *sim.sensors();
+            let t0 = Instant::now();
+            let u = ctrl.torque(&self.nominal, &mut data, &s, &r)?;
+            busy += t0.elapsed();
+            log.record(self.record_every, k, t, &r, &sim);
+            let sample = sim.step(&u)?;
+            if sim.saturated {
+                log.saturated_steps += 1;
+            }
+            // online estimation from the grasp on (the controller knows when it closes
+            // its gripper), one sample late (central differences)
+            if let (Scheme::CtEstimated, Some(smp)) = (scheme, sample) {
+                busy += online.update(self, smp, t, k, &mut ctrl.model, &mut log);
+            }
+        }
+        log.step_us = busy.as_secs_f64() * 1e6 / steps.max(1) as f64;
+        Ok(log)
+    }
+}
+
+impl RunLog {
+    /// An empty log of `scheme` with room for `steps` control steps (no reallocation in the loop).
+    fn with_capacity(scheme: Scheme, steps: usize) -> Self {
+        RunLog {
             scheme,
             t: vec![],
             q_des: vec![],
@@ -447,97 +472,180 @@ impl<const N: usize> Experiment<N> {
             switch_time: None,
             saturated_steps: 0,
             step_us: 0.0,
+        }
+    }
+
+    /// Logs control step `k` at time `t` before the simulator advances: the tracking error
+    /// `q_d - q` every step (for the RMS tables), the reference, true position and applied
+    /// torque every `every` steps (for the plots).
+    fn record<const N: usize>(&mut self, every: usize, k: usize, t: f64, r: &Reference<N>, sim: &Simulator<N>) {
+        let e: Vec<f64> = (0..N).map(|i| r.q[i] - sim.q[i]).collect();
+        if k % every == 0 {
+            self.t.push(t);
+            self.q_des.push(r.q.as_slice().to_vec());
+            self.q.push(sim.q.as_slice().to_vec());
+            self.tau.push(sim.tau_applied.as_slice().to_vec());
+        }
+        self.t_all.push(t);
+        self.err_all.push(e);
+    }
+}
+
+/// The controller of one scheme of Fig. 5 and the model its computed-torque law uses.
+struct SchemeController<const N: usize> {
+    /// Which of (a)-(d).
+    scheme: Scheme,
+    /// Computed torque with `model` (schemes b, c, d), gains in acceleration units.
+    ct: ComputedTorque<N>,
+    /// PD (schemes a, a'): the same gains times the nominal `M_ii` at the mean pose.
+    pd: Pd<N>,
+    /// The nominal model; from the grasp on the loaded truth (d), after the switch nominal
+    /// + estimate (c).
+    model: Model<N>,
+}
+
+impl<const N: usize> SchemeController<N> {
+    /// The controllers of `exp` for `scheme`; `m0` is the nominal mass matrix at the mean
+    /// pose, which scales the PD gains to torque units.
+    fn new(exp: &Experiment<N>, scheme: Scheme, gains: Gains<N>, m0: &MatN<N>) -> Self {
+        let mut ct = ComputedTorque::new(gains);
+        ct.coulomb = exp.coulomb;
+        let pd = Pd {
+            gains: gains.scaled(&m0.diagonal()),
+            tau_limit: VecN::<N>::repeat(f64::INFINITY),
+            gravity: scheme == Scheme::PdGravity,
         };
-        let mut grasped = false;
-        let mut tstd = VecN::<N>::zeros();
-        let mut busy = std::time::Duration::ZERO;
-        for k in 0..steps {
-            let t = k as f64 * self.sim.dt;
-            if !grasped && t >= self.grasp_time {
-                grasped = true;
-                sim.set_model(loaded.clone());
-                if scheme == Scheme::CtTrue {
-                    ctrl_model = loaded.clone();
+        Self { scheme, ct, pd, model: exp.nominal.clone() }
+    }
+
+    /// At the grasp: scheme (d) is told the true loaded model, the others keep theirs.
+    fn grasp(&mut self, loaded: &Model<N>) {
+        if self.scheme == Scheme::CtTrue {
+            self.model = loaded.clone();
+        }
+    }
+
+    /// The command `u` from the sensors `s` and the reference `r`: PD (with the nominal
+    /// gravity for a'), or computed torque with `model`.
+    fn torque(&self, nominal: &Model<N>, data: &mut Data<N>, s: &Sensors<N>, r: &Reference<N>) -> Result<VecN<N>> {
+        Ok(match self.scheme {
+            Scheme::Pd | Scheme::PdGravity => *self.pd.torque(nominal, data, &s.q, &s.qd, r)?,
+            _ => *self.ct.torque(&self.model, data, &s.q, &s.qd, r)?,
+        })
+    }
+}
+
+/// The online payload estimation of scheme (c) (paper eqs 38-54 with only the last link
+/// unknown) and its rule for switching the controller to nominal + estimate.
+struct OnlineEstimation<const N: usize> {
+    /// The recursive IV (or LS) estimator of the last link's change.
+    est: PayloadEstimator<N, Dyn>,
+    /// The eq-35 model of the acceleration from the input ([`Instrument::Eq35`]).
+    instr: InstrumentModel<N>,
+    /// The last 8 identification samples, for the delayed eq-35 instrument.
+    history: VecDeque<IdSample<N>>,
+    /// Position of the mass among the estimated columns, if estimated.
+    mass_col: Option<usize>,
+    /// Nominal mass matrix at the mean pose and the acceleration gains `Kp`: turn a torque
+    /// uncertainty into a tracking error.
+    m0: MatN<N>,
+    kp: VecN<N>,
+    /// Scratch: the estimate's torque standard deviation per joint.
+    tstd: VecN<N>,
+}
+
+impl<const N: usize> OnlineEstimation<N> {
+    /// A fresh estimator of `exp` ([`Experiment::make_estimator`]) and its instrument model.
+    fn new(exp: &Experiment<N>, data: &mut Data<N>, m0: MatN<N>, gains: Gains<N>) -> Result<Self> {
+        let est = exp.make_estimator()?;
+        let instr = InstrumentModel::from_nominal(&exp.nominal, data, &exp.mean_pose());
+        let mass_col = est.column_of(0);
+        Ok(Self { est, instr, history: VecDeque::new(), mass_col, m0, kp: gains.kp, tstd: VecN::<N>::zeros() })
+    }
+
+    /// Feeds the identification sample `smp` (returned at control step `k`, time `t`) to
+    /// the estimator once the payload is grasped, then switches to or refreshes the
+    /// estimate in `ctrl_model`. Returns the wall-clock time spent (part of the step time).
+    fn update(
+        &mut self,
+        exp: &Experiment<N>,
+        smp: IdSample<N>,
+        t: f64,
+        k: usize,
+        ctrl_model: &mut Model<N>,
+        log: &mut RunLog,
+    ) -> Duration {
+        self.history.push_back(smp);
+        if self.history.len() > 8 {
+            self.history.pop_front();
+        }
+        if smp.t < exp.grasp_time {
+            return Duration::ZERO;
+        }
+        let t1 = Instant::now();
+        let Some(zacc) = self.instrument(exp, &smp) else { return Duration::ZERO };
+        // a degenerate row leaves the estimator unchanged: skip it
+        let _ = self.est.update(&smp.x.q, &smp.x.qd, &smp.x.qdd, &smp.tau, &zacc);
+        let mass_std = self.mass_col.map_or(f64::NAN, |b| self.est.variance(b).max(0.0).sqrt());
+        let err_std = if log.switch_time.is_none() {
+            self.switch_if_ready(exp, smp.t, t, mass_std, ctrl_model, log)
+        } else {
+            // refresh every step; an inconsistent estimate keeps the last good one
+            self.est.write_model_if_consistent(ctrl_model, CONSISTENCY_TOL);
+            f64::NAN
+        };
+        let busy = t1.elapsed();
+        if k % exp.record_every == 0 {
+            let theta = self.est.theta().iter().copied().collect();
+            log.estimates.push(EstimatePoint { t: smp.t, theta, mass_std, err_std });
+        }
+        busy
+    }
+
+    /// The instrumental acceleration for `smp`: the planned one (LS ignores it), or the
+    /// eq-35 model driven by the input `delay` samples earlier (`None` while the history
+    /// is shorter than that).
+    fn instrument(&self, exp: &Experiment<N>, smp: &IdSample<N>) -> Option<VecN<N>> {
+        match exp.estimator {
+            EstimatorKind::Iv(Instrument::Planned) | EstimatorKind::Ls => Some(exp.traj.eval(smp.t).2),
+            EstimatorKind::Iv(Instrument::Eq35 { delay }) => {
+                let n = self.history.len();
+                if n < delay + 2 {
+                    return None;
                 }
-            }
-            let r = Reference::from_tuple(self.traj.eval(t));
-            let s = *sim.sensors();
-            let t0 = std::time::Instant::now();
-            let u = match scheme {
-                Scheme::Pd | Scheme::PdGravity => *pd.torque(&self.nominal, &mut data, &s.q, &s.qd, &r)?,
-                _ => *ct.torque(&ctrl_model, &mut data, &s.q, &s.qd, &r)?,
-            };
-            busy += t0.elapsed();
-            let e: Vec<f64> = (0..N).map(|i| r.q[i] - sim.q[i]).collect();
-            if k % self.record_every == 0 {
-                log.t.push(t);
-                log.q_des.push(r.q.as_slice().to_vec());
-                log.q.push(sim.q.as_slice().to_vec());
-                log.tau.push(sim.tau_applied.as_slice().to_vec());
-            }
-            log.t_all.push(t);
-            log.err_all.push(e);
-            let sample = sim.step(&u)?;
-            if sim.saturated {
-                log.saturated_steps += 1;
-            }
-            // online estimation from the grasp on (the controller knows when it closes
-            // its gripper), one sample late (central differences)
-            if scheme == Scheme::CtEstimated {
-                let Some(smp) = sample else { continue };
-                history.push_back(smp);
-                if history.len() > 8 {
-                    history.pop_front();
-                }
-                if smp.t < self.grasp_time {
-                    continue;
-                }
-                let t1 = std::time::Instant::now();
-                let zacc = match self.estimator {
-                    EstimatorKind::Iv(Instrument::Planned) | EstimatorKind::Ls => self.traj.eval(smp.t).2,
-                    EstimatorKind::Iv(Instrument::Eq35 { delay }) => {
-                        let n = history.len();
-                        if n < delay + 2 {
-                            continue;
-                        }
-                        let (uu, prev) = (&history[n - 1 - delay], &history[n - 2 - delay]);
-                        instr.qdd_hat(&uu.u, &prev.x.qd)
-                    }
-                };
-                // a degenerate row leaves the estimator unchanged: skip it
-                let _ = est.update(&smp.x.q, &smp.x.qd, &smp.x.qdd, &smp.tau, &zacc);
-                let mass_std = mass_col.map_or(f64::NAN, |b| est.variance(b).max(0.0).sqrt());
-                let mut err_std = f64::NAN;
-                if log.switch_time.is_none() {
-                    est.torque_std(&mut tstd);
-                    err_std = (0..N).map(|i| tstd[i] / (m0[(i, i)] * gains.kp[i])).fold(0.0, f64::max);
-                    if let Some(b) = mass_col {
-                        let dm = est.theta()[b];
-                        if smp.t - self.grasp_time >= self.switch_min_time
-                            && mass_std < self.switch_rel_std * dm.abs()
-                            && err_std < self.switch_error_tol
-                            && est.write_model_if_consistent(&mut ctrl_model, CONSISTENCY_TOL)
-                        {
-                            log.switch_time = Some(t + self.sim.dt);
-                        }
-                    }
-                } else {
-                    // refresh every step; an inconsistent estimate keeps the last good one
-                    est.write_model_if_consistent(&mut ctrl_model, CONSISTENCY_TOL);
-                }
-                busy += t1.elapsed();
-                if k % self.record_every == 0 {
-                    log.estimates.push(EstimatePoint {
-                        t: smp.t,
-                        theta: est.theta().iter().copied().collect(),
-                        mass_std,
-                        err_std,
-                    });
-                }
+                let (uu, prev) = (&self.history[n - 1 - delay], &self.history[n - 2 - delay]);
+                Some(self.instr.qdd_hat(&uu.u, &prev.x.qd))
             }
         }
-        log.step_us = busy.as_secs_f64() * 1e6 / steps.max(1) as f64;
-        Ok(log)
+    }
+
+    /// Before the switch: the tracking error the estimate's uncertainty would cause,
+    /// `max_i torque_std_i / (M_ii Kp_i)` (returned, rad), and the switch at the next step
+    /// (`t + dt`) once the sample at `smp_t` is `switch_min_time` past the grasp, the mass
+    /// is known to `switch_rel_std`, that error is below `switch_error_tol` and the
+    /// estimate is physically consistent.
+    fn switch_if_ready(
+        &mut self,
+        exp: &Experiment<N>,
+        smp_t: f64,
+        t: f64,
+        mass_std: f64,
+        ctrl_model: &mut Model<N>,
+        log: &mut RunLog,
+    ) -> f64 {
+        self.est.torque_std(&mut self.tstd);
+        let err_std = (0..N).map(|i| self.tstd[i] / (self.m0[(i, i)] * self.kp[i])).fold(0.0, f64::max);
+        if let Some(b) = self.mass_col {
+            let dm = self.est.theta()[b];
+            if smp_t - exp.grasp_time >= exp.switch_min_time
+                && mass_std < exp.switch_rel_std * dm.abs()
+                && err_std < exp.switch_error_tol
+                && self.est.write_model_if_consistent(ctrl_model, CONSISTENCY_TOL)
+            {
+                log.switch_time = Some(t + exp.sim.dt);
+            }
+        }
+        err_std
     }
 }
 
