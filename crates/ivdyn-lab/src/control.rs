@@ -25,11 +25,11 @@
 //! ```
 
 use ivdyn::error::{Error, Result};
-use ivdyn::ident::BaseParams;
+use ivdyn::ident::{BaseParams, FitReport, IvAccumulator, fit_iv};
 use ivdyn_core::control::{ComputedTorque, CoulombVelocity, Gains, PayloadEstimator, Pd, Reference};
 use ivdyn_core::estim::terminal::Method;
 use ivdyn_core::estim::{InstrumentModel, Riv, Rls};
-use ivdyn_core::params::{LINK_PARAM_NAMES, LINK_PARAMS};
+use ivdyn_core::params::{DRIVE_PARAM_NAMES, LINK_PARAM_NAMES, LINK_PARAMS, param_count};
 use ivdyn_core::sim::{IdSample, Sensors, SimConfig, Simulator};
 use ivdyn_core::trajectory::Fourier;
 use ivdyn_core::{Data, LinkInertia, Mat3, MatN, Model, Vec3, VecN, mass_matrix, regressor};
@@ -336,7 +336,7 @@ impl<const N: usize> Experiment<N> {
         traj: Fourier<N, 2>,
         sim: SimConfig<N>,
     ) -> Result<Self> {
-        let base = last_link_base(&nominal, 40, 7);
+        let (columns, column_names) = last_link_columns(&nominal);
         Ok(Self {
             name: name.to_string(),
             truth: nominal.clone(),
@@ -354,8 +354,8 @@ impl<const N: usize> Experiment<N> {
             switch_rel_std: 0.05,
             switch_error_tol: 5e-3,
             switch_min_time: 0.2,
-            columns: base.independent.clone(),
-            column_names: base.independent.iter().map(|&c| base_name(&base, c)).collect(),
+            columns,
+            column_names,
             record_every: 5,
         })
     }
@@ -673,106 +673,198 @@ impl<const N: usize> Experiment<N> {
     /// `prior + to_full(theta_base - project(prior))`: the prior with its identifiable part
     /// replaced. The payload is then estimated against that model.
     pub fn with_identified_nominal(mut self, prior: Model<N>, seconds: f64) -> Result<(Self, NominalIdentification)> {
-        use ivdyn::ident::{IvAccumulator, fit_iv};
-        use ivdyn_core::params::{DRIVE_PARAM_NAMES, param_count};
-        let p = param_count(N);
-        let names: Vec<String> = (0..p)
-            .map(|c| {
-                if c < LINK_PARAMS * N {
-                    format!("link{}.{}", c / LINK_PARAMS + 1, LINK_PARAM_NAMES[c % LINK_PARAMS])
-                } else {
-                    let d = c - LINK_PARAMS * N;
-                    format!("joint{}.{}", d / 4 + 1, DRIVE_PARAM_NAMES[d % 4])
-                }
-            })
-            .collect();
-        // base parameters of the whole arm (inertial + drive) at random states
-        let mut rng = ivdyn_core::rng::Rng::new(11);
+        // one RNEA workspace for the base-parameter search, the controller and the rows
         let mut data = Data::<N>::new();
-        let samples = 12 * p / N + 20;
-        let mut phi_r = DMatrix::<f64>::zeros(samples * N, p);
-        let mut row = vec![0.0; N * p];
-        for s in 0..samples {
-            let mut r = |scale: f64| VecN::<N>::from_fn(|_, _| scale * rng.uniform(-1.0, 1.0));
-            let (q, qd, qdd) = (r(std::f64::consts::PI), r(1.0), r(1.0));
-            regressor(&prior, &mut data, &q, &qd, &qdd).write_row_major(&mut row);
-            for i in 0..N {
-                for c in 0..p {
-                    phi_r[(s * N + i, c)] = row[i * p + c];
-                }
-            }
-        }
-        let base = BaseParams::from_rows(&phi_r, &names);
-        let b = base.base_count();
-        // the unloaded run under computed torque with the prior
+        let base = arm_base_params(&prior, &mut data);
+        let rows = self.unloaded_iv_rows(&prior, &base, seconds, &mut data)?;
+        let fit = rows.fit()?;
+        let identified = replace_identifiable(&prior, &base, &fit.theta)?;
+        let info = NominalIdentification {
+            rows: rows.y.len(),
+            rms_prior: self.model_torque_rms(&prior),
+            rms_identified: self.model_torque_rms(&identified),
+            fit,
+        };
+        (self.columns, self.column_names) = last_link_columns(&identified);
+        self.nominal = identified;
+        Ok((self, info))
+    }
+
+    /// The unloaded truth tracking the reference for `seconds` under computed torque with
+    /// `prior`, and its batch-IV rows from 0.5 s on (after the start-up transient).
+    fn unloaded_iv_rows<'a>(
+        &self,
+        prior: &'a Model<N>,
+        base: &'a BaseParams,
+        seconds: f64,
+        data: &mut Data<N>,
+    ) -> Result<UnloadedRows<'a, N>> {
         let (r0q, r0qd, _) = self.traj.eval(0.0);
         let mut sim = Simulator::new(self.truth.clone(), self.sim, &r0q, &r0qd)?;
-        let gains = Gains::<N>::critically_damped(self.wn);
-        let mut ct = ComputedTorque::new(gains);
+        let mut ct = ComputedTorque::new(Gains::<N>::critically_damped(self.wn));
         ct.coulomb = self.coulomb;
-        let mut acc = IvAccumulator::new(b);
-        let (mut phi, mut z, mut y) = (vec![], vec![], vec![]);
-        let mut rb = vec![0.0; b];
-        let mut dz = Data::<N>::new();
+        let mut rows = UnloadedRows::new(prior, base, self.min_speed);
         let steps = (seconds / self.sim.dt).round() as usize;
         for k in 0..steps {
             let r = Reference::from_tuple(self.traj.eval(k as f64 * self.sim.dt));
             let s = *sim.sensors();
-            let u = *ct.torque(&prior, &mut data, &s.q, &s.qd, &r)?;
+            let u = *ct.torque(prior, data, &s.q, &s.qd, &r)?;
             let Some(smp) = sim.step(&u)? else { continue };
             if smp.t < 0.5 {
                 continue; // start-up transient
             }
-            regressor(&prior, &mut data, &smp.x.q, &smp.x.qd, &smp.x.qdd).write_row_major(&mut row);
-            let zacc = self.traj.eval(smp.t).2;
-            let mut zrow = vec![0.0; N * p];
-            regressor(&prior, &mut dz, &smp.x.q, &smp.x.qd, &zacc).write_row_major(&mut zrow);
+            rows.push(data, &smp, &self.traj.eval(smp.t).2)?;
+        }
+        Ok(rows)
+    }
+
+    /// RMS over one period of the reference (2000 points) of `rnea(m) - rnea(truth)` per
+    /// joint (N m): how far `m` is from the true unloaded arm (simulation only).
+    fn model_torque_rms(&self, m: &Model<N>) -> Vec<f64> {
+        let (mut d1, mut d2) = (Data::<N>::new(), Data::<N>::new());
+        let mut s2 = vec![0.0; N];
+        let n = 2000;
+        for k in 0..n {
+            let (q, qd, qdd) = self.traj.eval(k as f64 * self.traj.period() / n as f64);
+            let a = *ivdyn_core::rnea(m, &mut d1, &q, &qd, &qdd);
+            let t = *ivdyn_core::rnea(&self.truth, &mut d2, &q, &qd, &qdd);
             for i in 0..N {
-                if smp.x.qd[i].abs() < self.min_speed {
-                    continue;
-                }
-                base.select_row(&row[i * p..(i + 1) * p], &mut rb)?;
-                phi.extend_from_slice(&rb);
-                base.select_row(&zrow[i * p..(i + 1) * p], &mut rb)?;
-                z.extend_from_slice(&rb);
-                y.push(smp.tau[i]);
+                s2[i] += (a[i] - t[i]).powi(2);
             }
         }
-        acc.add_rows(&phi, &z, &y, None)?;
-        let fit = fit_iv(&acc, &base.names)?;
+        s2.iter().map(|v| (v / n as f64).sqrt()).collect()
+    }
+}
+
+/// Names of the `14 N` full parameters: `link<j>.<inertial>`, then `joint<j>.<drive>`.
+fn full_param_names<const N: usize>() -> Vec<String> {
+    (0..param_count(N))
+        .map(|c| {
+            if c < LINK_PARAMS * N {
+                format!("link{}.{}", c / LINK_PARAMS + 1, LINK_PARAM_NAMES[c % LINK_PARAMS])
+            } else {
+                let d = c - LINK_PARAMS * N;
+                format!("joint{}.{}", d / 4 + 1, DRIVE_PARAM_NAMES[d % 4])
+            }
+        })
+        .collect()
+}
+
+/// The base parameters of the whole arm (inertial + drive), from the regressor of `prior`
+/// at random states (seed 11): what a batch fit of the unloaded arm can identify.
+fn arm_base_params<const N: usize>(prior: &Model<N>, data: &mut Data<N>) -> BaseParams {
+    let p = param_count(N);
+    let names = full_param_names::<N>();
+    let mut rng = ivdyn_core::rng::Rng::new(11);
+    let samples = 12 * p / N + 20;
+    let mut phi_r = DMatrix::<f64>::zeros(samples * N, p);
+    let mut row = vec![0.0; N * p];
+    for s in 0..samples {
+        let mut r = |scale: f64| VecN::<N>::from_fn(|_, _| scale * rng.uniform(-1.0, 1.0));
+        let (q, qd, qdd) = (r(std::f64::consts::PI), r(1.0), r(1.0));
+        regressor(prior, data, &q, &qd, &qdd).write_row_major(&mut row);
+        for i in 0..N {
+            for c in 0..p {
+                phi_r[(s * N + i, c)] = row[i * p + c];
+            }
+        }
+    }
+    BaseParams::from_rows(&phi_r, &names)
+}
+
+/// Batch-IV rows of the unloaded arm in the base columns of `base`: the regressor of
+/// `prior` at the measured state, the instrument (the same regressor at the planned
+/// acceleration, noise free), the measured torque.
+struct UnloadedRows<'a, const N: usize> {
+    /// The model the regressor is evaluated with (its parameters do not enter the rows).
+    prior: &'a Model<N>,
+    /// The base parameters the rows are reduced to.
+    base: &'a BaseParams,
+    /// Rows of joints slower than this are skipped (rad/s): see [`Experiment::min_speed`].
+    min_speed: f64,
+    /// Regressor rows, `rows x b` row-major.
+    phi: Vec<f64>,
+    /// Instrument rows, `rows x b` row-major.
+    z: Vec<f64>,
+    /// Measured torques, `rows`.
+    y: Vec<f64>,
+    /// Scratch: the full `N x 14N` regressor at the measured and at the planned
+    /// acceleration (row-major), one row in base columns, and the latter's workspace.
+    row: Vec<f64>,
+    zrow: Vec<f64>,
+    rb: Vec<f64>,
+    dz: Data<N>,
+}
+
+impl<'a, const N: usize> UnloadedRows<'a, N> {
+    /// No rows yet.
+    fn new(prior: &'a Model<N>, base: &'a BaseParams, min_speed: f64) -> Self {
+        let p = param_count(N);
+        Self {
+            prior,
+            base,
+            min_speed,
+            phi: vec![],
+            z: vec![],
+            y: vec![],
+            row: vec![0.0; N * p],
+            zrow: vec![0.0; N * p],
+            rb: vec![0.0; base.base_count()],
+            dz: Data::<N>::new(),
+        }
+    }
+
+    /// Adds the rows of sample `smp`, instrument at the planned acceleration `zacc`: one
+    /// per joint moving faster than `min_speed`.
+    fn push(&mut self, data: &mut Data<N>, smp: &IdSample<N>, zacc: &VecN<N>) -> Result<()> {
+        let p = param_count(N);
+        regressor(self.prior, data, &smp.x.q, &smp.x.qd, &smp.x.qdd).write_row_major(&mut self.row);
+        regressor(self.prior, &mut self.dz, &smp.x.q, &smp.x.qd, zacc).write_row_major(&mut self.zrow);
+        for i in 0..N {
+            if smp.x.qd[i].abs() < self.min_speed {
+                continue;
+            }
+            self.base.select_row(&self.row[i * p..(i + 1) * p], &mut self.rb)?;
+            self.phi.extend_from_slice(&self.rb);
+            self.base.select_row(&self.zrow[i * p..(i + 1) * p], &mut self.rb)?;
+            self.z.extend_from_slice(&self.rb);
+            self.y.push(smp.tau[i]);
+        }
+        Ok(())
+    }
+
+    /// The batch IV fit of the base parameters; an error if the trajectory leaves some of
+    /// them unexcited (the nominal model would then be a guess there).
+    fn fit(&self) -> Result<FitReport> {
+        let mut acc = IvAccumulator::new(self.base.base_count());
+        acc.add_rows(&self.phi, &self.z, &self.y, None)?;
+        let fit = fit_iv(&acc, &self.base.names)?;
         if !fit.unexcited.is_empty() {
             return Err(Error::Estimation {
                 msg: format!("unloaded-arm identification: not excited by the trajectory: {:?}", fit.unexcited),
             });
         }
-        let mut theta_prior = vec![0.0; p];
-        prior.params_to_slice(&mut theta_prior)?;
-        let full = base.apply(&fit.theta, &theta_prior, 1.0)?;
-        let mut identified = prior.clone();
-        identified.set_params_from_slice(&full)?;
-        // model error along one period of the reference, prior vs identified
-        let rms = |m: &Model<N>| -> Vec<f64> {
-            let (mut d1, mut d2) = (Data::<N>::new(), Data::<N>::new());
-            let mut s2 = vec![0.0; N];
-            let n = 2000;
-            for k in 0..n {
-                let (q, qd, qdd) = self.traj.eval(k as f64 * self.traj.period() / n as f64);
-                let a = *ivdyn_core::rnea(m, &mut d1, &q, &qd, &qdd);
-                let t = *ivdyn_core::rnea(&self.truth, &mut d2, &q, &qd, &qdd);
-                for i in 0..N {
-                    s2[i] += (a[i] - t[i]).powi(2);
-                }
-            }
-            s2.iter().map(|v| (v / n as f64).sqrt()).collect()
-        };
-        let info =
-            NominalIdentification { rows: y.len(), rms_prior: rms(&prior), rms_identified: rms(&identified), fit };
-        let lb = last_link_base(&identified, 40, 7);
-        self.columns = lb.independent.clone();
-        self.column_names = lb.independent.iter().map(|&c| base_name(&lb, c)).collect();
-        self.nominal = identified;
-        Ok((self, info))
+        Ok(fit)
     }
+}
+
+/// `prior + to_full(theta_base - project(prior))` ([`BaseParams::apply`]): the prior with
+/// its identifiable part replaced by the fitted base parameters `theta_base`.
+fn replace_identifiable<const N: usize>(prior: &Model<N>, base: &BaseParams, theta_base: &[f64]) -> Result<Model<N>> {
+    let mut theta_prior = vec![0.0; param_count(N)];
+    prior.params_to_slice(&mut theta_prior)?;
+    let full = base.apply(theta_base, &theta_prior, 1.0)?;
+    let mut identified = prior.clone();
+    identified.set_params_from_slice(&full)?;
+    Ok(identified)
+}
+
+/// The entries of the last link's inertial block the payload estimator estimates
+/// ([`last_link_base`] of `model`), and their base-parameter names.
+fn last_link_columns<const N: usize>(model: &Model<N>) -> (Vec<usize>, Vec<String>) {
+    let base = last_link_base(model, 40, 7);
+    let names = base.independent.iter().map(|&c| base_name(&base, c)).collect();
+    (base.independent, names)
 }
 
 /// Name of full column `c` in `base` (the base parameter built on it).
