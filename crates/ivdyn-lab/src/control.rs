@@ -480,7 +480,7 @@ impl RunLog {
     /// torque every `every` steps (for the plots).
     fn record<const N: usize>(&mut self, every: usize, k: usize, t: f64, r: &Reference<N>, sim: &Simulator<N>) {
         let e: Vec<f64> = (0..N).map(|i| r.q[i] - sim.q[i]).collect();
-        if k % every == 0 {
+        if k.is_multiple_of(every) {
             self.t.push(t);
             self.q_des.push(r.q.as_slice().to_vec());
             self.q.push(sim.q.as_slice().to_vec());
@@ -595,7 +595,7 @@ impl<const N: usize> OnlineEstimation<N> {
             f64::NAN
         };
         let busy = t1.elapsed();
-        if k % exp.record_every == 0 {
+        if k.is_multiple_of(exp.record_every) {
             let theta = self.est.theta().iter().copied().collect();
             log.estimates.push(EstimatePoint { t: smp.t, theta, mass_std, err_std });
         }
