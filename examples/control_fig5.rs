@@ -15,11 +15,14 @@ use std::path::{Path, PathBuf};
 /// poles at -20 rad/s an error decays to 2 % in 0.3 s.
 const SETTLE: f64 = 0.5;
 
+/// The value after `name` on the command line, or `default`.
 fn arg<T: std::str::FromStr>(name: &str, default: T) -> T {
     let args: Vec<String> = std::env::args().collect();
     args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).and_then(|v| v.parse().ok()).unwrap_or(default)
 }
 
+/// Runs every scheme of Fig. 5 on `exp`, prints the tables of `docs/control.md` and writes
+/// `out/<name>.json` for the plots.
 fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dyn std::error::Error>> {
     println!("\n## {} ({} joints), payload {} kg", exp.name, N, exp.payload.mass);
     println!("estimated columns (identifiable from all joints): {:?}", exp.column_names);
@@ -27,8 +30,38 @@ fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dy
     let c = &runs[3];
     let switch = c.switch_time.unwrap_or(exp.grasp_time);
     let truth = exp.truth_columns();
-    let est = c.final_estimate();
     let mass_b = exp.columns.iter().position(|&k| k == 0);
+    print_final_estimate(exp, c, &truth, mass_b, switch);
+    let settle = switch + SETTLE;
+    let tables = tracking_tables::<N>(&runs, switch, settle);
+    println!(
+        "(c) mean RMS: before the grasp {:.3} mrad, grasp to switch {:.3} mrad, after switch + {SETTLE} s {:.3} mrad",
+        1e3 * window_rms::<N>(c, 0.5, exp.grasp_time),
+        1e3 * window_rms::<N>(c, exp.grasp_time, switch),
+        1e3 * window_rms::<N>(c, settle, f64::INFINITY)
+    );
+    println!(
+        "saturated steps {:?}; step time (controller + estimator, wall clock in the loop) {:.2} us",
+        runs.iter().map(|r| r.saturated_steps).collect::<Vec<_>>(),
+        c.step_us
+    );
+    print_estimator_variants(exp, &truth, mass_b)?;
+    let js = experiment_json(exp, &runs, tables, &truth, mass_b, switch);
+    std::fs::write(out.join(format!("{}.json", exp.name)), serde_json::to_string(&js)?)?;
+    Ok(())
+}
+
+/// Prints the final estimate of scheme (c) (run `c`, switched at `switch`) against the
+/// truth: the payload mass (entry `mass_b`) and when it settled within 5 %, then every
+/// estimated entry.
+fn print_final_estimate<const N: usize>(
+    exp: &Experiment<N>,
+    c: &RunLog,
+    truth: &[f64],
+    mass_b: Option<usize>,
+    switch: f64,
+) {
+    let est = c.final_estimate();
     if let Some(b) = mass_b {
         println!(
             "payload mass: truth {:.4} kg, final estimate {:.4} kg ({:+.2} %), switch at t = {:.3} s ({:.3} s after the grasp)",
@@ -52,7 +85,12 @@ fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dy
     for (i, name) in exp.column_names.iter().enumerate() {
         println!("  {name:<14} truth {:+.4e}  estimate {:+.4e}", truth[i], est[i]);
     }
-    let settle = switch + SETTLE;
+}
+
+/// Prints the per-joint tracking-error tables of every scheme from `settle` and from the
+/// `switch` on, with the mean-RMS ratios the paper's comparison rests on; returns them
+/// for the JSON.
+fn tracking_tables<const N: usize>(runs: &[RunLog], switch: f64, settle: f64) -> Vec<serde_json::Value> {
     let mut tables = vec![];
     for (from, what) in [
         (settle, format!("from {SETTLE} s after the switch (t >= {settle:.3} s)")),
@@ -63,7 +101,7 @@ fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dy
         println!("| scheme | {} | mean RMS |", hdr.join(" | "));
         println!("|---|{}---|", "---|".repeat(N));
         let mut rms_mean = vec![];
-        for r in &runs {
+        for r in runs {
             let (rms, pk) = r.rms_peak(from);
             let m = rms.iter().sum::<f64>() / N as f64;
             rms_mean.push(m);
@@ -80,29 +118,29 @@ fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dy
         );
         tables.push(json!({"from": from, "rms_peak": runs.iter().map(|r| r.rms_peak(from)).collect::<Vec<_>>()}));
     }
-    // error of (c) in the same window before the grasp, between grasp and switch
-    let window = |r: &RunLog, a: f64, b: f64| -> f64 {
-        let v: Vec<f64> = r
-            .t_all
-            .iter()
-            .zip(&r.err_all)
-            .filter(|(t, _)| **t >= a && **t < b)
-            .map(|(_, e)| e.iter().map(|x| x * x).sum::<f64>() / N as f64)
-            .collect();
-        (v.iter().sum::<f64>() / v.len().max(1) as f64).sqrt()
-    };
-    println!(
-        "(c) mean RMS: before the grasp {:.3} mrad, grasp to switch {:.3} mrad, after switch + {SETTLE} s {:.3} mrad",
-        1e3 * window(c, 0.5, exp.grasp_time),
-        1e3 * window(c, exp.grasp_time, switch),
-        1e3 * window(c, settle, f64::INFINITY)
-    );
-    println!(
-        "saturated steps {:?}; step time (controller + estimator, wall clock in the loop) {:.2} us",
-        runs.iter().map(|r| r.saturated_steps).collect::<Vec<_>>(),
-        c.step_us
-    );
-    // instruments and LS compared on the same run
+    tables
+}
+
+/// RMS over joints and steps of the tracking error of `r` in `a <= t < b` (rad): scheme
+/// (c) before the grasp, between grasp and switch, after the switch.
+fn window_rms<const N: usize>(r: &RunLog, a: f64, b: f64) -> f64 {
+    let v: Vec<f64> = r
+        .t_all
+        .iter()
+        .zip(&r.err_all)
+        .filter(|(t, _)| **t >= a && **t < b)
+        .map(|(_, e)| e.iter().map(|x| x * x).sum::<f64>() / N as f64)
+        .collect();
+    (v.iter().sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+/// Prints scheme (c) with each instrument and with LS, on the same run: the mass estimate
+/// at the end, the switch time, the tracking error after it.
+fn print_estimator_variants<const N: usize>(
+    exp: &Experiment<N>,
+    truth: &[f64],
+    mass_b: Option<usize>,
+) -> Result<(), Box<dyn std::error::Error>> {
     println!("\nestimator variants (mass estimate at the end, switch time):");
     for (label, kind) in [
         ("IV, planned acceleration", EstimatorKind::Iv(Instrument::Planned)),
@@ -125,7 +163,21 @@ fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dy
             );
         }
     }
-    let js = json!({
+    Ok(())
+}
+
+/// The JSON of one experiment for `examples/plot_control.py`: every run (errors decimated
+/// to the record rate), the tracking tables and the trace of scheme (c)'s estimator.
+fn experiment_json<const N: usize>(
+    exp: &Experiment<N>,
+    runs: &[RunLog],
+    tables: Vec<serde_json::Value>,
+    truth: &[f64],
+    mass_b: Option<usize>,
+    switch: f64,
+) -> serde_json::Value {
+    let c = &runs[3];
+    json!({
         "name": exp.name, "dof": N, "payload_mass": exp.payload.mass, "grasp_time": exp.grasp_time,
         "switch_time": c.switch_time, "tables": tables, "columns": exp.column_names, "truth": truth,
         "runs": runs.iter().map(|r| {
@@ -139,9 +191,7 @@ fn run_all<const N: usize>(exp: &Experiment<N>, out: &Path) -> Result<(), Box<dy
                       "mass_std": c.estimates.iter().map(|e| e.mass_std).collect::<Vec<_>>(),
                       "err_std": c.estimates.iter().map(|e| e.err_std).collect::<Vec<_>>(),
                       "mass_index": mass_b},
-    });
-    std::fs::write(out.join(format!("{}.json", exp.name)), serde_json::to_string(&js)?)?;
-    Ok(())
+    })
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

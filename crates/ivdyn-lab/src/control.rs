@@ -25,16 +25,17 @@
 //! ```
 
 use ivdyn::error::{Error, Result};
-use ivdyn::ident::BaseParams;
+use ivdyn::ident::{BaseParams, FitReport, IvAccumulator, fit_iv};
 use ivdyn_core::control::{ComputedTorque, CoulombVelocity, Gains, PayloadEstimator, Pd, Reference};
 use ivdyn_core::estim::terminal::Method;
 use ivdyn_core::estim::{InstrumentModel, Riv, Rls};
-use ivdyn_core::params::{LINK_PARAM_NAMES, LINK_PARAMS};
-use ivdyn_core::sim::{IdSample, SimConfig, Simulator};
+use ivdyn_core::params::{DRIVE_PARAM_NAMES, LINK_PARAM_NAMES, LINK_PARAMS, param_count};
+use ivdyn_core::sim::{IdSample, Sensors, SimConfig, Simulator};
 use ivdyn_core::trajectory::Fourier;
-use ivdyn_core::{Data, LinkInertia, Mat3, Model, Vec3, VecN, mass_matrix, regressor};
+use ivdyn_core::{Data, LinkInertia, Mat3, MatN, Model, Vec3, VecN, mass_matrix, regressor};
 use nalgebra::{DMatrix, DVector, Dyn};
 use std::collections::VecDeque;
+use std::time::{Duration, Instant};
 
 /// Tolerance of the physical-consistency test of the estimated last link (kg m^2 scale):
 /// far below any real link's inertia, so only clearly impossible estimates are refused.
@@ -335,7 +336,7 @@ impl<const N: usize> Experiment<N> {
         traj: Fourier<N, 2>,
         sim: SimConfig<N>,
     ) -> Result<Self> {
-        let base = last_link_base(&nominal, 40, 7);
+        let (columns, column_names) = last_link_columns(&nominal);
         Ok(Self {
             name: name.to_string(),
             truth: nominal.clone(),
@@ -353,8 +354,8 @@ impl<const N: usize> Experiment<N> {
             switch_rel_std: 0.05,
             switch_error_tol: 5e-3,
             switch_min_time: 0.2,
-            columns: base.independent.clone(),
-            column_names: base.independent.iter().map(|&c| base_name(&base, c)).collect(),
+            columns,
+            column_names,
             record_every: 5,
         })
     }
@@ -422,20 +423,44 @@ impl<const N: usize> Experiment<N> {
         let mut data = Data::<N>::new();
         let m0 = *mass_matrix(&self.nominal, &mut data, &self.mean_pose());
         let gains = Gains::<N>::critically_damped(self.wn);
-        let mut ct = ComputedTorque::new(gains);
-        ct.coulomb = self.coulomb;
-        let pd = Pd {
-            gains: gains.scaled(&m0.diagonal()),
-            tau_limit: VecN::<N>::repeat(f64::INFINITY),
-            gravity: scheme == Scheme::PdGravity,
-        };
-        let mut ctrl_model = self.nominal.clone();
-        let mut est = self.make_estimator()?;
-        let instr = InstrumentModel::from_nominal(&self.nominal, &mut data, &self.mean_pose());
-        let mut history: VecDeque<IdSample<N>> = VecDeque::new();
-        let mass_col = est.column_of(0);
+        let mut ctrl = SchemeController::new(self, scheme, gains, &m0);
+        let mut online = OnlineEstimation::new(self, &mut data, m0, gains)?;
         let steps = (self.duration / self.sim.dt).round() as usize;
-        let mut log = RunLog {
+        let mut log = RunLog::with_capacity(scheme, steps);
+        let mut grasped = false;
+        let mut busy = Duration::ZERO;
+        for k in 0..steps {
+            let t = k as f64 * self.sim.dt;
+            if !grasped && t >= self.grasp_time {
+                grasped = true;
+                sim.set_model(loaded.clone());
+                ctrl.grasp(&loaded);
+            }
+            let r = Reference::from_tuple(self.traj.eval(t));
+            let s = *sim.sensors();
+            let t0 = Instant::now();
+            let u = ctrl.torque(&self.nominal, &mut data, &s, &r)?;
+            busy += t0.elapsed();
+            log.record(self.record_every, k, t, &r, &sim);
+            let sample = sim.step(&u)?;
+            if sim.saturated {
+                log.saturated_steps += 1;
+            }
+            // online estimation from the grasp on (the controller knows when it closes
+            // its gripper), one sample late (central differences)
+            if let (Scheme::CtEstimated, Some(smp)) = (scheme, sample) {
+                busy += online.update(self, smp, t, k, &mut ctrl.model, &mut log);
+            }
+        }
+        log.step_us = busy.as_secs_f64() * 1e6 / steps.max(1) as f64;
+        Ok(log)
+    }
+}
+
+impl RunLog {
+    /// An empty log of `scheme` with room for `steps` control steps (no reallocation in the loop).
+    fn with_capacity(scheme: Scheme, steps: usize) -> Self {
+        RunLog {
             scheme,
             t: vec![],
             q_des: vec![],
@@ -447,97 +472,180 @@ impl<const N: usize> Experiment<N> {
             switch_time: None,
             saturated_steps: 0,
             step_us: 0.0,
+        }
+    }
+
+    /// Logs control step `k` at time `t` before the simulator advances: the tracking error
+    /// `q_d - q` every step (for the RMS tables), the reference, true position and applied
+    /// torque every `every` steps (for the plots).
+    fn record<const N: usize>(&mut self, every: usize, k: usize, t: f64, r: &Reference<N>, sim: &Simulator<N>) {
+        let e: Vec<f64> = (0..N).map(|i| r.q[i] - sim.q[i]).collect();
+        if k.is_multiple_of(every) {
+            self.t.push(t);
+            self.q_des.push(r.q.as_slice().to_vec());
+            self.q.push(sim.q.as_slice().to_vec());
+            self.tau.push(sim.tau_applied.as_slice().to_vec());
+        }
+        self.t_all.push(t);
+        self.err_all.push(e);
+    }
+}
+
+/// The controller of one scheme of Fig. 5 and the model its computed-torque law uses.
+struct SchemeController<const N: usize> {
+    /// Which of (a)-(d).
+    scheme: Scheme,
+    /// Computed torque with `model` (schemes b, c, d), gains in acceleration units.
+    ct: ComputedTorque<N>,
+    /// PD (schemes a, a'): the same gains times the nominal `M_ii` at the mean pose.
+    pd: Pd<N>,
+    /// The nominal model; from the grasp on the loaded truth (d), after the switch nominal
+    /// + estimate (c).
+    model: Model<N>,
+}
+
+impl<const N: usize> SchemeController<N> {
+    /// The controllers of `exp` for `scheme`; `m0` is the nominal mass matrix at the mean
+    /// pose, which scales the PD gains to torque units.
+    fn new(exp: &Experiment<N>, scheme: Scheme, gains: Gains<N>, m0: &MatN<N>) -> Self {
+        let mut ct = ComputedTorque::new(gains);
+        ct.coulomb = exp.coulomb;
+        let pd = Pd {
+            gains: gains.scaled(&m0.diagonal()),
+            tau_limit: VecN::<N>::repeat(f64::INFINITY),
+            gravity: scheme == Scheme::PdGravity,
         };
-        let mut grasped = false;
-        let mut tstd = VecN::<N>::zeros();
-        let mut busy = std::time::Duration::ZERO;
-        for k in 0..steps {
-            let t = k as f64 * self.sim.dt;
-            if !grasped && t >= self.grasp_time {
-                grasped = true;
-                sim.set_model(loaded.clone());
-                if scheme == Scheme::CtTrue {
-                    ctrl_model = loaded.clone();
+        Self { scheme, ct, pd, model: exp.nominal.clone() }
+    }
+
+    /// At the grasp: scheme (d) is told the true loaded model, the others keep theirs.
+    fn grasp(&mut self, loaded: &Model<N>) {
+        if self.scheme == Scheme::CtTrue {
+            self.model = loaded.clone();
+        }
+    }
+
+    /// The command `u` from the sensors `s` and the reference `r`: PD (with the nominal
+    /// gravity for a'), or computed torque with `model`.
+    fn torque(&self, nominal: &Model<N>, data: &mut Data<N>, s: &Sensors<N>, r: &Reference<N>) -> Result<VecN<N>> {
+        Ok(match self.scheme {
+            Scheme::Pd | Scheme::PdGravity => *self.pd.torque(nominal, data, &s.q, &s.qd, r)?,
+            _ => *self.ct.torque(&self.model, data, &s.q, &s.qd, r)?,
+        })
+    }
+}
+
+/// The online payload estimation of scheme (c) (paper eqs 38-54 with only the last link
+/// unknown) and its rule for switching the controller to nominal + estimate.
+struct OnlineEstimation<const N: usize> {
+    /// The recursive IV (or LS) estimator of the last link's change.
+    est: PayloadEstimator<N, Dyn>,
+    /// The eq-35 model of the acceleration from the input ([`Instrument::Eq35`]).
+    instr: InstrumentModel<N>,
+    /// The last 8 identification samples, for the delayed eq-35 instrument.
+    history: VecDeque<IdSample<N>>,
+    /// Position of the mass among the estimated columns, if estimated.
+    mass_col: Option<usize>,
+    /// Nominal mass matrix at the mean pose and the acceleration gains `Kp`: turn a torque
+    /// uncertainty into a tracking error.
+    m0: MatN<N>,
+    kp: VecN<N>,
+    /// Scratch: the estimate's torque standard deviation per joint.
+    tstd: VecN<N>,
+}
+
+impl<const N: usize> OnlineEstimation<N> {
+    /// A fresh estimator of `exp` ([`Experiment::make_estimator`]) and its instrument model.
+    fn new(exp: &Experiment<N>, data: &mut Data<N>, m0: MatN<N>, gains: Gains<N>) -> Result<Self> {
+        let est = exp.make_estimator()?;
+        let instr = InstrumentModel::from_nominal(&exp.nominal, data, &exp.mean_pose());
+        let mass_col = est.column_of(0);
+        Ok(Self { est, instr, history: VecDeque::new(), mass_col, m0, kp: gains.kp, tstd: VecN::<N>::zeros() })
+    }
+
+    /// Feeds the identification sample `smp` (returned at control step `k`, time `t`) to
+    /// the estimator once the payload is grasped, then switches to or refreshes the
+    /// estimate in `ctrl_model`. Returns the wall-clock time spent (part of the step time).
+    fn update(
+        &mut self,
+        exp: &Experiment<N>,
+        smp: IdSample<N>,
+        t: f64,
+        k: usize,
+        ctrl_model: &mut Model<N>,
+        log: &mut RunLog,
+    ) -> Duration {
+        self.history.push_back(smp);
+        if self.history.len() > 8 {
+            self.history.pop_front();
+        }
+        if smp.t < exp.grasp_time {
+            return Duration::ZERO;
+        }
+        let t1 = Instant::now();
+        let Some(zacc) = self.instrument(exp, &smp) else { return Duration::ZERO };
+        // a degenerate row leaves the estimator unchanged: skip it
+        let _ = self.est.update(&smp.x.q, &smp.x.qd, &smp.x.qdd, &smp.tau, &zacc);
+        let mass_std = self.mass_col.map_or(f64::NAN, |b| self.est.variance(b).max(0.0).sqrt());
+        let err_std = if log.switch_time.is_none() {
+            self.switch_if_ready(exp, smp.t, t, mass_std, ctrl_model, log)
+        } else {
+            // refresh every step; an inconsistent estimate keeps the last good one
+            self.est.write_model_if_consistent(ctrl_model, CONSISTENCY_TOL);
+            f64::NAN
+        };
+        let busy = t1.elapsed();
+        if k.is_multiple_of(exp.record_every) {
+            let theta = self.est.theta().iter().copied().collect();
+            log.estimates.push(EstimatePoint { t: smp.t, theta, mass_std, err_std });
+        }
+        busy
+    }
+
+    /// The instrumental acceleration for `smp`: the planned one (LS ignores it), or the
+    /// eq-35 model driven by the input `delay` samples earlier (`None` while the history
+    /// is shorter than that).
+    fn instrument(&self, exp: &Experiment<N>, smp: &IdSample<N>) -> Option<VecN<N>> {
+        match exp.estimator {
+            EstimatorKind::Iv(Instrument::Planned) | EstimatorKind::Ls => Some(exp.traj.eval(smp.t).2),
+            EstimatorKind::Iv(Instrument::Eq35 { delay }) => {
+                let n = self.history.len();
+                if n < delay + 2 {
+                    return None;
                 }
-            }
-            let r = Reference::from_tuple(self.traj.eval(t));
-            let s = *sim.sensors();
-            let t0 = std::time::Instant::now();
-            let u = match scheme {
-                Scheme::Pd | Scheme::PdGravity => *pd.torque(&self.nominal, &mut data, &s.q, &s.qd, &r)?,
-                _ => *ct.torque(&ctrl_model, &mut data, &s.q, &s.qd, &r)?,
-            };
-            busy += t0.elapsed();
-            let e: Vec<f64> = (0..N).map(|i| r.q[i] - sim.q[i]).collect();
-            if k % self.record_every == 0 {
-                log.t.push(t);
-                log.q_des.push(r.q.as_slice().to_vec());
-                log.q.push(sim.q.as_slice().to_vec());
-                log.tau.push(sim.tau_applied.as_slice().to_vec());
-            }
-            log.t_all.push(t);
-            log.err_all.push(e);
-            let sample = sim.step(&u)?;
-            if sim.saturated {
-                log.saturated_steps += 1;
-            }
-            // online estimation from the grasp on (the controller knows when it closes
-            // its gripper), one sample late (central differences)
-            if scheme == Scheme::CtEstimated {
-                let Some(smp) = sample else { continue };
-                history.push_back(smp);
-                if history.len() > 8 {
-                    history.pop_front();
-                }
-                if smp.t < self.grasp_time {
-                    continue;
-                }
-                let t1 = std::time::Instant::now();
-                let zacc = match self.estimator {
-                    EstimatorKind::Iv(Instrument::Planned) | EstimatorKind::Ls => self.traj.eval(smp.t).2,
-                    EstimatorKind::Iv(Instrument::Eq35 { delay }) => {
-                        let n = history.len();
-                        if n < delay + 2 {
-                            continue;
-                        }
-                        let (uu, prev) = (&history[n - 1 - delay], &history[n - 2 - delay]);
-                        instr.qdd_hat(&uu.u, &prev.x.qd)
-                    }
-                };
-                // a degenerate row leaves the estimator unchanged: skip it
-                let _ = est.update(&smp.x.q, &smp.x.qd, &smp.x.qdd, &smp.tau, &zacc);
-                let mass_std = mass_col.map_or(f64::NAN, |b| est.variance(b).max(0.0).sqrt());
-                let mut err_std = f64::NAN;
-                if log.switch_time.is_none() {
-                    est.torque_std(&mut tstd);
-                    err_std = (0..N).map(|i| tstd[i] / (m0[(i, i)] * gains.kp[i])).fold(0.0, f64::max);
-                    if let Some(b) = mass_col {
-                        let dm = est.theta()[b];
-                        if smp.t - self.grasp_time >= self.switch_min_time
-                            && mass_std < self.switch_rel_std * dm.abs()
-                            && err_std < self.switch_error_tol
-                            && est.write_model_if_consistent(&mut ctrl_model, CONSISTENCY_TOL)
-                        {
-                            log.switch_time = Some(t + self.sim.dt);
-                        }
-                    }
-                } else {
-                    // refresh every step; an inconsistent estimate keeps the last good one
-                    est.write_model_if_consistent(&mut ctrl_model, CONSISTENCY_TOL);
-                }
-                busy += t1.elapsed();
-                if k % self.record_every == 0 {
-                    log.estimates.push(EstimatePoint {
-                        t: smp.t,
-                        theta: est.theta().iter().copied().collect(),
-                        mass_std,
-                        err_std,
-                    });
-                }
+                let (uu, prev) = (&self.history[n - 1 - delay], &self.history[n - 2 - delay]);
+                Some(self.instr.qdd_hat(&uu.u, &prev.x.qd))
             }
         }
-        log.step_us = busy.as_secs_f64() * 1e6 / steps.max(1) as f64;
-        Ok(log)
+    }
+
+    /// Before the switch: the tracking error the estimate's uncertainty would cause,
+    /// `max_i torque_std_i / (M_ii Kp_i)` (returned, rad), and the switch at the next step
+    /// (`t + dt`) once the sample at `smp_t` is `switch_min_time` past the grasp, the mass
+    /// is known to `switch_rel_std`, that error is below `switch_error_tol` and the
+    /// estimate is physically consistent.
+    fn switch_if_ready(
+        &mut self,
+        exp: &Experiment<N>,
+        smp_t: f64,
+        t: f64,
+        mass_std: f64,
+        ctrl_model: &mut Model<N>,
+        log: &mut RunLog,
+    ) -> f64 {
+        self.est.torque_std(&mut self.tstd);
+        let err_std = (0..N).map(|i| self.tstd[i] / (self.m0[(i, i)] * self.kp[i])).fold(0.0, f64::max);
+        if let Some(b) = self.mass_col {
+            let dm = self.est.theta()[b];
+            if smp_t - exp.grasp_time >= exp.switch_min_time
+                && mass_std < exp.switch_rel_std * dm.abs()
+                && err_std < exp.switch_error_tol
+                && self.est.write_model_if_consistent(ctrl_model, CONSISTENCY_TOL)
+            {
+                log.switch_time = Some(t + exp.sim.dt);
+            }
+        }
+        err_std
     }
 }
 
@@ -565,106 +673,198 @@ impl<const N: usize> Experiment<N> {
     /// `prior + to_full(theta_base - project(prior))`: the prior with its identifiable part
     /// replaced. The payload is then estimated against that model.
     pub fn with_identified_nominal(mut self, prior: Model<N>, seconds: f64) -> Result<(Self, NominalIdentification)> {
-        use ivdyn::ident::{IvAccumulator, fit_iv};
-        use ivdyn_core::params::{DRIVE_PARAM_NAMES, param_count};
-        let p = param_count(N);
-        let names: Vec<String> = (0..p)
-            .map(|c| {
-                if c < LINK_PARAMS * N {
-                    format!("link{}.{}", c / LINK_PARAMS + 1, LINK_PARAM_NAMES[c % LINK_PARAMS])
-                } else {
-                    let d = c - LINK_PARAMS * N;
-                    format!("joint{}.{}", d / 4 + 1, DRIVE_PARAM_NAMES[d % 4])
-                }
-            })
-            .collect();
-        // base parameters of the whole arm (inertial + drive) at random states
-        let mut rng = ivdyn_core::rng::Rng::new(11);
+        // one RNEA workspace for the base-parameter search, the controller and the rows
         let mut data = Data::<N>::new();
-        let samples = 12 * p / N + 20;
-        let mut phi_r = DMatrix::<f64>::zeros(samples * N, p);
-        let mut row = vec![0.0; N * p];
-        for s in 0..samples {
-            let mut r = |scale: f64| VecN::<N>::from_fn(|_, _| scale * rng.uniform(-1.0, 1.0));
-            let (q, qd, qdd) = (r(std::f64::consts::PI), r(1.0), r(1.0));
-            regressor(&prior, &mut data, &q, &qd, &qdd).write_row_major(&mut row);
-            for i in 0..N {
-                for c in 0..p {
-                    phi_r[(s * N + i, c)] = row[i * p + c];
-                }
-            }
-        }
-        let base = BaseParams::from_rows(&phi_r, &names);
-        let b = base.base_count();
-        // the unloaded run under computed torque with the prior
+        let base = arm_base_params(&prior, &mut data);
+        let rows = self.unloaded_iv_rows(&prior, &base, seconds, &mut data)?;
+        let fit = rows.fit()?;
+        let identified = replace_identifiable(&prior, &base, &fit.theta)?;
+        let info = NominalIdentification {
+            rows: rows.y.len(),
+            rms_prior: self.model_torque_rms(&prior),
+            rms_identified: self.model_torque_rms(&identified),
+            fit,
+        };
+        (self.columns, self.column_names) = last_link_columns(&identified);
+        self.nominal = identified;
+        Ok((self, info))
+    }
+
+    /// The unloaded truth tracking the reference for `seconds` under computed torque with
+    /// `prior`, and its batch-IV rows from 0.5 s on (after the start-up transient).
+    fn unloaded_iv_rows<'a>(
+        &self,
+        prior: &'a Model<N>,
+        base: &'a BaseParams,
+        seconds: f64,
+        data: &mut Data<N>,
+    ) -> Result<UnloadedRows<'a, N>> {
         let (r0q, r0qd, _) = self.traj.eval(0.0);
         let mut sim = Simulator::new(self.truth.clone(), self.sim, &r0q, &r0qd)?;
-        let gains = Gains::<N>::critically_damped(self.wn);
-        let mut ct = ComputedTorque::new(gains);
+        let mut ct = ComputedTorque::new(Gains::<N>::critically_damped(self.wn));
         ct.coulomb = self.coulomb;
-        let mut acc = IvAccumulator::new(b);
-        let (mut phi, mut z, mut y) = (vec![], vec![], vec![]);
-        let mut rb = vec![0.0; b];
-        let mut dz = Data::<N>::new();
+        let mut rows = UnloadedRows::new(prior, base, self.min_speed);
         let steps = (seconds / self.sim.dt).round() as usize;
         for k in 0..steps {
             let r = Reference::from_tuple(self.traj.eval(k as f64 * self.sim.dt));
             let s = *sim.sensors();
-            let u = *ct.torque(&prior, &mut data, &s.q, &s.qd, &r)?;
+            let u = *ct.torque(prior, data, &s.q, &s.qd, &r)?;
             let Some(smp) = sim.step(&u)? else { continue };
             if smp.t < 0.5 {
                 continue; // start-up transient
             }
-            regressor(&prior, &mut data, &smp.x.q, &smp.x.qd, &smp.x.qdd).write_row_major(&mut row);
-            let zacc = self.traj.eval(smp.t).2;
-            let mut zrow = vec![0.0; N * p];
-            regressor(&prior, &mut dz, &smp.x.q, &smp.x.qd, &zacc).write_row_major(&mut zrow);
+            rows.push(data, &smp, &self.traj.eval(smp.t).2)?;
+        }
+        Ok(rows)
+    }
+
+    /// RMS over one period of the reference (2000 points) of `rnea(m) - rnea(truth)` per
+    /// joint (N m): how far `m` is from the true unloaded arm (simulation only).
+    fn model_torque_rms(&self, m: &Model<N>) -> Vec<f64> {
+        let (mut d1, mut d2) = (Data::<N>::new(), Data::<N>::new());
+        let mut s2 = vec![0.0; N];
+        let n = 2000;
+        for k in 0..n {
+            let (q, qd, qdd) = self.traj.eval(k as f64 * self.traj.period() / n as f64);
+            let a = *ivdyn_core::rnea(m, &mut d1, &q, &qd, &qdd);
+            let t = *ivdyn_core::rnea(&self.truth, &mut d2, &q, &qd, &qdd);
             for i in 0..N {
-                if smp.x.qd[i].abs() < self.min_speed {
-                    continue;
-                }
-                base.select_row(&row[i * p..(i + 1) * p], &mut rb)?;
-                phi.extend_from_slice(&rb);
-                base.select_row(&zrow[i * p..(i + 1) * p], &mut rb)?;
-                z.extend_from_slice(&rb);
-                y.push(smp.tau[i]);
+                s2[i] += (a[i] - t[i]).powi(2);
             }
         }
-        acc.add_rows(&phi, &z, &y, None)?;
-        let fit = fit_iv(&acc, &base.names)?;
+        s2.iter().map(|v| (v / n as f64).sqrt()).collect()
+    }
+}
+
+/// Names of the `14 N` full parameters: `link<j>.<inertial>`, then `joint<j>.<drive>`.
+fn full_param_names<const N: usize>() -> Vec<String> {
+    (0..param_count(N))
+        .map(|c| {
+            if c < LINK_PARAMS * N {
+                format!("link{}.{}", c / LINK_PARAMS + 1, LINK_PARAM_NAMES[c % LINK_PARAMS])
+            } else {
+                let d = c - LINK_PARAMS * N;
+                format!("joint{}.{}", d / 4 + 1, DRIVE_PARAM_NAMES[d % 4])
+            }
+        })
+        .collect()
+}
+
+/// The base parameters of the whole arm (inertial + drive), from the regressor of `prior`
+/// at random states (seed 11): what a batch fit of the unloaded arm can identify.
+fn arm_base_params<const N: usize>(prior: &Model<N>, data: &mut Data<N>) -> BaseParams {
+    let p = param_count(N);
+    let names = full_param_names::<N>();
+    let mut rng = ivdyn_core::rng::Rng::new(11);
+    let samples = 12 * p / N + 20;
+    let mut phi_r = DMatrix::<f64>::zeros(samples * N, p);
+    let mut row = vec![0.0; N * p];
+    for s in 0..samples {
+        let mut r = |scale: f64| VecN::<N>::from_fn(|_, _| scale * rng.uniform(-1.0, 1.0));
+        let (q, qd, qdd) = (r(std::f64::consts::PI), r(1.0), r(1.0));
+        regressor(prior, data, &q, &qd, &qdd).write_row_major(&mut row);
+        for i in 0..N {
+            for c in 0..p {
+                phi_r[(s * N + i, c)] = row[i * p + c];
+            }
+        }
+    }
+    BaseParams::from_rows(&phi_r, &names)
+}
+
+/// Batch-IV rows of the unloaded arm in the base columns of `base`: the regressor of
+/// `prior` at the measured state, the instrument (the same regressor at the planned
+/// acceleration, noise free), the measured torque.
+struct UnloadedRows<'a, const N: usize> {
+    /// The model the regressor is evaluated with (its parameters do not enter the rows).
+    prior: &'a Model<N>,
+    /// The base parameters the rows are reduced to.
+    base: &'a BaseParams,
+    /// Rows of joints slower than this are skipped (rad/s): see [`Experiment::min_speed`].
+    min_speed: f64,
+    /// Regressor rows, `rows x b` row-major.
+    phi: Vec<f64>,
+    /// Instrument rows, `rows x b` row-major.
+    z: Vec<f64>,
+    /// Measured torques, `rows`.
+    y: Vec<f64>,
+    /// Scratch: the full `N x 14N` regressor at the measured and at the planned
+    /// acceleration (row-major), one row in base columns, and the latter's workspace.
+    row: Vec<f64>,
+    zrow: Vec<f64>,
+    rb: Vec<f64>,
+    dz: Data<N>,
+}
+
+impl<'a, const N: usize> UnloadedRows<'a, N> {
+    /// No rows yet.
+    fn new(prior: &'a Model<N>, base: &'a BaseParams, min_speed: f64) -> Self {
+        let p = param_count(N);
+        Self {
+            prior,
+            base,
+            min_speed,
+            phi: vec![],
+            z: vec![],
+            y: vec![],
+            row: vec![0.0; N * p],
+            zrow: vec![0.0; N * p],
+            rb: vec![0.0; base.base_count()],
+            dz: Data::<N>::new(),
+        }
+    }
+
+    /// Adds the rows of sample `smp`, instrument at the planned acceleration `zacc`: one
+    /// per joint moving faster than `min_speed`.
+    fn push(&mut self, data: &mut Data<N>, smp: &IdSample<N>, zacc: &VecN<N>) -> Result<()> {
+        let p = param_count(N);
+        regressor(self.prior, data, &smp.x.q, &smp.x.qd, &smp.x.qdd).write_row_major(&mut self.row);
+        regressor(self.prior, &mut self.dz, &smp.x.q, &smp.x.qd, zacc).write_row_major(&mut self.zrow);
+        for i in 0..N {
+            if smp.x.qd[i].abs() < self.min_speed {
+                continue;
+            }
+            self.base.select_row(&self.row[i * p..(i + 1) * p], &mut self.rb)?;
+            self.phi.extend_from_slice(&self.rb);
+            self.base.select_row(&self.zrow[i * p..(i + 1) * p], &mut self.rb)?;
+            self.z.extend_from_slice(&self.rb);
+            self.y.push(smp.tau[i]);
+        }
+        Ok(())
+    }
+
+    /// The batch IV fit of the base parameters; an error if the trajectory leaves some of
+    /// them unexcited (the nominal model would then be a guess there).
+    fn fit(&self) -> Result<FitReport> {
+        let mut acc = IvAccumulator::new(self.base.base_count());
+        acc.add_rows(&self.phi, &self.z, &self.y, None)?;
+        let fit = fit_iv(&acc, &self.base.names)?;
         if !fit.unexcited.is_empty() {
             return Err(Error::Estimation {
                 msg: format!("unloaded-arm identification: not excited by the trajectory: {:?}", fit.unexcited),
             });
         }
-        let mut theta_prior = vec![0.0; p];
-        prior.params_to_slice(&mut theta_prior)?;
-        let full = base.apply(&fit.theta, &theta_prior, 1.0)?;
-        let mut identified = prior.clone();
-        identified.set_params_from_slice(&full)?;
-        // model error along one period of the reference, prior vs identified
-        let rms = |m: &Model<N>| -> Vec<f64> {
-            let (mut d1, mut d2) = (Data::<N>::new(), Data::<N>::new());
-            let mut s2 = vec![0.0; N];
-            let n = 2000;
-            for k in 0..n {
-                let (q, qd, qdd) = self.traj.eval(k as f64 * self.traj.period() / n as f64);
-                let a = *ivdyn_core::rnea(m, &mut d1, &q, &qd, &qdd);
-                let t = *ivdyn_core::rnea(&self.truth, &mut d2, &q, &qd, &qdd);
-                for i in 0..N {
-                    s2[i] += (a[i] - t[i]).powi(2);
-                }
-            }
-            s2.iter().map(|v| (v / n as f64).sqrt()).collect()
-        };
-        let info =
-            NominalIdentification { rows: y.len(), rms_prior: rms(&prior), rms_identified: rms(&identified), fit };
-        let lb = last_link_base(&identified, 40, 7);
-        self.columns = lb.independent.clone();
-        self.column_names = lb.independent.iter().map(|&c| base_name(&lb, c)).collect();
-        self.nominal = identified;
-        Ok((self, info))
+        Ok(fit)
     }
+}
+
+/// `prior + to_full(theta_base - project(prior))` ([`BaseParams::apply`]): the prior with
+/// its identifiable part replaced by the fitted base parameters `theta_base`.
+fn replace_identifiable<const N: usize>(prior: &Model<N>, base: &BaseParams, theta_base: &[f64]) -> Result<Model<N>> {
+    let mut theta_prior = vec![0.0; param_count(N)];
+    prior.params_to_slice(&mut theta_prior)?;
+    let full = base.apply(theta_base, &theta_prior, 1.0)?;
+    let mut identified = prior.clone();
+    identified.set_params_from_slice(&full)?;
+    Ok(identified)
+}
+
+/// The entries of the last link's inertial block the payload estimator estimates
+/// ([`last_link_base`] of `model`), and their base-parameter names.
+fn last_link_columns<const N: usize>(model: &Model<N>) -> (Vec<usize>, Vec<String>) {
+    let base = last_link_base(model, 40, 7);
+    let names = base.independent.iter().map(|&c| base_name(&base, c)).collect();
+    (base.independent, names)
 }
 
 /// Name of full column `c` in `base` (the base parameter built on it).

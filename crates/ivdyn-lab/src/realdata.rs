@@ -418,12 +418,82 @@ pub fn identify_tx40(data: &Tx40Data, opts: &Tx40Options) -> Result<RealReport> 
     let n = robot.dof();
     let trans = tx40_transmission();
     let reg = MotorRegressor::new(robot, &trans, opts.joint_drive)?;
-    let t_raw = data.len();
+    check_tx40_windows(data.len(), opts)?;
+    let fs = 1.0 / data.dt;
+    let sig = tx40_signals(data, &reg, opts)?;
+    let split = sig.split(opts);
+    let (fitted, nom_base) = fit_tx40(&reg, &split.fit, opts)?;
+    let (fm, fp) = joint_side_torques(&trans, &split.fit, &fitted.theta_full)?;
+    let (vm, vp) = joint_side_torques(&trans, &split.val, &fitted.theta_full)?;
+    let validation_motor =
+        Some(quality("validation, motor torques", &split.val.tau, &split.val.predict(&fitted.theta_full), n));
+    let consistent = match &fitted.consistent {
+        None => None,
+        Some(cf) => Some(tx40_consistent_part(cf, &reg, &split)?),
+    };
+    let rate = fs / (sig.d1 * sig.d2) as f64;
+    Ok(RealReport {
+        dataset: "Stäubli TX40 (FIGAROH example data)".into(),
+        robot: robot.name.clone(),
+        joints: robot.joint_names.clone(),
+        method: fitted.base_fit.method.replace("LS", opts.estimator.name()),
+        split: tx40_split_text(opts, data.dt),
+        preprocessing: tx40_preprocessing_text(opts, &sig, fs, rate, split.standstill),
+        sample_rate_hz: rate,
+        rows: fitted.base_fit.rows,
+        rank: fitted.base_fit.rank,
+        condition_number: fitted.base_fit.condition_number,
+        weights: fitted.weights.clone(),
+        base: base_values(&fitted.base_fit, &nom_base),
+        unexcited: fitted.base_fit.unexcited.clone(),
+        fit: quality("fit, joint torques K^T tau_m", &fm, &fp, n),
+        validation: quality("validation, joint torques K^T tau_m", &vm, &vp, n),
+        validation_all: if split.standstill.is_some() {
+            let (am, ap) = joint_side_torques(&trans, &split.val_all, &fitted.theta_full)?;
+            Some(quality("validation, whole window (standstill included)", &am, &ap, n))
+        } else {
+            None
+        },
+        validation_motor,
+        floor_r2: TX40_FLOOR_R2.to_vec(),
+        series: Series {
+            t: split.val.t.clone(),
+            measured: vm,
+            predicted: vp,
+            predicted_consistent: consistent.as_ref().map(|c| c.1.clone()),
+        },
+        consistent: consistent.map(|c| c.0),
+        notes: vec![],
+    })
+}
+
+/// Both raw windows of `opts` non-empty and inside the record of `t_raw` samples.
+fn check_tx40_windows(t_raw: usize, opts: &Tx40Options) -> Result<()> {
     for (what, r) in [("fit_rows", &opts.fit_rows), ("val_rows", &opts.val_rows)] {
         if r.end > t_raw || r.start >= r.end {
             return Err(Error::Estimation { msg: format!("TX40: {what} {r:?} outside the {t_raw} samples") });
         }
     }
+    Ok(())
+}
+
+/// Motor states and torques at the intermediate rate `fs / d1` (steps 1-2 of the module
+/// docs), `T1 x n` each.
+struct MotorStates {
+    /// Raw sample index of each intermediate row.
+    keep: Vec<usize>,
+    /// Low-passed motor positions and their central first and second differences.
+    q: Vec<f64>,
+    qd: Vec<f64>,
+    qdd: Vec<f64>,
+    /// Anti-aliased motor torques.
+    tau: Vec<f64>,
+}
+
+/// Steps 1-2 of the module docs: positions low-passed (zero phase) and differentiated at
+/// the raw rate `fs`, then the states sub-sampled and the torques decimated by `d1`.
+fn tx40_motor_states(data: &Tx40Data, opts: &Tx40Options, d1: usize) -> Result<MotorStates> {
+    let n = data.robot.dof();
     let fs = 1.0 / data.dt;
     // 1. positions: zero-phase low-pass, central differences at 5 kHz
     let lp = Butterworth::zero_phase(opts.order, opts.cutoff_hz, fs)?;
@@ -431,30 +501,47 @@ pub fn identify_tx40(data: &Tx40Data, opts: &Tx40Options) -> Result<RealReport> 
     let qd = central_diff(&qf, n, data.dt)?;
     let qdd = second_diff(&qf, n, data.dt)?;
     // 2. states sub-sampled (band-limited well below the new Nyquist), torque anti-aliased
+    let keep: Vec<usize> = (0..data.len()).step_by(d1).collect();
+    let (q, qd, qdd) = (take_rows(&qf, n, &keep), take_rows(&qd, n, &keep), take_rows(&qdd, n, &keep));
+    let tau = if d1 > 1 { Decimator::new(d1, fs)?.apply(&data.tau_m, n)? } else { data.tau_m.clone() };
+    Ok(MotorStates { keep, q, qd, qdd, tau })
+}
+
+/// The TX40 record through the signal chain of the module docs, with what the split and
+/// the report need from it.
+struct Tx40Signals {
+    /// Every sample at the output rate `fs / (d1 d2)`: motor-side regressor and torques.
+    all: Rows,
+    /// Motor velocities at the intermediate rate `fs1`, `T1 x n` (the standstill test).
+    qd1: Vec<f64>,
+    /// Per-motor `v0` of [`Tx40Options::smooth_coulomb`] and
+    /// [`Tx40Options::exclude_standstill`], when either is asked for.
+    v0: Option<Vec<f64>>,
+    /// The intermediate rate (Hz).
+    fs1: f64,
+    /// The state decimation (raw -> intermediate) and the parallel filter's (-> output).
+    d1: usize,
+    d2: usize,
+    /// The parallel filter's -3 dB cut-off (Hz).
+    par_cutoff_hz: f64,
+}
+
+/// Steps 1-3 of the module docs: motor states at the intermediate rate, the motor-side
+/// regressor there, then torque and regressor through the same decimating filter
+/// (parallel filtering: the fit sees both with the same phase and gain).
+fn tx40_signals(data: &Tx40Data, reg: &MotorRegressor, opts: &Tx40Options) -> Result<Tx40Signals> {
+    let n = data.robot.dof();
+    let fs = 1.0 / data.dt;
     let d1 = opts.decimate_states.max(1);
-    let keep: Vec<usize> = (0..t_raw).step_by(d1).collect();
-    let (q1, qd1, qdd1) = (take_rows(&qf, n, &keep), take_rows(&qd, n, &keep), take_rows(&qdd, n, &keep));
-    let tau1 = if d1 > 1 { Decimator::new(d1, fs)?.apply(&data.tau_m, n)? } else { data.tau_m.clone() };
+    let s1 = tx40_motor_states(data, opts, d1)?;
     // 3. regressor at the intermediate rate, then the same decimating filter on both
     let fs1 = fs / d1 as f64;
-    let mut phi1 = reg.rows(&q1, &qd1, &qdd1)?;
+    let mut phi1 = reg.rows(&s1.q, &s1.qd, &s1.qdd)?;
     let p = reg.num_params();
     let v0 = if opts.smooth_coulomb || opts.exclude_standstill {
-        // noise level: the part of the motor velocity above VELOCITY_NOISE_HZ, fitted rows only
-        let hf = Butterworth::zero_phase(opts.order, VELOCITY_NOISE_HZ, fs1)?.filtfilt_columns(&qd1, n)?;
-        let fit1 = opts.fit_rows.start / d1..(opts.fit_rows.end / d1).min(keep.len());
-        let v0: Vec<f64> = (0..n)
-            .map(|i| {
-                let ss: f64 = fit1.clone().map(|k| (qd1[k * n + i] - hf[k * n + i]).powi(2)).sum();
-                SMOOTH_COULOMB_NOISE_FACTOR * (ss / fit1.len() as f64).sqrt()
-            })
-            .collect();
+        let v0 = motor_velocity_v0(&s1.qd, n, fs1, d1, opts)?;
         if opts.smooth_coulomb {
-            for (k, blk) in phi1.chunks_exact_mut(n * p).enumerate() {
-                for i in 0..n {
-                    blk[i * p + reg.motor_col(i, ivdyn_core::params::FC)] = (qd1[k * n + i] / v0[i]).tanh();
-                }
-            }
+            smooth_coulomb_columns(&mut phi1, &s1.qd, &v0, reg);
         }
         Some(v0)
     } else {
@@ -464,27 +551,82 @@ pub fn identify_tx40(data: &Tx40Data, opts: &Tx40Options) -> Result<RealReport> 
     let par =
         if d2 > 1 { Decimator::new(d2, fs1)? } else { Decimator::with_filter(1, Butterworth::default_for(fs1)?)? };
     let phi = par.apply(&phi1, n * p)?;
-    let tau = par.apply(&tau1, n)?;
-    let t: Vec<f64> = keep.iter().step_by(d2).map(|&k| k as f64 * data.dt).collect();
+    let tau = par.apply(&s1.tau, n)?;
+    let t: Vec<f64> = s1.keep.iter().step_by(d2).map(|&k| k as f64 * data.dt).collect();
     let all = Rows { n, p, t, phi, tau };
-    let step = d1 * d2;
-    let to_rows = |r: &std::ops::Range<usize>| r.start.div_ceil(step)..r.end.div_ceil(step).min(all.len());
-    let (fit_rows, val_rows) = (all.slice(to_rows(&opts.fit_rows)), all.slice(to_rows(&opts.val_rows)));
-    let val_all_rows = val_rows.clone();
-    let (fit_rows, val_rows, standstill) = match (&v0, opts.exclude_standstill) {
-        (Some(v0), true) => {
-            // the velocity at each parallel-filtered row: qd1 at the same instant
-            let moving = |k: usize| (0..n).any(|i| qd1[k * d2 * n + i].abs() >= v0[i]);
-            let fr = to_rows(&opts.fit_rows);
-            let vr = to_rows(&opts.val_rows);
-            let fit_keep: Vec<usize> = fr.clone().filter(|&k| moving(k)).map(|k| k - fr.start).collect();
-            let val_keep: Vec<usize> = vr.clone().filter(|&k| moving(k)).map(|k| k - vr.start).collect();
-            let dropped = (fr.len() - fit_keep.len(), vr.len() - val_keep.len());
-            (fit_rows.select(&fit_keep), val_rows.select(&val_keep), Some(dropped))
-        }
-        _ => (fit_rows, val_rows, None),
-    };
+    Ok(Tx40Signals { all, qd1: s1.qd, v0, fs1, d1, d2, par_cutoff_hz: par.filter.cutoff_hz })
+}
 
+/// Per-motor `v0`: [`SMOOTH_COULOMB_NOISE_FACTOR`] times the RMS of the motor velocity's
+/// part above [`VELOCITY_NOISE_HZ`] (its noise) over the fitted rows; `qd1` is at the
+/// intermediate rate `fs1`, `d1` raw samples per row.
+fn motor_velocity_v0(qd1: &[f64], n: usize, fs1: f64, d1: usize, opts: &Tx40Options) -> Result<Vec<f64>> {
+    // noise level: the part of the motor velocity above VELOCITY_NOISE_HZ, fitted rows only
+    let qd1_low = Butterworth::zero_phase(opts.order, VELOCITY_NOISE_HZ, fs1)?.filtfilt_columns(qd1, n)?;
+    let fit1 = opts.fit_rows.start / d1..(opts.fit_rows.end / d1).min(qd1.len() / n);
+    Ok((0..n)
+        .map(|i| {
+            let ss: f64 = fit1.clone().map(|k| (qd1[k * n + i] - qd1_low[k * n + i]).powi(2)).sum();
+            SMOOTH_COULOMB_NOISE_FACTOR * (ss / fit1.len() as f64).sqrt()
+        })
+        .collect())
+}
+
+/// Each motor's Coulomb column `sign(qd_m)` of the regressor rows `phi1` replaced by
+/// `tanh(qd_m / v0)` ([`Tx40Options::smooth_coulomb`]).
+fn smooth_coulomb_columns(phi1: &mut [f64], qd1: &[f64], v0: &[f64], reg: &MotorRegressor) {
+    let (n, p) = (v0.len(), reg.num_params());
+    for (k, blk) in phi1.chunks_exact_mut(n * p).enumerate() {
+        for i in 0..n {
+            blk[i * p + reg.motor_col(i, ivdyn_core::params::FC)] = (qd1[k * n + i] / v0[i]).tanh();
+        }
+    }
+}
+
+/// The TX40's fitted and validated rows.
+struct Tx40Split {
+    /// Rows of the fitted window (standstill dropped when asked for).
+    fit: Rows,
+    /// Rows of the validation window (standstill dropped when asked for).
+    val: Rows,
+    /// Every row of the validation window.
+    val_all: Rows,
+    /// Standstill rows dropped (fitted, validated), with [`Tx40Options::exclude_standstill`].
+    standstill: Option<(usize, usize)>,
+}
+
+impl Tx40Signals {
+    /// The output rows of the raw windows `fit_rows` and `val_rows`; with
+    /// `exclude_standstill`, without the rows at which every motor is slower than its `v0`.
+    fn split(&self, opts: &Tx40Options) -> Tx40Split {
+        let (n, d2, all) = (self.all.n, self.d2, &self.all);
+        let step = self.d1 * d2;
+        let to_rows = |r: &std::ops::Range<usize>| r.start.div_ceil(step)..r.end.div_ceil(step).min(all.len());
+        let (fit, val) = (all.slice(to_rows(&opts.fit_rows)), all.slice(to_rows(&opts.val_rows)));
+        let val_all = val.clone();
+        let (fit, val, standstill) = match (&self.v0, opts.exclude_standstill) {
+            (Some(v0), true) => {
+                // the velocity at each parallel-filtered row: qd1 at the same instant
+                let moving = |k: usize| (0..n).any(|i| self.qd1[k * d2 * n + i].abs() >= v0[i]);
+                let fr = to_rows(&opts.fit_rows);
+                let vr = to_rows(&opts.val_rows);
+                let fit_keep: Vec<usize> = fr.clone().filter(|&k| moving(k)).map(|k| k - fr.start).collect();
+                let val_keep: Vec<usize> = vr.clone().filter(|&k| moving(k)).map(|k| k - vr.start).collect();
+                let dropped = (fr.len() - fit_keep.len(), vr.len() - val_keep.len());
+                (fit.select(&fit_keep), val.select(&val_keep), Some(dropped))
+            }
+            _ => (fit, val, None),
+        };
+        Tx40Split { fit, val, val_all, standstill }
+    }
+}
+
+/// Fits `rows` (module docs: motor side, or joint side with `fit_joint_side`) on the
+/// motor-side regressor's base parameters; also returns the nominal (URDF, motor terms at
+/// zero) value of each base parameter.
+fn fit_tx40(reg: &MotorRegressor, rows: &Rows, opts: &Tx40Options) -> Result<(Fitted, Vec<f64>)> {
+    let robot = reg.robot;
+    let n = robot.dof();
     let base = reg.base_params(opts.base_samples, opts.seed)?;
     let nominal = reg.params(&vec![Default::default(); n])?;
     let nom_base = base.project(&nominal)?;
@@ -497,95 +639,87 @@ pub fn identify_tx40(data: &Tx40Data, opts: &Tx40Options) -> Result<RealReport> 
     let cin =
         opts.consistent.then_some(ConsistentInput { nominal: &nominal, links: &robot.link_names, joints: &motors });
     let fitted = if opts.fit_joint_side {
-        fit_rows_checked(&joint_side_rows(&fit_rows, &trans)?, &base, opts.estimator, cin)?
+        fit_rows_checked(&joint_side_rows(rows, reg.trans)?, &base, opts.estimator, cin)?
     } else {
-        fit_rows_checked(&fit_rows, &base, opts.estimator, cin)?
+        fit_rows_checked(rows, &base, opts.estimator, cin)?
     };
+    Ok((fitted, nom_base))
+}
 
-    let joint_side = |r: &Rows, theta: &[f64]| -> Result<(Vec<f64>, Vec<f64>)> {
-        Ok((trans.joint_torques(&r.tau)?, trans.joint_torques(&r.predict(theta))?))
-    };
-    let (fm, fp) = joint_side(&fit_rows, &fitted.theta_full)?;
-    let (vm, vp) = joint_side(&val_rows, &fitted.theta_full)?;
-    let validation_motor =
-        Some(quality("validation, motor torques", &val_rows.tau, &val_rows.predict(&fitted.theta_full), n));
-    let consistent = match &fitted.consistent {
-        None => None,
-        Some(cf) => {
-            let (cfm, cfp) = joint_side(&fit_rows, &cf.theta)?;
-            let (cvm, cvp) = joint_side(&val_rows, &cf.theta)?;
-            let mut part = consistent_part(
-                cf,
-                reg.param_names(),
-                quality("fit, joint torques K^T tau_m", &cfm, &cfp, n),
-                quality("validation, joint torques K^T tau_m", &cvm, &cvp, n),
-            );
-            part.validation_motor =
-                Some(quality("validation, motor torques", &val_rows.tau, &val_rows.predict(&cf.theta), n));
-            Some((part, cvp))
-        }
-    };
-    let rate = fs / step as f64;
-    Ok(RealReport {
-        dataset: "Stäubli TX40 (FIGAROH example data)".into(),
-        robot: robot.name.clone(),
-        joints: robot.joint_names.clone(),
-        method: fitted.base_fit.method.replace("LS", opts.estimator.name()),
-        split: format!(
-            "fit on raw rows {}..{} ({:.2}-{:.2} s), validate on raw rows {}..{} ({:.2}-{:.2} s), FIGAROH's split",
-            opts.fit_rows.start,
-            opts.fit_rows.end,
-            opts.fit_rows.start as f64 * data.dt,
-            opts.fit_rows.end as f64 * data.dt,
-            opts.val_rows.start,
-            opts.val_rows.end,
-            opts.val_rows.start as f64 * data.dt,
-            opts.val_rows.end as f64 * data.dt
-        ),
-        preprocessing: format!(
-            "motor positions: zero-phase Butterworth order {} at {} Hz (-3 dB), central differences at {} Hz; states sub-sampled x{d1} and motor torques decimated x{d1} (zero-phase anti-alias) to {} Hz; motor-side regressor (K^-T Y{} + motor fc, fv, ia, tau0) there; torque and regressor through the same decimator x{d2} (zero-phase -3 dB at {:.0} Hz) to {} Hz",
-            opts.order,
-            opts.cutoff_hz,
-            fs,
-            fs1,
-            if opts.joint_drive { " with joint-side drive columns" } else { "" },
-            par.filter.cutoff_hz,
-            rate
-        ) + &v0.as_ref().map_or(String::new(), |v| {
-            format!(
-                "; v0 = {} rad/s (3x the motor velocity noise RMS above {VELOCITY_NOISE_HZ} Hz)",
-                v.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(", ")
-            )
-        }) + if opts.smooth_coulomb { "; motor Coulomb friction tanh(qd_m / v0)" } else { "" }
-            + &standstill.map_or(String::new(), |(f, v)| {
-                format!("; standstill rows (every |qd_m| < v0) dropped: {f} fitted, {v} validated")
-            }),
-        sample_rate_hz: rate,
-        rows: fitted.base_fit.rows,
-        rank: fitted.base_fit.rank,
-        condition_number: fitted.base_fit.condition_number,
-        weights: fitted.weights.clone(),
-        base: base_values(&fitted.base_fit, &nom_base),
-        unexcited: fitted.base_fit.unexcited.clone(),
-        fit: quality("fit, joint torques K^T tau_m", &fm, &fp, n),
-        validation: quality("validation, joint torques K^T tau_m", &vm, &vp, n),
-        validation_all: if standstill.is_some() {
-            let (am, ap) = joint_side(&val_all_rows, &fitted.theta_full)?;
-            Some(quality("validation, whole window (standstill included)", &am, &ap, n))
-        } else {
-            None
-        },
-        validation_motor,
-        floor_r2: TX40_FLOOR_R2.to_vec(),
-        series: Series {
-            t: val_rows.t.clone(),
-            measured: vm,
-            predicted: vp,
-            predicted_consistent: consistent.as_ref().map(|c| c.1.clone()),
-        },
-        consistent: consistent.map(|c| c.0),
-        notes: vec![],
-    })
+/// Measured and predicted (by `theta`) torques of `rows` on the joint side, `Kᵀ τ_m`: the
+/// common ground of the motor-side and joint-side fits.
+fn joint_side_torques(
+    trans: &ivdyn::ident::transmission::Transmission,
+    rows: &Rows,
+    theta: &[f64],
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    Ok((trans.joint_torques(&rows.tau)?, trans.joint_torques(&rows.predict(theta))?))
+}
+
+/// The consistent fit's part of the TX40 report (quality on the joint side, and on the
+/// motor side for the validation), with its joint-side validation prediction for the plots.
+fn tx40_consistent_part(
+    cf: &ConsistentFit,
+    reg: &MotorRegressor,
+    split: &Tx40Split,
+) -> Result<(ConsistentPart, Vec<f64>)> {
+    let n = reg.robot.dof();
+    let (cfm, cfp) = joint_side_torques(reg.trans, &split.fit, &cf.theta)?;
+    let (cvm, cvp) = joint_side_torques(reg.trans, &split.val, &cf.theta)?;
+    let mut part = consistent_part(
+        cf,
+        reg.param_names(),
+        quality("fit, joint torques K^T tau_m", &cfm, &cfp, n),
+        quality("validation, joint torques K^T tau_m", &cvm, &cvp, n),
+    );
+    part.validation_motor =
+        Some(quality("validation, motor torques", &split.val.tau, &split.val.predict(&cf.theta), n));
+    Ok((part, cvp))
+}
+
+/// The report's `split`: the raw windows, in samples and seconds (`dt`: raw sample time).
+fn tx40_split_text(opts: &Tx40Options, dt: f64) -> String {
+    format!(
+        "fit on raw rows {}..{} ({:.2}-{:.2} s), validate on raw rows {}..{} ({:.2}-{:.2} s), FIGAROH's split",
+        opts.fit_rows.start,
+        opts.fit_rows.end,
+        opts.fit_rows.start as f64 * dt,
+        opts.fit_rows.end as f64 * dt,
+        opts.val_rows.start,
+        opts.val_rows.end,
+        opts.val_rows.start as f64 * dt,
+        opts.val_rows.end as f64 * dt
+    )
+}
+
+/// The report's `preprocessing`: the signal chain's settings in words (`fs`: raw rate,
+/// `rate`: output rate, `standstill`: rows dropped).
+fn tx40_preprocessing_text(
+    opts: &Tx40Options,
+    sig: &Tx40Signals,
+    fs: f64,
+    rate: f64,
+    standstill: Option<(usize, usize)>,
+) -> String {
+    let (d1, d2) = (sig.d1, sig.d2);
+    format!(
+        "motor positions: zero-phase Butterworth order {} at {} Hz (-3 dB), central differences at {} Hz; states sub-sampled x{d1} and motor torques decimated x{d1} (zero-phase anti-alias) to {} Hz; motor-side regressor (K^-T Y{} + motor fc, fv, ia, tau0) there; torque and regressor through the same decimator x{d2} (zero-phase -3 dB at {:.0} Hz) to {} Hz",
+        opts.order,
+        opts.cutoff_hz,
+        fs,
+        sig.fs1,
+        if opts.joint_drive { " with joint-side drive columns" } else { "" },
+        sig.par_cutoff_hz,
+        rate
+    ) + &sig.v0.as_ref().map_or(String::new(), |v| {
+        format!(
+            "; v0 = {} rad/s (3x the motor velocity noise RMS above {VELOCITY_NOISE_HZ} Hz)",
+            v.iter().map(|x| format!("{x:.3}")).collect::<Vec<_>>().join(", ")
+        )
+    }) + if opts.smooth_coulomb { "; motor Coulomb friction tanh(qd_m / v0)" } else { "" }
+        + &standstill.map_or(String::new(), |(f, v)| {
+            format!("; standstill rows (every |qd_m| < v0) dropped: {f} fitted, {v} validated")
+        })
 }
 
 /// The rows mapped to the joint side: each sample's `n x p` block and torques times `Kᵀ`.

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use ivdyn::Robot;
-use ivdyn::diagnose::{DiagnoseOptions, diagnose};
+use ivdyn::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
 use ivdyn::log::{ReadOptions, read_mcap};
 use serde_json::Value;
 
@@ -25,95 +25,119 @@ fn main() {
     println!("| case | truth | named | parameter error | final / oracle RMS (worst joint) | time |");
     println!("|---|---|---|---|---|---|");
     for c in m["cases"].as_array().expect("cases") {
-        let name = c["name"].as_str().unwrap();
-        let urdf = c["urdf"].as_str().unwrap();
-        let robot = Robot::from_urdf(urdf, base, tip).expect("urdf");
-        let log = read_mcap(dir.join(c["log"].as_str().unwrap()), &ReadOptions::new(&robot.joint_names)).expect("log");
-        let t0 = Instant::now();
-        let d = diagnose(&robot, &log, &DiagnoseOptions::default()).expect("diagnose");
-        let secs = t0.elapsed().as_secs_f64();
-        let truth: Vec<String> = c["effects"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .map(|e| {
-                format!(
-                    "{} {:?}",
-                    e["name"].as_str().unwrap(),
-                    e["joints"].as_array().unwrap().iter().map(|j| short(j.as_str().unwrap())).collect::<Vec<_>>()
-                )
-            })
-            .collect();
-        let named: Vec<String> = d
-            .json
-            .effects
-            .iter()
-            .map(|e| format!("{} {:?}", e.name, e.joints.iter().map(|j| short(j)).collect::<Vec<_>>()))
-            .collect();
-        // parameter errors (relative) of effects present in both
-        let mut errs = vec![];
-        for te in c["effects"].as_array().unwrap() {
-            let Some(fe) = d.json.effects.iter().find(|e| e.name == te["name"].as_str().unwrap()) else { continue };
-            for (k, tv) in te["parameters"].as_object().unwrap() {
-                let Some(fv) = fe.parameters.get(k) else { continue };
-                let worst = rel_err(tv, fv, te["joints"].as_array().unwrap(), &fe.joints);
-                errs.push(format!("{k} {:.1}%", 100.0 * worst));
-            }
-        }
-        let oracle: Vec<f64> =
-            c["oracle"]["oracle_rms_exact"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-        let ratio = d.json.final_rms.iter().zip(&oracle).map(|(a, b)| a / b).fold(0.0, f64::max);
-        println!(
-            "| {name} | {} | {} | {} | {ratio:.2} | {secs:.2} s |",
-            if truth.is_empty() { "none".into() } else { truth.join("; ") },
-            if named.is_empty() { "none".into() } else { named.join("; ") },
-            errs.join(", ")
-        );
-        if verbose {
-            println!("    cutoff {} Hz, align {:.3} samples", d.info.cutoff_hz, d.info.align_samples);
-            println!("    noise {:?}", d.noise_std.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>());
-            println!("    final {:?}", d.json.final_rms.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>());
-            println!("    oracl {:?}", oracle.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>());
-            for e in &d.json.effects {
-                println!("    {} {:?} {}", e.name, e.joints, Value::Object(e.parameters.clone()));
-            }
-            for st in &d.steps {
-                println!("    step {}:", st.effect.name());
-                for cs in &st.candidates {
-                    println!(
-                        "      {:<18} score {:>10.1} joints {:?} {}",
-                        cs.effect.name(),
-                        cs.score,
-                        cs.joints,
-                        cs.per_joint
-                            .iter()
-                            .map(|s| format!(
-                                "[F {:.0} g {:.2} e {:.3}{}]",
-                                s.f,
-                                s.heldout_gain,
-                                s.effect_rms,
-                                if s.significant { "*" } else { "" }
-                            ))
-                            .collect::<Vec<_>>()
-                            .join(" ")
-                    );
-                }
-            }
-            for cs in &d.final_candidates {
-                println!(
-                    "      final {:<18} {}",
-                    cs.effect.name(),
-                    cs.per_joint
-                        .iter()
-                        .map(|s| format!("[F {:.0} g {:.2} e {:.3}]", s.f, s.heldout_gain, s.effect_rms))
-                        .collect::<Vec<_>>()
-                        .join(" ")
-                );
-            }
-        }
+        run_case(c, &dir, base, tip, verbose);
     }
 }
 
+/// Diagnoses case `c` of the manifest (URDF chain `base`..`tip`, log under `dir`) and
+/// prints its table row: truth, named effects, parameter errors, final / oracle RMS, time.
+fn run_case(c: &Value, dir: &Path, base: Option<&str>, tip: Option<&str>, verbose: bool) {
+    let name = c["name"].as_str().unwrap();
+    let urdf = c["urdf"].as_str().unwrap();
+    let robot = Robot::from_urdf(urdf, base, tip).expect("urdf");
+    let log = read_mcap(dir.join(c["log"].as_str().unwrap()), &ReadOptions::new(&robot.joint_names)).expect("log");
+    let t0 = Instant::now();
+    let d = diagnose(&robot, &log, &DiagnoseOptions::default()).expect("diagnose");
+    let secs = t0.elapsed().as_secs_f64();
+    let truth = truth_effects(c);
+    let named: Vec<String> = d
+        .json
+        .effects
+        .iter()
+        .map(|e| format!("{} {:?}", e.name, e.joints.iter().map(|j| short(j)).collect::<Vec<_>>()))
+        .collect();
+    let errs = parameter_errors(c, &d);
+    let oracle: Vec<f64> =
+        c["oracle"]["oracle_rms_exact"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    let ratio = d.json.final_rms.iter().zip(&oracle).map(|(a, b)| a / b).fold(0.0, f64::max);
+    println!(
+        "| {name} | {} | {} | {} | {ratio:.2} | {secs:.2} s |",
+        if truth.is_empty() { "none".into() } else { truth.join("; ") },
+        if named.is_empty() { "none".into() } else { named.join("; ") },
+        errs.join(", ")
+    );
+    if verbose {
+        print_details(&d, &oracle);
+    }
+}
+
+/// The effects hidden in case `c` (the manifest's truth), as `name [joints]`.
+fn truth_effects(c: &Value) -> Vec<String> {
+    c["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            format!(
+                "{} {:?}",
+                e["name"].as_str().unwrap(),
+                e["joints"].as_array().unwrap().iter().map(|j| short(j.as_str().unwrap())).collect::<Vec<_>>()
+            )
+        })
+        .collect()
+}
+
+/// Worst relative error of each parameter of the effects both hidden in `c` and named by
+/// `d`, as `parameter error%`.
+fn parameter_errors(c: &Value, d: &Diagnosis) -> Vec<String> {
+    let mut errs = vec![];
+    for te in c["effects"].as_array().unwrap() {
+        let Some(fe) = d.json.effects.iter().find(|e| e.name == te["name"].as_str().unwrap()) else { continue };
+        for (k, tv) in te["parameters"].as_object().unwrap() {
+            let Some(fv) = fe.parameters.get(k) else { continue };
+            let worst = rel_err(tv, fv, te["joints"].as_array().unwrap(), &fe.joints);
+            errs.push(format!("{k} {:.1}%", 100.0 * worst));
+        }
+    }
+    errs
+}
+
+/// `--verbose`: the conditioning, noise and RMS per joint, the effects' parameters, and
+/// every candidate's score per step and at the end.
+fn print_details(d: &Diagnosis, oracle: &[f64]) {
+    println!("    cutoff {} Hz, align {:.3} samples", d.info.cutoff_hz, d.info.align_samples);
+    println!("    noise {:?}", d.noise_std.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>());
+    println!("    final {:?}", d.json.final_rms.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>());
+    println!("    oracl {:?}", oracle.iter().map(|v| format!("{v:.3}")).collect::<Vec<_>>());
+    for e in &d.json.effects {
+        println!("    {} {:?} {}", e.name, e.joints, Value::Object(e.parameters.clone()));
+    }
+    for st in &d.steps {
+        println!("    step {}:", st.effect.name());
+        for cs in &st.candidates {
+            println!(
+                "      {:<18} score {:>10.1} joints {:?} {}",
+                cs.effect.name(),
+                cs.score,
+                cs.joints,
+                cs.per_joint
+                    .iter()
+                    .map(|s| format!(
+                        "[F {:.0} g {:.2} e {:.3}{}]",
+                        s.f,
+                        s.heldout_gain,
+                        s.effect_rms,
+                        if s.significant { "*" } else { "" }
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            );
+        }
+    }
+    for cs in &d.final_candidates {
+        println!(
+            "      final {:<18} {}",
+            cs.effect.name(),
+            cs.per_joint
+                .iter()
+                .map(|s| format!("[F {:.0} g {:.2} e {:.3}]", s.f, s.heldout_gain, s.effect_rms))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
+    }
+}
+
+/// A joint name without its `_joint` suffix (the table's short form).
 fn short(j: &str) -> String {
     j.trim_end_matches("_joint").to_string()
 }
