@@ -280,18 +280,21 @@ def identify(robot: Robot, log: _Log, method: str = "wls", validate: Optional[_L
              friction: Optional[List[str]] = None, armature: bool = True, offset: bool = True,
              consistent: bool = False, in_memory: bool = False, json_out: Optional[str] = None,
              out_params: Optional[str] = None, write_urdf: Optional[str] = None,
-             out_mcap: Optional[str] = None) -> str:
+             out_mcap: Optional[str] = None, velocity: str = "auto",
+             window: Optional[Tuple[float, float]] = None, stream: bool = False) -> str:
     """``ivdyn identify`` -> its ``--json`` document."""
 def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/joint_states",
              log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3,
              min_effect: float = 0.5, ignore_log_velocity: bool = False, report: bool = True,
              params_json: Optional[str] = None, json_out: Optional[str] = None,
-             progress: _Callback = None) -> str:
+             progress: _Callback = None, velocity: str = "auto",
+             window: Optional[Tuple[float, float]] = None) -> str:
     """``ivdyn diagnose`` -> ``diagnosis.json`` (and the output directory's files with ``out``)."""
 def payload(robot: Robot, log: _Log, before: Optional[_Log] = None, topic: str = "/joint_states",
             command_topic: Optional[str] = None, log_time: bool = False, cutoff: Optional[float] = None,
             decimate: int = 0, params_json: Optional[str] = None, progress: _Callback = None,
-            json_out: Optional[str] = None, write_urdf: Optional[str] = None, payload_as: str = "link") -> str:
+            json_out: Optional[str] = None, write_urdf: Optional[str] = None, payload_as: str = "link",
+            velocity: str = "auto", window: Optional[Tuple[float, float]] = None) -> str:
     """``ivdyn payload`` -> its ``--json`` document."""
 def simulate(robot: Robot, out: Optional[Union[str, PathLike[str]]] = None, traj_t: Optional[_F64] = None,
              traj_q: Optional[_F64] = None, duration: float = 20.0, rate: float = 500.0, seed: int = 1,

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any, Callable, Dict, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -125,6 +125,17 @@ def _log(log, n: int, what: str):
     return out
 
 
+def _window(w) -> Optional[Tuple[float, float]]:
+    """A ``(start, end)`` window in seconds, or None."""
+    if w is None:
+        return None
+    try:
+        a, b = w
+        return float(a), float(b)
+    except (TypeError, ValueError):
+        raise ValueError(f"window must be (start, end) in seconds, got {w!r}") from None
+
+
 def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip: Optional[str] = None,
              params=None, validate=None, holdout: float = 0.25, topic: str = "/joint_states",
              command_topic: Optional[str] = None, log_time: bool = False, cutoff: Optional[float] = None,
@@ -132,6 +143,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
              offset: bool = True, consistent: bool = False, in_memory: bool = False,
              out_json: Optional[PathLike] = None, out_params: Optional[PathLike] = None,
              write_urdf: Optional[PathLike] = None, out_mcap: Optional[PathLike] = None,
+             velocity: str = "auto", window: Optional[Tuple[float, float]] = None, stream: bool = False,
              progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
     torques; returns the ``--json`` report as a dict (``docs/cli.md``: ``method``,
@@ -141,7 +153,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
 
     ``robot``: an :class:`ivdyn.Robot` or a URDF path (with ``base``/``tip`` links);
     ``params``: a parameter file (path or dict, e.g. a previous ``["params"]``) replacing
-    the nominal values; ``log`` / ``validate``: a ``.mcap`` / ``.csv`` path (read as the
+    the nominal values; ``log`` may be a list of logs of the same arm, identified together
+    (each conditioned and filtered on its own, the held-out tail the last one's); ``log`` / ``validate``: a ``.mcap`` / ``.csv`` path (read as the
     command line reads ``--log``: ``topic``, ``command_topic``, ``log_time``) or a dict of
     arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd", "u" optional}`` (e.g.
     from :func:`read_joint_states` or :func:`simulate`); ``method``: ``"ols"``, ``"wls"``,
@@ -151,7 +164,11 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     The command line's other options: ``friction`` (``("none",)`` or some of
     ``"coulomb"``, ``"viscous"``), ``armature`` / ``offset`` (``False``: keep the nominal
     rotor inertia / torque offset), ``consistent`` (also fit physically consistent
-    parameters), ``in_memory`` (read an MCAP log whole instead of streaming it); and the
+    parameters), ``in_memory`` (read an MCAP log whole) / ``stream`` (stream even a small
+    MCAP log; by default only logs of more than 1 M values are streamed), ``velocity``
+    (``"auto"``: the log's velocity on each joint where it agrees with the differentiated
+    positions; ``"log"``; ``"positions"``), ``window`` (``(start, end)`` seconds from the
+    log's first sample; ``float("inf")`` for the end); and the
     files: ``out_json`` (the report), ``out_params`` (the parameter file), ``write_urdf``
     (a copy of the robot's URDF with the identified parameters and its side file; the robot
     must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
@@ -159,13 +176,15 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     native = _robot(robot, base, tip)
     cb, close = _callback(progress)
     try:
-        out = _ivdyn.identify(native, _log(log, native.dof, "log"), str(method),
+        logs = [_log(x, native.dof, f"log[{i}]") for i, x in enumerate(log)] if isinstance(log, list) else None
+        out = _ivdyn.identify(native, logs if logs is not None else _log(log, native.dof, "log"), str(method),
                               None if validate is None else _log(validate, native.dof, "validate"),
                               float(holdout), str(topic), command_topic, bool(log_time),
                               None if cutoff is None else float(cutoff), int(decimate), _params(params), cb,
                               friction=[str(f) for f in friction], armature=bool(armature), offset=bool(offset),
                               consistent=bool(consistent), in_memory=bool(in_memory), json_out=_path(out_json),
-                              out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap))
+                              out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap),
+                              velocity=str(velocity), window=_window(window), stream=bool(stream))
     finally:
         close()
     return json.loads(out)
@@ -175,7 +194,8 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
             params=None, topic: str = "/joint_states", command_topic: Optional[str] = None,
             log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
             out_json: Optional[PathLike] = None, write_urdf: Optional[PathLike] = None,
-            payload_as: str = "link", progress: Progress = None) -> Dict[str, Any]:
+            payload_as: str = "link", velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
+            progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn payload`` from Python: the payload on the last link from a log after the
     grasp (and optionally ``before``, a log of the unloaded arm, identified first and used
     as the nominal model); returns the ``--json`` report as a dict: ``link``,
@@ -195,7 +215,8 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
                              None if before is None else _log(before, native.dof, "before"), str(topic),
                              command_topic, bool(log_time), None if cutoff is None else float(cutoff),
                              int(decimate), _params(params), cb, json_out=_path(out_json),
-                             write_urdf=_path(write_urdf), payload_as=str(payload_as))
+                             write_urdf=_path(write_urdf), payload_as=str(payload_as), velocity=str(velocity),
+                             window=_window(window))
     finally:
         close()
     return json.loads(out)
@@ -256,6 +277,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
              tip: Optional[str] = None, params=None, topic: str = "/joint_states", log_time: bool = False,
              cutoff: Optional[float] = None, alpha: float = 1e-3, min_effect: float = 0.5,
              ignore_log_velocity: bool = False, report: bool = True, out_json: Optional[PathLike] = None,
+             velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
              progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
@@ -269,7 +291,8 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     dict of arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd": optional}``;
     ``cutoff`` (Hz): differentiation low-pass (default: chosen from the data); ``alpha``:
     F-test level; ``min_effect``: smallest effect named, in noise standard deviations;
-    ``out_json``: a second copy of diagnosis.json.
+    ``out_json``: a second copy of diagnosis.json; ``velocity`` and ``window`` as in
+    :func:`identify` (``ignore_log_velocity=True`` is ``velocity="positions"``).
     """
     native = _robot(robot, base, tip)
     cb, close = _callback(progress)
@@ -277,7 +300,8 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
         text = _ivdyn.diagnose(native, _log(log, native.dof, "log"), _path(out), str(topic), bool(log_time),
                                None if cutoff is None else float(cutoff), float(alpha), float(min_effect),
                                bool(ignore_log_velocity), bool(report), _params(params),
-                               json_out=_path(out_json), progress=cb)
+                               json_out=_path(out_json), progress=cb, velocity=str(velocity),
+                               window=_window(window))
     finally:
         close()
     return json.loads(text)

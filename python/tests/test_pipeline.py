@@ -113,11 +113,17 @@ def test_identify_matches_cli(ur5, logs, cli, tmp_path, method):
 
 def test_identify_from_arrays_equals_file(ur5, logs):
     log = ivdyn.read_joint_states(logs / "before.mcap", ur5)
-    a = ivdyn.identify(ur5, log)
-    b = ivdyn.identify(ur5, logs / "before.mcap")
-    # arrays are identified in memory, an MCAP path is streamed: the same numbers
+    a = ivdyn.identify(ur5, log, velocity="positions")
+    b = ivdyn.identify(ur5, logs / "before.mcap", stream=True)
+    # arrays are identified in memory, a streamed MCAP path differentiates positions too:
+    # the same numbers
     assert a.pop("streamed") is False and b.pop("streamed") is True
+    ca, cb = a.pop("conditioning"), b.pop("conditioning")
+    assert [v["source"] for v in ca["velocity"]] == [v["source"] for v in cb["velocity"]] == ["positions"] * 6
     same(a, b)
+    # by default a small MCAP log is read whole and its velocity checked
+    c = ivdyn.identify(ur5, logs / "before.mcap")
+    assert c["streamed"] is False and len(c["conditioning"]["velocity"]) == 6
     # physics: the identified model predicts the measured torque to the noise level
     assert max(a["validation"]["rms"]) < 0.05 * 1.3
 

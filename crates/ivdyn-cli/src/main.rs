@@ -74,6 +74,20 @@ struct LogArgs {
     /// Decimation factor after the parallel filter (0: automatic, output rate ~2.5x the cut-off; 1: none).
     #[arg(long, default_value_t = 0)]
     decimate: usize,
+    /// Velocity source: `auto` (the log's velocity on each joint where it agrees with the
+    /// differentiated positions), `log`, or `positions`.
+    #[arg(long, value_enum, default_value = "auto")]
+    velocity: VelocityArg,
+    /// Use only START:END seconds from the log's first sample (`5:` from 5 s on, `:30` the first 30 s).
+    #[arg(long, value_name = "START:END")]
+    window: Option<String>,
+}
+
+#[derive(Clone, Copy, PartialEq, ValueEnum)]
+enum VelocityArg {
+    Auto,
+    Log,
+    Positions,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -89,9 +103,10 @@ enum MethodArg {
 struct IdentifyArgs {
     #[command(flatten)]
     robot: RobotArgs,
-    /// Log file (.mcap or .csv).
-    #[arg(long)]
-    log: PathBuf,
+    /// Log file (.mcap or .csv); repeat for several logs of the same arm, identified
+    /// together (the held-out tail is the last one's).
+    #[arg(long, required = true)]
+    log: Vec<PathBuf>,
     #[command(flatten)]
     log_args: LogArgs,
     /// Estimation method.
@@ -130,10 +145,14 @@ struct IdentifyArgs {
     /// on the same stamps to this MCAP file.
     #[arg(long)]
     out_mcap: Option<PathBuf>,
-    /// Read the whole log into memory instead of streaming it (MCAP logs are streamed
-    /// with bounded memory when the options allow; the numbers are the same to rounding).
-    #[arg(long)]
+    /// Read the whole log into memory instead of streaming it (MCAP logs of more than
+    /// 1 M values are streamed with bounded memory when the options allow).
+    #[arg(long, conflicts_with = "stream")]
     in_memory: bool,
+    /// Stream an MCAP log block by block even when it is small (bounded memory; velocities
+    /// from positions, no resampling).
+    #[arg(long)]
+    stream: bool,
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -407,12 +426,19 @@ fn log_source(la: &LogArgs) -> LogSource {
     LogSource { topic: la.topic.clone(), command_topic: la.command_topic.clone(), log_time: la.log_time }
 }
 
-fn condition_opts(la: &LogArgs) -> ivdyn::prep::ConditionOptions {
+fn condition_opts(la: &LogArgs) -> R<ivdyn::prep::ConditionOptions> {
+    use ivdyn::prep::VelocitySource;
     let mut c = ivdyn::prep::ConditionOptions::default();
     if let Some(fc) = la.cutoff {
         c.diff = ivdyn::dsp::DiffMethod::Butterworth { order: ivdyn::dsp::DEFAULT_ORDER, cutoff_hz: Some(fc) };
     }
-    c
+    c.velocity = match la.velocity {
+        VelocityArg::Auto => VelocitySource::Auto,
+        VelocityArg::Log => VelocitySource::Log,
+        VelocityArg::Positions => VelocitySource::Positions,
+    };
+    c.window = la.window.as_deref().map(ivdyn::prep::hygiene::parse_window).transpose().map_err(msg)?;
+    Ok(c)
 }
 
 fn fmt_list(v: &[f64], prec: usize) -> String {
@@ -438,7 +464,7 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
             MethodArg::Iv => Method::Iv,
             MethodArg::IdimIv => Method::IdimIv,
         },
-        condition: condition_opts(&a.log_args),
+        condition: condition_opts(&a.log_args)?,
         decimate: a.log_args.decimate,
         validation_fraction: a.holdout,
         drive,
@@ -447,10 +473,12 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
         ..Default::default()
     };
     let job = IdentifyJob {
-        log: LogInput::File(a.log.clone()),
+        log: LogInput::File(a.log[0].clone()),
+        also: a.log[1..].iter().cloned().map(LogInput::File).collect(),
         validate: a.validate.clone().map(LogInput::File),
         source: log_source(&a.log_args),
         in_memory: a.in_memory,
+        stream: a.stream,
         opts,
         outputs: app::IdentifyOutputs {
             json: a.json.clone(),
@@ -578,7 +606,7 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
         before: a.before.clone().map(LogInput::File),
         source: log_source(&a.log_args),
         opts: PayloadOptions {
-            condition: condition_opts(&a.log_args),
+            condition: condition_opts(&a.log_args)?,
             decimate: a.log_args.decimate,
             progress: bars.sink(),
             ..Default::default()

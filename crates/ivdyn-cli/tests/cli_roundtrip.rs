@@ -125,7 +125,20 @@ fn cli_identify_iv_with_command_topic() {
         let rep = d.join(format!("{m}.json"));
         let a = with(
             ur5_args(),
-            &["identify", "--log", &s(&log), "--method", m, "--command-topic", "/ivdyn/command", "--json", &s(&rep)],
+            // positions, not the log's exact velocity: the q noise must reach the regressor
+            &[
+                "identify",
+                "--log",
+                &s(&log),
+                "--method",
+                m,
+                "--command-topic",
+                "/ivdyn/command",
+                "--velocity",
+                "positions",
+                "--json",
+                &s(&rep),
+            ],
         );
         ok(&run(a));
         let r = json(&rep);
@@ -182,7 +195,19 @@ fn cli_roundtrip_reloaded_parameters_reproduce_the_identified_torques() {
         with(ur5_args(), &["simulate", "--noise", "0.05", "--duration", "8", "--seed", "13", "--out", &s(&log)]);
     a.extend(["--fc", "2,2,1.5,0.5,0.5,0.3", "--fv", "3,3,2,0.5,0.5,0.3"].iter().map(|s| s.to_string()));
     ok(&run(a));
-    ok(&run(with(ur5_args(), &["identify", "--log", &s(&log), "--out-params", &s(&params), "--out-mcap", &s(&pred)])));
+    // velocities from positions, as `simulate --traj` makes them
+    let id = [
+        "identify",
+        "--log",
+        &s(&log),
+        "--velocity",
+        "positions",
+        "--out-params",
+        &s(&params),
+        "--out-mcap",
+        &s(&pred),
+    ];
+    ok(&run(with(ur5_args(), &id)));
     let robot0 = ivdyn::Robot::from_urdf(fixture("ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();
     let names = robot0.joint_names.clone();
     let p = ivdyn::log::read_mcap(&pred, &ivdyn::log::ReadOptions::new(&names).topic("/ivdyn/predicted")).unwrap();

@@ -186,8 +186,12 @@ fn log_source(topic: &str, command_topic: Option<&str>, log_time: bool) -> LogSo
     LogSource { topic: topic.into(), command_topic: command_topic.map(Into::into), log_time }
 }
 
-fn condition(cutoff: Option<f64>) -> PyResult<ConditionOptions> {
-    let mut c = ConditionOptions::default();
+fn condition(cutoff: Option<f64>, velocity: &str, window: Option<(f64, f64)>) -> PyResult<ConditionOptions> {
+    let mut c = ConditionOptions {
+        velocity: ivdyn::prep::VelocitySource::parse(velocity).map_err(to_py)?,
+        window,
+        ..Default::default()
+    };
     if let Some(fc) = cutoff {
         if !(fc > 0.0 && fc.is_finite()) {
             return Err(PyValueError::new_err(format!("cutoff must be finite and > 0 Hz, got {fc}")));
@@ -216,7 +220,7 @@ fn urdf_of(robot: &PyRobot, what: &str) -> PyResult<PathBuf> {
 #[pyo3(signature = (robot, log, method="wls", validate=None, holdout=0.25, topic="/joint_states", command_topic=None,
                     log_time=false, cutoff=None, decimate=0, params_json=None, progress=None, friction=None,
                     armature=true, offset=true, consistent=false, in_memory=false, json_out=None, out_params=None,
-                    write_urdf=None, out_mcap=None))]
+                    write_urdf=None, out_mcap=None, velocity="auto", window=None, stream=false))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
     py: Python<'_>,
@@ -241,6 +245,9 @@ fn identify(
     out_params: Option<PathBuf>,
     write_urdf: Option<PathBuf>,
     out_mcap: Option<PathBuf>,
+    velocity: &str,
+    window: Option<(f64, f64)>,
+    stream: bool,
 ) -> PyResult<String> {
     let method = match method {
         "ols" => Method::Ols,
@@ -257,14 +264,26 @@ fn identify(
     let drive = ivdyn::ident::DriveTerms::from_names(&names, armature, offset).map_err(to_py)?;
     let urdf = write_urdf.map(|o| urdf_of(&robot, "write_urdf").map(|i| (i, o))).transpose()?;
     let r = robot_with_params(&robot.inner, params_json)?;
+    // a list of logs: identified together
+    let (log, also) = match log.cast::<pyo3::types::PyList>() {
+        Ok(list) if !list.is_empty() => {
+            let all = list.iter().enumerate().map(|(i, l)| log_input(&r, &l, &format!("log {}", i + 1)));
+            let mut all = all.collect::<PyResult<Vec<_>>>()?;
+            let first = all.remove(0);
+            (first, all)
+        }
+        _ => (log_input(&r, log, "log")?, vec![]),
+    };
     let job = app::IdentifyJob {
-        log: log_input(&r, log, "log")?,
+        log,
+        also,
         validate: validate.map(|v| log_input(&r, v, "validation log")).transpose()?,
         source: log_source(topic, command_topic, log_time),
         in_memory,
+        stream,
         opts: IdentifyOptions {
             method,
-            condition: condition(cutoff)?,
+            condition: condition(cutoff, velocity, window)?,
             decimate,
             validation_fraction: holdout,
             drive,
@@ -285,7 +304,8 @@ fn identify(
 /// `ivdyn payload` -> the `--json` document (a string); writes the outputs asked for.
 #[pyfunction]
 #[pyo3(signature = (robot, log, before=None, topic="/joint_states", command_topic=None, log_time=false, cutoff=None,
-                    decimate=0, params_json=None, progress=None, json_out=None, write_urdf=None, payload_as="link"))]
+                    decimate=0, params_json=None, progress=None, json_out=None, write_urdf=None, payload_as="link",
+                    velocity="auto", window=None))]
 #[allow(clippy::too_many_arguments)]
 fn payload(
     py: Python<'_>,
@@ -302,6 +322,8 @@ fn payload(
     json_out: Option<PathBuf>,
     write_urdf: Option<PathBuf>,
     payload_as: &str,
+    velocity: &str,
+    window: Option<(f64, f64)>,
 ) -> PyResult<String> {
     let mode = match payload_as {
         "link" => app::PayloadMode::Link,
@@ -314,7 +336,7 @@ fn payload(
         log: log_input(&r, log, "log")?,
         before: before.map(|b| log_input(&r, b, "before log")).transpose()?,
         source: log_source(topic, command_topic, log_time),
-        opts: PayloadOptions { condition: condition(cutoff)?, decimate, ..Default::default() },
+        opts: PayloadOptions { condition: condition(cutoff, velocity, window)?, decimate, ..Default::default() },
         json: json_out,
         urdf,
     };
@@ -431,7 +453,8 @@ fn simulate<'py>(
 /// diagnosis.json, report.html and residuals.mcap there.
 #[pyfunction]
 #[pyo3(signature = (robot, log, out=None, topic="/joint_states", log_time=false, cutoff=None, alpha=1e-3,
-                    min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None, json_out=None, progress=None))]
+                    min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None, json_out=None, progress=None,
+                    velocity="auto", window=None))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
@@ -448,6 +471,8 @@ fn diagnose(
     params_json: Option<&str>,
     json_out: Option<PathBuf>,
     progress: Option<Py<PyAny>>,
+    velocity: &str,
+    window: Option<(f64, f64)>,
 ) -> PyResult<String> {
     use ivdyn::diagnose::DiagnoseOptions;
     let r = robot_with_params(&robot.inner, params_json)?;
@@ -459,7 +484,12 @@ fn diagnose(
             alpha,
             min_effect,
             cutoff_hz: cutoff,
-            ignore_log_velocity,
+            velocity: if ignore_log_velocity {
+                ivdyn::prep::VelocitySource::Positions
+            } else {
+                ivdyn::prep::VelocitySource::parse(velocity).map_err(to_py)?
+            },
+            window,
             urdf_name,
             ..Default::default()
         },

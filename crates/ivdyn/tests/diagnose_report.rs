@@ -122,6 +122,7 @@ fn synthetic() -> Diagnosis {
             duration: 0.499,
             rate: 1000.0,
             velocity_in_log: true,
+            velocity: vec![],
             cutoff_hz: 20.0,
             align_samples: 0.0,
         },

@@ -124,7 +124,10 @@ fn streamed_identify_matches_in_memory_identify() {
     let (robot, path) = ur5_log(&dir);
     let read = ivdyn::log::ReadOptions::new(&robot.joint_names);
     let log = ivdyn::log::read_mcap(&path, &read).unwrap();
-    let opts = IdentifyOptions::default();
+    // streaming differentiates positions; in memory the log's velocity would be checked
+    // and taken
+    let mut opts = IdentifyOptions::default();
+    opts.condition.velocity = ivdyn::prep::VelocitySource::Positions;
     let mem = app::identify(&robot, &log, &opts).unwrap();
     let Streamed::Done(s) = st::identify_mcap(&robot, &path, None, &read, &opts).unwrap() else {
         panic!("not streamed")

@@ -5,7 +5,7 @@ use std::process::ExitCode;
 
 use clap::Args;
 
-use super::{Bars, LogArgs, R, RobotArgs, load_robot, log_source, msg};
+use super::{Bars, LogArgs, R, RobotArgs, condition_opts, load_robot, log_source, msg};
 use ivdyn::app::{DiagnoseJob, LogInput, diagnose_job};
 use ivdyn::diagnose::{self, DiagnoseOptions};
 
@@ -27,7 +27,7 @@ pub struct DiagnoseArgs {
     /// Smallest effect named, in noise standard deviations of RMS torque.
     #[arg(long, default_value_t = 0.5)]
     min_effect: f64,
-    /// Differentiate positions even if the log has velocities.
+    /// Differentiate positions even if the log has velocities (= --velocity positions).
     #[arg(long)]
     ignore_log_velocity: bool,
     /// Also write diagnosis.json here.
@@ -40,11 +40,14 @@ pub struct DiagnoseArgs {
 
 pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
+    let cond = condition_opts(&a.log_args)?;
+    let velocity = if a.ignore_log_velocity { ivdyn::prep::VelocitySource::Positions } else { cond.velocity };
     let opts = DiagnoseOptions {
         alpha: a.alpha,
         min_effect: a.min_effect,
         cutoff_hz: a.log_args.cutoff,
-        ignore_log_velocity: a.ignore_log_velocity,
+        velocity,
+        window: cond.window,
         log_name: a.log.display().to_string(),
         urdf_name: a.robot.urdf.display().to_string(),
         ..Default::default()

@@ -28,17 +28,16 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::prepare::{Prepared, prepare, rows_of};
 use crate::Robot;
-use crate::batch::stack_rows;
 use crate::dsp;
 use crate::error::{Error, Result};
 use crate::ident::instrument::Tracker;
-use crate::ident::instrument::{TRACKING_INSTRUMENT, nominal_tracking};
 use crate::ident::joint_acc::JointAccs;
 use crate::ident::wls::per_joint_weights;
 use crate::ident::{self, BaseParams, DriveTerms, FitReport, fit_iv, fit_ls};
 use crate::log::JointLog;
-use crate::prep::{self, ConditionOptions, parallel_filter};
+use crate::prep::{self, ConditionOptions, ConditionSummary};
 use crate::progress::{ProgressSink, Stage};
 use crate::report::{BaseValue, Dwh, ParamsFile, Quality};
 use crate::robot::physical;
@@ -169,6 +168,9 @@ pub struct IdentifyReport {
     /// The fit with physical consistency enforced (`IdentifyOptions::consistent`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub consistent: Option<ident::consistent::ConsistentReport>,
+    /// What conditioning did to the log: window, repeated samples, duplicated stamps,
+    /// resampling, and the velocity's source per joint.
+    pub conditioning: ConditionSummary,
     /// The log was streamed block by block (bounded memory) rather than read whole.
     pub streamed: bool,
     /// The underlying fit.
@@ -180,104 +182,8 @@ pub struct IdentifyReport {
 // Preparation: conditioning, regressor stacking, parallel filtering
 // ---------------------------------------------------------------------------------------
 
-struct Prepared {
-    n: usize,
-    dt: f64,
-    q: Vec<f64>,
-    qd: Vec<f64>,
-    qdd: Vec<f64>,
-    /// `T x n x b`
-    phi: Vec<f64>,
-    /// `T x n`
-    tau: Vec<f64>,
-    /// `T x n x b` instrument rows.
-    z: Option<Vec<f64>>,
-    instrument: Option<String>,
-    cutoff_hz: f64,
-    factor: usize,
-}
-
-impl Prepared {
-    fn len(&self) -> usize {
-        self.tau.len() / self.n
-    }
-}
-
 pub(crate) fn err_est(msg: impl Into<String>) -> Error {
     Error::Estimation { msg: msg.into() }
-}
-
-fn prepare(
-    robot: &Robot,
-    base: &BaseParams,
-    log: &JointLog,
-    opts: &IdentifyOptions,
-    instrument: bool,
-    what: &str,
-) -> Result<Prepared> {
-    let n = robot.dof();
-    if log.dof() != n || log.joint_names != robot.joint_names {
-        return Err(Error::JointMismatch {
-            what: what.into(),
-            log: log.joint_names.clone(),
-            robot: robot.joint_names.clone(),
-        });
-    }
-    if log.tau.is_none() {
-        return Err(Error::NoTorque { what: what.into(), needed_by: "identification".into() });
-    }
-    let c = prep::condition(log, &opts.condition)?;
-    let fs = 1.0 / c.dt;
-    let dec = parallel_filter(opts.decimate, fs, &opts.condition)?;
-    let tau_raw = c.tau.clone().expect("checked");
-    let t = c.t.len();
-    let b = base.base_count();
-    let st = Stage::begin(&opts.progress, &format!("{what}: regressor"), t as u64);
-    let phi_raw = stack_rows(robot, &base.independent, &c.d.q, &c.d.qd, &c.d.qdd, Some(&st))?;
-    drop(st);
-    let _st = Stage::begin(&opts.progress, &format!("{what}: filtering"), 0);
-    let phi = dec.apply(&phi_raw, n * b)?;
-    drop(phi_raw);
-    let tau = dec.apply(&tau_raw, n)?;
-    let mut inst_name = None;
-    let z = if instrument {
-        let (qz, qdz, qddz) = match &c.u {
-            Some(u) => {
-                inst_name = Some("nominal model's forward dynamics at the (filtered) measured state driven by the command u: qdd_hat = FD_nom(q, qd, u)".to_string());
-                let mut qh = vec![0.0; t * n];
-                crate::batch::forward_dynamics_batch(robot, &c.d.q, &c.d.qd, u, &mut qh)?;
-                (c.d.q.clone(), c.d.qd.clone(), qh)
-            }
-            None => {
-                inst_name = Some(TRACKING_INSTRUMENT.to_string());
-                nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?
-            }
-        };
-        let z_raw = stack_rows(robot, &base.independent, &qz, &qdz, &qddz, None)?;
-        Some(dec.apply(&z_raw, n * b)?)
-    } else {
-        None
-    };
-    let q = dec.apply(&c.d.q, n)?;
-    let qd = dec.apply(&c.d.qd, n)?;
-    let qdd = dec.apply(&c.d.qdd, n)?;
-    Ok(Prepared {
-        n,
-        dt: c.dt * dec.factor as f64,
-        q,
-        qd,
-        qdd,
-        phi,
-        tau,
-        z,
-        instrument: inst_name,
-        cutoff_hz: dec.filter.cutoff_hz,
-        factor: dec.factor,
-    })
-}
-
-pub(crate) fn rows_of(x: &[f64], width: usize, r: std::ops::Range<usize>) -> &[f64] {
-    &x[r.start * width..r.end * width]
 }
 
 // ---------------------------------------------------------------------------------------
@@ -326,11 +232,19 @@ pub(crate) struct FitData {
     pub idim: Option<FitReport>,
     /// Remarks so far.
     pub notes: Vec<String>,
+    /// What conditioning did to the (fit) log.
+    pub conditioning: ConditionSummary,
 }
 
 /// Identifies the base parameters of `robot` from `log` (see the module docs). The whole
 /// log is held in memory; [`crate::app::stream::identify_mcap`] streams a log file instead.
 pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result<IdentifyReport> {
+    identify_logs(robot, &[log], opts)
+}
+
+/// [`identify`] on several logs of the same arm at once: their segments are conditioned
+/// and filtered apart and fitted together; the held-out tail is the last log's.
+pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) -> Result<IdentifyReport> {
     let n = robot.dof();
     let mut notes = vec![];
     let base = {
@@ -339,33 +253,41 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
     };
     let b = base.base_count();
     let want_iv = opts.method != Method::IdimIv;
-    let prep = prepare(robot, &base, log, opts, want_iv, "log")?;
+    let prep = prepare(robot, &base, logs, opts, want_iv, "log")?;
     let t = prep.len();
     let (fit_range, val_range) = split_ranges(t, opts);
-    if fit_range.len() * n < 2 * b {
-        return Err(Error::TooFewSamples { samples: fit_range.len(), joints: n, params: b });
-    }
-    let w_row = n * b;
-    let phi_fit = rows_of(&prep.phi, w_row, fit_range.clone());
-    let tau_fit = rows_of(&prep.tau, n, fit_range.clone());
     let mut fit = JointAccs::new(n, b, prep.z.is_some());
-    fit.add(phi_fit, prep.z.as_ref().map(|z| rows_of(z, w_row, fit_range.clone())), tau_fit)?;
+    accumulate(&mut fit, &prep, fit_range.clone(), true)?;
+    if fit.samples() * n < 2 * b {
+        return Err(Error::TooFewSamples { samples: fit.samples(), joints: n, params: b });
+    }
     let validation = match (&opts.validation_log, val_range) {
         (Some(vlog), _) => {
-            let vp = prepare(robot, &base, vlog, opts, false, "validation log")?;
+            let vp = prepare(robot, &base, &[vlog], opts, false, "validation log")?;
             let t2 = vp.len();
             let e2 = (t2 / 100).min(20);
             let mut v = JointAccs::new(n, b, false);
-            v.add(rows_of(&vp.phi, w_row, e2..t2 - e2), None, rows_of(&vp.tau, n, e2..t2 - e2))?;
+            accumulate(&mut v, &vp, e2..t2 - e2, false)?;
             Some(("validation log".to_string(), v))
         }
         (None, Some(r)) if r.len() > 1 => {
             let mut v = JointAccs::new(n, b, false);
-            v.add(rows_of(&prep.phi, w_row, r.clone()), None, rows_of(&prep.tau, n, r))?;
-            Some((format!("tail {:.0}% of the log", 100.0 * opts.validation_fraction), v))
+            accumulate(&mut v, &prep, r, false)?;
+            let of = if logs.len() > 1 { "the logs" } else { "the log" };
+            Some((format!("tail {:.0}% of {of}", 100.0 * opts.validation_fraction), v))
         }
         _ => None,
     };
+    if opts.method == Method::IdimIv && prep.bounds.len() > 2 {
+        return Err(Error::Option {
+            option: "method".into(),
+            msg: format!(
+                "idim-iv simulates the arm over one continuous log; this one has {} segments (gaps, or several logs): give one log, or a window without gaps",
+                prep.bounds.len() - 1
+            ),
+        });
+    }
+    let tau_fit = rows_of(&prep.tau, n, fit_range.clone());
     let idim = if opts.method == Method::IdimIv {
         let r = fit_range.clone();
         let (q, qd, qdd) =
@@ -391,7 +313,7 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
     } else {
         None
     };
-    if log.truncated {
+    if logs.iter().any(|l| l.truncated) {
         notes.push("the log was truncated; only the samples before the damage were used".into());
     }
     let data = FitData {
@@ -403,8 +325,20 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
         cutoff_hz: prep.cutoff_hz,
         idim,
         notes,
+        conditioning: prep.conditioning,
     };
     finish_identify(robot, &base, opts, data)
+}
+
+/// Adds the rows `r` of `p` (inside its segments, [`Prepared::pieces`]) to `acc`, with the
+/// instrument rows when `with_z`.
+fn accumulate(acc: &mut JointAccs, p: &Prepared, r: std::ops::Range<usize>, with_z: bool) -> Result<()> {
+    let w = p.n * (p.phi.len() / p.tau.len().max(1));
+    for piece in p.pieces(r) {
+        let z = if with_z { p.z.as_ref().map(|z| rows_of(z, w, piece.clone())) } else { None };
+        acc.add(rows_of(&p.phi, w, piece.clone()), z, rows_of(&p.tau, p.n, piece))?;
+    }
+    Ok(())
 }
 
 /// The fits (OLS, two-step WLS, IV), the DWH test, fit quality and validation, from the
@@ -419,6 +353,7 @@ pub(crate) fn finish_identify(
     let n = robot.dof();
     let b = base.base_count();
     let mut notes = std::mem::take(&mut d.notes);
+    notes.extend(conditioning_notes(&d.conditioning));
     if d.fit.samples() * n < 2 * b {
         return Err(Error::TooFewSamples { samples: d.fit.samples(), joints: n, params: b });
     }
@@ -459,9 +394,39 @@ pub(crate) fn finish_identify(
         notes,
         physical,
         consistent,
+        conditioning: d.conditioning,
         streamed: false,
         fit_report: Some(fit),
     })
+}
+
+/// The conditioning worth a remark: the window, repeated samples, resampling, and where
+/// the velocity came from when the log had one.
+pub(crate) fn conditioning_notes(c: &ConditionSummary) -> Vec<String> {
+    let mut notes = vec![];
+    if let Some((a, b)) = c.hygiene.window {
+        notes.push(format!(
+            "window {a} s to {b} s of the log: {} samples outside it left out",
+            c.hygiene.outside_window
+        ));
+    }
+    if c.hygiene.repeated > 0 {
+        notes.push(format!(
+            "{} samples repeated the previous position under a new stamp (a state published twice) and were dropped",
+            c.hygiene.repeated
+        ));
+    }
+    if c.resampled {
+        notes.push(format!("uneven stamps: resampled to a uniform {:.3} ms grid", 1e3 * c.dt));
+    }
+    if c.velocity.iter().any(|v| v.gain.is_some() || v.source == "log") {
+        let from_log: Vec<&str> = c.velocity.iter().filter(|v| v.source == "log").map(|v| v.joint.as_str()).collect();
+        notes.push(format!("velocity from the log on {} of {} joints", from_log.len(), c.velocity.len()));
+        for v in c.velocity.iter().filter(|v| v.source != "log") {
+            notes.push(format!("{}: velocity differentiated from positions: {}", v.joint, v.why));
+        }
+    }
+    notes
 }
 
 /// `theta` with its non-finite entries (unexcited base parameters) replaced by the nominal
@@ -618,6 +583,8 @@ pub fn write_prediction(
     let c = prep::condition(log, condition)?;
     let tau =
         c.tau.as_ref().ok_or_else(|| Error::NoTorque { what: "log".into(), needed_by: "the prediction".into() })?;
+    // the measured copy: the rows conditioning kept (window, repeated samples, duplicates)
+    let (log, _) = prep::hygiene::clean(log, condition.window)?;
     let dd = dsp::dedup_stamps(&log.t)?;
     let t_kept: Vec<f64> = dd.keep.iter().map(|&k| log.t[k]).collect();
     let measured = |a: &[f64]| -> Result<Vec<f64>> {

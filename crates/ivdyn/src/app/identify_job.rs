@@ -5,7 +5,7 @@ use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use super::Outcome;
-use super::identify::{IdentifyOptions, IdentifyReport, identify, write_prediction};
+use super::identify::{IdentifyOptions, IdentifyReport, identify_logs, write_prediction};
 use super::io::{LogInput, LogSource};
 use super::stream::{Streamed, identify_mcap, write_prediction_mcap};
 use crate::Robot;
@@ -34,20 +34,33 @@ pub struct IdentifyOutputs {
 pub struct IdentifyJob {
     /// The log.
     pub log: LogInput,
+    /// More logs of the same arm, identified together with `log` (each conditioned and
+    /// filtered on its own; the held-out tail is the last one's).
+    pub also: Vec<LogInput>,
     /// A validation log (default: the tail of the log, `opts.validation_fraction`).
     pub validate: Option<LogInput>,
     /// How log files are read.
     pub source: LogSource,
     /// Read the whole log into memory even when it could be streamed.
     pub in_memory: bool,
+    /// Stream an MCAP log even when it is small enough for memory (the default streams
+    /// only logs of more than [`STREAM_ABOVE`] values).
+    pub stream: bool,
     /// Fit options (its `validation_log` is set from `validate` when read whole).
     pub opts: IdentifyOptions,
     /// What to write.
     pub outputs: IdentifyOutputs,
 }
 
-/// Runs `job` on `robot`: MCAP logs are streamed (bounded memory) unless the options or
-/// the log need memory, then the outputs are written.
+/// Logs with more than this many values (samples x joints) are streamed: in memory, a
+/// 7-joint arm's regressor takes about 560 bytes a value (1 M values: 0.6 GB, twice that
+/// while filtering), and memory is where the full conditioning runs (resampling,
+/// repeated samples, the log's velocity).
+pub const STREAM_ABOVE: u64 = 1_000_000;
+
+/// Runs `job` on `robot`: MCAP logs larger than [`STREAM_ABOVE`] (or any with
+/// `job.stream`) are streamed (bounded memory) unless the options or the log need
+/// memory, then the outputs are written.
 pub fn identify_job(robot: &Robot, job: &IdentifyJob) -> Result<Outcome<IdentifyReport>> {
     let (report, mem) = fit(robot, job)?;
     let written = write_outputs(robot, job, &report, mem.as_deref())?;
@@ -57,8 +70,20 @@ pub fn identify_job(robot: &Robot, job: &IdentifyJob) -> Result<Outcome<Identify
 /// The fit, and the log if it was read into memory.
 fn fit<'a>(robot: &Robot, job: &'a IdentifyJob) -> Result<(IdentifyReport, Option<Cow<'a, JointLog>>)> {
     let mut why_not = None;
-    let streamable = !job.in_memory && job.validate.as_ref().is_none_or(|v| v.mcap_path().is_some());
-    if let (Some(path), true) = (job.log.mcap_path(), streamable) {
+    let streamable =
+        !job.in_memory && job.also.is_empty() && job.validate.as_ref().is_none_or(|v| v.mcap_path().is_some());
+    if job.stream && job.in_memory {
+        return Err(Error::Option { option: "stream".into(), msg: "and in_memory cannot both be set".into() });
+    }
+    let large = |p: &Path| -> Result<bool> {
+        let count = super::stream::message_count(p, &job.source.topic)?.unwrap_or(0);
+        Ok(count.saturating_mul(robot.dof() as u64) > STREAM_ABOVE)
+    };
+    let wanted = match job.log.mcap_path() {
+        Some(p) if streamable => job.stream || large(p).map_err(|e| job.log.context(e))?,
+        _ => false,
+    };
+    if let (Some(path), true) = (job.log.mcap_path(), wanted) {
         let vpath = job.validate.as_ref().and_then(|v| v.mcap_path());
         match identify_mcap(robot, path, vpath, &job.source.read_options(robot), &job.opts)
             .map_err(|e| job.log.context(e))?
@@ -71,7 +96,10 @@ fn fit<'a>(robot: &Robot, job: &'a IdentifyJob) -> Result<(IdentifyReport, Optio
     let mut opts = job.opts.clone();
     opts.validation_log =
         job.validate.as_ref().map(|v| read(robot, v, &job.source, &opts).map(Cow::into_owned)).transpose()?;
-    let mut r = identify(robot, &log, &opts).map_err(|e| job.log.context(e))?;
+    let also = job.also.iter().map(|l| read(robot, l, &job.source, &opts)).collect::<Result<Vec<_>>>()?;
+    let mut logs: Vec<&JointLog> = vec![&log];
+    logs.extend(also.iter().map(|l| l.as_ref()));
+    let mut r = identify_logs(robot, &logs, &opts).map_err(|e| job.log.context(e))?;
     if let Some(w) = why_not {
         r.notes.push(format!("read into memory (not streamed): {w}"));
     }

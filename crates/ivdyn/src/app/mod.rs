@@ -13,12 +13,13 @@ pub mod identify;
 pub mod identify_job;
 pub mod io;
 pub mod payload;
+mod prepare;
 pub mod simulate;
 pub mod stream;
 
 pub use diagnose::{DiagnoseJob, diagnose_job};
 pub use excite::{ExciteJob, excite_job};
-pub use identify::{IdentifyOptions, IdentifyReport, Method, identify, identify_base, write_prediction};
+pub use identify::{IdentifyOptions, IdentifyReport, Method, identify, identify_base, identify_logs, write_prediction};
 pub use identify_job::{IdentifyJob, IdentifyOutputs, identify_job};
 pub use io::{LogInput, LogSource, RobotSource};
 pub use payload::{Hidden, PayloadJob, PayloadMode, PayloadOptions, PayloadReport, payload, payload_job};

@@ -6,8 +6,9 @@ use serde::Serialize;
 use std::path::PathBuf;
 
 use super::Outcome;
-use super::identify::{IdentifyOptions, Method, identify, rows_of};
+use super::identify::{IdentifyOptions, Method, identify};
 use super::io::{LogInput, LogSource};
+use super::prepare::rows_of;
 use crate::Robot;
 use crate::batch::stack_rows;
 use crate::dsp::Decimator;
@@ -164,6 +165,8 @@ fn nominal_model(robot: &Robot, before: Option<&JointLog>, opts: &PayloadOptions
     let nominal = if let Some(b) = before {
         let mut o = opts.before.clone();
         o.progress = opts.progress.clone();
+        // the same conditioning as the after-log (the window is the after-log's)
+        o.condition = ConditionOptions { window: None, ..opts.condition.clone() };
         let rep = identify(robot, b, &o)?;
         nom.set_params(&rep.params.theta)?;
         "before log".to_string()

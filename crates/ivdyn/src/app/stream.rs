@@ -77,6 +77,12 @@ pub fn unsupported(opts: &IdentifyOptions, read: &ReadOptions) -> Option<String>
     if opts.condition.dt.is_some() {
         return Some("a forced resampling step".into());
     }
+    if opts.condition.window.is_some() {
+        return Some("a time window".into());
+    }
+    if opts.condition.velocity == prep::VelocitySource::Log {
+        return Some("the log's velocity (velocity: log)".into());
+    }
     if !matches!(opts.condition.diff, DiffMethod::Butterworth { .. }) {
         return Some("Savitzky-Golay differentiation".into());
     }
@@ -341,6 +347,31 @@ impl Front {
             }
         }
         self.emitted += rows;
+    }
+}
+
+/// What streaming did to a log: duplicated stamps dropped, velocities differentiated
+/// from positions (the log's velocity is checked against them only in memory).
+fn streamed_summary(robot: &Robot, info: &PassInfo) -> prep::ConditionSummary {
+    let why =
+        "streamed: velocities are differentiated from positions (the log's velocity is checked and used in memory)";
+    prep::ConditionSummary {
+        hygiene: prep::Hygiene::default(),
+        duplicate_stamps: info.duplicates,
+        resampled: false,
+        dt: info.dt,
+        velocity: robot
+            .joint_names
+            .iter()
+            .map(|j| prep::VelocityChoice {
+                joint: j.clone(),
+                source: "positions".into(),
+                gain: None,
+                lag_s: None,
+                r2: None,
+                why: why.into(),
+            })
+            .collect(),
     }
 }
 
@@ -856,6 +887,7 @@ pub fn identify_mcap(
         cutoff_hz: main.dec.filter.cutoff_hz,
         idim: None,
         notes,
+        conditioning: streamed_summary(robot, &main.info),
     };
     let mut rep = super::identify::finish_identify(robot, &base, opts, data)?;
     rep.streamed = true;

@@ -248,6 +248,7 @@ fn log_info(opts: &DiagnoseOptions, s: &Signals) -> LogInfo {
         duration: s.t.last().copied().unwrap_or(0.0) - s.t.first().copied().unwrap_or(0.0),
         rate: 1.0 / s.dt,
         velocity_in_log: s.velocity_in_log,
+        velocity: s.velocity.clone(),
         cutoff_hz: s.cutoff_hz,
         align_samples: s.align,
     }

@@ -51,8 +51,11 @@ pub struct DiagnoseOptions {
     /// Zero-phase low-pass cutoff (Hz) for q / qd before differentiation (default: the
     /// one on a grid of 10-160 Hz, at most fs/4, that leaves the least residual).
     pub cutoff_hz: Option<f64>,
-    /// Ignore the log's velocities and differentiate positions.
-    pub ignore_log_velocity: bool,
+    /// Where the velocity comes from (default: the log's where it agrees with the
+    /// positions, [`crate::prep::velocity`]).
+    pub velocity: crate::prep::VelocitySource,
+    /// Only the samples in `[start, end]` seconds from the log's first sample.
+    pub window: Option<(f64, f64)>,
     /// Cross-validation blocks per fold (default 8).
     pub blocks_per_fold: usize,
     /// Most effects to add (default 10).
@@ -70,7 +73,8 @@ impl Default for DiagnoseOptions {
             min_effect: 0.5,
             min_share: 0.75,
             cutoff_hz: None,
-            ignore_log_velocity: false,
+            velocity: crate::prep::VelocitySource::Auto,
+            window: None,
             blocks_per_fold: 8,
             max_steps: 10,
             log_name: String::new(),
@@ -288,8 +292,11 @@ pub struct LogInfo {
     pub duration: f64,
     /// Sample rate (Hz).
     pub rate: f64,
-    /// Whether velocities came from the log (else differentiated from positions).
+    /// Whether velocities came from the log on some joint (else differentiated from
+    /// positions); `velocity` says per joint and why.
     pub velocity_in_log: bool,
+    /// The velocity's source per joint, and why ([`crate::prep::velocity`]).
+    pub velocity: Vec<crate::prep::VelocityChoice>,
     /// Zero-phase low-pass cutoff (Hz) used before differentiating (chosen on a grid
     /// unless given).
     pub cutoff_hz: f64,

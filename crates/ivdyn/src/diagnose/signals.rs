@@ -17,6 +17,7 @@ pub(super) struct Signals {
     pub(super) qdd: Vec<f64>,
     pub(super) tau: Vec<f64>,
     pub(super) velocity_in_log: bool,
+    pub(super) velocity: Vec<prep::VelocityChoice>,
     pub(super) dt: f64,
     /// Zero-phase cutoff used (Hz).
     pub(super) cutoff_hz: f64,
@@ -32,15 +33,13 @@ pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) 
         log.tau.as_ref().ok_or_else(|| Error::NoTorque { what: "log".into(), needed_by: "the diagnosis".into() })?;
     let copts = prep::ConditionOptions {
         diff: dsp::DiffMethod::Butterworth { order: 4, cutoff_hz: Some(cutoff_hz) },
+        velocity: opts.velocity,
+        window: opts.window,
         ..Default::default()
     };
-    // prep's one policy: duplicates, resampling and smoothing, with the log's velocity
-    // where it has one unless told not to
-    let c = if opts.ignore_log_velocity {
-        prep::condition(log, &copts)?
-    } else {
-        prep::condition_with_log_velocity(log, &copts)?
-    };
+    // prep's one policy: window, repeated samples, duplicates, resampling, smoothing, and
+    // the log's velocity where it agrees with the positions
+    let c = prep::condition(log, &copts)?;
     let t_len = c.t.len();
     if t_len < 50 {
         return Err(bad(format!("the log has {t_len} usable samples; the diagnosis needs at least 50")));
@@ -64,9 +63,8 @@ pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) 
         qd: cut(&c.d.qd),
         qdd: cut(&c.d.qdd),
         tau: cut(tau),
-        // whether the log has velocities and they were not to be ignored (also when
-        // resampling made prep fall back to differentiating q)
-        velocity_in_log: log.qd.is_some() && !opts.ignore_log_velocity,
+        velocity_in_log: c.velocity_from_log,
+        velocity: c.velocity.clone(),
         dt: c.dt,
         cutoff_hz,
         align: 0.0,

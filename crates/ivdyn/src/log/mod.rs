@@ -82,7 +82,6 @@ impl JointLog {
     /// Removes samples whose stamp equals the previous one (keeps the first of each run),
     /// in every array. Returns how many were dropped.
     pub fn drop_duplicate_stamps(&mut self) -> usize {
-        let n = self.dof();
         let mut keep = Vec::with_capacity(self.t.len());
         for k in 0..self.t.len() {
             if k == 0 || self.t[k] != self.t[k - 1] {
@@ -90,16 +89,25 @@ impl JointLog {
             }
         }
         let dropped = self.t.len() - keep.len();
-        if dropped == 0 {
-            return 0;
-        }
-        let take = |x: &[f64]| crate::dsp::take_rows(x, n, &keep);
-        self.t = keep.iter().map(|&k| self.t[k]).collect();
-        self.q = take(&self.q);
-        for a in [&mut self.qd, &mut self.tau, &mut self.u].into_iter().flatten() {
-            *a = take(a);
+        if dropped > 0 {
+            *self = self.rows(&keep);
         }
         dropped
+    }
+    /// The samples `keep` (indices in order) of every array.
+    pub fn rows(&self, keep: &[usize]) -> JointLog {
+        let n = self.dof();
+        let take = |x: &[f64]| crate::dsp::take_rows(x, n, keep);
+        JointLog {
+            joint_names: self.joint_names.clone(),
+            t0_ns: self.t0_ns,
+            t: keep.iter().map(|&k| self.t[k]).collect(),
+            q: take(&self.q),
+            qd: self.qd.as_deref().map(take),
+            tau: self.tau.as_deref().map(take),
+            u: self.u.as_deref().map(take),
+            truncated: self.truncated,
+        }
     }
     /// Checks shapes, finiteness and stamp order (what the readers guarantee); useful for
     /// logs built by hand. `file` names the source in the error.

@@ -1,19 +1,25 @@
-//! The one conditioning policy of identify, payload, diagnose and prediction: a log's
-//! stamps deduplicated and made uniform, `q` smoothed and differentiated ([`condition`];
-//! the diagnosis takes the log's own velocity instead where it can,
-//! [`condition_with_log_velocity`]), and the parallel filter that torque and regressor
-//! share ([`parallel_filter`]).
+//! The one conditioning policy of identify, payload, diagnose and prediction: the window
+//! and repeated samples ([`hygiene`]), a log's stamps deduplicated and made uniform, `q`
+//! smoothed and differentiated, the log's own velocity taken where it agrees with the
+//! positions ([`velocity`]) ([`condition`]), and the parallel filter that torque and
+//! regressor share ([`parallel_filter`]).
 //! [`stream`] and [`filtfilt`] are its block-by-block twins for logs larger than memory.
 
 pub mod filtfilt;
+pub mod hygiene;
 pub mod stream;
+pub mod velocity;
+
+use serde::Serialize;
 
 use crate::dsp::{
-    Butterworth, Decimator, Derivatives, DiffMethod, HampelOptions, Interp, OutlierReport, SavitzkyGolay, central_diff,
-    dedup_stamps, default_cutoff, differentiate, hampel, median_dt, resample_uniform, take_rows,
+    Butterworth, Decimator, Derivatives, DiffMethod, HampelOptions, Interp, OutlierReport, dedup_stamps,
+    default_cutoff, differentiate, hampel, median_dt, resample_uniform, take_rows,
 };
 use crate::error::{Error, Result};
 use crate::log::JointLog;
+pub use hygiene::Hygiene;
+pub use velocity::{VelocityChoice, VelocitySource};
 
 fn bad(msg: &str) -> Error {
     Error::Estimation { msg: msg.into() }
@@ -33,6 +39,10 @@ pub struct ConditionOptions {
     pub tau_outliers: Option<HampelOptions>,
     /// Differentiation of `q` (default: Butterworth order 4, 20 Hz zero-phase).
     pub diff: DiffMethod,
+    /// Where the velocity comes from (default: the log's where consistent).
+    pub velocity: VelocitySource,
+    /// Only the samples in `[start, end]` seconds from the log's first sample.
+    pub window: Option<(f64, f64)>,
 }
 
 impl Default for ConditionOptions {
@@ -43,6 +53,8 @@ impl Default for ConditionOptions {
             interp: Interp::Linear,
             tau_outliers: None,
             diff: DiffMethod::default(),
+            velocity: VelocitySource::Auto,
+            window: None,
         }
     }
 }
@@ -68,82 +80,202 @@ pub struct Conditioned {
     pub resampled: bool,
     /// Outliers replaced in the torque.
     pub outliers: Option<OutlierReport>,
-    /// Whether `d.qd` (and so `d.qdd`) comes from the log's own velocity
-    /// ([`condition_with_log_velocity`]) rather than from differentiating `q`.
+    /// Whether `d.qd` (and so `d.qdd`) comes from the log's own velocity on some joint.
     pub velocity_from_log: bool,
+    /// What was done before conditioning.
+    pub hygiene: Hygiene,
+    /// The velocity's source, per joint.
+    pub velocity: Vec<VelocityChoice>,
 }
 
-/// Drops duplicated stamps, resamples if the stamps are uneven, rejects torque outliers
-/// (if asked) and differentiates `q` (the log's own `qd` is not used: encoder velocity
-/// estimates of drives are often lagged).
-pub fn condition(log: &JointLog, opts: &ConditionOptions) -> Result<Conditioned> {
-    log.check_shapes()?;
+/// What conditioning did to a log, for reports.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ConditionSummary {
+    /// The window and the repeated samples ([`hygiene`]).
+    #[serde(flatten)]
+    pub hygiene: Hygiene,
+    /// Samples dropped as duplicated stamps.
+    pub duplicate_stamps: usize,
+    /// Whether uneven stamps were resampled onto a uniform grid.
+    pub resampled: bool,
+    /// Sample time after conditioning (s).
+    pub dt: f64,
+    /// The velocity's source, per joint, and why.
+    pub velocity: Vec<VelocityChoice>,
+}
+
+impl Conditioned {
+    /// What was done, for reports.
+    pub fn summary(&self) -> ConditionSummary {
+        ConditionSummary::of(std::slice::from_ref(self))
+    }
+}
+
+impl ConditionSummary {
+    /// What was done to one log, conditioned into the segments `parts`.
+    pub fn of(parts: &[Conditioned]) -> ConditionSummary {
+        ConditionSummary {
+            hygiene: parts[0].hygiene.clone(),
+            duplicate_stamps: parts.iter().map(|p| p.duplicates).sum(),
+            resampled: parts.iter().any(|p| p.resampled),
+            dt: parts[0].dt,
+            velocity: parts[0].velocity.clone(),
+        }
+    }
+
+    /// Several logs' summaries as one: the counts add; the window, sample time and
+    /// velocity choice are the first log's.
+    pub fn merge(all: &[ConditionSummary]) -> ConditionSummary {
+        let mut m = all[0].clone();
+        for s in &all[1..] {
+            let (h, o) = (&mut m.hygiene, &s.hygiene);
+            h.outside_window += o.outside_window;
+            h.repeated += o.repeated;
+            h.gaps += o.gaps;
+            h.segments += o.segments;
+            h.short_samples += o.short_samples;
+            m.duplicate_stamps += s.duplicate_stamps;
+            m.resampled |= s.resampled;
+        }
+        m
+    }
+}
+
+/// An interval longer than this many sample times is a gap: the log is cut there into
+/// segments, each conditioned on its own (never interpolated across).
+pub const GAP_INTERVALS: f64 = 10.0;
+/// Segments shorter than this many samples are left out (the filters need room).
+pub const MIN_SEGMENT_SAMPLES: usize = 50;
+
+/// A segment on a uniform grid, before the velocity choice.
+struct Uniform {
+    t: Vec<f64>,
+    d: Derivatives,
+    qd: Option<Vec<f64>>,
+    tau: Option<Vec<f64>>,
+    u: Option<Vec<f64>>,
+    resampled: bool,
+    outliers: Option<OutlierReport>,
+}
+
+/// Rows `keep` of `log` (increasing, distinct stamps) onto the grid of step `dt` when the
+/// stamps are uneven (or `opts.dt` forces it), torque outliers rejected, `q` differentiated.
+fn uniform(log: &JointLog, keep: &[usize], dt: f64, opts: &ConditionOptions) -> Result<Uniform> {
     let n = log.dof();
-    let dd = dedup_stamps(&log.t)?;
-    let t: Vec<f64> = dd.keep.iter().map(|&k| log.t[k]).collect();
-    let pick = |a: &[f64]| take_rows(a, n, &dd.keep);
-    let dt = match opts.dt {
-        Some(dt) => dt,
-        None => median_dt(&t).ok_or_else(|| bad("need at least two distinct stamps"))?,
-    };
+    let t: Vec<f64> = keep.iter().map(|&k| log.t[k]).collect();
     let uneven = t.windows(2).any(|w| ((w[1] - w[0]) - dt).abs() > opts.max_jitter * dt);
+    let resampled = uneven || opts.dt.is_some();
     let re = |a: &[f64]| -> Result<Vec<f64>> {
-        if uneven || opts.dt.is_some() { Ok(resample_uniform(&t, a, n, dt, opts.interp)?.1) } else { Ok(a.to_vec()) }
+        let a = take_rows(a, n, keep);
+        if resampled { Ok(resample_uniform(&t, &a, n, dt, opts.interp)?.1) } else { Ok(a) }
     };
-    let q = re(&pick(&log.q))?;
-    let mut tau = log.tau.as_ref().map(|a| re(&pick(a))).transpose()?;
-    let u = log.u.as_ref().map(|a| re(&pick(a))).transpose()?;
-    let tg = if uneven || opts.dt.is_some() { resample_uniform(&t, &t, 1, dt, Interp::Linear)?.0 } else { t.clone() };
+    let q = re(&log.q)?;
+    let qd = log.qd.as_ref().map(|a| re(a)).transpose()?;
+    let mut tau = log.tau.as_ref().map(|a| re(a)).transpose()?;
+    let u = log.u.as_ref().map(|a| re(a)).transpose()?;
+    let tg = if resampled { resample_uniform(&t, &t, 1, dt, Interp::Linear)?.0 } else { t };
     let outliers = match (&mut tau, &opts.tau_outliers) {
         (Some(tau), Some(h)) => Some(hampel(tau, n, h)?),
         _ => None,
     };
     let d = differentiate(&q, n, dt, &opts.diff)?;
-    let resampled = uneven || opts.dt.is_some();
-    Ok(Conditioned { t: tg, dt, d, tau, u, duplicates: dd.dropped, resampled, outliers, velocity_from_log: false })
+    Ok(Uniform { t: tg, d, qd, tau, u, resampled, outliers })
 }
 
-/// [`condition`], but with the log's own velocity when it has one and its samples were
-/// kept as they are (no duplicated stamps, no resampling): an encoder or simulator
-/// velocity is better than a differentiated position when it is not lagged (the
-/// diagnosis; identification keeps [`condition`]). The velocity is smoothed by the same
-/// method as `q` and differentiated for `qdd` ([`log_velocity`]); `q` stays as
-/// [`condition`] smooths it. Otherwise the same as [`condition`].
-pub fn condition_with_log_velocity(log: &JointLog, opts: &ConditionOptions) -> Result<Conditioned> {
-    let mut c = condition(log, opts)?;
-    let Some(qd) = log.qd.as_ref() else {
-        return Ok(c);
+/// The rows of each segment: `rows` (distinct, increasing stamps of `t`) cut where an
+/// interval exceeds [`GAP_INTERVALS`] sample times. Returns the segments and the gaps.
+fn split_at_gaps(t: &[f64], rows: &[usize], dt: f64) -> (Vec<Vec<usize>>, usize) {
+    let mut out: Vec<Vec<usize>> = vec![vec![]];
+    for (i, &k) in rows.iter().enumerate() {
+        if i > 0 && t[k] - t[rows[i - 1]] > GAP_INTERVALS * dt {
+            out.push(vec![]);
+        }
+        out.last_mut().expect("one").push(k);
+    }
+    let gaps = out.len() - 1;
+    (out, gaps)
+}
+
+/// The window and repeated samples ([`hygiene::clean`]), duplicated stamps dropped, the
+/// log cut at gaps into segments ([`GAP_INTERVALS`]; segments shorter than
+/// [`MIN_SEGMENT_SAMPLES`] left out), each segment resampled if its stamps are uneven (the
+/// log's velocity with the rest), torque outliers rejected (if asked), `q`
+/// differentiated; then the velocity's source per joint over all segments
+/// ([`velocity::decide`]). One [`Conditioned`] per segment, in time order.
+pub fn condition_segments(log: &JointLog, opts: &ConditionOptions) -> Result<Vec<Conditioned>> {
+    log.check_shapes()?;
+    let (log, mut hygiene) = hygiene::clean(log, opts.window)?;
+    let dd = dedup_stamps(&log.t)?;
+    let t_kept: Vec<f64> = dd.keep.iter().map(|&k| log.t[k]).collect();
+    let dt = match opts.dt {
+        Some(dt) => dt,
+        None => median_dt(&t_kept).ok_or_else(|| bad("need at least two distinct stamps"))?,
     };
-    if c.resampled || c.duplicates > 0 {
-        // its rows no longer match the conditioned stamps
-        return Ok(c);
+    let (segments, gaps) = split_at_gaps(&log.t, &dd.keep, dt);
+    hygiene.gaps = gaps;
+    let mut parts = vec![];
+    for rows in segments {
+        if gaps > 0 && rows.len() < MIN_SEGMENT_SAMPLES {
+            hygiene.short_samples += rows.len();
+            continue;
+        }
+        parts.push(uniform(&log, &rows, dt, opts)?);
     }
-    let n = log.dof();
-    if let Some(i) = qd.iter().position(|v| !v.is_finite()) {
-        return Err(bad(&format!("sample {}, joint {}: velocity is {}", i / n, log.joint_names[i % n], qd[i])));
+    if parts.is_empty() {
+        return Err(bad(&format!(
+            "the log has {gaps} gaps and no segment between them of at least {MIN_SEGMENT_SAMPLES} samples"
+        )));
     }
-    (c.d.qd, c.d.qdd) = log_velocity(qd, n, c.dt, &opts.diff)?;
-    c.velocity_from_log = true;
-    Ok(c)
+    hygiene.segments = parts.len();
+    let names = &log.joint_names;
+    let lvs = parts
+        .iter()
+        .map(|p| match (&p.qd, opts.velocity) {
+            (Some(qd), VelocitySource::Auto | VelocitySource::Log) => {
+                velocity::LogVelocity::new(qd, names, dt, &opts.diff).map(Some)
+            }
+            _ => Ok(None),
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let pairs: Vec<_> = parts.iter().zip(&lvs).map(|(p, lv)| (&p.d, lv.as_ref())).collect();
+    let choices = velocity::decide(&pairs, names, opts.velocity)?;
+    let from_log = choices.iter().any(|v| v.source == "log");
+    Ok(parts
+        .into_iter()
+        .zip(&lvs)
+        .enumerate()
+        .map(|(i, (mut p, lv))| {
+            velocity::apply(&mut p.d, lv.as_ref(), &choices);
+            Conditioned {
+                t: p.t,
+                dt,
+                d: p.d,
+                tau: p.tau,
+                u: p.u,
+                // the log's count, on its first segment
+                duplicates: if i == 0 { dd.dropped } else { 0 },
+                resampled: p.resampled,
+                outliers: p.outliers,
+                velocity_from_log: from_log,
+                hygiene: hygiene.clone(),
+                velocity: choices.clone(),
+            }
+        })
+        .collect())
 }
 
-/// A measured velocity (`T x n`) smoothed like `q` in [`differentiate`], and its
-/// derivative: the zero-phase Butterworth low-pass then central differences, or the
-/// Savitzky-Golay fit's value and first derivative.
-fn log_velocity(qd: &[f64], n: usize, dt: f64, method: &DiffMethod) -> Result<(Vec<f64>, Vec<f64>)> {
-    match method {
-        DiffMethod::Butterworth { order, cutoff_hz } => {
-            let fs = 1.0 / dt;
-            let f = Butterworth::zero_phase(*order, cutoff_hz.unwrap_or_else(|| default_cutoff(fs)), fs)?;
-            let qd = f.filtfilt_columns(qd, n)?;
-            let qdd = central_diff(&qd, n, dt)?;
-            Ok((qd, qdd))
-        }
-        DiffMethod::SavitzkyGolay { window, order } => {
-            let sg = SavitzkyGolay::new(*window, *order)?;
-            Ok((sg.apply(qd, n, 0, dt)?, sg.apply(qd, n, 1, dt)?))
-        }
-    }
+/// [`condition_segments`], keeping the longest segment when the log has gaps (for the
+/// analyses that need one continuous signal; `hygiene.unused_segments` says how many
+/// were left out).
+pub fn condition(log: &JointLog, opts: &ConditionOptions) -> Result<Conditioned> {
+    let mut parts = condition_segments(log, opts)?;
+    let unused = parts.len() - 1;
+    let duplicates = parts.iter().map(|p| p.duplicates).sum();
+    let longest = (0..parts.len()).max_by_key(|&i| (parts[i].t.len(), usize::MAX - i)).expect("one segment");
+    let mut c = parts.swap_remove(longest);
+    c.duplicates = duplicates;
+    c.hygiene.unused_segments = unused;
+    Ok(c)
 }
 
 /// Decimation factor chosen by `decimate == 0` ("auto"): the output rate is about 2.5x the
@@ -168,9 +300,11 @@ pub(crate) fn parallel_filter(decimate: usize, fs: f64, condition: &ConditionOpt
 mod tests {
     use super::*;
 
-    /// A 2-joint sine log at 1 kHz with its exact velocity, optionally one stamp repeated.
-    fn sine_log(duplicate: bool) -> JointLog {
-        let mut t: Vec<f64> = (0..1000).map(|k| k as f64 * 1e-3).collect();
+    /// A 2-joint sine log at 1 kHz with its exact velocity; `jitter` moves every third
+    /// stamp by 0.3 ms (the samples are taken at the moved stamps), `duplicate` repeats one.
+    fn sine_log(jitter: bool, duplicate: bool) -> JointLog {
+        let mut t: Vec<f64> =
+            (0..2000).map(|k| k as f64 * 1e-3 + if jitter && k % 3 == 1 { 3e-4 } else { 0.0 }).collect();
         if duplicate {
             t.insert(100, t[99]);
         }
@@ -186,38 +320,43 @@ mod tests {
     }
 
     #[test]
-    fn log_velocity_only_on_kept_samples() {
+    fn log_velocity_survives_duplicates_and_resampling() {
         let opts = ConditionOptions::default();
-        let log = sine_log(false);
-        let plain = condition(&log, &opts).unwrap();
-        assert!(!plain.velocity_from_log);
-        let c = condition_with_log_velocity(&log, &opts).unwrap();
-        assert!(c.velocity_from_log);
-        // q and everything but the derivatives as `condition` gives them
-        assert_eq!((&c.t, &c.d.q, &c.tau), (&plain.t, &plain.d.q, &plain.tau));
-        // the log's velocity through the same filter as q (the default: DEFAULT_ORDER at
-        // the default cutoff)
-        let fs = 1.0 / c.dt;
-        let f = Butterworth::zero_phase(crate::dsp::DEFAULT_ORDER, default_cutoff(fs), fs).unwrap();
-        let qd = f.filtfilt_columns(log.qd.as_ref().unwrap(), 2).unwrap();
-        assert!(c.d.qd == qd);
-        assert!(c.d.qdd == central_diff(&qd, 2, c.dt).unwrap());
-        // and close to the exact velocity inside (not the differentiated q's lag or noise)
-        let exact = log.qd.as_ref().unwrap();
-        assert!((200..1600).all(|i| (c.d.qd[i] - exact[i]).abs() < 1e-3 * 6.3), "smoothed velocity off");
-        // a repeated stamp: the log's rows no longer match, `condition` as is
-        let log = sine_log(true);
-        let c = condition_with_log_velocity(&log, &opts).unwrap();
+        let w = 2.0 * std::f64::consts::PI;
+        for (jitter, duplicate) in [(false, false), (true, true)] {
+            let log = sine_log(jitter, duplicate);
+            let c = condition(&log, &opts).unwrap();
+            assert_eq!((c.resampled, c.duplicates), (jitter, usize::from(duplicate)));
+            assert!(c.velocity_from_log && c.velocity.iter().all(|v| v.source == "log"), "{:?}", c.velocity);
+            // the smoothed log velocity on the uniform grid: w cos(w t), -0.5 w sin(w t)
+            let exact = |k: usize| [w * (w * c.t[k]).cos(), -0.5 * w * (w * c.t[k]).sin()];
+            for k in 200..1800 {
+                for j in 0..2 {
+                    assert!((c.d.qd[2 * k + j] - exact(k)[j]).abs() < 1e-3 * w, "sample {k} joint {j}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn positions_policy_and_a_log_without_velocity_differentiate_q() {
+        let log = sine_log(false, false);
+        let opts = ConditionOptions { velocity: VelocitySource::Positions, ..Default::default() };
+        let c = condition(&log, &opts).unwrap();
         assert!(!c.velocity_from_log);
-        assert!(c == condition(&log, &opts).unwrap());
+        assert!(c.d == differentiate(&log.q, 2, c.dt, &DiffMethod::default()).unwrap());
+        let plain = JointLog { qd: None, ..log };
+        let c2 = condition(&plain, &ConditionOptions::default()).unwrap();
+        assert!(c2.d == c.d && c2.velocity[0].why == "the log has no velocity");
     }
 
     #[test]
     fn log_velocity_must_be_finite() {
-        let mut log = sine_log(false);
+        let mut log = sine_log(false, false);
         log.qd.as_mut().unwrap()[7] = f64::NAN;
-        let e = condition_with_log_velocity(&log, &ConditionOptions::default()).unwrap_err();
+        let e = condition(&log, &ConditionOptions::default()).unwrap_err();
         assert!(e.to_string().contains("sample 3, joint b: velocity is NaN"), "{e}");
-        assert!(condition(&log, &ConditionOptions::default()).is_ok());
+        let opts = ConditionOptions { velocity: VelocitySource::Positions, ..Default::default() };
+        assert!(condition(&log, &opts).is_ok());
     }
 }

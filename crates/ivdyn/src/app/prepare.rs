@@ -1,0 +1,192 @@
+//! `identify`'s data preparation: every log conditioned into segments (gaps are never
+//! interpolated across), each segment's base regressor rows stacked and parallel-filtered
+//! on their own, then the segments concatenated with their inner filter edges marked
+//! for leaving out.
+
+use std::ops::Range;
+
+use super::identify::IdentifyOptions;
+use crate::Robot;
+use crate::batch::stack_rows;
+use crate::dsp::Decimator;
+use crate::error::{Error, Result};
+use crate::ident::BaseParams;
+use crate::ident::instrument::{TRACKING_INSTRUMENT, nominal_tracking};
+use crate::log::JointLog;
+use crate::prep::{self, ConditionSummary, Conditioned, parallel_filter};
+use crate::progress::Stage;
+
+/// Rows `r` of a row-major array of `width` columns.
+pub(crate) fn rows_of(x: &[f64], width: usize, r: Range<usize>) -> &[f64] {
+    &x[r.start * width..r.end * width]
+}
+
+/// The prepared rows of one or more logs, segments concatenated (decimated rows).
+pub(crate) struct Prepared {
+    pub n: usize,
+    pub dt: f64,
+    pub q: Vec<f64>,
+    pub qd: Vec<f64>,
+    pub qdd: Vec<f64>,
+    /// `T x n x b`
+    pub phi: Vec<f64>,
+    /// `T x n`
+    pub tau: Vec<f64>,
+    /// `T x n x b` instrument rows.
+    pub z: Option<Vec<f64>>,
+    pub instrument: Option<String>,
+    pub cutoff_hz: f64,
+    pub factor: usize,
+    /// First row of each segment, then the total.
+    pub bounds: Vec<usize>,
+    pub conditioning: ConditionSummary,
+}
+
+impl Prepared {
+    pub fn len(&self) -> usize {
+        self.tau.len() / self.n
+    }
+
+    /// The parts of the rows `r` that lie inside one segment, without the filter edges at
+    /// the segments' inner ends (1 % of a segment's rows, at most 20; the outer ends of
+    /// the whole are `split_ranges`'s). One segment: `[r]`.
+    pub fn pieces(&self, r: Range<usize>) -> Vec<Range<usize>> {
+        let last = self.bounds.len() - 2;
+        (0..=last)
+            .filter_map(|p| {
+                let (s, e) = (self.bounds[p], self.bounds[p + 1]);
+                let edge = ((e - s) / 100).min(20);
+                let lo = if p > 0 { s + edge } else { s };
+                let hi = if p < last { e - edge } else { e };
+                let (a, b) = (r.start.max(lo), r.end.min(hi));
+                (a < b).then_some(a..b)
+            })
+            .collect()
+    }
+}
+
+/// Checks a log against the robot before preparing it.
+fn check_log(robot: &Robot, log: &JointLog, what: &str) -> Result<()> {
+    if log.dof() != robot.dof() || log.joint_names != robot.joint_names {
+        return Err(Error::JointMismatch {
+            what: what.into(),
+            log: log.joint_names.clone(),
+            robot: robot.joint_names.clone(),
+        });
+    }
+    if log.tau.is_none() {
+        return Err(Error::NoTorque { what: what.into(), needed_by: "identification".into() });
+    }
+    Ok(())
+}
+
+/// Every log conditioned into segments, on the first log's sample time (a later log with
+/// another rate is resampled onto it). Returns the segments and the merged summary.
+fn condition_all(logs: &[&JointLog], opts: &IdentifyOptions) -> Result<(Vec<Conditioned>, ConditionSummary)> {
+    let mut parts: Vec<Conditioned> = vec![];
+    let mut summaries = vec![];
+    for log in logs {
+        let mut segs = prep::condition_segments(log, &opts.condition)?;
+        if let Some(dt) = parts.first().map(|p| p.dt)
+            && (segs[0].dt - dt).abs() > 1e-9 * dt
+        {
+            let forced = prep::ConditionOptions { dt: Some(dt), ..opts.condition.clone() };
+            segs = prep::condition_segments(log, &forced)?;
+        }
+        summaries.push(ConditionSummary::of(&segs));
+        parts.extend(segs);
+    }
+    Ok((parts, ConditionSummary::merge(&summaries)))
+}
+
+/// One segment's filtered, decimated rows: `(phi, tau, z, q, qd, qdd)`.
+type Rows = (Vec<f64>, Vec<f64>, Option<Vec<f64>>, Vec<f64>, Vec<f64>, Vec<f64>);
+
+/// One segment: regressor (and instrument) rows stacked, then torque and rows through the
+/// same filter and decimation.
+fn segment_rows(
+    robot: &Robot,
+    base: &BaseParams,
+    c: &Conditioned,
+    dec: &Decimator,
+    instrument: bool,
+    stage: Option<&Stage>,
+) -> Result<Rows> {
+    let n = robot.dof();
+    let b = base.base_count();
+    let phi_raw = stack_rows(robot, &base.independent, &c.d.q, &c.d.qd, &c.d.qdd, stage)?;
+    let phi = dec.apply(&phi_raw, n * b)?;
+    drop(phi_raw);
+    let tau = dec.apply(c.tau.as_ref().expect("checked"), n)?;
+    let z = if instrument {
+        let (qz, qdz, qddz) = match &c.u {
+            Some(u) => {
+                let mut qh = vec![0.0; c.t.len() * n];
+                crate::batch::forward_dynamics_batch(robot, &c.d.q, &c.d.qd, u, &mut qh)?;
+                (c.d.q.clone(), c.d.qd.clone(), qh)
+            }
+            None => nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?,
+        };
+        let z_raw = stack_rows(robot, &base.independent, &qz, &qdz, &qddz, None)?;
+        Some(dec.apply(&z_raw, n * b)?)
+    } else {
+        None
+    };
+    Ok((phi, tau, z, dec.apply(&c.d.q, n)?, dec.apply(&c.d.qd, n)?, dec.apply(&c.d.qdd, n)?))
+}
+
+/// Conditions `logs` (segments at gaps), stacks and parallel-filters each segment's rows
+/// and concatenates them (see the module docs).
+pub(crate) fn prepare(
+    robot: &Robot,
+    base: &BaseParams,
+    logs: &[&JointLog],
+    opts: &IdentifyOptions,
+    instrument: bool,
+    what: &str,
+) -> Result<Prepared> {
+    let n = robot.dof();
+    for log in logs {
+        check_log(robot, log, what)?;
+    }
+    let (parts, conditioning) = condition_all(logs, opts)?;
+    let dt = parts[0].dt;
+    let dec = parallel_filter(opts.decimate, 1.0 / dt, &opts.condition)?;
+    let total: usize = parts.iter().map(|c| c.t.len()).sum();
+    let st = Stage::begin(&opts.progress, &format!("{what}: regressor and filtering"), total as u64);
+    let with_command = parts.iter().all(|c| c.u.is_some());
+    let mut p = Prepared {
+        n,
+        dt: dt * dec.factor as f64,
+        q: vec![],
+        qd: vec![],
+        qdd: vec![],
+        phi: vec![],
+        tau: vec![],
+        z: instrument.then(Vec::new),
+        instrument: instrument.then(|| {
+            if with_command {
+                "nominal model's forward dynamics at the (filtered) measured state driven by the command u: qdd_hat = FD_nom(q, qd, u)".to_string()
+            } else {
+                TRACKING_INSTRUMENT.to_string()
+            }
+        }),
+        cutoff_hz: dec.filter.cutoff_hz,
+        factor: dec.factor,
+        bounds: vec![0],
+        conditioning,
+    };
+    for c in &parts {
+        let (phi, tau, z, q, qd, qdd) = segment_rows(robot, base, c, &dec, instrument, Some(&st))?;
+        p.phi.extend(phi);
+        p.tau.extend(tau);
+        if let (Some(all), Some(z)) = (p.z.as_mut(), z) {
+            all.extend(z);
+        }
+        p.q.extend(q);
+        p.qd.extend(qd);
+        p.qdd.extend(qdd);
+        p.bounds.push(p.tau.len() / n);
+    }
+    Ok(p)
+}

@@ -1,0 +1,164 @@
+//! Log hygiene before conditioning: the time window the user asked for, and samples that
+//! repeat the previous one under a new stamp (a recorder that published a state the
+//! controller had not refreshed). Both are reported, never silent.
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::log::JointLog;
+
+/// Longest run of repeated samples dropped: a longer run of identical rows is a
+/// standstill (or a quantised slow joint), which is data.
+pub const MAX_REPEAT_RUN: usize = 3;
+
+/// What [`clean`] did to a log.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Hygiene {
+    /// The window kept, in seconds from the log's first sample (`null`: the whole log).
+    pub window: Option<(f64, f64)>,
+    /// Samples outside the window.
+    pub outside_window: usize,
+    /// Samples dropped as repeats of the previous one (same `q` and `qd`, new stamp,
+    /// inside motion).
+    pub repeated: usize,
+    /// Gaps (intervals of more than `prep::GAP_INTERVALS` sample times) the log was cut at.
+    pub gaps: usize,
+    /// Segments used.
+    pub segments: usize,
+    /// Samples in segments between gaps too short to use.
+    pub short_samples: usize,
+    /// Segments left out because one continuous signal was needed (the longest was kept).
+    pub unused_segments: usize,
+}
+
+/// Parses a window `START:END` in seconds; either side may be empty (`5:` from 5 s to
+/// the end, `:30` the first 30 s).
+pub fn parse_window(s: &str) -> Result<(f64, f64)> {
+    let bad = || Error::Option { option: "window".into(), msg: format!("must be START:END in seconds, got '{s}'") };
+    let (a, b) = s.split_once(':').ok_or_else(bad)?;
+    let num =
+        |x: &str, empty: f64| if x.trim().is_empty() { Ok(empty) } else { x.trim().parse::<f64>().map_err(|_| bad()) };
+    Ok((num(a, 0.0)?, num(b, f64::INFINITY)?))
+}
+
+/// Indices of the samples with `t - t[0]` in `[start, end]`.
+fn window_rows(t: &[f64], (start, end): (f64, f64)) -> Result<Vec<usize>> {
+    let bad = |msg: String| Error::Option { option: "window".into(), msg };
+    if !start.is_finite() || start < 0.0 || end.is_nan() {
+        return Err(bad(format!("{start}:{end}: start must be a time >= 0 s and end a later time (s)")));
+    }
+    if end <= start {
+        return Err(bad(format!("{start}:{end}: the end must come after the start")));
+    }
+    let (t0, span) = match (t.first(), t.last()) {
+        (Some(&a), Some(&b)) => (a, b - a),
+        _ => return Ok(vec![]),
+    };
+    if start > span {
+        return Err(bad(format!("{start}:{end}: the log lasts {span:.3} s, the window starts after it")));
+    }
+    Ok((0..t.len()).filter(|&k| (start..=end).contains(&(t[k] - t0))).collect())
+}
+
+/// Whether rows `a` and `b` of `q` (and of `qd`, when given) are identical.
+fn same_row(q: &[f64], qd: Option<&[f64]>, n: usize, a: usize, b: usize) -> bool {
+    let eq = |x: &[f64]| x[a * n..(a + 1) * n] == x[b * n..(b + 1) * n];
+    eq(q) && qd.is_none_or(eq)
+}
+
+/// Samples that repeat the previous sample's `q` (and `qd`) exactly under a later stamp,
+/// in runs of at most [`MAX_REPEAT_RUN`] after which the motion goes on (the row after the
+/// run differs from the one before it). Equal stamps are left to `dedup_stamps`.
+pub fn repeated_samples(log: &JointLog) -> Vec<usize> {
+    let (t, n) = (log.len(), log.dof());
+    let qd = log.qd.as_deref();
+    let mut out = vec![];
+    let mut k = 1;
+    while k < t {
+        if log.t[k] == log.t[k - 1] || !same_row(&log.q, qd, n, k, k - 1) {
+            k += 1;
+            continue;
+        }
+        // a run k..end of rows equal to row k - 1
+        let mut end = k + 1;
+        while end < t && same_row(&log.q, qd, n, end, k - 1) {
+            end += 1;
+        }
+        if end - k <= MAX_REPEAT_RUN && end < t {
+            out.extend((k..end).filter(|&i| log.t[i] != log.t[i - 1]));
+        }
+        k = end;
+    }
+    out
+}
+
+/// The window, then repeated samples dropped. Borrows the log when nothing changes.
+pub fn clean<'a>(log: &'a JointLog, window: Option<(f64, f64)>) -> Result<(std::borrow::Cow<'a, JointLog>, Hygiene)> {
+    use std::borrow::Cow;
+    let mut h = Hygiene { window, ..Default::default() };
+    let mut log = Cow::Borrowed(log);
+    if let Some(w) = window {
+        let keep = window_rows(&log.t, w)?;
+        h.outside_window = log.len() - keep.len();
+        if h.outside_window > 0 {
+            log = Cow::Owned(log.rows(&keep));
+        }
+    }
+    let rep = repeated_samples(&log);
+    if !rep.is_empty() {
+        h.repeated = rep.len();
+        let mut drop = rep.into_iter().peekable();
+        let keep: Vec<usize> = (0..log.len()).filter(|&k| drop.next_if_eq(&k).is_none()).collect();
+        log = Cow::Owned(log.rows(&keep));
+    }
+    Ok((log, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ramp_log(t: &[f64], q: &[f64]) -> JointLog {
+        JointLog { joint_names: vec!["a".into()], t: t.to_vec(), q: q.to_vec(), ..Default::default() }
+    }
+
+    #[test]
+    fn repeats_inside_motion_are_dropped_standstills_kept() {
+        let t: Vec<f64> = (0..12).map(|k| k as f64 * 1e-3).collect();
+        // sample 3 repeats sample 2 inside a ramp; samples 7..11 are a standstill (run of 4)
+        let q = [0.0, 1.0, 2.0, 2.0, 4.0, 5.0, 6.0, 7.0, 7.0, 7.0, 7.0, 7.0];
+        let log = ramp_log(&t, &q);
+        assert_eq!(repeated_samples(&log), vec![3]);
+        let (c, h) = clean(&log, None).unwrap();
+        assert_eq!(h.repeated, 1);
+        assert_eq!(c.len(), 11);
+        assert!(!c.t.contains(&3e-3));
+        // a repeat at the very end is kept (the motion cannot be seen to go on)
+        let log = ramp_log(&t[..4], &q[..4]);
+        assert!(repeated_samples(&log).is_empty());
+        // with velocities, a row repeats only if qd repeats too
+        let mut log = ramp_log(&t, &q);
+        log.qd = Some((0..12).map(|k| k as f64).collect());
+        assert!(repeated_samples(&log).is_empty());
+    }
+
+    #[test]
+    fn window_keeps_seconds_from_the_first_sample() {
+        let t: Vec<f64> = (0..11).map(|k| 5.0 + k as f64 * 0.1).collect();
+        let log = ramp_log(&t, &vec![0.0; 11]);
+        let (c, h) = clean(&log, Some((0.25, 0.55))).unwrap();
+        assert_eq!(c.t.len(), 3, "{:?}", c.t);
+        assert_eq!(h.outside_window, 8);
+        let e = clean(&log, Some((2.0, 3.0))).unwrap_err().to_string();
+        assert!(e.contains("window") && e.contains("lasts 1.000 s"), "{e}");
+        let e = clean(&log, Some((0.5, 0.2))).unwrap_err().to_string();
+        assert!(e.contains("end must come after"), "{e}");
+        assert!(clean(&log, Some((f64::NAN, 1.0))).is_err());
+        assert_eq!(clean(&log, Some((0.0, f64::INFINITY))).unwrap().0.len(), 11);
+        assert_eq!(parse_window("0.25:0.55").unwrap(), (0.25, 0.55));
+        assert_eq!(parse_window(":3").unwrap(), (0.0, 3.0));
+        assert_eq!(parse_window("2:").unwrap(), (2.0, f64::INFINITY));
+        assert!(parse_window("2-3").unwrap_err().to_string().contains("window must be START:END"));
+        assert!(parse_window("a:3").is_err());
+    }
+}

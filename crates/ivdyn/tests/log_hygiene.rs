@@ -1,0 +1,147 @@
+//! Real-log hygiene end to end on simulated UR5 logs whose truth is known: repeated
+//! samples, gaps, several logs, the log's velocity, a time window. The yardstick is the
+//! validation RMS on a separate clean log (the same friction, the same noise), against
+//! the same identification on the clean log.
+
+use ivdyn::Robot;
+use ivdyn::app::simulate::{SimulateOptions, Trajectory, simulate};
+use ivdyn::app::{IdentifyOptions, IdentifyReport, identify, identify_logs};
+use ivdyn::log::JointLog;
+use ivdyn::prep::VelocitySource;
+
+fn ur5() -> Robot {
+    let p = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf");
+    Robot::from_urdf(p, Some("base_link"), Some("tool0")).unwrap()
+}
+
+/// A 20 s, 500 Hz log with friction, 0.05 N m torque noise, a 16-bit encoder and the
+/// exact velocity.
+fn sim(robot: &Robot, seed: u64, duration: f64) -> JointLog {
+    let opts = SimulateOptions {
+        duration_s: duration,
+        seed,
+        fc: Some(vec![2.0, 2.0, 1.5, 0.6, 0.6, 0.4]),
+        fv: Some(vec![0.8, 0.8, 0.5, 0.2, 0.2, 0.1]),
+        noise_tau: 0.05,
+        encoder_bits: Some(16),
+        ..Default::default()
+    };
+    simulate(robot, &Trajectory::Fourier, &opts).unwrap()
+}
+
+fn validated(robot: &Robot, logs: &[&JointLog], val: &JointLog, velocity: VelocitySource) -> IdentifyReport {
+    let mut opts = IdentifyOptions { validation_log: Some(val.clone()), ..Default::default() };
+    opts.condition.velocity = velocity;
+    identify_logs(robot, logs, &opts).unwrap()
+}
+
+fn mean_rms(r: &IdentifyReport) -> f64 {
+    let v = r.validation.as_ref().unwrap();
+    v.rms.iter().sum::<f64>() / v.rms.len() as f64
+}
+
+/// Every `k`-th sample (from `first`) replaced by the previous one: q, qd and tau (a
+/// stale message published again under a new stamp).
+fn with_repeats(log: &JointLog, first: usize, k: usize) -> (JointLog, usize) {
+    let n = log.dof();
+    let mut out = log.clone();
+    let mut count = 0;
+    for s in (first..log.len()).step_by(k) {
+        for a in [Some(&mut out.q), out.qd.as_mut(), out.tau.as_mut()].into_iter().flatten() {
+            let prev: Vec<f64> = a[(s - 1) * n..s * n].to_vec();
+            a[s * n..(s + 1) * n].copy_from_slice(&prev);
+        }
+        count += 1;
+    }
+    (out, count)
+}
+
+#[test]
+fn repeated_samples_are_found_and_cost_little() {
+    let robot = ur5();
+    let (clean, val) = (sim(&robot, 1, 20.0), sim(&robot, 2, 20.0));
+    // every 17th sample: 5.9 %
+    let (messy, injected) = with_repeats(&clean, 5, 17);
+    let r_clean = validated(&robot, &[&clean], &val, VelocitySource::Auto);
+    let r_messy = validated(&robot, &[&messy], &val, VelocitySource::Auto);
+    // a repeat is found unless the joints were already standing still there (none are)
+    assert_eq!(r_messy.conditioning.hygiene.repeated, injected);
+    assert!(r_messy.conditioning.resampled);
+    let ratio = mean_rms(&r_messy) / mean_rms(&r_clean);
+    eprintln!("repeats: {injected} injected; validation RMS messy / clean = {ratio:.3}");
+    assert!(ratio < 1.2, "{ratio}");
+}
+
+#[test]
+fn gaps_cut_the_log_into_segments() {
+    let robot = ur5();
+    let (clean, val) = (sim(&robot, 3, 20.0), sim(&robot, 4, 20.0));
+    // 0.4 s missing from 8 s on (200 samples, far more than GAP_INTERVALS sample times)
+    let keep: Vec<usize> = (0..clean.len()).filter(|&k| !(8.0..8.4).contains(&clean.t[k])).collect();
+    let gapped = clean.rows(&keep);
+    let r = validated(&robot, &[&gapped], &val, VelocitySource::Auto);
+    let h = &r.conditioning.hygiene;
+    assert_eq!((h.gaps, h.segments, h.short_samples), (1, 2, 0));
+    assert!(!r.conditioning.resampled, "the segments are uniform: nothing to resample");
+    let r_clean = validated(&robot, &[&clean], &val, VelocitySource::Auto);
+    let ratio = mean_rms(&r) / mean_rms(&r_clean);
+    eprintln!("gap: validation RMS gapped / clean = {ratio:.3}");
+    assert!(ratio < 1.1, "{ratio}");
+    // a piece shorter than MIN_SEGMENT_SAMPLES between two gaps is left out
+    let keep: Vec<usize> =
+        (0..clean.len()).filter(|&k| !(8.0..8.4).contains(&clean.t[k]) && !(8.45..9.0).contains(&clean.t[k])).collect();
+    let r = validated(&robot, &[&clean.rows(&keep)], &val, VelocitySource::Auto);
+    let h = &r.conditioning.hygiene;
+    assert_eq!((h.gaps, h.segments, h.short_samples), (2, 2, 25));
+}
+
+#[test]
+fn several_logs_are_identified_together() {
+    let robot = ur5();
+    let (a, b, val) = (sim(&robot, 5, 12.0), sim(&robot, 6, 12.0), sim(&robot, 7, 20.0));
+    let both = validated(&robot, &[&a, &b], &val, VelocitySource::Auto);
+    let one = validated(&robot, &[&a], &val, VelocitySource::Auto);
+    assert_eq!(both.conditioning.hygiene.segments, 2);
+    // twice the data: the estimate's standard deviations shrink by about sqrt(2)
+    let s = |r: &IdentifyReport| r.base.iter().filter(|b| b.std.is_finite()).map(|b| b.std).sum::<f64>();
+    let shrink = s(&one) / s(&both);
+    eprintln!("two logs: std one / both = {shrink:.2}; validation RMS {:.4} vs {:.4}", mean_rms(&both), mean_rms(&one));
+    assert!(shrink > 1.2, "{shrink}");
+    assert!(mean_rms(&both) <= mean_rms(&one) * 1.02);
+}
+
+#[test]
+fn the_logs_velocity_is_checked_and_helps_on_a_quantised_encoder() {
+    let robot = ur5();
+    let (log, val) = (sim(&robot, 8, 20.0), sim(&robot, 9, 20.0));
+    let auto = validated(&robot, &[&log], &val, VelocitySource::Auto);
+    assert!(auto.conditioning.velocity.iter().all(|v| v.source == "log"), "{:?}", auto.conditioning.velocity);
+    for v in &auto.conditioning.velocity {
+        // the exact velocity: scale 1, no lag
+        assert!((v.gain.unwrap() - 1.0).abs() < 0.01 && v.lag_s.unwrap().abs() < 2e-4, "{v:?}");
+    }
+    let pos = validated(&robot, &[&log], &val, VelocitySource::Positions);
+    eprintln!("velocity: validation RMS log {:.4} vs positions {:.4}", mean_rms(&auto), mean_rms(&pos));
+    assert!(mean_rms(&auto) <= mean_rms(&pos) * 1.01);
+    // a velocity stored in degrees per second is refused and named
+    let mut deg = log.clone();
+    deg.qd.as_mut().unwrap().iter_mut().for_each(|v| *v = v.to_degrees());
+    let r = validated(&robot, &[&deg], &val, VelocitySource::Auto);
+    assert!(r.conditioning.velocity.iter().all(|v| v.source == "positions" && v.why.contains("degrees/s?")));
+    assert!(r.notes.iter().any(|n| n.contains("degrees/s?")), "{:?}", r.notes);
+}
+
+#[test]
+fn a_window_keeps_its_seconds() {
+    let robot = ur5();
+    let log = sim(&robot, 10, 20.0);
+    let mut opts = IdentifyOptions::default();
+    opts.condition.window = Some((2.0, 12.0));
+    let r = identify(&robot, &log, &opts).unwrap();
+    let h = &r.conditioning.hygiene;
+    // 500 Hz: 5001 samples in [2, 12] s of 10001
+    assert_eq!(h.outside_window, log.len() - 5001);
+    opts.condition.window = Some((25.0, 30.0));
+    let e = identify(&robot, &log, &opts).unwrap_err().to_string();
+    assert!(e.contains("window") && e.contains("the log lasts"), "{e}");
+}
