@@ -70,17 +70,18 @@ def _callback(progress: Progress):
     return (lambda stage, done, total: user(done, total)), lambda: None
 
 
-def _robot(robot, base: Optional[str], tip: Optional[str]):
-    """``robot`` as a native robot: an :class:`ivdyn.Robot`, or a URDF path."""
+def _robot(robot, base: Optional[str], tip: Optional[str], fuse_beyond_tip: bool = False):
+    """``robot`` as a native robot: an :class:`ivdyn.Robot`, or a URDF path (with the
+    chain options of :meth:`ivdyn.Robot.from_urdf`)."""
     native = getattr(robot, "_r", None)
     if isinstance(native, _ivdyn.Robot):
-        if base is not None or tip is not None:
-            raise ValueError("base/tip are for a URDF path; the Robot already has its chain")
+        if base is not None or tip is not None or fuse_beyond_tip:
+            raise ValueError("base/tip/fuse_beyond_tip are for a URDF path; the Robot already has its chain")
         return native
     if isinstance(robot, _ivdyn.Robot):
         return robot
     if isinstance(robot, (str, os.PathLike)):
-        return _ivdyn.Robot.from_urdf(os.fspath(robot), base, tip)
+        return _ivdyn.Robot.from_urdf(os.fspath(robot), base, tip, bool(fuse_beyond_tip))
     raise TypeError(f"robot must be an ivdyn.Robot or a URDF path, got {type(robot).__name__}")
 
 
@@ -126,6 +127,7 @@ def _log(log, n: int, what: str):
 
 
 def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip: Optional[str] = None,
+             fuse_beyond_tip: bool = False,
              params=None, validate=None, holdout: float = 0.25, topic: str = "/joint_states",
              command_topic: Optional[str] = None, log_time: bool = False, cutoff: Optional[float] = None,
              decimate: int = 0, friction: Sequence[str] = ("coulomb", "viscous"), armature: bool = True,
@@ -139,8 +141,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     ``params`` (the identified full parameter file), ``notes``, ...). ``NaN`` values are
     ``None``, as in the JSON file.
 
-    ``robot``: an :class:`ivdyn.Robot` or a URDF path (with ``base``/``tip`` links);
-    ``params``: a parameter file (path or dict, e.g. a previous ``["params"]``) replacing
+    ``robot``: an :class:`ivdyn.Robot` or a URDF path (with ``base``/``tip`` links and
+    ``fuse_beyond_tip``, as :meth:`ivdyn.Robot.from_urdf`); ``params``: a parameter file (path or dict, e.g. a previous ``["params"]``) replacing
     the nominal values; ``log`` / ``validate``: a ``.mcap`` / ``.csv`` path (read as the
     command line reads ``--log``: ``topic``, ``command_topic``, ``log_time``) or a dict of
     arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd", "u" optional}`` (e.g.
@@ -156,7 +158,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     (a copy of the robot's URDF with the identified parameters and its side file; the robot
     must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
     """
-    native = _robot(robot, base, tip)
+    native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
     try:
         out = _ivdyn.identify(native, _log(log, native.dof, "log"), str(method),
@@ -172,6 +174,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
 
 
 def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optional[str] = None,
+            fuse_beyond_tip: bool = False,
             params=None, topic: str = "/joint_states", command_topic: Optional[str] = None,
             log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
             out_json: Optional[PathLike] = None, write_urdf: Optional[PathLike] = None,
@@ -188,7 +191,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     the payload, as a fixed child link of the tip (``payload_as="link"``) or merged into it
     (``"merge"``), written only when the payload is identifiable.
     """
-    native = _robot(robot, base, tip)
+    native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
     try:
         out = _ivdyn.payload(native, _log(log, native.dof, "log"),
@@ -202,6 +205,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
 
 
 def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = None, tip: Optional[str] = None,
+             fuse_beyond_tip: bool = False,
              params=None, traj=None, duration: float = 20.0, rate: float = 500.0, seed: int = 1,
              amplitude: float = 0.8, payload_mass: Optional[float] = None,
              payload_com: Optional[Sequence[float]] = None, payload_inertia: Optional[Sequence[float]] = None,
@@ -225,7 +229,7 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
     ``"log": {"t": (T,), "q", "qd", "tau", "u": (T, N) or None, "joint_names"}``, which
     :func:`identify` and :func:`payload` accept as a log.
     """
-    native = _robot(robot, base, tip)
+    native = _robot(robot, base, tip, fuse_beyond_tip)
     n = native.dof
     tt = tq = None
     if traj is not None:
@@ -253,7 +257,8 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
 
 
 def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *, base: Optional[str] = None,
-             tip: Optional[str] = None, params=None, topic: str = "/joint_states", log_time: bool = False,
+             tip: Optional[str] = None, fuse_beyond_tip: bool = False, params=None, topic: str = "/joint_states",
+             log_time: bool = False,
              cutoff: Optional[float] = None, alpha: float = 1e-3, min_effect: float = 0.5,
              ignore_log_velocity: bool = False, report: bool = True, out_json: Optional[PathLike] = None,
              progress: Progress = None) -> Dict[str, Any]:
@@ -264,14 +269,14 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     ``joints``. With ``out`` (a directory) it also writes ``diagnosis.json``,
     ``report.html`` (unless ``report=False``) and ``residuals.mcap`` there.
 
-    ``robot``: an :class:`ivdyn.Robot` or a URDF path (``base``/``tip`` links); ``params``:
-    a parameter file replacing the nominal values; ``log``: a ``.mcap`` / ``.csv`` path or a
-    dict of arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd": optional}``;
+    ``robot``: an :class:`ivdyn.Robot` or a URDF path (``base``/``tip`` links,
+    ``fuse_beyond_tip``); ``params``: a parameter file replacing the nominal values;
+    ``log``: a ``.mcap`` / ``.csv`` path or a dict of arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd": optional}``;
     ``cutoff`` (Hz): differentiation low-pass (default: chosen from the data); ``alpha``:
     F-test level; ``min_effect``: smallest effect named, in noise standard deviations;
     ``out_json``: a second copy of diagnosis.json.
     """
-    native = _robot(robot, base, tip)
+    native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
     try:
         text = _ivdyn.diagnose(native, _log(log, native.dof, "log"), _path(out), str(topic), bool(log_time),
@@ -284,6 +289,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
 
 
 def excite(robot, out: Optional[PathLike] = None, *, base: Optional[str] = None, tip: Optional[str] = None,
+           fuse_beyond_tip: bool = False,
            params=None, out_mcap: Optional[PathLike] = None, out_json: Optional[PathLike] = None,
            duration: float = 20.0, harmonics: int = 5, f0: float = 0.1, rate: float = 100.0,
            criterion: str = "cond", acc_limit: Union[float, Sequence[float]] = 5.0,
@@ -298,7 +304,7 @@ def excite(robot, out: Optional[PathLike] = None, *, base: Optional[str] = None,
     ``out_json`` when given. Returns the ``--json`` report as a dict plus ``"trajectory"``:
     ``{"t": (T,), "q", "qd", "qdd": (T, N), "joint_names"}``.
     """
-    native = _robot(robot, base, tip)
+    native = _robot(robot, base, tip, fuse_beyond_tip)
 
     def seq(x):
         return None if x is None else [float(v) for v in np.atleast_1d(np.asarray(x, dtype=np.float64))]

@@ -49,9 +49,14 @@ struct RobotArgs {
     /// Base link of the chain (default: the URDF's root).
     #[arg(long)]
     base: Option<String>,
-    /// Tip link of the chain (default: the end of an unbranched chain).
+    /// Tip link of the chain (default: the end of an unbranched chain, with the rigid
+    /// tool below it fused). A tip given ends the chain: the bodies below it are dropped.
     #[arg(long)]
     tip: Option<String>,
+    /// Fuse the bodies below --tip (a hand, a tool the arm carries) into the last link
+    /// instead of dropping them; their movable joints are locked at 0.
+    #[arg(long)]
+    fuse_beyond_tip: bool,
     /// Parameter file (written by `identify --out-params`) replacing the URDF's values.
     #[arg(long)]
     params: Option<PathBuf>,
@@ -391,7 +396,13 @@ fn msg(e: ivdyn::Error) -> String {
 }
 
 fn robot_source(a: &RobotArgs) -> RobotSource {
-    RobotSource { urdf: a.urdf.clone(), base: a.base.clone(), tip: a.tip.clone(), params: a.params.clone() }
+    RobotSource {
+        urdf: a.urdf.clone(),
+        base: a.base.clone(),
+        tip: a.tip.clone(),
+        fuse_beyond_tip: a.fuse_beyond_tip,
+        params: a.params.clone(),
+    }
 }
 
 fn load_robot(a: &RobotArgs) -> R<Robot> {
@@ -399,6 +410,10 @@ fn load_robot(a: &RobotArgs) -> R<Robot> {
     let robot = src.load().map_err(msg)?;
     if let Some(side) = src.side_file() {
         eprintln!("note: applied the side file {}", side.display());
+    }
+    // on stdout with the results: stderr is for the one-line error
+    for n in robot.chain_notes() {
+        println!("note: {n}");
     }
     Ok(robot)
 }

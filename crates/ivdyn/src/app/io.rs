@@ -9,6 +9,7 @@ use crate::error::{Error, Result};
 use crate::log::{JointLog, ReadOptions, read_pipeline_log};
 use crate::output::write_atomic;
 use crate::robot::load;
+use crate::robot::urdf::UrdfOptions;
 
 /// Where a command's robot comes from: a URDF (with its side file, when present), the
 /// chain's base and tip links, and optionally a parameter file replacing every parameter.
@@ -18,8 +19,10 @@ pub struct RobotSource {
     pub urdf: PathBuf,
     /// Base link (default: the URDF's root).
     pub base: Option<String>,
-    /// Tip link (default: the end of an unbranched chain).
+    /// Tip link (default: the end of an unbranched chain; a tip given ends the chain).
     pub tip: Option<String>,
+    /// Fuse the bodies below a given tip into the last link instead of dropping them.
+    pub fuse_beyond_tip: bool,
     /// Parameter file written by `identify --out-params`.
     pub params: Option<PathBuf>,
 }
@@ -27,7 +30,9 @@ pub struct RobotSource {
 impl RobotSource {
     /// Loads the robot ([`load::load`]).
     pub fn load(&self) -> Result<Robot> {
-        load::load(&self.urdf, self.base.as_deref(), self.tip.as_deref(), self.params.as_deref())
+        let opts =
+            UrdfOptions { base: self.base.clone(), tip: self.tip.clone(), fuse_beyond_tip: self.fuse_beyond_tip };
+        load::load(&self.urdf, &opts, self.params.as_deref())
     }
 
     /// The side file that [`RobotSource::load`] applies, if there is one (the command
