@@ -103,13 +103,13 @@ def _path(p: Optional[PathLike]) -> Optional[str]:
 
 def _log(log, n: int, what: str):
     """A log path, or a dict of arrays (``t``, ``q``, optional ``qd``, ``tau``, ``u``,
-    ``joint_names``) converted to float64."""
+    ``current``, ``joint_names``) converted to float64."""
     if isinstance(log, (str, os.PathLike)):
         return os.fspath(log)
     if not isinstance(log, dict):
         raise TypeError(f"{what} must be a path or a dict of arrays, got {type(log).__name__}")
     out: Dict[str, Any] = {}
-    for key, shape in (("t", 1), ("q", 2), ("qd", 2), ("tau", 2), ("u", 2)):
+    for key, shape in (("t", 1), ("q", 2), ("qd", 2), ("tau", 2), ("u", 2), ("current", 2)):
         x = log.get(key)
         if x is None:
             continue
@@ -126,6 +126,28 @@ def _log(log, n: int, what: str):
     return out
 
 
+def _per_joint(x, what: str):
+    """A per-joint value for the native module: a number (every joint), a list (one per
+    joint), a dict ``{joint: number}``, or the command line's text."""
+    if x is None or isinstance(x, str):
+        return x
+    if isinstance(x, dict):
+        return {str(k): float(v) for k, v in x.items()}
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{what} must be a number, a sequence of numbers or a dict {{joint: number}}: {e}") from None
+    return float(a) if a.ndim == 0 else [float(v) for v in a.ravel()]
+
+
+def _effort(current_topic, effort, torque_constant, gear_ratio, motor_constant) -> Dict[str, Any]:
+    """The effort keywords of the native identify / payload / diagnose."""
+    return dict(current_topic=None if current_topic is None else str(current_topic), effort=str(effort),
+                torque_constant=_per_joint(torque_constant, "torque_constant"),
+                gear_ratio=_per_joint(gear_ratio, "gear_ratio"),
+                motor_constant=_per_joint(motor_constant, "motor_constant"))
+
+
 def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip: Optional[str] = None,
              fuse_beyond_tip: bool = False,
              params=None, validate=None, holdout: float = 0.25, topic: str = "/joint_states",
@@ -134,7 +156,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
              offset: bool = True, consistent: bool = False, in_memory: bool = False,
              out_json: Optional[PathLike] = None, out_params: Optional[PathLike] = None,
              write_urdf: Optional[PathLike] = None, out_mcap: Optional[PathLike] = None,
-             progress: Progress = None) -> Dict[str, Any]:
+             current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
+             gear_ratio=None, motor_constant=None, progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
     torques; returns the ``--json`` report as a dict (``docs/cli.md``: ``method``,
     ``base`` [{name, value, std, rel_std_pct, nominal}], ``fit``, ``validation``, ``dwh``,
@@ -142,8 +165,9 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     ``None``, as in the JSON file.
 
     ``robot``: an :class:`ivdyn.Robot` or a URDF path (with ``base``/``tip`` links and
-    ``fuse_beyond_tip``, as :meth:`ivdyn.Robot.from_urdf`); ``params``: a parameter file (path or dict, e.g. a previous ``["params"]``) replacing
-    the nominal values; ``log`` / ``validate``: a ``.mcap`` / ``.csv`` path (read as the
+    ``fuse_beyond_tip``, as :meth:`ivdyn.Robot.from_urdf`); ``params``: a parameter file
+    (path or dict, e.g. a previous ``["params"]``) replacing the nominal values; ``log`` /
+    ``validate``: a ``.mcap`` / ``.csv`` path (read as the
     command line reads ``--log``: ``topic``, ``command_topic``, ``log_time``) or a dict of
     arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd", "u" optional}`` (e.g.
     from :func:`read_joint_states` or :func:`simulate`); ``method``: ``"ols"``, ``"wls"``,
@@ -157,6 +181,14 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     files: ``out_json`` (the report), ``out_params`` (the parameter file), ``write_urdf``
     (a copy of the robot's URDF with the identified parameters and its side file; the robot
     must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
+
+    Effort as motor current (``docs/logs.md``): ``effort`` is ``"auto"`` (the log's torque
+    when it has one, else its motor current), ``"torque"`` or ``"current"``. Currents come
+    from a log dict's ``"current"`` (A), CSV columns ``<joint>.i``, or the MCAP topic
+    ``current_topic`` (its effort field; it may be ``topic`` itself), and become torques
+    ``tau = k_t * i`` with ``torque_constant`` (N m/A at the joint), or ``gear_ratio`` times
+    ``motor_constant``: each a number (every joint), one number per joint (base to tip), or
+    a dict ``{joint: number}`` naming every joint.
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
@@ -167,7 +199,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
                               None if cutoff is None else float(cutoff), int(decimate), _params(params), cb,
                               friction=[str(f) for f in friction], armature=bool(armature), offset=bool(offset),
                               consistent=bool(consistent), in_memory=bool(in_memory), json_out=_path(out_json),
-                              out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap))
+                              out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap),
+                              **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()
     return json.loads(out)
@@ -178,7 +211,9 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
             params=None, topic: str = "/joint_states", command_topic: Optional[str] = None,
             log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
             out_json: Optional[PathLike] = None, write_urdf: Optional[PathLike] = None,
-            payload_as: str = "link", progress: Progress = None) -> Dict[str, Any]:
+            payload_as: str = "link", current_topic: Optional[str] = None, effort: str = "auto",
+            torque_constant=None, gear_ratio=None, motor_constant=None,
+            progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn payload`` from Python: the payload on the last link from a log after the
     grasp (and optionally ``before``, a log of the unloaded arm, identified first and used
     as the nominal model); returns the ``--json`` report as a dict: ``link``,
@@ -187,9 +222,10 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     ``not_identifiable`` [{parameter, combined_in}], ``rms_before``/``rms_after`` (N m),
     ``notes``. When the payload is not identifiable from the log, ``identifiable`` is
     False and the numbers are None (the command line exits with 2). Arguments as in
-    :func:`identify`; ``out_json``: the report file; ``write_urdf``: a copy of the URDF with
-    the payload, as a fixed child link of the tip (``payload_as="link"``) or merged into it
-    (``"merge"``), written only when the payload is identifiable.
+    :func:`identify` (the effort options too); ``out_json``: the report file;
+    ``write_urdf``: a copy of the URDF with the payload, as a fixed child link of the tip
+    (``payload_as="link"``) or merged into it (``"merge"``), written only when the
+    payload is identifiable.
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
@@ -198,7 +234,8 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
                              None if before is None else _log(before, native.dof, "before"), str(topic),
                              command_topic, bool(log_time), None if cutoff is None else float(cutoff),
                              int(decimate), _params(params), cb, json_out=_path(out_json),
-                             write_urdf=_path(write_urdf), payload_as=str(payload_as))
+                             write_urdf=_path(write_urdf), payload_as=str(payload_as),
+                             **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()
     return json.loads(out)
@@ -258,10 +295,10 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
 
 def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *, base: Optional[str] = None,
              tip: Optional[str] = None, fuse_beyond_tip: bool = False, params=None, topic: str = "/joint_states",
-             log_time: bool = False,
-             cutoff: Optional[float] = None, alpha: float = 1e-3, min_effect: float = 0.5,
+             log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3, min_effect: float = 0.5,
              ignore_log_velocity: bool = False, report: bool = True, out_json: Optional[PathLike] = None,
-             progress: Progress = None) -> Dict[str, Any]:
+             current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
+             gear_ratio=None, motor_constant=None, progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
     ``effects`` [{name, joints, parameters, rms_before, rms_after}] in the order found
@@ -271,10 +308,11 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
 
     ``robot``: an :class:`ivdyn.Robot` or a URDF path (``base``/``tip`` links,
     ``fuse_beyond_tip``); ``params``: a parameter file replacing the nominal values;
-    ``log``: a ``.mcap`` / ``.csv`` path or a dict of arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd": optional}``;
-    ``cutoff`` (Hz): differentiation low-pass (default: chosen from the data); ``alpha``:
-    F-test level; ``min_effect``: smallest effect named, in noise standard deviations;
-    ``out_json``: a second copy of diagnosis.json.
+    ``log``: a ``.mcap`` / ``.csv`` path or a dict of arrays ``{"t": (T,) s, "q": (T, N)
+    rad, "tau": (T, N) N m, "qd": optional}`` (or motor currents: the effort options of
+    :func:`identify`); ``cutoff`` (Hz): differentiation low-pass (default: chosen from the
+    data); ``alpha``: F-test level; ``min_effect``: smallest effect named, in noise
+    standard deviations; ``out_json``: a second copy of diagnosis.json.
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
@@ -282,7 +320,8 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
         text = _ivdyn.diagnose(native, _log(log, native.dof, "log"), _path(out), str(topic), bool(log_time),
                                None if cutoff is None else float(cutoff), float(alpha), float(min_effect),
                                bool(ignore_log_velocity), bool(report), _params(params),
-                               json_out=_path(out_json), progress=cb)
+                               json_out=_path(out_json), progress=cb,
+                               **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()
     return json.loads(text)

@@ -11,8 +11,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use ivdyn::Robot;
 use ivdyn::app::{
-    self, IdentifyJob, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, RobotSource, SimulateOptions,
-    Trajectory,
+    self, Effort, IdentifyJob, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, PerJoint, RobotSource,
+    SimulateOptions, TorqueConstants, Trajectory,
 };
 use ivdyn::progress::Progress;
 use ivdyn::report::PayloadSpec;
@@ -73,12 +73,37 @@ struct LogArgs {
     /// Use MCAP log times instead of header stamps.
     #[arg(long)]
     log_time: bool,
+    /// JointState topic whose effort field is the motor current in A (may be --topic itself).
+    #[arg(long)]
+    current_topic: Option<String>,
+    /// Which effort is the joint torque: the measured torque, the motor current times the
+    /// torque constants, or auto (the torque when the log has one, else the current).
+    #[arg(long, value_enum, default_value = "auto")]
+    effort: EffortArg,
+    /// Torque constant at the joint (N m/A) turning currents into torques: V (every joint),
+    /// V1,V2,... (one per joint, base to tip) or JOINT=V,... (every joint by name).
+    #[arg(long, allow_hyphen_values = true)]
+    torque_constant: Option<String>,
+    /// Gear ratio per joint (same forms as --torque-constant); with --motor-constant,
+    /// k_t = ratio x motor constant.
+    #[arg(long, allow_hyphen_values = true)]
+    gear_ratio: Option<String>,
+    /// Motor torque constant (N m/A at the motor) per joint, with --gear-ratio.
+    #[arg(long, allow_hyphen_values = true)]
+    motor_constant: Option<String>,
     /// Zero-phase cut-off (Hz) of the differentiation filter (default: 20 Hz, at most 0.2 fs).
     #[arg(long)]
     cutoff: Option<f64>,
     /// Decimation factor after the parallel filter (0: automatic, output rate ~2.5x the cut-off; 1: none).
     #[arg(long, default_value_t = 0)]
     decimate: usize,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum EffortArg {
+    Auto,
+    Torque,
+    Current,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -418,8 +443,25 @@ fn load_robot(a: &RobotArgs) -> R<Robot> {
     Ok(robot)
 }
 
-fn log_source(la: &LogArgs) -> LogSource {
-    LogSource { topic: la.topic.clone(), command_topic: la.command_topic.clone(), log_time: la.log_time }
+fn log_source(la: &LogArgs) -> R<LogSource> {
+    let per_joint = |option: &str, v: &Option<String>| v.as_deref().map(|t| PerJoint::parse(option, t)).transpose();
+    let torque_constants = TorqueConstants {
+        torque_constant: per_joint("torque_constant", &la.torque_constant).map_err(msg)?,
+        gear_ratio: per_joint("gear_ratio", &la.gear_ratio).map_err(msg)?,
+        motor_constant: per_joint("motor_constant", &la.motor_constant).map_err(msg)?,
+    };
+    Ok(LogSource {
+        topic: la.topic.clone(),
+        command_topic: la.command_topic.clone(),
+        log_time: la.log_time,
+        current_topic: la.current_topic.clone(),
+        effort: match la.effort {
+            EffortArg::Auto => Effort::Auto,
+            EffortArg::Torque => Effort::Torque,
+            EffortArg::Current => Effort::Current,
+        },
+        torque_constants,
+    })
 }
 
 fn condition_opts(la: &LogArgs) -> ivdyn::prep::ConditionOptions {
@@ -464,7 +506,7 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
     let job = IdentifyJob {
         log: LogInput::File(a.log.clone()),
         validate: a.validate.clone().map(LogInput::File),
-        source: log_source(&a.log_args),
+        source: log_source(&a.log_args)?,
         in_memory: a.in_memory,
         opts,
         outputs: app::IdentifyOutputs {
@@ -591,7 +633,7 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
     let job = app::PayloadJob {
         log: LogInput::File(a.log.clone()),
         before: a.before.clone().map(LogInput::File),
-        source: log_source(&a.log_args),
+        source: log_source(&a.log_args)?,
         opts: PayloadOptions {
             condition: condition_opts(&a.log_args),
             decimate: a.log_args.decimate,

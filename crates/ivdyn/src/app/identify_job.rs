@@ -56,8 +56,9 @@ pub fn identify_job(robot: &Robot, job: &IdentifyJob) -> Result<Outcome<Identify
 
 /// The fit, and the log if it was read into memory.
 fn fit<'a>(robot: &Robot, job: &'a IdentifyJob) -> Result<(IdentifyReport, Option<Cow<'a, JointLog>>)> {
-    let mut why_not = None;
-    let streamable = !job.in_memory && job.validate.as_ref().is_none_or(|v| v.mcap_path().is_some());
+    let mut why_not = job.log.mcap_path().and(job.source.in_memory_reason());
+    let streamable =
+        !job.in_memory && why_not.is_none() && job.validate.as_ref().is_none_or(|v| v.mcap_path().is_some());
     if let (Some(path), true) = (job.log.mcap_path(), streamable) {
         let vpath = job.validate.as_ref().and_then(|v| v.mcap_path());
         match identify_mcap(robot, path, vpath, &job.source.read_options(robot), &job.opts)
