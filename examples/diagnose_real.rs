@@ -25,6 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             qd: Some(run.qd.clone()),
             tau: Some(run.tau.clone()),
             u: None,
+            current: None,
             truncated: false,
         };
         let opts = DiagnoseOptions {

@@ -4,6 +4,7 @@
 //! `fixtures/MANIFEST.md`.
 
 use ivdyn::Robot;
+use ivdyn::robot::urdf::UrdfOptions;
 use serde_json::Value;
 use std::path::PathBuf;
 
@@ -35,9 +36,14 @@ fn load(name: &str) -> (Robot, Value) {
     let m = &fx["model"];
     let robot = match m["kind"].as_str().unwrap() {
         "urdf" => {
-            let r =
-                Robot::from_urdf(fixtures().join(m["file"].as_str().unwrap()), m["base"].as_str(), m["tip"].as_str())
-                    .unwrap();
+            // Pinocchio's reduced model (the fixtures) locks every joint off the chain,
+            // the ones below the tip too (the Panda's fingers): fuse them likewise
+            let opts = UrdfOptions {
+                base: m["base"].as_str().map(Into::into),
+                tip: m["tip"].as_str().map(Into::into),
+                fuse_beyond_tip: true,
+            };
+            let r = Robot::from_urdf_with(fixtures().join(m["file"].as_str().unwrap()), &opts).unwrap();
             let locked: Vec<String> =
                 m["locked_joints"].as_array().unwrap().iter().map(|s| s.as_str().unwrap().to_string()).collect();
             let mut got = r.locked_joints.clone();

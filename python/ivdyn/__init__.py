@@ -86,12 +86,17 @@ class Robot:
 
     # ------------------------------------------------------------------ constructors
     @classmethod
-    def from_urdf(cls, path, base: Optional[str] = None, tip: Optional[str] = None) -> "Robot":
+    def from_urdf(cls, path, base: Optional[str] = None, tip: Optional[str] = None,
+                  fuse_beyond_tip: bool = False) -> "Robot":
         """Loads the serial chain from ``base`` to ``tip`` (link names) of a URDF file.
 
-        Fixed joints are fused; movable joints off the chain are locked at 0 and fused
-        (listed in :attr:`locked_joints`). ``base`` defaults to the root, ``tip`` to the
-        end of the chain (required when the tree branches). Inertial parameters come
+        Fixed joints are fused; movable joints off the chain (side branches) are locked at
+        0 and fused (listed in :attr:`locked_joints` and :attr:`fused_links`). ``base``
+        defaults to the root, ``tip`` to the end of the chain (required when the tree
+        branches); the rigid bodies below that default tip (a flange, a fixed tool) are
+        fused. A ``tip`` given ends the chain: the bodies below it (a hand and its fingers
+        beyond a flange) are dropped (:attr:`dropped_links`), unless ``fuse_beyond_tip``
+        fuses them into the last link as the tool the arm carries. Inertial parameters come
         from the file, drive parameters from ``<dynamics friction damping>`` (``fc``,
         ``fv``; zero when absent); gravity is ``(0, 0, -9.81)`` m/s^2
         in the base frame.
@@ -99,7 +104,7 @@ class Robot:
         Raises ``FileNotFoundError`` if the file does not exist and ``ValueError`` for
         unusable contents (parse errors, unknown links, unsupported joints, ...).
         """
-        return cls(_ivdyn.Robot.from_urdf(os.fspath(path), base, tip))
+        return cls(_ivdyn.Robot.from_urdf(os.fspath(path), base, tip, bool(fuse_beyond_tip)))
 
     @classmethod
     def from_dh(cls, a: Sequence[float], d: Sequence[float], alpha: Sequence[float],
@@ -165,6 +170,17 @@ class Robot:
     def locked_joints(self) -> list:
         """Movable joints off the chain, locked at q = 0 and fused into the chain."""
         return self._r.locked_joints
+
+    @property
+    def fused_links(self) -> list:
+        """Links off the chain (side branches; the bodies below the tip when fused) whose
+        inertia is in a model link, as ``(link, model link)`` pairs."""
+        return self._r.fused_links
+
+    @property
+    def dropped_links(self) -> list:
+        """Links below the given tip that are not in the model (see :meth:`from_urdf`)."""
+        return self._r.dropped_links
 
     @property
     def num_params(self) -> int:

@@ -314,14 +314,15 @@ class Riv:
 def read_joint_states(path: Union[str, os.PathLike], joint_names, topic: str = "/joint_states",
                       command_topic: Optional[str] = None) -> dict:
     """Reads a joint log, ``.mcap`` (ROS 2 ``sensor_msgs/msg/JointState``, streamed) or
-    ``.csv`` (columns ``t``, ``<joint>.q``, ``.qd``, ``.tau``, ``.u``), by extension.
+    ``.csv`` (columns ``t``, ``<joint>.q``, ``.qd``, ``.tau``, ``.u``, ``.i``), by extension.
 
     ``joint_names``: the joints wanted, in order (a list, or an :class:`ivdyn.Robot`
     for its ``joint_names``); other joints in the log are ignored. ``topic``: measured
     topic; ``command_topic``: optional topic whose effort is the actuator command ``u``
     (MCAP only). Returns ``{"t": (T,) s since the first sample, "q": (T, N) rad,
     "qd": (T, N) rad/s or None, "tau": (T, N) N m or None, "u": (T, N) or None,
-    "joint_names": [...], "t0_ns": int, "truncated": bool}``.
+    "current": (T, N) A (motor current, CSV ``.i``) or None, "joint_names": [...], "t0_ns":
+    int, "truncated": bool}``.
     Raises ``FileNotFoundError`` / ``ValueError`` (missing joints or topic, corrupt file,
     non-finite values, stamps going back) with the file, topic, sample and joint.
     """

@@ -30,7 +30,7 @@ def batch_threads(t: int) -> int:
 class Robot:
     @staticmethod
     def from_urdf(path: Union[str, PathLike], base: Optional[str] = None,
-                  tip: Optional[str] = None) -> Robot: ...
+                  tip: Optional[str] = None, fuse_beyond_tip: bool = False) -> Robot: ...
     @staticmethod
     def paper() -> Robot: ...
     @staticmethod
@@ -51,6 +51,10 @@ class Robot:
     def tip_link(self) -> str: ...
     @property
     def locked_joints(self) -> List[str]: ...
+    @property
+    def fused_links(self) -> List[Tuple[str, str]]: ...
+    @property
+    def dropped_links(self) -> List[str]: ...
     @property
     def param_names(self) -> List[str]: ...
     @property
@@ -272,8 +276,10 @@ def control_experiment(scheme: str, robot: str = "paper", urdf: Optional[Union[s
 
 _Log = Union[str, PathLike[str], Dict[str, Any]]
 _Callback = Optional[Callable[[str, int, int], Any]]
+# a number (every joint), one number per joint, {joint: number}, or the command line's text
+_PerJoint = Optional[Union[float, Sequence[float], Dict[str, float], str]]
 
-def identify(robot: Robot, log: _Log, method: str = "wls", validate: Optional[_Log] = None,
+def identify(robot: Robot, log: Union[_Log, List[_Log]], method: str = "wls", validate: Optional[_Log] = None,
              holdout: float = 0.25, topic: str = "/joint_states", command_topic: Optional[str] = None,
              log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
              params_json: Optional[str] = None, progress: _Callback = None,
@@ -281,20 +287,28 @@ def identify(robot: Robot, log: _Log, method: str = "wls", validate: Optional[_L
              consistent: bool = False, in_memory: bool = False, json_out: Optional[str] = None,
              out_params: Optional[str] = None, write_urdf: Optional[str] = None,
              out_mcap: Optional[str] = None, velocity: str = "auto",
-             window: Optional[Tuple[float, float]] = None, stream: bool = False) -> str:
+             window: Optional[Tuple[float, float]] = None, stream: bool = False,
+             current_topic: Optional[str] = None, effort: str = "auto",
+             torque_constant: _PerJoint = None, gear_ratio: _PerJoint = None,
+             motor_constant: _PerJoint = None) -> str:
     """``ivdyn identify`` -> its ``--json`` document."""
 def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/joint_states",
              log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3,
              min_effect: float = 0.5, ignore_log_velocity: bool = False, report: bool = True,
              params_json: Optional[str] = None, json_out: Optional[str] = None,
              progress: _Callback = None, velocity: str = "auto",
-             window: Optional[Tuple[float, float]] = None) -> str:
+             window: Optional[Tuple[float, float]] = None,
+             current_topic: Optional[str] = None, effort: str = "auto",
+             torque_constant: _PerJoint = None, gear_ratio: _PerJoint = None,
+             motor_constant: _PerJoint = None) -> str:
     """``ivdyn diagnose`` -> ``diagnosis.json`` (and the output directory's files with ``out``)."""
 def payload(robot: Robot, log: _Log, before: Optional[_Log] = None, topic: str = "/joint_states",
             command_topic: Optional[str] = None, log_time: bool = False, cutoff: Optional[float] = None,
             decimate: int = 0, params_json: Optional[str] = None, progress: _Callback = None,
             json_out: Optional[str] = None, write_urdf: Optional[str] = None, payload_as: str = "link",
-            velocity: str = "auto", window: Optional[Tuple[float, float]] = None) -> str:
+            velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
+            current_topic: Optional[str] = None, effort: str = "auto", torque_constant: _PerJoint = None,
+            gear_ratio: _PerJoint = None, motor_constant: _PerJoint = None) -> str:
     """``ivdyn payload`` -> its ``--json`` document."""
 def simulate(robot: Robot, out: Optional[Union[str, PathLike[str]]] = None, traj_t: Optional[_F64] = None,
              traj_q: Optional[_F64] = None, duration: float = 20.0, rate: float = 500.0, seed: int = 1,

@@ -70,17 +70,18 @@ def _callback(progress: Progress):
     return (lambda stage, done, total: user(done, total)), lambda: None
 
 
-def _robot(robot, base: Optional[str], tip: Optional[str]):
-    """``robot`` as a native robot: an :class:`ivdyn.Robot`, or a URDF path."""
+def _robot(robot, base: Optional[str], tip: Optional[str], fuse_beyond_tip: bool = False):
+    """``robot`` as a native robot: an :class:`ivdyn.Robot`, or a URDF path (with the
+    chain options of :meth:`ivdyn.Robot.from_urdf`)."""
     native = getattr(robot, "_r", None)
     if isinstance(native, _ivdyn.Robot):
-        if base is not None or tip is not None:
-            raise ValueError("base/tip are for a URDF path; the Robot already has its chain")
+        if base is not None or tip is not None or fuse_beyond_tip:
+            raise ValueError("base/tip/fuse_beyond_tip are for a URDF path; the Robot already has its chain")
         return native
     if isinstance(robot, _ivdyn.Robot):
         return robot
     if isinstance(robot, (str, os.PathLike)):
-        return _ivdyn.Robot.from_urdf(os.fspath(robot), base, tip)
+        return _ivdyn.Robot.from_urdf(os.fspath(robot), base, tip, bool(fuse_beyond_tip))
     raise TypeError(f"robot must be an ivdyn.Robot or a URDF path, got {type(robot).__name__}")
 
 
@@ -102,13 +103,13 @@ def _path(p: Optional[PathLike]) -> Optional[str]:
 
 def _log(log, n: int, what: str):
     """A log path, or a dict of arrays (``t``, ``q``, optional ``qd``, ``tau``, ``u``,
-    ``joint_names``) converted to float64."""
+    ``current``, ``joint_names``) converted to float64."""
     if isinstance(log, (str, os.PathLike)):
         return os.fspath(log)
     if not isinstance(log, dict):
         raise TypeError(f"{what} must be a path or a dict of arrays, got {type(log).__name__}")
     out: Dict[str, Any] = {}
-    for key, shape in (("t", 1), ("q", 2), ("qd", 2), ("tau", 2), ("u", 2)):
+    for key, shape in (("t", 1), ("q", 2), ("qd", 2), ("tau", 2), ("u", 2), ("current", 2)):
         x = log.get(key)
         if x is None:
             continue
@@ -136,7 +137,30 @@ def _window(w) -> Optional[Tuple[float, float]]:
         raise ValueError(f"window must be (start, end) in seconds, got {w!r}") from None
 
 
+def _per_joint(x, what: str):
+    """A per-joint value for the native module: a number (every joint), a list (one per
+    joint), a dict ``{joint: number}``, or the command line's text."""
+    if x is None or isinstance(x, str):
+        return x
+    if isinstance(x, dict):
+        return {str(k): float(v) for k, v in x.items()}
+    try:
+        a = np.asarray(x, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{what} must be a number, a sequence of numbers or a dict {{joint: number}}: {e}") from None
+    return float(a) if a.ndim == 0 else [float(v) for v in a.ravel()]
+
+
+def _effort(current_topic, effort, torque_constant, gear_ratio, motor_constant) -> Dict[str, Any]:
+    """The effort keywords of the native identify / payload / diagnose."""
+    return dict(current_topic=None if current_topic is None else str(current_topic), effort=str(effort),
+                torque_constant=_per_joint(torque_constant, "torque_constant"),
+                gear_ratio=_per_joint(gear_ratio, "gear_ratio"),
+                motor_constant=_per_joint(motor_constant, "motor_constant"))
+
+
 def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip: Optional[str] = None,
+             fuse_beyond_tip: bool = False,
              params=None, validate=None, holdout: float = 0.25, topic: str = "/joint_states",
              command_topic: Optional[str] = None, log_time: bool = False, cutoff: Optional[float] = None,
              decimate: int = 0, friction: Sequence[str] = ("coulomb", "viscous"), armature: bool = True,
@@ -144,17 +168,20 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
              out_json: Optional[PathLike] = None, out_params: Optional[PathLike] = None,
              write_urdf: Optional[PathLike] = None, out_mcap: Optional[PathLike] = None,
              velocity: str = "auto", window: Optional[Tuple[float, float]] = None, stream: bool = False,
-             progress: Progress = None) -> Dict[str, Any]:
+             current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
+             gear_ratio=None, motor_constant=None, progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
     torques; returns the ``--json`` report as a dict (``docs/cli.md``: ``method``,
     ``base`` [{name, value, std, rel_std_pct, nominal}], ``fit``, ``validation``, ``dwh``,
     ``params`` (the identified full parameter file), ``notes``, ...). ``NaN`` values are
     ``None``, as in the JSON file.
 
-    ``robot``: an :class:`ivdyn.Robot` or a URDF path (with ``base``/``tip`` links);
-    ``params``: a parameter file (path or dict, e.g. a previous ``["params"]``) replacing
-    the nominal values; ``log`` may be a list of logs of the same arm, identified together
-    (each conditioned and filtered on its own, the held-out tail the last one's); ``log`` / ``validate``: a ``.mcap`` / ``.csv`` path (read as the
+    ``robot``: an :class:`ivdyn.Robot` or a URDF path (with ``base``/``tip`` links and
+    ``fuse_beyond_tip``, as :meth:`ivdyn.Robot.from_urdf`); ``params``: a parameter file
+    (path or dict, e.g. a previous ``["params"]``) replacing the nominal values; ``log``
+    may be a list of logs of the same arm, identified together (each conditioned and
+    filtered on its own, the held-out tail the last one's); ``log`` /
+    ``validate``: a ``.mcap`` / ``.csv`` path (read as the
     command line reads ``--log``: ``topic``, ``command_topic``, ``log_time``) or a dict of
     arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd", "u" optional}`` (e.g.
     from :func:`read_joint_states` or :func:`simulate`); ``method``: ``"ols"``, ``"wls"``,
@@ -172,8 +199,16 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     files: ``out_json`` (the report), ``out_params`` (the parameter file), ``write_urdf``
     (a copy of the robot's URDF with the identified parameters and its side file; the robot
     must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
+
+    Effort as motor current (``docs/logs.md``): ``effort`` is ``"auto"`` (the log's torque
+    when it has one, else its motor current), ``"torque"`` or ``"current"``. Currents come
+    from a log dict's ``"current"`` (A), CSV columns ``<joint>.i``, or the MCAP topic
+    ``current_topic`` (its effort field; it may be ``topic`` itself), and become torques
+    ``tau = k_t * i`` with ``torque_constant`` (N m/A at the joint), or ``gear_ratio`` times
+    ``motor_constant``: each a number (every joint), one number per joint (base to tip), or
+    a dict ``{joint: number}`` naming every joint.
     """
-    native = _robot(robot, base, tip)
+    native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
     try:
         logs = [_log(x, native.dof, f"log[{i}]") for i, x in enumerate(log)] if isinstance(log, list) else None
@@ -184,17 +219,21 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
                               friction=[str(f) for f in friction], armature=bool(armature), offset=bool(offset),
                               consistent=bool(consistent), in_memory=bool(in_memory), json_out=_path(out_json),
                               out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap),
-                              velocity=str(velocity), window=_window(window), stream=bool(stream))
+                              velocity=str(velocity), window=_window(window), stream=bool(stream),
+                              **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()
     return json.loads(out)
 
 
 def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optional[str] = None,
+            fuse_beyond_tip: bool = False,
             params=None, topic: str = "/joint_states", command_topic: Optional[str] = None,
             log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
             out_json: Optional[PathLike] = None, write_urdf: Optional[PathLike] = None,
             payload_as: str = "link", velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
+            current_topic: Optional[str] = None, effort: str = "auto",
+            torque_constant=None, gear_ratio=None, motor_constant=None,
             progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn payload`` from Python: the payload on the last link from a log after the
     grasp (and optionally ``before``, a log of the unloaded arm, identified first and used
@@ -204,11 +243,12 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     ``not_identifiable`` [{parameter, combined_in}], ``rms_before``/``rms_after`` (N m),
     ``notes``. When the payload is not identifiable from the log, ``identifiable`` is
     False and the numbers are None (the command line exits with 2). Arguments as in
-    :func:`identify`; ``out_json``: the report file; ``write_urdf``: a copy of the URDF with
-    the payload, as a fixed child link of the tip (``payload_as="link"``) or merged into it
-    (``"merge"``), written only when the payload is identifiable.
+    :func:`identify` (the effort options too); ``out_json``: the report file;
+    ``write_urdf``: a copy of the URDF with the payload, as a fixed child link of the tip
+    (``payload_as="link"``) or merged into it (``"merge"``), written only when the
+    payload is identifiable.
     """
-    native = _robot(robot, base, tip)
+    native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
     try:
         out = _ivdyn.payload(native, _log(log, native.dof, "log"),
@@ -216,13 +256,15 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
                              command_topic, bool(log_time), None if cutoff is None else float(cutoff),
                              int(decimate), _params(params), cb, json_out=_path(out_json),
                              write_urdf=_path(write_urdf), payload_as=str(payload_as), velocity=str(velocity),
-                             window=_window(window))
+                             window=_window(window),
+                             **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()
     return json.loads(out)
 
 
 def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = None, tip: Optional[str] = None,
+             fuse_beyond_tip: bool = False,
              params=None, traj=None, duration: float = 20.0, rate: float = 500.0, seed: int = 1,
              amplitude: float = 0.8, payload_mass: Optional[float] = None,
              payload_com: Optional[Sequence[float]] = None, payload_inertia: Optional[Sequence[float]] = None,
@@ -246,7 +288,7 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
     ``"log": {"t": (T,), "q", "qd", "tau", "u": (T, N) or None, "joint_names"}``, which
     :func:`identify` and :func:`payload` accept as a log.
     """
-    native = _robot(robot, base, tip)
+    native = _robot(robot, base, tip, fuse_beyond_tip)
     n = native.dof
     tt = tq = None
     if traj is not None:
@@ -274,11 +316,12 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
 
 
 def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *, base: Optional[str] = None,
-             tip: Optional[str] = None, params=None, topic: str = "/joint_states", log_time: bool = False,
-             cutoff: Optional[float] = None, alpha: float = 1e-3, min_effect: float = 0.5,
+             tip: Optional[str] = None, fuse_beyond_tip: bool = False, params=None, topic: str = "/joint_states",
+             log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3, min_effect: float = 0.5,
              ignore_log_velocity: bool = False, report: bool = True, out_json: Optional[PathLike] = None,
              velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
-             progress: Progress = None) -> Dict[str, Any]:
+             current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
+             gear_ratio=None, motor_constant=None, progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
     ``effects`` [{name, joints, parameters, rms_before, rms_after}] in the order found
@@ -286,28 +329,32 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     ``joints``. With ``out`` (a directory) it also writes ``diagnosis.json``,
     ``report.html`` (unless ``report=False``) and ``residuals.mcap`` there.
 
-    ``robot``: an :class:`ivdyn.Robot` or a URDF path (``base``/``tip`` links); ``params``:
-    a parameter file replacing the nominal values; ``log``: a ``.mcap`` / ``.csv`` path or a
-    dict of arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd": optional}``;
-    ``cutoff`` (Hz): differentiation low-pass (default: chosen from the data); ``alpha``:
-    F-test level; ``min_effect``: smallest effect named, in noise standard deviations;
-    ``out_json``: a second copy of diagnosis.json; ``velocity`` and ``window`` as in
-    :func:`identify` (``ignore_log_velocity=True`` is ``velocity="positions"``).
+    ``robot``: an :class:`ivdyn.Robot` or a URDF path (``base``/``tip`` links,
+    ``fuse_beyond_tip``); ``params``: a parameter file replacing the nominal values;
+    ``log``: a ``.mcap`` / ``.csv`` path or a dict of arrays ``{"t": (T,) s, "q": (T, N)
+    rad, "tau": (T, N) N m, "qd": optional}`` (or motor currents: the effort options of
+    :func:`identify`); ``cutoff`` (Hz): differentiation low-pass (default: chosen from the
+    data); ``alpha``: F-test level; ``min_effect``: smallest effect named, in noise
+    standard deviations; ``out_json``: a second copy of diagnosis.json; ``velocity`` and
+    ``window`` as in :func:`identify` (``ignore_log_velocity=True`` is
+    ``velocity="positions"``).
     """
-    native = _robot(robot, base, tip)
+    native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
     try:
         text = _ivdyn.diagnose(native, _log(log, native.dof, "log"), _path(out), str(topic), bool(log_time),
                                None if cutoff is None else float(cutoff), float(alpha), float(min_effect),
                                bool(ignore_log_velocity), bool(report), _params(params),
                                json_out=_path(out_json), progress=cb, velocity=str(velocity),
-                               window=_window(window))
+                               window=_window(window),
+                               **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()
     return json.loads(text)
 
 
 def excite(robot, out: Optional[PathLike] = None, *, base: Optional[str] = None, tip: Optional[str] = None,
+           fuse_beyond_tip: bool = False,
            params=None, out_mcap: Optional[PathLike] = None, out_json: Optional[PathLike] = None,
            duration: float = 20.0, harmonics: int = 5, f0: float = 0.1, rate: float = 100.0,
            criterion: str = "cond", acc_limit: Union[float, Sequence[float]] = 5.0,
@@ -322,7 +369,7 @@ def excite(robot, out: Optional[PathLike] = None, *, base: Optional[str] = None,
     ``out_json`` when given. Returns the ``--json`` report as a dict plus ``"trajectory"``:
     ``{"t": (T,), "q", "qd", "qdd": (T, N), "joint_names"}``.
     """
-    native = _robot(robot, base, tip)
+    native = _robot(robot, base, tip, fuse_beyond_tip)
 
     def seq(x):
         return None if x is None else [float(v) for v in np.atleast_1d(np.asarray(x, dtype=np.float64))]

@@ -46,7 +46,8 @@ def build(name):
     m = fx["model"]
     if m["kind"] == "urdf":
         path = os.path.join(FIXTURES, m["file"])
-        robot = ivdyn.Robot.from_urdf(path, base=m["base"], tip=m["tip"])
+        # the reference and Pinocchio's reduced model fuse the bodies below the tip too
+        robot = ivdyn.Robot.from_urdf(path, base=m["base"], tip=m["tip"], fuse_beyond_tip=True)
         ref = rm.from_urdf(path, base=m["base"], tip=m["tip"])
     else:
         robot = ivdyn.Robot.paper()
@@ -104,7 +105,7 @@ def test_description_matches_fixture(case):
 def test_loaded_params_are_pinocchios(case):
     name, _, _, fx = case
     m = fx["model"]
-    robot = (ivdyn.Robot.from_urdf(os.path.join(FIXTURES, m["file"]), m["base"], m["tip"])
+    robot = (ivdyn.Robot.from_urdf(os.path.join(FIXTURES, m["file"]), m["base"], m["tip"], fuse_beyond_tip=True)
              if m["kind"] == "urdf" else ivdyn.Robot.paper())
     n = robot.dof
     theta = np.array(fx["theta"])

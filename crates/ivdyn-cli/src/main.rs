@@ -11,8 +11,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use ivdyn::Robot;
 use ivdyn::app::{
-    self, IdentifyJob, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, RobotSource, SimulateOptions,
-    Trajectory,
+    self, Effort, IdentifyJob, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, PerJoint, RobotSource,
+    SimulateOptions, TorqueConstants, Trajectory,
 };
 use ivdyn::progress::Progress;
 use ivdyn::report::PayloadSpec;
@@ -49,9 +49,14 @@ struct RobotArgs {
     /// Base link of the chain (default: the URDF's root).
     #[arg(long)]
     base: Option<String>,
-    /// Tip link of the chain (default: the end of an unbranched chain).
+    /// Tip link of the chain (default: the end of an unbranched chain, with the rigid
+    /// tool below it fused). A tip given ends the chain: the bodies below it are dropped.
     #[arg(long)]
     tip: Option<String>,
+    /// Fuse the bodies below --tip (a hand, a tool the arm carries) into the last link
+    /// instead of dropping them; their movable joints are locked at 0.
+    #[arg(long)]
+    fuse_beyond_tip: bool,
     /// Parameter file (written by `identify --out-params`) replacing the URDF's values.
     #[arg(long)]
     params: Option<PathBuf>,
@@ -68,6 +73,24 @@ struct LogArgs {
     /// Use MCAP log times instead of header stamps.
     #[arg(long)]
     log_time: bool,
+    /// JointState topic whose effort field is the motor current in A (may be --topic itself).
+    #[arg(long)]
+    current_topic: Option<String>,
+    /// Which effort is the joint torque: the measured torque, the motor current times the
+    /// torque constants, or auto (the torque when the log has one, else the current).
+    #[arg(long, value_enum, default_value = "auto")]
+    effort: EffortArg,
+    /// Torque constant at the joint (N m/A) turning currents into torques: V (every joint),
+    /// V1,V2,... (one per joint, base to tip) or JOINT=V,... (every joint by name).
+    #[arg(long, allow_hyphen_values = true)]
+    torque_constant: Option<String>,
+    /// Gear ratio per joint (same forms as --torque-constant); with --motor-constant,
+    /// k_t = ratio x motor constant.
+    #[arg(long, allow_hyphen_values = true)]
+    gear_ratio: Option<String>,
+    /// Motor torque constant (N m/A at the motor) per joint, with --gear-ratio.
+    #[arg(long, allow_hyphen_values = true)]
+    motor_constant: Option<String>,
     /// Zero-phase cut-off (Hz) of the differentiation filter (default: 20 Hz, at most 0.2 fs).
     #[arg(long)]
     cutoff: Option<f64>,
@@ -88,6 +111,13 @@ enum VelocityArg {
     Auto,
     Log,
     Positions,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum EffortArg {
+    Auto,
+    Torque,
+    Current,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -410,7 +440,13 @@ fn msg(e: ivdyn::Error) -> String {
 }
 
 fn robot_source(a: &RobotArgs) -> RobotSource {
-    RobotSource { urdf: a.urdf.clone(), base: a.base.clone(), tip: a.tip.clone(), params: a.params.clone() }
+    RobotSource {
+        urdf: a.urdf.clone(),
+        base: a.base.clone(),
+        tip: a.tip.clone(),
+        fuse_beyond_tip: a.fuse_beyond_tip,
+        params: a.params.clone(),
+    }
 }
 
 fn load_robot(a: &RobotArgs) -> R<Robot> {
@@ -419,11 +455,32 @@ fn load_robot(a: &RobotArgs) -> R<Robot> {
     if let Some(side) = src.side_file() {
         eprintln!("note: applied the side file {}", side.display());
     }
+    // on stdout with the results: stderr is for the one-line error
+    for n in robot.chain_notes() {
+        println!("note: {n}");
+    }
     Ok(robot)
 }
 
-fn log_source(la: &LogArgs) -> LogSource {
-    LogSource { topic: la.topic.clone(), command_topic: la.command_topic.clone(), log_time: la.log_time }
+fn log_source(la: &LogArgs) -> R<LogSource> {
+    let per_joint = |option: &str, v: &Option<String>| v.as_deref().map(|t| PerJoint::parse(option, t)).transpose();
+    let torque_constants = TorqueConstants {
+        torque_constant: per_joint("torque_constant", &la.torque_constant).map_err(msg)?,
+        gear_ratio: per_joint("gear_ratio", &la.gear_ratio).map_err(msg)?,
+        motor_constant: per_joint("motor_constant", &la.motor_constant).map_err(msg)?,
+    };
+    Ok(LogSource {
+        topic: la.topic.clone(),
+        command_topic: la.command_topic.clone(),
+        log_time: la.log_time,
+        current_topic: la.current_topic.clone(),
+        effort: match la.effort {
+            EffortArg::Auto => Effort::Auto,
+            EffortArg::Torque => Effort::Torque,
+            EffortArg::Current => Effort::Current,
+        },
+        torque_constants,
+    })
 }
 
 fn condition_opts(la: &LogArgs) -> R<ivdyn::prep::ConditionOptions> {
@@ -476,7 +533,7 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
         log: LogInput::File(a.log[0].clone()),
         also: a.log[1..].iter().cloned().map(LogInput::File).collect(),
         validate: a.validate.clone().map(LogInput::File),
-        source: log_source(&a.log_args),
+        source: log_source(&a.log_args)?,
         in_memory: a.in_memory,
         stream: a.stream,
         opts,
@@ -604,7 +661,7 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
     let job = app::PayloadJob {
         log: LogInput::File(a.log.clone()),
         before: a.before.clone().map(LogInput::File),
-        source: log_source(&a.log_args),
+        source: log_source(&a.log_args)?,
         opts: PayloadOptions {
             condition: condition_opts(&a.log_args)?,
             decimate: a.log_args.decimate,

@@ -96,3 +96,28 @@ fn cli_error_simulate_bad_options_leave_no_file() {
     assert!(files_in(&d).is_empty(), "{:?}", files_in(&d));
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A log whose effort is motor current (`<joint>.i`): without torque constants, or with
+/// constants that name a joint the chain does not have, the error names the flag (and
+/// the joint).
+#[test]
+fn cli_error_currents_need_torque_constants() {
+    let d = tmpdir("current_src");
+    let names: Vec<String> = ["shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3"]
+        .iter()
+        .map(|j| format!("{j}_joint"))
+        .collect();
+    let mut log = ivdyn::log::read_csv(fixture("logs/ur5_short.csv"), &names).unwrap();
+    log.current = log.tau.take();
+    let csv = d.join("i.csv");
+    ivdyn::log::write_csv(&csv, &log).unwrap();
+    let mut a = ur5_args();
+    a.extend(["--log".into(), s(&csv)]);
+    fails("no_kt", "identify", &a, &["i.csv", "--torque-constant is needed", "motor current"]);
+    a.extend(["--torque-constant".into(), "elbow=1".into()]);
+    fails("bad_kt", "identify", &a, &["--torque-constant", "joint 'elbow'"]);
+    a.truncate(a.len() - 2);
+    a.extend(["--gear-ratio".into(), "100".into()]);
+    fails("half_kt", "payload", &a, &["--motor-constant is needed"]);
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -220,6 +220,7 @@ fn cli_roundtrip_reloaded_parameters_reproduce_the_identified_torques() {
         qd: None,
         tau: None,
         u: None,
+        current: None,
         truncated: false,
     };
     ivdyn::log::write_csv(&traj, &tr).unwrap();

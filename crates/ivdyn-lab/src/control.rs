@@ -306,11 +306,16 @@ impl Experiment<6> {
 }
 
 impl Experiment<7> {
-    /// The Panda (`fixtures/panda.urdf`, panda_link0 -> panda_hand), 2 kg payload (a 10 cm
+    /// The Panda (`fixtures/panda.urdf`, panda_link0 -> panda_hand, the fingers locked
+    /// and fused into the last link), 2 kg payload (a 10 cm
     /// cube 10 cm beyond the hand's tool origin on its z axis), torque noise 0.1 N m, URDF
     /// effort limits; otherwise as [`Experiment::paper`].
     pub fn panda(urdf: impl AsRef<std::path::Path>) -> Result<Self> {
-        let robot = ivdyn::Robot::from_urdf(urdf, Some("panda_link0"), Some("panda_hand"))?;
+        let opts = ivdyn::robot::urdf::UrdfOptions {
+            fuse_beyond_tip: true,
+            ..ivdyn::robot::urdf::UrdfOptions::new(Some("panda_link0"), Some("panda_hand"))
+        };
+        let robot = ivdyn::Robot::from_urdf_with(urdf, &opts)?;
         let nominal = match robot.model {
             ivdyn::DynModel::N7(m) => *m,
             _ => return Err(Error::Dimension { what: "panda chain dof".into(), expected: 7, got: robot.dof() }),

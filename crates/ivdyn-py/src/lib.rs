@@ -115,11 +115,19 @@ impl From<Batch> for PyErr {
 
 #[pymethods]
 impl PyRobot {
-    /// Loads a serial chain from a URDF file (fixed joints fused, side branches locked).
+    /// Loads a serial chain from a URDF file (fixed joints fused, side branches locked;
+    /// the bodies below a given tip dropped unless `fuse_beyond_tip`).
     #[staticmethod]
-    #[pyo3(signature = (path, base=None, tip=None))]
-    fn from_urdf(path: std::path::PathBuf, base: Option<&str>, tip: Option<&str>) -> PyResult<Self> {
-        Ok(PyRobot { inner: ivdyn::Robot::from_urdf(&path, base, tip).map_err(to_py)?, urdf: Some(path) })
+    #[pyo3(signature = (path, base=None, tip=None, fuse_beyond_tip=false))]
+    fn from_urdf(
+        path: std::path::PathBuf,
+        base: Option<&str>,
+        tip: Option<&str>,
+        fuse_beyond_tip: bool,
+    ) -> PyResult<Self> {
+        let opts =
+            ivdyn::robot::urdf::UrdfOptions { fuse_beyond_tip, ..ivdyn::robot::urdf::UrdfOptions::new(base, tip) };
+        Ok(PyRobot { inner: ivdyn::Robot::from_urdf_with(&path, &opts).map_err(to_py)?, urdf: Some(path) })
     }
 
     /// The paper's six-joint robot (Tables 1 and 2).
@@ -174,6 +182,16 @@ impl PyRobot {
     #[getter]
     fn locked_joints(&self) -> Vec<String> {
         self.inner.locked_joints.clone()
+    }
+
+    #[getter]
+    fn fused_links(&self) -> Vec<(String, String)> {
+        self.inner.fused_links.clone()
+    }
+
+    #[getter]
+    fn dropped_links(&self) -> Vec<String> {
+        self.inner.dropped_links.clone()
     }
 
     #[getter]

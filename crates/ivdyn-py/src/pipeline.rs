@@ -19,7 +19,10 @@ use std::sync::{Arc, Mutex};
 use crate::PyRobot;
 use crate::error::to_py;
 use ivdyn::Robot;
-use ivdyn::app::{self, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, SimulateOptions, Trajectory};
+use ivdyn::app::{
+    self, Effort, IdentifyOptions, LogInput, LogSource, Method, PayloadOptions, PerJoint, SimulateOptions,
+    TorqueConstants, Trajectory,
+};
 use ivdyn::dsp::{DEFAULT_ORDER, DiffMethod};
 use ivdyn::log::JointLog;
 use ivdyn::prep::ConditionOptions;
@@ -143,7 +146,8 @@ fn f64_2d(d: &Bound<'_, PyDict>, key: &str, t: usize, n: usize) -> PyResult<Opti
 }
 
 /// A log given as a path (read by the job, as the command line reads it) or as a dict of
-/// arrays (`t`, `q`, optional `qd`, `tau`, `u`, `joint_names`), checked like a file's.
+/// arrays (`t`, `q`, optional `qd`, `tau`, `u`, `current`, `joint_names`), checked like a
+/// file's.
 fn log_input(robot: &Robot, log: &Bound<'_, PyAny>, what: &str) -> PyResult<LogInput> {
     let Ok(d) = log.cast::<PyDict>() else {
         let path: PathBuf = log.extract().map_err(|_| {
@@ -176,6 +180,7 @@ fn log_input(robot: &Robot, log: &Bound<'_, PyAny>, what: &str) -> PyResult<LogI
         qd: f64_2d(d, "qd", len, n)?,
         tau: f64_2d(d, "tau", len, n)?,
         u: f64_2d(d, "u", len, n)?,
+        current: f64_2d(d, "current", len, n)?,
         truncated: false,
     };
     ivdyn::log::check_pipeline_log(&jl, Path::new(what), "(arrays)").map_err(to_py)?;
@@ -183,7 +188,56 @@ fn log_input(robot: &Robot, log: &Bound<'_, PyAny>, what: &str) -> PyResult<LogI
 }
 
 fn log_source(topic: &str, command_topic: Option<&str>, log_time: bool) -> LogSource {
-    LogSource { topic: topic.into(), command_topic: command_topic.map(Into::into), log_time }
+    LogSource { topic: topic.into(), command_topic: command_topic.map(Into::into), log_time, ..Default::default() }
+}
+
+/// A per-joint value as Python gives it: a number (every joint), a sequence (one per
+/// joint), a dict `{joint: value}`, or the command line's text.
+fn per_joint(option: &str, v: Option<&Bound<'_, PyAny>>) -> PyResult<Option<PerJoint>> {
+    let Some(v) = v.filter(|v| !v.is_none()) else { return Ok(None) };
+    if let Ok(d) = v.cast::<PyDict>() {
+        let pair = |(k, v): (Bound<'_, PyAny>, Bound<'_, PyAny>)| Ok((k.extract::<String>()?, v.extract::<f64>()?));
+        let pairs: PyResult<Vec<(String, f64)>> = d.iter().map(pair).collect();
+        return pairs.map(|p| Some(PerJoint::Named(p))).map_err(|_: PyErr| bad_per_joint(option));
+    }
+    if let Ok(text) = v.extract::<String>() {
+        return PerJoint::parse(option, &text).map(Some).map_err(to_py);
+    }
+    if let Ok(x) = v.extract::<f64>() {
+        return Ok(Some(PerJoint::All(x)));
+    }
+    v.extract::<Vec<f64>>().map(|l| Some(PerJoint::List(l))).map_err(|_| bad_per_joint(option))
+}
+
+fn bad_per_joint(option: &str) -> PyErr {
+    PyValueError::new_err(format!(
+        "{option} must be a number, a sequence of numbers (one per joint) or a dict {{joint: number}}"
+    ))
+}
+
+/// Which effort is the joint torque, and how currents become torques (`ivdyn::app::effort`).
+struct EffortArgs<'a, 'py> {
+    current_topic: Option<&'a str>,
+    effort: &'a str,
+    torque_constant: Option<&'a Bound<'py, PyAny>>,
+    gear_ratio: Option<&'a Bound<'py, PyAny>>,
+    motor_constant: Option<&'a Bound<'py, PyAny>>,
+}
+
+impl EffortArgs<'_, '_> {
+    /// `src` with these effort options.
+    fn apply(&self, src: LogSource) -> PyResult<LogSource> {
+        Ok(LogSource {
+            current_topic: self.current_topic.map(Into::into),
+            effort: Effort::from_name(self.effort).map_err(to_py)?,
+            torque_constants: TorqueConstants {
+                torque_constant: per_joint("torque_constant", self.torque_constant)?,
+                gear_ratio: per_joint("gear_ratio", self.gear_ratio)?,
+                motor_constant: per_joint("motor_constant", self.motor_constant)?,
+            },
+            ..src
+        })
+    }
 }
 
 fn condition(cutoff: Option<f64>, velocity: &str, window: Option<(f64, f64)>) -> PyResult<ConditionOptions> {
@@ -220,7 +274,9 @@ fn urdf_of(robot: &PyRobot, what: &str) -> PyResult<PathBuf> {
 #[pyo3(signature = (robot, log, method="wls", validate=None, holdout=0.25, topic="/joint_states", command_topic=None,
                     log_time=false, cutoff=None, decimate=0, params_json=None, progress=None, friction=None,
                     armature=true, offset=true, consistent=false, in_memory=false, json_out=None, out_params=None,
-                    write_urdf=None, out_mcap=None, velocity="auto", window=None, stream=false))]
+                    write_urdf=None, out_mcap=None, velocity="auto", window=None, stream=false,
+                    current_topic=None, effort="auto", torque_constant=None,
+                    gear_ratio=None, motor_constant=None))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
     py: Python<'_>,
@@ -248,7 +304,13 @@ fn identify(
     velocity: &str,
     window: Option<(f64, f64)>,
     stream: bool,
+    current_topic: Option<&str>,
+    effort: &str,
+    torque_constant: Option<&Bound<'_, PyAny>>,
+    gear_ratio: Option<&Bound<'_, PyAny>>,
+    motor_constant: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<String> {
+    let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
     let method = match method {
         "ols" => Method::Ols,
         "wls" => Method::Wls,
@@ -278,7 +340,7 @@ fn identify(
         log,
         also,
         validate: validate.map(|v| log_input(&r, v, "validation log")).transpose()?,
-        source: log_source(topic, command_topic, log_time),
+        source: effort.apply(log_source(topic, command_topic, log_time))?,
         in_memory,
         stream,
         opts: IdentifyOptions {
@@ -305,7 +367,8 @@ fn identify(
 #[pyfunction]
 #[pyo3(signature = (robot, log, before=None, topic="/joint_states", command_topic=None, log_time=false, cutoff=None,
                     decimate=0, params_json=None, progress=None, json_out=None, write_urdf=None, payload_as="link",
-                    velocity="auto", window=None))]
+                    velocity="auto", window=None,
+                    current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None))]
 #[allow(clippy::too_many_arguments)]
 fn payload(
     py: Python<'_>,
@@ -324,7 +387,13 @@ fn payload(
     payload_as: &str,
     velocity: &str,
     window: Option<(f64, f64)>,
+    current_topic: Option<&str>,
+    effort: &str,
+    torque_constant: Option<&Bound<'_, PyAny>>,
+    gear_ratio: Option<&Bound<'_, PyAny>>,
+    motor_constant: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<String> {
+    let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
     let mode = match payload_as {
         "link" => app::PayloadMode::Link,
         "merge" => app::PayloadMode::Merge,
@@ -335,7 +404,7 @@ fn payload(
     let job = app::PayloadJob {
         log: log_input(&r, log, "log")?,
         before: before.map(|b| log_input(&r, b, "before log")).transpose()?,
-        source: log_source(topic, command_topic, log_time),
+        source: effort.apply(log_source(topic, command_topic, log_time))?,
         opts: PayloadOptions { condition: condition(cutoff, velocity, window)?, decimate, ..Default::default() },
         json: json_out,
         urdf,
@@ -369,6 +438,7 @@ pub(crate) fn log_dict<'py>(py: Python<'py>, log: JointLog) -> PyResult<Bound<'p
     d.set_item("qd", as2(log.qd)?)?;
     d.set_item("tau", as2(log.tau)?)?;
     d.set_item("u", as2(log.u)?)?;
+    d.set_item("current", as2(log.current)?)?;
     d.set_item("joint_names", log.joint_names)?;
     d.set_item("t0_ns", log.t0_ns)?;
     d.set_item("truncated", log.truncated)?;
@@ -454,7 +524,8 @@ fn simulate<'py>(
 #[pyfunction]
 #[pyo3(signature = (robot, log, out=None, topic="/joint_states", log_time=false, cutoff=None, alpha=1e-3,
                     min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None, json_out=None, progress=None,
-                    velocity="auto", window=None))]
+                    velocity="auto", window=None,
+                    current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
@@ -473,13 +544,19 @@ fn diagnose(
     progress: Option<Py<PyAny>>,
     velocity: &str,
     window: Option<(f64, f64)>,
+    current_topic: Option<&str>,
+    effort: &str,
+    torque_constant: Option<&Bound<'_, PyAny>>,
+    gear_ratio: Option<&Bound<'_, PyAny>>,
+    motor_constant: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<String> {
     use ivdyn::diagnose::DiagnoseOptions;
+    let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
     let r = robot_with_params(&robot.inner, params_json)?;
     let urdf_name = robot.urdf.as_ref().map(|p| p.display().to_string()).unwrap_or_default();
     let job = app::DiagnoseJob {
         log: log_input(&r, log, "log")?,
-        source: log_source(topic, None, log_time),
+        source: effort.apply(log_source(topic, None, log_time))?,
         opts: DiagnoseOptions {
             alpha,
             min_effect,

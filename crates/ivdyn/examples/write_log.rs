@@ -26,6 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         qd: Some(at(&|k, j| (0.01 * k as f64 + j as f64).cos())),
         tau: Some(tau.clone()),
         u: None,
+        current: None,
         truncated: false,
     };
     let pred: Vec<f64> = tau.iter().map(|v| 0.9 * v).collect();

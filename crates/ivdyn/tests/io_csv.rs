@@ -59,6 +59,7 @@ fn round_trip_is_exact() {
         qd: Some((0..t * n).map(|i| (i as f64).cos() * 1e9).collect()),
         tau: None,
         u: Some((0..t * n).map(|i| 1.0 / (i as f64 + 0.3)).collect()),
+        current: Some((0..t * n).map(|i| -(i as f64) / 7.0).collect()),
         truncated: false,
     };
     let p = tmp("rt.csv");

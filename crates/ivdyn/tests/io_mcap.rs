@@ -138,6 +138,7 @@ fn streaming_callback() {
                 meas += 1
             }
             Source::Command => cmds += 1,
+            Source::Current => unreachable!("no current topic asked for"),
         }
         Ok(())
     })
@@ -301,6 +302,31 @@ fn round_trip_own_writer_all_compressions() {
             assert!((back.t[k] - log.t[k]).abs() < 1e-12);
         }
     }
+}
+
+/// Motor currents: written as `/ivdyn/current`, read back from that topic (interpolated
+/// onto the measurement stamps: the same stamps here, so exactly), or from the measured
+/// topic's own effort; the current topic must differ from the command topic.
+#[test]
+fn current_topic_round_trip() {
+    let names = urdf_joints();
+    let mut log = synthetic_log(40, &UR5);
+    let current: Vec<f64> = log.tau.as_ref().unwrap().iter().map(|v| v / 7.0).collect();
+    log.current = Some(current.clone());
+    let p = tmp("current.mcap");
+    log::write_mcap(&p, &log, &[]).unwrap();
+    let back = read_mcap(&p, &ReadOptions::new(&names).current_topic_opt(Some("/ivdyn/current"))).unwrap();
+    assert_eq!(back.current.as_ref(), Some(&current));
+    assert_eq!(back.tau, log.tau);
+    // without the option the currents are not read
+    assert_eq!(read_mcap(&p, &ReadOptions::new(&names)).unwrap().current, None);
+    // the measured effort as the current: the log then has no torque
+    let same = read_mcap(&p, &ReadOptions::new(&names).current_topic_opt(Some("/joint_states"))).unwrap();
+    assert_eq!((same.tau, same.current), (None, log.tau.clone()));
+    let o = ReadOptions::new(&names).command_topic("/ivdyn/current").current_topic_opt(Some("/ivdyn/current"));
+    assert!(log_err(read_mcap(&p, &o)).contains("is the command topic"));
+    let e = log_err(read_mcap(&p, &ReadOptions::new(&names).current_topic_opt(Some("/motor_current"))));
+    assert!(e.contains("topic /motor_current not found"), "{e}");
 }
 
 #[test]

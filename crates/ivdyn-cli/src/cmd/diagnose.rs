@@ -54,7 +54,7 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
     };
     let job = DiagnoseJob {
         log: LogInput::File(a.log.clone()),
-        source: log_source(&a.log_args),
+        source: log_source(&a.log_args)?,
         opts,
         out: Some(a.out.clone()),
         report: !a.no_report,

@@ -69,9 +69,11 @@ pub fn identify_job(robot: &Robot, job: &IdentifyJob) -> Result<Outcome<Identify
 
 /// The fit, and the log if it was read into memory.
 fn fit<'a>(robot: &Robot, job: &'a IdentifyJob) -> Result<(IdentifyReport, Option<Cow<'a, JointLog>>)> {
-    let mut why_not = None;
-    let streamable =
-        !job.in_memory && job.also.is_empty() && job.validate.as_ref().is_none_or(|v| v.mcap_path().is_some());
+    let mut why_not = job.log.mcap_path().and(job.source.in_memory_reason());
+    let streamable = !job.in_memory
+        && why_not.is_none()
+        && job.also.is_empty()
+        && job.validate.as_ref().is_none_or(|v| v.mcap_path().is_some());
     if job.stream && job.in_memory {
         return Err(Error::Option { option: "stream".into(), msg: "and in_memory cannot both be set".into() });
     }

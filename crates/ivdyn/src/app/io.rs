@@ -4,11 +4,13 @@
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
+use super::effort::{self, Effort, TorqueConstants};
 use crate::Robot;
 use crate::error::{Error, Result};
 use crate::log::{JointLog, ReadOptions, read_pipeline_log};
 use crate::output::write_atomic;
 use crate::robot::load;
+use crate::robot::urdf::UrdfOptions;
 
 /// Where a command's robot comes from: a URDF (with its side file, when present), the
 /// chain's base and tip links, and optionally a parameter file replacing every parameter.
@@ -18,8 +20,10 @@ pub struct RobotSource {
     pub urdf: PathBuf,
     /// Base link (default: the URDF's root).
     pub base: Option<String>,
-    /// Tip link (default: the end of an unbranched chain).
+    /// Tip link (default: the end of an unbranched chain; a tip given ends the chain).
     pub tip: Option<String>,
+    /// Fuse the bodies below a given tip into the last link instead of dropping them.
+    pub fuse_beyond_tip: bool,
     /// Parameter file written by `identify --out-params`.
     pub params: Option<PathBuf>,
 }
@@ -27,7 +31,9 @@ pub struct RobotSource {
 impl RobotSource {
     /// Loads the robot ([`load::load`]).
     pub fn load(&self) -> Result<Robot> {
-        load::load(&self.urdf, self.base.as_deref(), self.tip.as_deref(), self.params.as_deref())
+        let opts =
+            UrdfOptions { base: self.base.clone(), tip: self.tip.clone(), fuse_beyond_tip: self.fuse_beyond_tip };
+        load::load(&self.urdf, &opts, self.params.as_deref())
     }
 
     /// The side file that [`RobotSource::load`] applies, if there is one (the command
@@ -38,7 +44,9 @@ impl RobotSource {
     }
 }
 
-/// How logs are read: the JointState topic, an optional command topic, and the stamps.
+/// How logs are read: the JointState topic, an optional command topic, the stamps, and
+/// which effort is the joint torque (a measured torque, or a motor current times the
+/// torque constants: [`super::effort`]).
 #[derive(Debug, Clone)]
 pub struct LogSource {
     /// JointState topic of MCAP logs.
@@ -47,11 +55,24 @@ pub struct LogSource {
     pub command_topic: Option<String>,
     /// MCAP log times instead of header stamps.
     pub log_time: bool,
+    /// JointState topic whose effort field is the motor current (may be `topic` itself).
+    pub current_topic: Option<String>,
+    /// Which effort is the joint torque.
+    pub effort: Effort,
+    /// How motor currents become joint torques.
+    pub torque_constants: TorqueConstants,
 }
 
 impl Default for LogSource {
     fn default() -> Self {
-        LogSource { topic: "/joint_states".into(), command_topic: None, log_time: false }
+        LogSource {
+            topic: "/joint_states".into(),
+            command_topic: None,
+            log_time: false,
+            current_topic: None,
+            effort: Effort::Auto,
+            torque_constants: TorqueConstants::default(),
+        }
     }
 }
 
@@ -61,12 +82,20 @@ impl LogSource {
         ReadOptions::new(&robot.joint_names)
             .topic(&self.topic)
             .command_topic_opt(self.command_topic.as_deref())
+            .current_topic_opt(self.current_topic.as_deref())
             .log_time(self.log_time)
+    }
+
+    /// Why logs read this way are not streamed (`None`: they may be): currents are turned
+    /// into torques in memory.
+    pub fn in_memory_reason(&self) -> Option<String> {
+        (self.current_topic.is_some() || self.effort == Effort::Current)
+            .then(|| "motor currents are turned into torques in memory".into())
     }
 
     /// Reads a whole log file (`.csv`, or MCAP) and checks it ([`read_pipeline_log`]).
     pub fn read(&self, path: &Path, robot: &Robot) -> Result<JointLog> {
-        read_pipeline_log(path, &robot.joint_names, &self.topic, self.command_topic.as_deref(), self.log_time)
+        read_pipeline_log(path, &self.read_options(robot))
     }
 }
 
@@ -93,12 +122,14 @@ impl LogInput {
         self.path().filter(|p| !p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")))
     }
 
-    /// The log in memory.
+    /// The log in memory, its effort chosen and, for a motor current, turned into joint
+    /// torques ([`effort::to_torque`]): the one place every job's logs go through.
     pub fn load(&self, robot: &Robot, src: &LogSource) -> Result<Cow<'_, JointLog>> {
-        match self {
-            LogInput::File(p) => src.read(p, robot).map(Cow::Owned),
-            LogInput::Arrays(l) => Ok(Cow::Borrowed(l)),
-        }
+        let log = match self {
+            LogInput::File(p) => Cow::Owned(src.read(p, robot)?),
+            LogInput::Arrays(l) => Cow::Borrowed(l),
+        };
+        effort::to_torque(log, src.effort, &src.torque_constants, &robot.joint_names).map_err(|e| self.context(e))
     }
 
     /// `e` prefixed with the log file, unless it already names a file.

@@ -8,6 +8,7 @@
 //! the streaming identify of MCAP files ([`stream`]).
 
 pub mod diagnose;
+pub mod effort;
 pub mod excite;
 pub mod identify;
 pub mod identify_job;
@@ -18,6 +19,7 @@ pub mod simulate;
 pub mod stream;
 
 pub use diagnose::{DiagnoseJob, diagnose_job};
+pub use effort::{Effort, PerJoint, TorqueConstants};
 pub use excite::{ExciteJob, excite_job};
 pub use identify::{IdentifyOptions, IdentifyReport, Method, identify, identify_base, identify_logs, write_prediction};
 pub use identify_job::{IdentifyJob, IdentifyOutputs, identify_job};

@@ -233,6 +233,7 @@ pub fn simulate(robot: &Robot, traj: &Trajectory, opts: &SimulateOptions) -> Res
         qd: if opts.write_velocity { Some(qd) } else { None },
         tau: Some(tau),
         u,
+        current: None,
         truncated: false,
     })
 }

@@ -71,6 +71,9 @@ pub fn unsupported(opts: &IdentifyOptions, read: &ReadOptions) -> Option<String>
     if read.command_topic.is_some() {
         return Some("a command topic is aligned in memory".into());
     }
+    if read.current_topic.is_some() {
+        return Some("motor currents are turned into torques in memory".into());
+    }
     if opts.condition.tau_outliers.is_some() {
         return Some("torque outlier rejection".into());
     }

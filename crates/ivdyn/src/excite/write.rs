@@ -24,6 +24,7 @@ pub fn write_mcap(path: &Path, joints: &[String], s: &Samples) -> Result<()> {
         qd: Some(s.qd.clone()),
         tau: None,
         u: None,
+        current: None,
         truncated: false,
     };
     crate::log::write_mcap(path, &log, &[]).map(|_| ())

@@ -2,8 +2,8 @@
 //!
 //! * `t`: time in seconds (non-decreasing);
 //! * `<joint>.q` (required for every wanted joint), `<joint>.qd`, `<joint>.tau`,
-//!   `<joint>.u` (optional; a field is read when every wanted joint has it, and a field
-//!   that only some joints have is an error);
+//!   `<joint>.u`, `<joint>.i` (motor current, A) (optional; a field is read when every
+//!   wanted joint has it, and a field that only some joints have is an error);
 //! * any other column (other joints, other signals) is ignored;
 //! * separator `,`; blank lines and lines starting with `#` are skipped; a comment
 //!   `# t0_ns: <int>` sets [`JointLog::t0_ns`] (written by [`write_csv`]).
@@ -19,7 +19,8 @@ use std::path::Path;
 use super::{JointLog, name_list};
 use crate::error::{Error, Result};
 
-const FIELDS: [&str; 4] = ["q", "qd", "tau", "u"];
+/// Column suffixes, in the order of [`JointLog`]'s arrays (`i`: [`JointLog::current`]).
+const FIELDS: [&str; 5] = ["q", "qd", "tau", "u", "i"];
 
 /// Reads a CSV joint log, returning the joints in the order of `joint_names`.
 pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Result<JointLog> {
@@ -33,7 +34,7 @@ pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Res
     let rd = BufReader::new(File::open(path).map_err(io)?);
     let mut header: Option<Header> = None;
     let mut log = JointLog { joint_names: want.clone(), ..Default::default() };
-    let mut data: [Vec<f64>; 4] = Default::default();
+    let mut data: [Vec<f64>; 5] = Default::default();
     for (ln, line) in rd.lines().enumerate() {
         let line = line.map_err(io)?;
         let lineno = ln + 1;
@@ -56,12 +57,13 @@ pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Res
     let Some(header) = header.filter(|_| !log.t.is_empty()) else {
         return Err(err("no samples (a header row and at least one data row are needed)".into()));
     };
-    let [q, qd, tau, u] = data;
+    let [q, qd, tau, u, current] = data;
     let cols = header.cols;
     log.q = q;
     log.qd = cols[1].is_some().then_some(qd);
     log.tau = cols[2].is_some().then_some(tau);
     log.u = cols[3].is_some().then_some(u);
+    log.current = cols[4].is_some().then_some(current);
     Ok(log)
 }
 
@@ -79,7 +81,7 @@ struct Header {
     /// Column of `t`.
     tcol: usize,
     /// Per field of [`FIELDS`], the column of each wanted joint (`None`: the field is absent).
-    cols: [Option<Vec<usize>>; 4],
+    cols: [Option<Vec<usize>>; 5],
 }
 
 impl Header {
@@ -91,7 +93,7 @@ impl Header {
         let tcol = h.iter().position(|c| c == "t").ok_or_else(|| {
             err(format!("line {lineno}: no time column 't' in the header; columns are {}", name_list(&h)))
         })?;
-        let mut cols: [Option<Vec<usize>>; 4] = [None, None, None, None];
+        let mut cols: [Option<Vec<usize>>; 5] = Default::default();
         for (fi, f) in FIELDS.iter().enumerate() {
             let idx: Vec<Option<usize>> =
                 want.iter().map(|j| h.iter().position(|c| *c == format!("{j}.{f}"))).collect();
@@ -120,7 +122,7 @@ impl Header {
         cells: &[&str],
         lineno: usize,
         t: &mut Vec<f64>,
-        data: &mut [Vec<f64>; 4],
+        data: &mut [Vec<f64>; 5],
     ) -> Result<()> {
         let err = |msg: String| log_err(path, msg);
         let h = &self.names;
@@ -161,15 +163,15 @@ impl Header {
 }
 
 /// Writes a joint log as CSV (columns `t`, then `<joint>.q` for every joint, then `.qd`,
-/// `.tau`, `.u` when present), with a `# t0_ns: ...` comment line first. Written to a
+/// `.tau`, `.u`, `.i` when present), with a `# t0_ns: ...` comment line first. Written to a
 /// temporary file and renamed on success.
 pub fn write_csv(path: impl AsRef<Path>, log: &JointLog) -> Result<()> {
     log.check_shapes()?;
-    let arrays: Vec<(&str, &[f64])> =
-        [("q", Some(&log.q)), ("qd", log.qd.as_ref()), ("tau", log.tau.as_ref()), ("u", log.u.as_ref())]
-            .into_iter()
-            .filter_map(|(f, a)| a.map(|a| (f, a.as_slice())))
-            .collect();
+    let arrays: Vec<(&str, &[f64])> = FIELDS
+        .into_iter()
+        .zip([Some(&log.q), log.qd.as_ref(), log.tau.as_ref(), log.u.as_ref(), log.current.as_ref()])
+        .filter_map(|(f, a)| a.map(|a| (f, a.as_slice())))
+        .collect();
     write_columns(path.as_ref(), log.t0_ns, &log.joint_names, &log.t, &arrays)
 }
 

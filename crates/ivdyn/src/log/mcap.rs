@@ -56,6 +56,11 @@ pub struct ReadOptions {
     pub topic: String,
     /// An optional second JointState topic carrying the actuator command `u`.
     pub command_topic: Option<String>,
+    /// An optional JointState topic whose `effort` field is the motor current (A), read
+    /// into [`JointLog::current`] (aligned to the measurement stamps by linear
+    /// interpolation). It may be the measured topic itself, for drives that publish their
+    /// current as effort: its effort is then the current, and the log has no torque.
+    pub current_topic: Option<String>,
     /// Which field of the command messages is `u` (default: effort).
     pub command_field: CommandField,
     /// Alignment of commands to measurement stamps (default: zero-order hold).
@@ -79,6 +84,7 @@ impl ReadOptions {
         ReadOptions {
             topic: "/joint_states".into(),
             command_topic: None,
+            current_topic: None,
             command_field: CommandField::Effort,
             command_align: CommandAlign::ZeroOrderHold,
             joint_names: joint_names.iter().map(|s| s.as_ref().to_string()).collect(),
@@ -101,6 +107,11 @@ impl ReadOptions {
         self.command_topic = topic.map(Into::into);
         self
     }
+    /// Sets (or clears) the current topic ([`ReadOptions::current_topic`]).
+    pub fn current_topic_opt(mut self, topic: Option<&str>) -> Self {
+        self.current_topic = topic.map(Into::into);
+        self
+    }
     /// Stamps from the MCAP log times instead of the headers ([`ReadOptions::use_log_time`]).
     pub fn log_time(mut self, yes: bool) -> Self {
         self.use_log_time = yes;
@@ -115,6 +126,9 @@ pub enum Source {
     Measured,
     /// The command topic ([`ReadOptions::command_topic`]).
     Command,
+    /// The current topic ([`ReadOptions::current_topic`], when it is not the measured one);
+    /// the current is in [`Sample::tau`].
+    Current,
 }
 
 /// One decoded message, in the joint order of [`ReadOptions::joint_names`].
@@ -345,7 +359,7 @@ struct Pass<'o> {
     schemas: HashMap<u16, (String, String)>,
     /// channel id -> index into `states` (or None: a channel we ignore)
     channels: HashMap<u16, Option<usize>>,
-    /// The measured topic, then the command topic if any.
+    /// The measured topic, then the command and current topics if any.
     states: Vec<TopicState>,
     summary: StreamSummary,
     /// one decoded message, overwritten in place by each message (no allocation per message)
@@ -369,6 +383,12 @@ impl<'o> Pass<'o> {
                 return Err(log_err(path, format!("command topic {c} is the measured topic")));
             }
             states.push(TopicState::new(c, Source::Command, n));
+        }
+        if let Some(c) = opts.current_topic.as_ref().filter(|c| **c != opts.topic) {
+            if opts.command_topic.as_ref() == Some(c) {
+                return Err(log_err(path, format!("current topic {c} is the command topic")));
+            }
+            states.push(TopicState::new(c, Source::Current, n));
         }
         Ok(Pass {
             opts,
@@ -487,7 +507,7 @@ impl<'o> Pass<'o> {
     fn finish(mut self) -> Result<StreamSummary> {
         self.summary.bytes = self.offset;
         self.summary.measured = self.states[0].count;
-        self.summary.commands = self.states.get(1).map_or(0, |s| s.count);
+        self.summary.commands = self.states.iter().find(|s| s.source == Source::Command).map_or(0, |s| s.count);
         let summary = &self.summary;
         for st in &self.states {
             if st.count > 0 {
@@ -530,17 +550,19 @@ fn read_some<R: Read>(src: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
 
 /// Reads a whole JointState log into memory (one streaming pass; the result is `T x N`).
 /// The command topic, if any, is aligned to the measurement stamps
-/// ([`ReadOptions::command_align`]). Times are relative to the first measurement.
+/// ([`ReadOptions::command_align`]), the current topic by linear interpolation. Times are
+/// relative to the first measurement.
 pub fn read_mcap(path: impl AsRef<Path>, opts: &ReadOptions) -> Result<JointLog> {
     let path = path.as_ref();
     let n = opts.joint_names.len();
     let mut stamps: Vec<i64> = vec![];
     let (mut q, mut qd, mut tau) = (vec![], vec![], vec![]);
     let (mut has_qd, mut has_tau) = (false, false);
-    let (mut cmd_t, mut cmd) = (vec![], vec![]);
+    let (mut cmd, mut cur) = (Aligned::default(), Aligned::default());
     let field = opts.command_field;
     let summary = for_each_sample(path, opts, |s| {
-        match s.source {
+        let at = |topic: &Option<String>| format!("topic {}, sample {}", topic.as_deref().unwrap_or(""), s.index);
+        let picked = match s.source {
             Source::Measured => {
                 stamps.push(s.stamp_ns);
                 q.extend_from_slice(s.q.unwrap_or(&[]));
@@ -552,33 +574,21 @@ pub fn read_mcap(path: impl AsRef<Path>, opts: &ReadOptions) -> Result<JointLog>
                     has_tau = true;
                     tau.extend_from_slice(v);
                 }
+                return Ok(());
             }
-            Source::Command => {
-                let v = match field {
-                    CommandField::Position => s.q,
-                    CommandField::Velocity => s.qd,
-                    CommandField::Effort => s.tau,
-                };
-                let Some(v) = v else {
-                    return Err(Error::Log {
-                        file: path.to_path_buf(),
-                        msg: format!(
-                            "topic {}, sample {}: the command field {field:?} is empty",
-                            opts.command_topic.as_deref().unwrap_or(""),
-                            s.index
-                        ),
-                    });
-                };
-                cmd_t.push(s.stamp_ns);
-                cmd.extend_from_slice(v);
-            }
-        }
-        Ok(())
+            Source::Command => cmd
+                .push(s, field)
+                .ok_or_else(|| format!("{}: the command field {field:?} is empty", at(&opts.command_topic))),
+            Source::Current => cur
+                .push(s, CommandField::Effort)
+                .ok_or_else(|| format!("{}: effort (the current) is empty", at(&opts.current_topic))),
+        };
+        picked.map_err(|msg| log_err(path, msg))
     })?;
     let t0 = stamps[0];
     let t = stamps.iter().map(|&s| (s - t0) as f64 * 1e-9).collect();
-    let u = opts.command_topic.as_ref().map(|_| align(&stamps, &cmd_t, &cmd, n, opts.command_align));
-    Ok(JointLog {
+    let u = opts.command_topic.as_ref().map(|_| align(&stamps, &cmd.t, &cmd.v, n, opts.command_align));
+    let mut log = JointLog {
         joint_names: opts.joint_names.clone(),
         t0_ns: t0,
         t,
@@ -586,8 +596,39 @@ pub fn read_mcap(path: impl AsRef<Path>, opts: &ReadOptions) -> Result<JointLog>
         qd: has_qd.then_some(qd),
         tau: has_tau.then_some(tau),
         u,
+        current: None,
         truncated: summary.truncated,
-    })
+    };
+    if let Some(c) = &opts.current_topic {
+        log.current = if *c == opts.topic {
+            // the measured effort is the current: the log has no torque
+            Some(log.tau.take().ok_or_else(|| log_err(path, format!("topic {c}: effort is empty (no current)")))?)
+        } else {
+            Some(align(&stamps, &cur.t, &cur.v, n, CommandAlign::Linear))
+        };
+    }
+    Ok(log)
+}
+
+/// The rows of a second topic (command or current), to align to the measurement stamps.
+#[derive(Default)]
+struct Aligned {
+    t: Vec<i64>,
+    v: Vec<f64>,
+}
+
+impl Aligned {
+    /// Appends `field` of `s`; `None` when the message has it empty.
+    fn push(&mut self, s: &Sample<'_>, field: CommandField) -> Option<()> {
+        let v = match field {
+            CommandField::Position => s.q,
+            CommandField::Velocity => s.qd,
+            CommandField::Effort => s.tau,
+        }?;
+        self.t.push(s.stamp_ns);
+        self.v.extend_from_slice(v);
+        Some(())
+    }
 }
 
 /// Aligns command rows (`ct`, non-decreasing, non-empty) to measurement stamps `mt`.

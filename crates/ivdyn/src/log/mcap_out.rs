@@ -180,7 +180,8 @@ impl Drop for McapWriter {
 /// Writes a [`JointLog`] as `/joint_states` (q, qd, tau) plus one JointState topic per
 /// `(topic, T x N array)` in `extra`, carried in the `effort` field (e.g.
 /// `("/ivdyn/predicted", &tau_model)`, `("/ivdyn/residual", &res)`), plus
-/// `/ivdyn/command` if the log has `u`. Stamps are `t0_ns + t`.
+/// `/ivdyn/command` if the log has `u` and `/ivdyn/current` if it has motor currents.
+/// Stamps are `t0_ns + t`.
 pub fn write_mcap(path: impl AsRef<Path>, log: &JointLog, extra: &[(&str, &[f64])]) -> Result<PathBuf> {
     let (t, n) = (log.len(), log.dof());
     log.check_shapes()?; // non-finite values are allowed in an output; bad shapes are not
@@ -193,6 +194,7 @@ pub fn write_mcap(path: impl AsRef<Path>, log: &JointLog, extra: &[(&str, &[f64]
     let meas = w.add_joint_state_topic("/joint_states")?;
     let ids: Vec<TopicId> = extra.iter().map(|(tp, _)| w.add_joint_state_topic(tp)).collect::<Result<_>>()?;
     let cmd = if log.u.is_some() { Some(w.add_joint_state_topic("/ivdyn/command")?) } else { None };
+    let cur = if log.current.is_some() { Some(w.add_joint_state_topic("/ivdyn/current")?) } else { None };
     let row = |a: &Option<Vec<f64>>, k: usize| -> Vec<f64> {
         a.as_ref().map(|a| a[k * n..(k + 1) * n].to_vec()).unwrap_or_default()
     };
@@ -204,6 +206,9 @@ pub fn write_mcap(path: impl AsRef<Path>, log: &JointLog, extra: &[(&str, &[f64]
         }
         if let Some(c) = cmd {
             w.write(c, stamp, &log.joint_names, &[], &[], &row(&log.u, k))?;
+        }
+        if let Some(c) = cur {
+            w.write(c, stamp, &log.joint_names, &[], &[], &row(&log.current, k))?;
         }
     }
     w.finish()

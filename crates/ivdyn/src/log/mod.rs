@@ -7,7 +7,7 @@
 //! * [`read_mcap`] / [`for_each_sample`]: a ROS 2 bag (`ros2 bag record -s mcap`), read
 //!   in one pass with bounded memory (the file is streamed, never loaded whole).
 //! * [`read_csv`] / [`write_csv`]: one row per sample, columns `t`, `<joint>.q`,
-//!   `<joint>.qd`, `<joint>.tau`, `<joint>.u` (see `docs/logs.md`).
+//!   `<joint>.qd`, `<joint>.tau`, `<joint>.u`, `<joint>.i` (see `docs/logs.md`).
 //! * [`McapWriter`] / [`write_mcap`]: JointState topics (measured, predicted, residual)
 //!   that a viewer such as Foxglove plots side by side.
 //!
@@ -58,6 +58,9 @@ pub struct JointLog {
     pub tau: Option<Vec<f64>>,
     /// Actuator command (the instrumental model's input), aligned to `t`, `T x N`.
     pub u: Option<Vec<f64>>,
+    /// Measured motor currents (A), aligned to `t`, `T x N`: the effort of drives that
+    /// report current instead of torque (`app::io` turns them into torques).
+    pub current: Option<Vec<f64>>,
     /// The MCAP file was truncated and `allow_truncated` kept what came before.
     pub truncated: bool,
 }
@@ -106,6 +109,7 @@ impl JointLog {
             qd: self.qd.as_deref().map(take),
             tau: self.tau.as_deref().map(take),
             u: self.u.as_deref().map(take),
+            current: self.current.as_deref().map(take),
             truncated: self.truncated,
         }
     }
@@ -115,9 +119,7 @@ impl JointLog {
         self.check_shapes()?;
         let (t, n) = (self.len(), self.dof());
         let err = |msg: String| Error::Log { file: file.to_path_buf(), msg };
-        for (field, a) in
-            [("q", Some(&self.q)), ("qd", self.qd.as_ref()), ("tau", self.tau.as_ref()), ("u", self.u.as_ref())]
-        {
+        for (field, a) in self.fields() {
             let Some(a) = a else { continue };
             if let Some(i) = a.iter().position(|x| !x.is_finite()) {
                 return Err(err(format!("sample {}: joint '{}' {field} is {}", i / n, self.joint_names[i % n], a[i])));
@@ -141,12 +143,21 @@ impl JointLog {
 }
 
 impl JointLog {
+    /// Every `T x N` array with its field name (`None`: not in the log).
+    fn fields(&self) -> [(&'static str, Option<&Vec<f64>>); 5] {
+        [
+            ("q", Some(&self.q)),
+            ("qd", self.qd.as_ref()),
+            ("tau", self.tau.as_ref()),
+            ("u", self.u.as_ref()),
+            ("current", self.current.as_ref()),
+        ]
+    }
+
     /// Checks that every array is `T x N`.
     pub fn check_shapes(&self) -> Result<()> {
         let (t, n) = (self.len(), self.dof());
-        for (field, a) in
-            [("q", Some(&self.q)), ("qd", self.qd.as_ref()), ("tau", self.tau.as_ref()), ("u", self.u.as_ref())]
-        {
+        for (field, a) in self.fields() {
             if let Some(a) = a
                 && a.len() != t * n
             {

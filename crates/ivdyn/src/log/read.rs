@@ -30,26 +30,12 @@ pub fn read_joint_log(
 // ------------------------------------------------------------------ logs for the pipelines
 
 /// Reads a log as the `ivdyn` command line does for `--log`: `.csv` with [`read_csv`],
-/// anything else as MCAP ([`read_mcap`] on `topic`, with `command_topic` for `u` and the
-/// MCAP log times instead of header stamps when `use_log_time`), then
-/// [`check_pipeline_log`].
-pub fn read_pipeline_log(
-    path: &Path,
-    joint_names: &[String],
-    topic: &str,
-    command_topic: Option<&str>,
-    use_log_time: bool,
-) -> Result<JointLog> {
+/// anything else as MCAP ([`read_mcap`] with `opts`: the measured topic, the command and
+/// current topics, the stamps), then [`check_pipeline_log`].
+pub fn read_pipeline_log(path: &Path, opts: &ReadOptions) -> Result<JointLog> {
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
-    let log = if ext.as_deref() == Some("csv") {
-        read_csv(path, joint_names)?
-    } else {
-        read_mcap(
-            path,
-            &ReadOptions::new(joint_names).topic(topic).command_topic_opt(command_topic).log_time(use_log_time),
-        )?
-    };
-    check_pipeline_log(&log, path, topic)?;
+    let log = if ext.as_deref() == Some("csv") { read_csv(path, &opts.joint_names)? } else { read_mcap(path, opts)? };
+    check_pipeline_log(&log, path, &opts.topic)?;
     Ok(log)
 }
 

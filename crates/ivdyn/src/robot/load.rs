@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::Robot;
-use super::urdf;
+use super::urdf::{self, UrdfOptions};
 use crate::error::{Error, Result};
 use crate::report::{ParamsFile, PayloadSpec};
 use ivdyn_core::params::{IA, TAU0, drive_col};
@@ -76,13 +76,20 @@ impl Robot {
         self.set_params(&th)
     }
 
-    /// Loads a URDF ([`crate::robot::urdf`]; `base` and `tip` pick the chain) and, when
+    /// Loads a URDF ([`crate::robot::urdf`]; `base` and `tip` pick the chain, and the
+    /// bodies below a given tip are dropped) and, when
     /// `<path>.json` exists (written by `--write-urdf`), applies its ivdyn side file
     /// (armature, torque offsets): the one loading path of the library, the command line
     /// and Python.
     pub fn from_urdf(path: impl AsRef<Path>, base: Option<&str>, tip: Option<&str>) -> Result<Self> {
+        Self::from_urdf_with(path, &UrdfOptions::new(base, tip))
+    }
+
+    /// [`Robot::from_urdf`] with all the loading options (e.g. fusing the bodies below
+    /// the tip: [`UrdfOptions::fuse_beyond_tip`]).
+    pub fn from_urdf_with(path: impl AsRef<Path>, opts: &UrdfOptions) -> Result<Self> {
         let path = path.as_ref();
-        let mut r = urdf::load(path, base, tip)?;
+        let mut r = urdf::load_with(path, opts)?;
         let side = side_path(path);
         if side.exists() {
             r.apply_side_file(&side)?;
@@ -91,10 +98,10 @@ impl Robot {
     }
 }
 
-/// The robot a command works on: [`Robot::from_urdf`], then, with `params`, a parameter
-/// file (written by `identify --out-params`) replacing every parameter.
-pub fn load(urdf: &Path, base: Option<&str>, tip: Option<&str>, params: Option<&Path>) -> Result<Robot> {
-    let mut robot = Robot::from_urdf(urdf, base, tip)?;
+/// The robot a command works on: [`Robot::from_urdf_with`], then, with `params`, a
+/// parameter file (written by `identify --out-params`) replacing every parameter.
+pub fn load(urdf: &Path, opts: &UrdfOptions, params: Option<&Path>) -> Result<Robot> {
+    let mut robot = Robot::from_urdf_with(urdf, opts)?;
     if let Some(p) = params {
         let text = std::fs::read_to_string(p).map_err(|e| Error::Io { file: p.to_path_buf(), source: e })?;
         apply_params_json(&mut robot, &text, p)?;

@@ -150,6 +150,12 @@ pub struct Robot {
     pub tip_link: String,
     /// Movable joints off the chain that were locked at q = 0 and fused.
     pub locked_joints: Vec<String>,
+    /// Links off the chain (side branches, and the bodies below the tip when they are
+    /// fused) whose inertia was added to a model link: `(link, model link)`.
+    pub fused_links: Vec<(String, String)>,
+    /// Links below a chosen tip that were left out of the model
+    /// ([`urdf::UrdfOptions::fuse_beyond_tip`] fuses them instead).
+    pub dropped_links: Vec<String>,
     /// The model.
     pub model: DynModel,
 }
@@ -190,6 +196,8 @@ impl Robot {
             base_link: "base".into(),
             tip_link: format!("link{N}"),
             locked_joints: vec![],
+            fused_links: vec![],
+            dropped_links: vec![],
             // N >= 1 and <= MAX_DOF is the caller's promise; fall back to a panic-free error path.
             model: DynModel::from_chain(&chain).expect("model size within 1..=MAX_DOF"),
         }
@@ -294,5 +302,28 @@ impl Robot {
     /// Index of a joint by name.
     pub fn joint_index(&self, name: &str) -> Option<usize> {
         self.joint_names.iter().position(|n| n == name)
+    }
+
+    /// What loading the URDF left out of the chain and where it went, one line each (for
+    /// the command line and reports): off-chain links fused into each model link, and the
+    /// links dropped below the tip. Empty for a plain chain.
+    pub fn chain_notes(&self) -> Vec<String> {
+        let mut notes = vec![];
+        for into in &self.link_names {
+            let links: Vec<&str> =
+                self.fused_links.iter().filter(|(_, k)| k == into).map(|(l, _)| l.as_str()).collect();
+            if !links.is_empty() {
+                notes.push(format!("links off the chain fused into link '{into}' (at q = 0): {}", links.join(", ")));
+            }
+        }
+        if !self.dropped_links.is_empty() {
+            notes.push(format!(
+                "bodies below the tip '{}' are not in the model: {} (the fuse-beyond-tip option adds them to link '{}')",
+                self.tip_link,
+                self.dropped_links.join(", "),
+                self.link_names.last().map(String::as_str).unwrap_or("")
+            ));
+        }
+        notes
     }
 }

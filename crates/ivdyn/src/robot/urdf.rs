@@ -7,9 +7,15 @@
 //!   joints are fused (child inertia moved into the parent link's frame, origins composed
 //!   into the next joint's placement). Floating, planar and spherical joints on the chain,
 //!   and mimic joints on the chain, are errors naming the joint.
-//! - Links hanging off the chain (and everything beyond the tip) are fused into their
-//!   chain ancestor with their movable joints locked at q = 0, as Pinocchio's
-//!   `buildReducedModel` does; the locked joints are listed in the result.
+//! - Links hanging off the chain (side branches) are fused into their chain ancestor with
+//!   their movable joints locked at q = 0, as Pinocchio's `buildReducedModel` does; the
+//!   locked joints and the fused links are listed in the result.
+//! - The bodies below the tip: with a tip chosen by the caller they are dropped (the chain
+//!   ends at the tip; a hand or gripper beyond a chosen flange is not part of the arm),
+//!   unless [`UrdfOptions::fuse_beyond_tip`] asks to fuse them as a tool the arm carries.
+//!   Without a tip, the default tip is the last link reached through movable joints, so
+//!   what hangs below it is rigid (a flange, a tool frame, a fixed tool): it is fused,
+//!   because the arm carries it. The dropped links are listed in the result.
 //! - Links above the base and links fused into the base carry no dynamics. Gravity is
 //!   `(0, 0, -9.81)` in the root frame, rotated into the base frame when the base sits
 //!   below the root on fixed joints.
@@ -23,17 +29,48 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use urdf_rs::JointType;
 
+/// Which chain of a URDF becomes the robot.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct UrdfOptions {
+    /// Base link (default: the URDF's root).
+    pub base: Option<String>,
+    /// Tip link (default: the end of the only branch with movable joints). A tip given
+    /// here ends the chain: the bodies below it are dropped unless `fuse_beyond_tip`.
+    pub tip: Option<String>,
+    /// Fuse the bodies below a given tip into the last link (movable joints locked at
+    /// q = 0), as the tool the arm carries, instead of dropping them. Without a tip they
+    /// are always fused.
+    pub fuse_beyond_tip: bool,
+}
+
+impl UrdfOptions {
+    /// The chain from `base` to `tip`; the bodies below a given tip are dropped.
+    pub fn new(base: Option<&str>, tip: Option<&str>) -> Self {
+        UrdfOptions { base: base.map(Into::into), tip: tip.map(Into::into), fuse_beyond_tip: false }
+    }
+}
+
 /// Loads `path`; see the module documentation for the rules.
 pub fn load(path: &Path, base: Option<&str>, tip: Option<&str>) -> Result<Robot> {
+    load_with(path, &UrdfOptions::new(base, tip))
+}
+
+/// Loads `path` with `opts`; see the module documentation for the rules.
+pub fn load_with(path: &Path, opts: &UrdfOptions) -> Result<Robot> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })?;
-    load_str(&text, path, base, tip)
+    load_str_with(&text, path, opts)
 }
 
 /// Loads URDF text; `file` is only used in error messages.
 pub fn load_str(text: &str, file: &Path, base: Option<&str>, tip: Option<&str>) -> Result<Robot> {
+    load_str_with(text, file, &UrdfOptions::new(base, tip))
+}
+
+/// Loads URDF text with `opts`; `file` is only used in error messages.
+pub fn load_str_with(text: &str, file: &Path, opts: &UrdfOptions) -> Result<Robot> {
     let urdf = urdf_rs::read_from_string(text)
         .map_err(|e| Error::UrdfParse { file: file.to_path_buf(), msg: e.to_string() })?;
-    Builder::new(&urdf, file)?.build(base, tip)
+    Builder::new(&urdf, file)?.build(opts)
 }
 
 struct Builder<'a> {
@@ -55,6 +92,17 @@ struct ChainWalk {
     /// with the link's placement in that segment's frame (at locked q = 0). `None`: not
     /// reached yet.
     segment: Vec<Option<(Option<usize>, Transform)>>,
+}
+
+/// What [`Builder::fuse_off_chain`] did beyond the chain links themselves.
+#[derive(Default)]
+struct Fused {
+    /// Movable joints off the chain, locked at q = 0.
+    locked: Vec<String>,
+    /// Off-chain links fused into a model link: (link, model link).
+    links: Vec<(String, String)>,
+    /// Links below a chosen tip, left out.
+    dropped: Vec<String>,
 }
 
 fn is_movable(t: &JointType) -> bool {
@@ -166,27 +214,31 @@ impl<'a> Builder<'a> {
     }
 
     /// Builds the robot from `base` (default: the root) to `tip` (default: [`Self::default_tip`]).
-    fn build(&self, base: Option<&str>, tip: Option<&str>) -> Result<Robot> {
+    fn build(&self, opts: &UrdfOptions) -> Result<Robot> {
         let root = self.root()?;
-        let base = match base {
+        let base = match &opts.base {
             Some(b) => self.link(b)?,
             None => root,
         };
-        let tip = match tip {
+        let tip = match &opts.tip {
             Some(t) => self.link(t)?,
             None => self.default_tip(base)?,
         };
         let path = self.chain_path(base, tip)?;
         let gravity = self.base_gravity(base)?;
         let mut walk = self.walk_chain(&path, base, tip, gravity)?;
-        let locked = self.fuse_off_chain(base, &mut walk)?;
+        // a tip the caller chose ends the chain; the default tip only has rigid bodies below
+        let drop_below = (opts.tip.is_some() && !opts.fuse_beyond_tip).then_some(tip);
+        let fused = self.fuse_off_chain(base, drop_below, &mut walk)?;
         Ok(Robot {
             name: self.urdf.name.clone(),
             joint_names: walk.joint_names,
             link_names: walk.link_names,
             base_link: self.urdf.links[base].name.clone(),
             tip_link: self.urdf.links[tip].name.clone(),
-            locked_joints: locked,
+            locked_joints: fused.locked,
+            fused_links: fused.links,
+            dropped_links: fused.dropped,
             model: DynModel::from_chain(&walk.chain)?,
         })
     }
@@ -297,34 +349,64 @@ impl<'a> Builder<'a> {
     }
 
     /// Fuses every link below the base into its segment's inertia, off-chain links rigidly
-    /// attached at q = 0 (as Pinocchio's `buildReducedModel`); returns the locked joints.
-    fn fuse_off_chain(&self, base: usize, w: &mut ChainWalk) -> Result<Vec<String>> {
-        let mut locked = vec![];
+    /// attached at q = 0 (as Pinocchio's `buildReducedModel`), except the subtree below
+    /// `drop_below` (the links beyond a chosen tip), which is left out of the model.
+    fn fuse_off_chain(&self, base: usize, drop_below: Option<usize>, w: &mut ChainWalk) -> Result<Fused> {
+        let mut fused = Fused::default();
         let mut stack = vec![base];
         while let Some(l) = stack.pop() {
             let (seg_l, x_l) = w.segment[l].expect("visited links have a segment");
-            for &j in &self.child_joints[l] {
-                let joint = &self.urdf.joints[j];
-                let child = self.link_index[joint.child.link.as_str()];
-                if w.segment[child].is_none() {
-                    // off the chain: rigidly attached at q = 0
-                    match joint.joint_type {
-                        JointType::Fixed => {}
-                        JointType::Revolute | JointType::Continuous | JointType::Prismatic => {
-                            locked.push(joint.name.clone())
-                        }
-                        _ => return Err(self.unsupported(joint)),
-                    }
-                    w.segment[child] = Some((seg_l, x_l.compose(&pose(&joint.origin))));
-                }
-                stack.push(child);
+            if Some(l) == drop_below {
+                fused.dropped = self.links_below(l);
+            } else {
+                self.attach_children(l, w, &mut fused)?;
+                stack.extend(
+                    self.child_joints[l].iter().map(|&j| self.link_index[self.urdf.joints[j].child.link.as_str()]),
+                );
             }
             if let Some(k) = seg_l {
                 let body = self.inertial(l)?;
                 w.chain.inertia[k] = w.chain.inertia[k].add(&body.transformed(&x_l));
             }
         }
-        Ok(locked)
+        Ok(fused)
+    }
+
+    /// Gives the off-chain children of `l` the segment of `l` (rigidly attached at q = 0); notes
+    /// them (when in a model link) and their movable joints (locked) in `fused`.
+    fn attach_children(&self, l: usize, w: &mut ChainWalk, fused: &mut Fused) -> Result<()> {
+        let (seg_l, x_l) = w.segment[l].expect("visited links have a segment");
+        for &j in &self.child_joints[l] {
+            let joint = &self.urdf.joints[j];
+            let child = self.link_index[joint.child.link.as_str()];
+            if w.segment[child].is_some() {
+                continue; // on the chain
+            }
+            match joint.joint_type {
+                JointType::Fixed => {}
+                JointType::Revolute | JointType::Continuous | JointType::Prismatic => {
+                    fused.locked.push(joint.name.clone())
+                }
+                _ => return Err(self.unsupported(joint)),
+            }
+            w.segment[child] = Some((seg_l, x_l.compose(&pose(&joint.origin))));
+            if let Some(k) = seg_l {
+                fused.links.push((joint.child.link.clone(), w.link_names[k].clone()));
+            }
+        }
+        Ok(())
+    }
+
+    /// The links of the subtree below `l` (not `l` itself), depth first in URDF order.
+    fn links_below(&self, l: usize) -> Vec<String> {
+        let mut out = vec![];
+        let mut stack: Vec<usize> = self.child_joints[l].iter().rev().copied().collect();
+        while let Some(j) = stack.pop() {
+            let child = self.link_index[self.urdf.joints[j].child.link.as_str()];
+            out.push(self.urdf.links[child].name.clone());
+            stack.extend(self.child_joints[child].iter().rev());
+        }
+        out
     }
 
     /// The error for a floating, planar or spherical joint.

@@ -206,7 +206,13 @@ pub fn write_back(
     notes: Vec<String>,
 ) -> Result<WriteBack> {
     let n = robot.dof();
-    let nominal = crate::robot::urdf::load_str(input, file, Some(&robot.base_link), Some(&robot.tip_link))?;
+    // the same chain as `robot`: its bodies below the tip fused unless it dropped some
+    let opts = crate::robot::urdf::UrdfOptions {
+        base: Some(robot.base_link.clone()),
+        tip: Some(robot.tip_link.clone()),
+        fuse_beyond_tip: robot.dropped_links.is_empty(),
+    };
+    let nominal = crate::robot::urdf::load_str_with(input, file, &opts)?;
     if nominal.joint_names != robot.joint_names {
         return Err(xml_err(
             file,
