@@ -615,6 +615,14 @@ fn print_payload(rep: &app::PayloadReport) {
         );
         println!("  inertia  [{}] kg m^2 about the COM (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)", fmt_list(&i, 5));
         println!("           std [{}]", fmt_list(&is, 5));
+        if let Some(ph) = &rep.physical {
+            println!(
+                "  physical least-squares payload {}; reported: the nearest possible one (squared Mahalanobis distance {:.3}, p = {:.3})",
+                if ph.ls_possible { "possible" } else { "NOT possible" },
+                ph.mahalanobis2,
+                ph.p_value
+            );
+        }
     } else {
         println!("  the payload is NOT identifiable from this log:");
         for h in &rep.not_identifiable {
@@ -626,6 +634,14 @@ fn print_payload(rep: &app::PayloadReport) {
         fmt_list(&rep.rms_before, 4),
         fmt_list(&rep.rms_after, 4)
     );
+    if let Some(c) = &rep.before_check {
+        println!(
+            "  before log fits this log: {} (variance ratio after/before per joint [{}], critical {:.3})",
+            if c.fits { "yes" } else { "NO" },
+            fmt_list(&c.variance_ratio, 3),
+            c.critical_ratio
+        );
+    }
     for n in &rep.notes {
         println!("note: {n}");
     }
