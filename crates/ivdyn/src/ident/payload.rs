@@ -63,8 +63,8 @@ pub struct PhysicalFit {
     /// Least-squares inertia about its centre of mass `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`
     /// (kg m^2); `None` when its mass is not positive.
     pub ls_inertia: Option<[f64; 6]>,
-    /// Squared Mahalanobis distance `(theta - theta_ls)^T Sigma^-1 (theta - theta_ls)` of the
-    /// consistent estimate from the least-squares one (0 when that is possible).
+    /// Squared Mahalanobis distance `(theta - theta_ls)^T Sigma^-1 (theta - theta_ls)` from the
+    /// least-squares payload to the nearest rigid body (0 when it is one).
     pub mahalanobis2: f64,
     /// Degrees of freedom of its chi-square reference: the identifiable payload parameters.
     pub dof: usize,
@@ -72,7 +72,8 @@ pub struct PhysicalFit {
     /// conservative bound, see [`super::payload_consistent`]).
     pub p_value: f64,
     /// Whether the constraints moved the estimate: the least-squares payload was not possible,
-    /// or within the margin of the boundary (`mahalanobis2 > 1e-12`, above rounding).
+    /// or within the margin of the boundary (1e-6 of the mass scale, see
+    /// [`super::payload_consistent`]).
     pub constraints_active: bool,
     /// How far the reported payload is from the boundary (all margins positive).
     pub violation: Violation,
@@ -165,7 +166,7 @@ pub fn payload_from_fit(
         mahalanobis2: proj.distance2,
         dof: proj.dof,
         p_value: proj.p_value,
-        constraints_active: proj.distance2 > 1e-12,
+        constraints_active: proj.params != theta_ls,
         violation: violation(&proj.params),
     };
     Ok(Ok(PayloadEstimate {

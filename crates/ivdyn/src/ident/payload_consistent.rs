@@ -42,8 +42,8 @@
 //! Newton steps; 30 to 60 on 2000 simulated payloads).
 //!
 //! # The distance
-//! The minimum `d2` is the squared Mahalanobis distance from the LS estimate to the nearest
-//! rigid body. When the payload is rigid, its true parameters are possible, so `d2` is at
+//! The same minimum without the margin (`E = 0`) is `d2`, the squared Mahalanobis distance
+//! from the LS estimate to the nearest rigid body. When the payload is rigid, its true parameters are possible, so `d2` is at
 //! most their distance, which is chi-square with 10 degrees of freedom (Gaussian noise, the
 //! covariance right): `P(chi2_10 > d2)` is a conservative p-value, and a small one says the
 //! data contradict a rigid payload on the last link.
@@ -97,13 +97,14 @@ pub struct Violation {
 pub struct Projection {
     /// The consistent parameters `[m, mcx, mcy, mcz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`.
     pub params: [f64; 10],
-    /// Squared Mahalanobis distance from the LS estimate.
+    /// Squared Mahalanobis distance from the LS estimate to the nearest rigid body (`J >= 0`,
+    /// without the margin; 0 when the LS estimate is one).
     pub distance2: f64,
     /// Degrees of freedom of its chi-square bound (the identifiable parameters: 10).
     pub dof: usize,
     /// `P(chi2_dof > distance2)` (conservative, module docs).
     pub p_value: f64,
-    /// Newton steps along the central path (0 when the LS estimate was possible).
+    /// Newton steps along the central paths (0 when the LS estimate was possible).
     pub iterations: usize,
 }
 
@@ -135,16 +136,17 @@ fn inertia_about_com(p: &[f64; 10]) -> nalgebra::Matrix3<f64> {
 
 /// The consistent payload nearest to `theta_ls` in the metric of its covariance `cov`
 /// (module docs). `theta_ls` must be finite and `cov` symmetric positive semi-definite.
+///
+/// Two projections: onto the rigid bodies (`J >= 0`) for the distance and its p-value, and
+/// onto `J >= E` for the parameters. The margin is there for the simulators, not for the
+/// statistics: on data whose std is below it (a noise-free simulation) it would otherwise
+/// be all the distance.
 pub fn project(theta_ls: &[f64; 10], cov: &M10) -> Projection {
-    let pr = Problem::new(theta_ls, cov);
-    // possible already (with the margin): nothing to move
-    let Some(z0) = pr.interior_start(&pr.z_ls) else {
-        return Projection { params: *theta_ls, distance2: 0.0, dof: 10, p_value: 1.0, iterations: 0 };
-    };
-    let (z, iterations) = pr.central_path(z0);
-    let distance2 = pr.cost(&z);
-    let params: [f64; 10] = pr.theta_of(&z).into();
-    Projection { params, distance2, dof: 10, p_value: chi2_sf(distance2, 10.0), iterations }
+    let (rigid, d0) = Problem::new(theta_ls, cov, 0.0).nearest();
+    let (margin, d) = Problem::new(theta_ls, cov, MARGIN).nearest();
+    let distance2 = rigid.map_or(0.0, |(_, cost)| cost);
+    let params = margin.map_or(*theta_ls, |(theta, _)| theta);
+    Projection { params, distance2, dof: 10, p_value: chi2_sf(distance2, 10.0), iterations: d0 + d }
 }
 
 /// The problem in scaled variables `z = D^-1 theta`, `D` the fit's std: `f(z) = (z -
@@ -162,7 +164,8 @@ struct Problem {
 }
 
 impl Problem {
-    fn new(theta_ls: &[f64; 10], cov: &M10) -> Self {
+    /// The problem of `theta_ls`, `cov` with the margin `E` at `margin` times the scales.
+    fn new(theta_ls: &[f64; 10], cov: &M10, margin: f64) -> Self {
         let cov = 0.5 * (cov + cov.transpose());
         let top = cov.diagonal().max().max(f64::MIN_POSITIVE);
         // a parameter whose variance rounds to zero is pinned down by the data: scale it as
@@ -181,9 +184,17 @@ impl Problem {
         });
         let mass_scale = theta_ls[0].abs().max(d[0]).max(1e-12);
         let ml2 = mass_scale * LENGTH * LENGTH;
-        let margin = Matrix4::from_diagonal(&Vector4::new(ml2, ml2, ml2, mass_scale)) * MARGIN;
+        let margin = Matrix4::from_diagonal(&Vector4::new(ml2, ml2, ml2, mass_scale)) * margin;
         let z_ls = V10::from_fn(|k, _| theta_ls[k] / d[k]);
         Problem { d, w, z_ls, basis, margin }
+    }
+
+    /// The nearest point of the set and its cost (`None` when `theta_ls` is strictly inside:
+    /// nothing moves), and the Newton steps taken.
+    fn nearest(&self) -> (Option<([f64; 10], f64)>, usize) {
+        let Some(z0) = self.interior_start(&self.z_ls) else { return (None, 0) };
+        let (z, steps) = self.central_path(z0);
+        (Some((self.theta_of(&z).into(), self.cost(&z))), steps)
     }
 
     fn theta_of(&self, z: &V10) -> V10 {
@@ -343,7 +354,7 @@ mod tests {
     /// orthogonal to `J* - E` (`<G, J* - E>` bounds the cost above its minimum). Returns
     /// `(min eig G / |G|, <G, J* - E>)`.
     fn kkt(theta_ls: &[f64; 10], cov: &M10, proj: &Projection) -> (f64, f64) {
-        let pr = Problem::new(theta_ls, cov);
+        let pr = Problem::new(theta_ls, cov, MARGIN);
         let g = 2.0 * cov.try_inverse().unwrap() * (V10::from(proj.params) - V10::from(*theta_ls));
         let grad = Matrix4::from_fn(|i, j| {
             let mut e = Matrix4::zeros();
@@ -392,7 +403,7 @@ mod tests {
             }
             let v = violation(&pr.params);
             assert!(v.possible && v.min_eig_pseudo_inertia > 0.0 && v.triangle_margin.unwrap() > 0.0, "{t}: {v:?}");
-            if pr.distance2 == 0.0 {
+            if pr.params == ls {
                 // possible already: kept as it is (the gradient is zero, no KKT to check)
                 assert_eq!(pr.params, ls);
             } else {
@@ -401,7 +412,8 @@ mod tests {
                 assert!(min_eig > -1e-9 && compl.abs() < 2.0 * GAP, "{t}: KKT min eig {min_eig:e}, compl {compl:e}");
             }
             // the zero body is outside the set by the margin E: compare with the body E instead
-            let truth = if truth[0] == 0.0 { from_pseudo_inertia(&Problem::new(&ls, &cov).margin) } else { truth };
+            let truth =
+                if truth[0] == 0.0 { from_pseudo_inertia(&Problem::new(&ls, &cov, MARGIN).margin) } else { truth };
             let (d_truth, d_ls_truth) = (mahalanobis2(&truth, &ls, &cov), mahalanobis2(&pr.params, &truth, &cov));
             assert!(pr.distance2 <= d_truth + GAP, "{t}: {} > {d_truth}", pr.distance2);
             assert!(d_ls_truth <= d_truth + 2.0 * GAP.sqrt(), "{t}: {d_ls_truth} > {d_truth}");
