@@ -615,13 +615,15 @@ fn print_payload(rep: &app::PayloadReport) {
         );
         println!("  inertia  [{}] kg m^2 about the COM (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)", fmt_list(&i, 5));
         println!("           std [{}]", fmt_list(&is, 5));
-        if let Some(ph) = &rep.physical {
-            println!(
-                "  physical least-squares payload {}; reported: the nearest possible one (squared Mahalanobis distance {:.3}, p = {:.3})",
-                if ph.ls_possible { "possible" } else { "NOT possible" },
-                ph.mahalanobis2,
-                ph.p_value
-            );
+        match &rep.physical {
+            Some(ph) if ph.ls_possible => {
+                println!("  physical the least-squares payload is a rigid body (reported as fitted)")
+            }
+            Some(ph) => println!(
+                "  physical the least-squares payload is NOT a rigid body; reported: the nearest one (squared Mahalanobis distance {:.3}, p = {:.3})",
+                ph.mahalanobis2, ph.p_value
+            ),
+            None => {}
         }
     } else {
         println!("  the payload is NOT identifiable from this log:");

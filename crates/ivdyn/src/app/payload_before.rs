@@ -82,9 +82,13 @@ pub(super) fn add_before_uncertainty(
 
 /// Does the unloaded arm identified on the before log, plus the payload, explain the after
 /// log down to the noise? Per joint, the variance ratio `F = (rms_after / rms_before)^2` of
-/// the two fits' residuals, against the F distribution's quantile (both residuals are noise
-/// when the arm is the same; a before log of another arm, or of the arm at another
-/// friction, leaves the difference in the after log's residual).
+/// the two fits' residuals, against the F distribution's quantile (both residuals are white
+/// noise of one level when the arm is the same and its model holds on both trajectories; a
+/// before log of another arm, or of the arm at another friction, leaves the difference in
+/// the after log's residual). Filtered samples are not quite independent and model errors
+/// differ between trajectories, so on real logs a flag also means "the before model
+/// extrapolates": the MuJoCo logs of `fixtures/diagnose` (one arm, two trajectories) give
+/// variance ratios 0.5 to 3.8 against a critical 2.1.
 #[derive(Debug, Clone, Serialize)]
 pub struct BeforeCheck {
     /// Per joint RMS of the before log's own identification residual (N m).
@@ -138,7 +142,7 @@ pub(super) fn before_note(c: &BeforeCheck) -> Vec<String> {
     }
     let worst = c.variance_ratio.iter().copied().fold(f64::NAN, f64::max);
     vec![format!(
-        "the before log does not fit this log: on {} the residual after the payload is up to {:.2} times the before log's own (variance ratio {:.2}, above {:.2}, the F quantile at {} % confidence over all joints). The arm identified on the before log is not the arm of this log (friction or temperature changed, another tool or arm), and the payload estimate absorbs part of the difference: check the before log, or run without it",
+        "the before log does not fit this log: on {} the residual after the payload is up to {:.2} times the before log's own (RMS; variance ratio {:.2}, above {:.2}, the F quantile at {} % confidence over all joints). Either the arm changed between the logs (friction or temperature, another tool or arm) or the before log does not excite what this log does (its model extrapolates); the payload estimate takes up part of the difference: check the before log, or compare with the payload found without it",
         c.flagged.join(", "),
         worst.sqrt(),
         worst,
