@@ -89,7 +89,8 @@ pub struct PayloadReport {
     pub com_std: Option<[f64; 3]>,
     /// Standard deviations of the inertia entries.
     pub inertia_std: Option<[f64; 6]>,
-    /// The 10 standard parameters about the link origin `[m, mcx, mcy, mcz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`.
+    /// The 10 standard parameters about the link origin `[m, mcx, mcy, mcz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`
+    /// of the reported (physically possible) payload; the least-squares ones are in `physical`.
     pub params: Option<[f64; 10]>,
     /// Parameters that are not identifiable, with the combination hiding them.
     pub not_identifiable: Vec<Hidden>,
@@ -101,10 +102,10 @@ pub struct PayloadReport {
     pub samples: usize,
     /// RMS of the residual (measured - nominal) per joint before the payload fit (N m).
     pub rms_before: Vec<f64>,
-    /// RMS after subtracting the fitted payload's torques (N m).
+    /// RMS after subtracting the reported payload's torques (N m).
     pub rms_after: Vec<f64>,
     /// The least-squares payload against the physically possible one reported above: what it
-    /// violated, the Mahalanobis distance between them and its p-value; `null` when not
+    /// violated, its Mahalanobis distance to the nearest rigid body and the p-value; `null` when not
     /// identifiable.
     pub physical: Option<PhysicalFit>,
     /// With a before log: whether it fits this log (the residual level of both); else `null`.
