@@ -22,3 +22,8 @@ print(f"identify: {len(rep['base'])} base parameters, validation rms {max(rep['v
 pl = ivdyn.payload(ur5, after, before=before, progress=True)
 print(f"payload on {pl['link']}: {pl['mass']:.4f} +- {pl['mass_std']:.4f} kg at "
       f"({', '.join(f'{c:.4f}' for c in pl['com'])}) m   (truth 2 kg at (0.01, -0.02, 0.05) m)")
+ph = pl["physical"]
+print(f"least-squares payload a rigid body: {ph['ls_possible']} (the reported one always is; squared Mahalanobis"
+      f" distance to the nearest rigid body {ph['mahalanobis2']:.2f}, p = {ph['p_value']:.2f})")
+for note in pl["notes"]:
+    print("note:", note)

@@ -196,13 +196,17 @@ def fit_robot(robot, base: BaseParams, q, qd, qdd, tau, joint_weight=None) -> "F
 def payload_from_fit(base: BaseParams, fit: "FitReport", cols: Sequence[int],
                      full_names: Sequence[str]) -> dict:
     """Payload (or any link) as mass, centre of mass and inertia about the centre of mass,
-    with standard deviations propagated from ``fit.covariance``.
+    with standard deviations propagated from ``fit.covariance``. The numbers are those of
+    the physically possible rigid body nearest to the fit (in the metric of its
+    covariance); the fit's own, what it violated and how far the two are apart are in
+    ``physical``.
 
     ``fit`` is a fit over ``base`` (its ``B`` columns); ``cols`` the 10 full-parameter
     indices of the link's ``[m, m*cx, m*cy, m*cz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]``;
     ``full_names`` the ``P`` full names. Returns ``{"mass": kg, "com": (3,) m,
     "inertia": (6,) [Ixx, Ixy, Ixz, Iyy, Iyz, Izz] kg m^2 about the com, "mass_std",
-    "com_std", "inertia_std", "params": (10,) about the link origin}``.
+    "com_std", "inertia_std", "params": (10,) about the link origin, "physical": dict}``
+    (``physical`` as in :func:`payload`'s report).
     Raises ``ValueError`` naming the parameters that are not identifiable by themselves
     and the base combination each one went into.
     """

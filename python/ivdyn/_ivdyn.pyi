@@ -163,7 +163,8 @@ def fit_robot(robot: Robot, base: BaseParams, q: _F64, qd: _F64, qdd: _F64, tau:
 def payload_from_fit(base: BaseParams, fit: FitReport, cols: List[int],
                      full_names: List[str]) -> Dict[str, Any]:
     """``{"mass", "com" (3,), "inertia" (6,), "mass_std", "com_std", "inertia_std",
-    "params" (10,)}``; ``ValueError`` when not identifiable."""
+    "params" (10,), "physical"}`` (the physically possible payload nearest to the fit;
+    ``physical``: the fit's own and the distance); ``ValueError`` when not identifiable."""
 
 @final
 class Rls:

@@ -241,12 +241,15 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     ``identifiable``, ``mass`` (kg), ``com`` (m, link frame), ``inertia`` ([Ixx, Ixy, Ixz,
     Iyy, Iyz, Izz] kg m^2 about the COM), their ``*_std``, ``params``,
     ``not_identifiable`` [{parameter, combined_in}], ``rms_before``/``rms_after`` (N m),
-    ``notes``. When the payload is not identifiable from the log, ``identifiable`` is
-    False and the numbers are None (the command line exits with 2). Arguments as in
-    :func:`identify` (the effort options too); ``out_json``: the report file;
-    ``write_urdf``: a copy of the URDF with the payload, as a fixed child link of the tip
-    (``payload_as="link"``) or merged into it (``"merge"``), written only when the
-    payload is identifiable.
+    ``physical`` (the least-squares payload, what it violated, the Mahalanobis distance to
+    the nearest rigid body and its p-value), ``before_check`` (with ``before``: whether it
+    fits this log), ``notes``. The numbers are those of the physically possible payload
+    nearest to the least-squares one. When the payload is not identifiable from the log,
+    ``identifiable`` is False and the numbers are None (the command line exits with 2).
+    Arguments as in :func:`identify` (the effort options too); ``out_json``: the report
+    file; ``write_urdf``: a copy of the URDF with the payload, as a fixed child link of the tip (``payload_as="link"``)
+    or merged into it (``"merge"``), written only when the payload is identifiable (and
+    never with an inertia that is not a rigid body's: ``RuntimeError``, nothing written).
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)

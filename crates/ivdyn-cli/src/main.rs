@@ -700,6 +700,16 @@ fn print_payload(rep: &app::PayloadReport) {
         );
         println!("  inertia  [{}] kg m^2 about the COM (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)", fmt_list(&i, 5));
         println!("           std [{}]", fmt_list(&is, 5));
+        match &rep.physical {
+            Some(ph) if ph.ls_possible => {
+                println!("  physical the least-squares payload is a rigid body (reported as fitted)")
+            }
+            Some(ph) => println!(
+                "  physical the least-squares payload is NOT a rigid body; reported: the nearest one (squared Mahalanobis distance {:.3}, p = {:.3})",
+                ph.mahalanobis2, ph.p_value
+            ),
+            None => {}
+        }
     } else {
         println!("  the payload is NOT identifiable from this log:");
         for h in &rep.not_identifiable {
@@ -711,6 +721,14 @@ fn print_payload(rep: &app::PayloadReport) {
         fmt_list(&rep.rms_before, 4),
         fmt_list(&rep.rms_after, 4)
     );
+    if let Some(c) = &rep.before_check {
+        println!(
+            "  before log fits this log: {} (variance ratio after/before per joint [{}], critical {:.3})",
+            if c.fits { "yes" } else { "NO" },
+            fmt_list(&c.variance_ratio, 3),
+            c.critical_ratio
+        );
+    }
     for n in &rep.notes {
         println!("note: {n}");
     }

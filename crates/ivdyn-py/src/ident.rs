@@ -312,7 +312,8 @@ fn fit_robot(
     Ok(PyFitReport { inner })
 }
 
-/// Payload (mass, com, inertia about the com) from a fit over `base`.
+/// Payload (mass, com, inertia about the com: the physically possible payload nearest to the
+/// fit) from a fit over `base`, with the fit's own payload in `physical`.
 #[pyfunction]
 fn payload_from_fit<'py>(
     py: Python<'py>,
@@ -345,6 +346,10 @@ fn payload_from_fit<'py>(
     d.set_item("com_std", est.com_std.to_vec().into_pyarray(py))?;
     d.set_item("inertia_std", est.inertia_std.to_vec().into_pyarray(py))?;
     d.set_item("params", est.params.to_vec().into_pyarray(py))?;
+    // the physical section as the `payload` report's JSON has it (nested dicts and lists)
+    let physical = serde_json::to_string(&est.physical)
+        .map_err(|e| pyo3::exceptions::PyRuntimeError::new_err(format!("internal error: to JSON: {e}")))?;
+    d.set_item("physical", py.import("json")?.call_method1("loads", (physical,))?)?;
     Ok(d)
 }
 

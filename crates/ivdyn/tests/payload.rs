@@ -140,3 +140,29 @@ fn payload_uncertainty_covers_the_truth() {
     eprintln!("coverage: mass {rm}, com z {rc}");
     assert!((0.90..=0.99).contains(&rm) && (0.90..=0.99).contains(&rc), "mass {rm} com {rc}");
 }
+
+/// A point mass on noise-free data: the LS fit is the truth, on the boundary of the rigid
+/// bodies (zero inertia about the COM), with a covariance of rounding size. The projection
+/// must still land on a possible body (the margin) at the truth's mass and COM. (The
+/// Mahalanobis distance is no statistic here: the fit's std and its error are both rounding,
+/// of unrelated sizes; it came out 6e3.)
+#[test]
+fn noise_free_point_mass_stays_at_the_truth_and_is_possible() {
+    let nominal = ur5();
+    let mut truth = nominal.clone();
+    let point =
+        LinkInertia::from_mass_com_inertia(MASS, &Vec3::new(COM[0], COM[1], COM[2]), &Mat3::identity(), &Mat3::zeros());
+    truth.inertia[5] = truth.inertia[5].add(&point);
+    let base = base_of(&nominal);
+    let fit = fit_ls(&accumulate(&nominal, &truth, &base, 0.0, 0), &base.names).unwrap();
+    let cols: [usize; 10] = core::array::from_fn(|k| k);
+    let p = payload_from_fit(&base, &fit, &cols, &names()).unwrap().unwrap();
+    assert!((p.mass - MASS).abs() < 1e-6 * MASS, "{}", p.mass);
+    for k in 0..3 {
+        assert!((p.com[k] - COM[k]).abs() < 1e-6, "{:?}", p.com);
+    }
+    let v = &p.physical.violation;
+    assert!(v.possible && v.min_principal_moment.unwrap() > 0.0 && v.triangle_margin.unwrap() > 0.0, "{v:?}");
+    // the inertia is the margin's: 2e-6 of m (5 cm)^2 = 1e-8 kg m^2 per second moment
+    assert!(p.inertia.iter().all(|i| i.abs() < 1e-7), "{:?}", p.inertia);
+}

@@ -3,24 +3,28 @@
 
 use serde::Serialize;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use super::Outcome;
-use super::identify::{IdentifyOptions, Method, identify};
+use super::identify::{IdentifyOptions, Method, identify, identify_base};
 use super::io::{LogInput, LogSource};
+pub use super::payload_before::{BEFORE_CHECK_CONFIDENCE, BeforeCheck};
+use super::payload_before::{BeforeModel, add_before_uncertainty, before_check, before_note};
 use super::prepare::rows_of;
 use crate::Robot;
 use crate::batch::stack_rows;
 use crate::dsp::Decimator;
 use crate::error::{Error, Result};
+use crate::ident::payload_consistent::{Violation, violation};
 use crate::ident::wls::{per_joint_weights, row_weights};
-use crate::ident::{self, BaseParams, FitReport, LsAccumulator, fit_ls};
+use crate::ident::{self, BaseParams, FitReport, LsAccumulator, PhysicalFit, fit_ls};
 use crate::log::JointLog;
 use crate::output::write_json;
 use crate::prep::{self, ConditionOptions, parallel_filter};
 use crate::progress::{ProgressSink, Stage};
 use crate::report::PayloadSpec;
 use crate::report::quality;
+use ivdyn_core::LinkInertia;
 use ivdyn_core::estim::TerminalSpec;
 use ivdyn_core::params::LINK_PARAMS;
 
@@ -86,7 +90,8 @@ pub struct PayloadReport {
     pub com_std: Option<[f64; 3]>,
     /// Standard deviations of the inertia entries.
     pub inertia_std: Option<[f64; 6]>,
-    /// The 10 standard parameters about the link origin `[m, mcx, mcy, mcz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`.
+    /// The 10 standard parameters about the link origin `[m, mcx, mcy, mcz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`
+    /// of the reported (physically possible) payload; the least-squares ones are in `physical`.
     pub params: Option<[f64; 10]>,
     /// Parameters that are not identifiable, with the combination hiding them.
     pub not_identifiable: Vec<Hidden>,
@@ -98,11 +103,21 @@ pub struct PayloadReport {
     pub samples: usize,
     /// RMS of the residual (measured - nominal) per joint before the payload fit (N m).
     pub rms_before: Vec<f64>,
-    /// RMS after subtracting the fitted payload's torques (N m).
+    /// RMS after subtracting the reported payload's torques (N m).
     pub rms_after: Vec<f64>,
+    /// The least-squares payload against the physically possible one reported above: what it
+    /// violated, its Mahalanobis distance to the nearest rigid body and the p-value; `null` when not
+    /// identifiable.
+    pub physical: Option<PhysicalFit>,
+    /// With a before log: whether it fits this log (the residual level of both); else `null`.
+    pub before_check: Option<BeforeCheck>,
     /// Remarks.
     pub notes: Vec<String>,
 }
+
+/// Below this p-value the Mahalanobis distance to the nearest rigid body says the data
+/// contradict a rigid payload (a note; the number is in `physical.p_value`).
+pub const RIGID_P_VALUE: f64 = 1e-3;
 
 /// Estimates the payload on the last link from `after` (see the module docs); with
 /// `before`, the unloaded arm is identified on it first and used as the nominal model.
@@ -114,7 +129,7 @@ pub fn payload(
 ) -> Result<PayloadReport> {
     let n = robot.dof();
     let mut notes = vec![];
-    let (nom, nominal) = nominal_model(robot, before, opts)?;
+    let nom = nominal_model(robot, before, opts)?;
     let (cols, names10) = payload_columns(robot);
     // payload base columns from random states
     let bp = {
@@ -125,18 +140,31 @@ pub fn payload(
     check_log(robot, after)?;
     let raw = RawRows::new(robot, &nom, after, &cols, opts)?;
     let _st = Stage::begin(&opts.progress, "filtering and fitting", 0);
-    let (phi10, res) = raw.filtered(n)?;
-    let phib = bp.select_rows(&phi10, res.len())?;
-    let fit = fit_wls(&bp, &phib, &res, n)?;
+    let rows = raw.filtered(n)?;
+    let res = &rows.res;
+    let phib = bp.select_rows(&rows.phi10, res.len())?;
+    let (mut fit, w) = fit_wls(&bp, &phib, res, n)?;
     let thf: Vec<f64> = fit.theta.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
-    let zero = vec![0.0; bp.base_count()];
-    let before_q = quality(String::new(), &phib, &res, &zero, n);
-    let after_q = quality(String::new(), &phib, &res, &thf, n);
+    let ls_q = quality(String::new(), &phib, res, &thf, n);
+    if let Some(b) = &nom.before {
+        add_before_uncertainty(&mut fit, &phib, &w, &rows.phi_before, b)?;
+    }
     let idx: [usize; 10] = std::array::from_fn(|k| k);
     let est = ident::payload_from_fit(&bp, &fit, &idx, &names10)?;
+    // the reported payload's torques: the consistent one when identifiable
+    let th_rep = match &est {
+        Ok(e) => bp.project(&e.params)?,
+        Err(_) => thf.clone(),
+    };
+    let zero = vec![0.0; bp.base_count()];
+    let before_q = quality(String::new(), &phib, res, &zero, n);
+    let after_q = quality(String::new(), &phib, res, &th_rep, n);
     if after.truncated {
         notes.push("the log was truncated; only the samples before the damage were used".into());
     }
+    let before_check =
+        nom.before.as_ref().map(|b| before_check(&robot.joint_names, &b.quality, b.rank, &ls_q, bp.base_count()));
+    notes.extend(before_check.as_ref().map(before_note).unwrap_or_default());
     let rep = PayloadReport {
         link: robot.link_names[n - 1].clone(),
         identifiable: false,
@@ -148,32 +176,42 @@ pub fn payload(
         inertia_std: None,
         params: None,
         not_identifiable: vec![],
-        nominal,
+        nominal: nom.name.clone(),
         joints: robot.joint_names.clone(),
         samples: res.len() / n,
         rms_before: before_q.rms,
         rms_after: after_q.rms,
+        physical: None,
+        before_check,
         notes,
     };
     Ok(with_estimate(rep, est))
 }
 
-/// The model the residual is taken against, and its name for the report: the unloaded
-/// arm identified on `before` when given (`"before log"`), else the URDF's (`"urdf"`).
-fn nominal_model(robot: &Robot, before: Option<&JointLog>, opts: &PayloadOptions) -> Result<(Robot, String)> {
-    let mut nom = robot.clone();
-    let nominal = if let Some(b) = before {
+/// The model the residual is taken against ([`nominal_model`]).
+struct Nominal {
+    robot: Robot,
+    /// `"before log"` or `"urdf"`.
+    name: String,
+    /// With a before log: the model identified on it, with its uncertainty.
+    before: Option<BeforeModel>,
+}
+
+/// The unloaded arm identified on `before` when given, else the URDF's.
+fn nominal_model(robot: &Robot, before: Option<&JointLog>, opts: &PayloadOptions) -> Result<Nominal> {
+    let mut nom = Nominal { robot: robot.clone(), name: "urdf".into(), before: None };
+    if let Some(b) = before {
         let mut o = opts.before.clone();
         o.progress = opts.progress.clone();
         // the same conditioning as the after-log (the window is the after-log's)
         o.condition = ConditionOptions { window: None, ..opts.condition.clone() };
         let rep = identify(robot, b, &o)?;
-        nom.set_params(&rep.params.theta)?;
-        "before log".to_string()
-    } else {
-        "urdf".to_string()
-    };
-    Ok((nom, nominal))
+        nom.robot.set_params(&rep.params.theta)?;
+        nom.name = "before log".into();
+        let fit = rep.fit_report.as_ref().ok_or_else(|| Error::Estimation { msg: "before log: no fit".into() })?;
+        nom.before = Some(BeforeModel::new(identify_base(robot, &o)?, fit, rep.fit.clone()));
+    }
+    Ok(nom)
 }
 
 /// The full-parameter columns of the last link (the payload's 10 parameters) and their names.
@@ -203,65 +241,94 @@ fn check_log(robot: &Robot, after: &JointLog) -> Result<()> {
 }
 
 /// The conditioned log's torque residual (measured - nominal `rnea`) and payload regressor
-/// rows, before the parallel filter.
+/// rows (and, with a before log, its base regressor rows), before the parallel filter.
 struct RawRows {
     /// `T x n x 10`.
     phi10: Vec<f64>,
+    /// `T x n x b`: the before model's base columns (empty without a before log).
+    phi_before: Vec<f64>,
     /// `T x n`.
     res: Vec<f64>,
     /// The parallel filter and decimation for this log's rate.
     dec: Decimator,
 }
 
+/// [`RawRows`] filtered, decimated and without the filter edges.
+struct Rows {
+    /// `T' x n x 10`.
+    phi10: Vec<f64>,
+    /// `T' x n x b`.
+    phi_before: Vec<f64>,
+    /// `T' x n`.
+    res: Vec<f64>,
+}
+
 impl RawRows {
-    /// Conditions `after`, takes the residual against `nom` and stacks the regressor columns `cols`.
-    fn new(robot: &Robot, nom: &Robot, after: &JointLog, cols: &[usize], opts: &PayloadOptions) -> Result<Self> {
+    /// Conditions `after`, takes the residual against `nom` and stacks the regressor
+    /// columns `cols` (and the before model's base columns).
+    fn new(robot: &Robot, nom: &Nominal, after: &JointLog, cols: &[usize], opts: &PayloadOptions) -> Result<Self> {
         let n = robot.dof();
         let c = prep::condition(after, &opts.condition)?;
         let fs = 1.0 / c.dt;
         let dec = parallel_filter(opts.decimate, fs, &opts.condition)?;
         let t = c.t.len();
         let mut tau_nom = vec![0.0; t * n];
-        crate::batch::rnea_batch(nom, &c.d.q, &c.d.qd, &c.d.qdd, &mut tau_nom)?;
+        crate::batch::rnea_batch(&nom.robot, &c.d.q, &c.d.qd, &c.d.qdd, &mut tau_nom)?;
         let res: Vec<f64> = c.tau.as_ref().expect("checked").iter().zip(&tau_nom).map(|(a, b)| a - b).collect();
         let st = Stage::begin(&opts.progress, "payload regressor", t as u64);
         let phi10 = stack_rows(robot, cols, &c.d.q, &c.d.qd, &c.d.qdd, Some(&st))?;
-        Ok(RawRows { phi10, res, dec })
+        let phi_before = match &nom.before {
+            Some(b) => stack_rows(robot, &b.base.independent, &c.d.q, &c.d.qd, &c.d.qdd, None)?,
+            None => vec![],
+        };
+        Ok(RawRows { phi10, phi_before, res, dec })
     }
 
-    /// Both through the same zero-phase filter and decimation, with the filter edges (1 %
+    /// All through the same zero-phase filter and decimation, with the filter edges (1 %
     /// of the samples, at most 20, at each end) dropped.
-    fn filtered(self, n: usize) -> Result<(Vec<f64>, Vec<f64>)> {
-        let phi10 = self.dec.apply(&self.phi10, n * 10)?;
+    fn filtered(self, n: usize) -> Result<Rows> {
         let res = self.dec.apply(&self.res, n)?;
         let tt = res.len() / n;
         let edge = (tt / 100).min(20);
         let r = edge..tt - edge;
-        Ok((rows_of(&phi10, n * 10, r.clone()).to_vec(), rows_of(&res, n, r).to_vec()))
+        let cut = |rows: &[f64]| -> Result<Vec<f64>> {
+            if rows.is_empty() {
+                return Ok(vec![]);
+            }
+            let width = rows.len() / (self.res.len() / n);
+            Ok(rows_of(&self.dec.apply(rows, width)?, width, r.clone()).to_vec())
+        };
+        Ok(Rows {
+            phi10: cut(&self.phi10)?,
+            phi_before: cut(&self.phi_before)?,
+            res: rows_of(&res, n, r.clone()).to_vec(),
+        })
     }
 }
 
 /// Two-step WLS of the residual on the payload's base columns: OLS, then weights
-/// `1 / rms` of the OLS residual per joint.
-fn fit_wls(bp: &BaseParams, phib: &[f64], res: &[f64], n: usize) -> Result<FitReport> {
+/// `1 / rms^2` of the OLS residual per joint. Returns the fit and the row weights.
+fn fit_wls(bp: &BaseParams, phib: &[f64], res: &[f64], n: usize) -> Result<(FitReport, Vec<f64>)> {
     let nb = bp.base_count();
     let mut acc = LsAccumulator::new(nb);
     acc.add_rows(phib, res, None)?;
     let ols = fit_ls(&acc, &bp.names)?;
     let th0: Vec<f64> = ols.theta.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
-    let w = per_joint_weights(&quality(String::new(), phib, res, &th0, n).rms);
+    let w = row_weights(&per_joint_weights(&quality(String::new(), phib, res, &th0, n).rms), res.len());
     let mut acc = LsAccumulator::new(nb);
-    acc.add_rows(phib, res, Some(&row_weights(&w, res.len())))?;
-    fit_ls(&acc, &bp.names)
+    acc.add_rows(phib, res, Some(&w))?;
+    Ok((fit_ls(&acc, &bp.names)?, w))
 }
 
-/// `rep` with the payload estimate filled in, or the parameters that are not identifiable.
+/// `rep` with the payload estimate filled in (and the notes on it), or the parameters that
+/// are not identifiable.
 fn with_estimate(
     mut rep: PayloadReport,
     est: std::result::Result<ident::PayloadEstimate, ident::NotIdentifiable>,
 ) -> PayloadReport {
     match est {
         Ok(e) => {
+            rep.notes.extend(physical_notes(&e, &rep.link));
             rep.identifiable = true;
             rep.mass = Some(e.mass);
             rep.com = Some(e.com);
@@ -270,6 +337,7 @@ fn with_estimate(
             rep.com_std = Some(e.com_std);
             rep.inertia_std = Some(e.inertia_std);
             rep.params = Some(e.params);
+            rep.physical = Some(e.physical);
         }
         Err(ni) => {
             rep.not_identifiable = ni
@@ -281,6 +349,53 @@ fn with_estimate(
         }
     }
     rep
+}
+
+/// What a user must know about the estimate `e` on `link`: no payload seen, an LS payload
+/// that was no body, active constraints, data that contradict a rigid payload.
+fn physical_notes(e: &ident::PayloadEstimate, link: &str) -> Vec<String> {
+    let ph = &e.physical;
+    let mut notes = vec![];
+    let m_ls = ph.ls_params[0];
+    if m_ls < 3.0 * e.mass_std {
+        notes.push(format!(
+            "no payload detected: the least-squares mass {m_ls:.4} kg is within 3 std ({:.2e} kg) of zero; the centre of mass and inertia of so light a payload are not determined by the data (see their std)",
+            3.0 * e.mass_std
+        ));
+    }
+    if !ph.ls_possible {
+        notes.push(format!(
+            "the least-squares payload is not a physically possible rigid body ({}); the payload reported is the nearest possible one, at squared Mahalanobis distance {:.3} from it",
+            violation_words(&ph.ls_violation),
+            ph.mahalanobis2
+        ));
+    }
+    if ph.constraints_active {
+        notes.push("the physical constraints are active: the stated std are those of the unconstrained fit (along the bound the reported estimate varies less)".into());
+    }
+    if ph.p_value < RIGID_P_VALUE {
+        notes.push(format!(
+            "the data contradict a rigid payload: the nearest rigid body is at squared Mahalanobis distance {:.1} from the least-squares payload (p = {:.1e}, chi-square with {} degrees of freedom). The residual holds something a rigid body fixed to '{link}' cannot explain: a payload that moves or swings, a nominal-model error, or a before log that does not match",
+            ph.mahalanobis2, ph.p_value, ph.dof
+        ));
+    }
+    notes
+}
+
+/// The violations of `v`, in words.
+fn violation_words(v: &Violation) -> String {
+    let mut w = vec![];
+    if v.mass <= 0.0 {
+        w.push(format!("mass {:.3e} kg", v.mass));
+    }
+    if let Some(ip) = v.min_principal_moment.filter(|x| *x <= 0.0) {
+        w.push(format!("a principal moment of inertia about the COM of {ip:.3e} kg m^2"));
+    }
+    if let Some(t) = v.triangle_margin.filter(|x| *x < 0.0) {
+        w.push(format!("the triangle inequality I1 + I2 >= I3 short by {:.3e} kg m^2", -t));
+    }
+    w.push(format!("smallest pseudo-inertia eigenvalue {:.3e}", v.min_eig_pseudo_inertia));
+    w.join(", ")
 }
 
 /// How `payload` writes the payload into a URDF copy.
@@ -318,25 +433,56 @@ pub fn payload_job(robot: &Robot, job: &PayloadJob) -> Result<Outcome<PayloadRep
         written.push(format!("report written to {}", p.display()));
     }
     if let (Some((input, out, mode)), true) = (&job.urdf, rep.identifiable) {
-        let spec = PayloadSpec {
-            mass: rep.mass.unwrap_or(f64::NAN),
-            com: rep.com.unwrap_or([f64::NAN; 3]),
-            inertia: rep.inertia.unwrap_or([f64::NAN; 6]),
-        };
-        let text = std::fs::read_to_string(input).map_err(|e| Error::Io { file: input.clone(), source: e })?;
-        let note = "ivdyn payload: the arm as loaded (URDF, --params or side file) plus the identified payload";
-        let wb = crate::robot::write::write_back(
-            &text,
-            input,
-            robot,
-            Some(&robot.params()),
-            Some((&spec, *mode)),
-            vec![note.into()],
-        )?;
-        crate::robot::write::write_files(out, &wb)?;
+        write_urdf(robot, &rep, input, out, *mode)?;
         written.push(format!("URDF with the payload written to {}", out.display()));
     }
     Ok(Outcome { report: rep, written })
+}
+
+/// Writes a copy of the URDF `input` with the payload of `rep` to `out` (and its side
+/// file), after [`check_writable`]: nothing is written for a payload that is no body.
+fn write_urdf(robot: &Robot, rep: &PayloadReport, input: &Path, out: &Path, mode: PayloadMode) -> Result<()> {
+    let spec = PayloadSpec {
+        mass: rep.mass.unwrap_or(f64::NAN),
+        com: rep.com.unwrap_or([f64::NAN; 3]),
+        inertia: rep.inertia.unwrap_or([f64::NAN; 6]),
+    };
+    check_writable(&spec, out)?;
+    let text = std::fs::read_to_string(input).map_err(|e| Error::Io { file: input.to_path_buf(), source: e })?;
+    let note = "ivdyn payload: the arm as loaded (URDF, --params or side file) plus the identified payload";
+    let wb = crate::robot::write::write_back(
+        &text,
+        input,
+        robot,
+        Some(&robot.params()),
+        Some((&spec, mode)),
+        vec![note.into()],
+    )?;
+    crate::robot::write::write_files(out, &wb)
+}
+
+/// Refuses (before anything is written to `out`) a payload that is not a rigid body with a
+/// positive mass, positive principal moments about its COM and strict triangle inequalities:
+/// simulators refuse it (MuJoCo: "inertia must have positive eigenvalues"), and it describes
+/// no object. The estimate is consistent by construction; this guards the file.
+pub fn check_writable(spec: &PayloadSpec, out: &Path) -> Result<()> {
+    let ic = &spec.inertia;
+    let i_c = nalgebra::Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
+    let p = LinkInertia::from_mass_com_inertia(spec.mass, &spec.com.into(), &nalgebra::Matrix3::identity(), &i_c).0;
+    let v = violation(&p);
+    let fine = |x: Option<f64>| x.is_some_and(|x| x > 0.0);
+    if p.iter().all(|x| x.is_finite()) && v.mass > 0.0 && fine(v.min_principal_moment) && fine(v.triangle_margin) {
+        return Ok(());
+    }
+    Err(Error::Estimation {
+        msg: format!(
+            "refusing to write {}: the payload (mass {} kg, inertia about the COM {:?} kg m^2) is not a physically possible rigid body ({}); nothing was written",
+            out.display(),
+            spec.mass,
+            spec.inertia,
+            violation_words(&v)
+        ),
+    })
 }
 
 fn read<'a>(

@@ -6,10 +6,22 @@
 //! no combination); otherwise the parameters that are not are reported as not
 //! identifiable, with the base combinations they hide in, and no number is invented.
 //!
-//! Uncertainty: first-order (delta-method) propagation of the 10 x 10 covariance through
-//! `(m, h, I_o) -> (m, c = h / m, I_c = I_o + m [c]x [c]x)`, with a numerical Jacobian.
+//! The least-squares parameters need not be a rigid body (a point mass's inertia about its
+//! COM comes out negative about half the time, and so does the mass of no payload): the
+//! estimate reported is the nearest physically possible payload in the metric of the fit's
+//! covariance ([`super::payload_consistent`]), with what the LS one violated and how far the
+//! two are apart ([`PhysicalFit`]).
+//!
+//! Uncertainty: first-order (delta-method) propagation of the unconstrained fit's 10 x 10
+//! covariance through `(m, h, I_o) -> (m, c = h / m, I_c = I_o + m [c]x [c]x)`, with a
+//! numerical Jacobian at the reported (consistent) parameters. Where a constraint is active
+//! the consistent estimate's spread is smaller than that along the bound; the stated
+//! std are kept as the fit gives them (a statement about the data, not the constraint).
 
-use crate::error::{Error, Result};
+use serde::Serialize;
+
+use crate::error::Result;
+use crate::ident::payload_consistent::{Violation, project, violation};
 use crate::ident::{BaseParams, FitReport};
 use ivdyn_core::LinkInertia;
 use nalgebra::{DMatrix, SMatrix, SVector};
@@ -31,8 +43,40 @@ pub struct PayloadEstimate {
     /// Standard deviations of the inertia entries.
     pub inertia_std: [f64; 6],
     /// The 10 standard parameters `[m, mcx, mcy, mcz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]` about
-    /// the link origin.
+    /// the link origin (the consistent ones, as the numbers above).
     pub params: [f64; 10],
+    /// The unconstrained fit, what it violated, and how far the consistent estimate is from it.
+    pub physical: PhysicalFit,
+}
+
+/// The least-squares payload against the physically possible one ([`super::payload_consistent`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PhysicalFit {
+    /// Whether the unconstrained least-squares payload is a rigid body.
+    pub ls_possible: bool,
+    /// How far the least-squares payload is from a rigid body.
+    pub ls_violation: Violation,
+    /// The least-squares 10 parameters about the link origin (same order as `params`).
+    pub ls_params: [f64; 10],
+    /// Least-squares centre of mass (m); `None` when its mass is not positive.
+    pub ls_com: Option<[f64; 3]>,
+    /// Least-squares inertia about its centre of mass `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`
+    /// (kg m^2); `None` when its mass is not positive.
+    pub ls_inertia: Option<[f64; 6]>,
+    /// Squared Mahalanobis distance `(theta - theta_ls)^T Sigma^-1 (theta - theta_ls)` from the
+    /// least-squares payload to the nearest rigid body (0 when it is one).
+    pub mahalanobis2: f64,
+    /// Degrees of freedom of its chi-square reference: the identifiable payload parameters.
+    pub dof: usize,
+    /// `P(chi2_dof > mahalanobis2)`: small when the data contradict a rigid payload (a
+    /// conservative bound, see [`super::payload_consistent`]).
+    pub p_value: f64,
+    /// Whether the constraints moved the estimate: the least-squares payload was not possible,
+    /// or within the margin of the boundary (1e-6 of the mass scale, see
+    /// [`super::payload_consistent`]).
+    pub constraints_active: bool,
+    /// How far the reported payload is from the boundary (all margins positive).
+    pub violation: Violation,
 }
 
 /// Why a payload cannot be read off the fit.
@@ -103,23 +147,28 @@ pub fn payload_from_fit(
     if !missing.parameters.is_empty() {
         return Ok(Err(missing));
     }
-    let p = SVector::<f64, 10>::from_fn(|k, _| fit.theta[idx[k]]);
+    let theta_ls: [f64; 10] = std::array::from_fn(|k| fit.theta[idx[k]]);
     let cov = SMatrix::<f64, 10, 10>::from_fn(|a, b| fit.covariance[(idx[a], idx[b])]);
-    let phys = to_physical(&p).ok_or(Error::Core(ivdyn_core::Error::NonPhysicalInertia { link: 0 }))?;
-    // numerical Jacobian of the map, central differences with steps ~ sqrt(eps) scale
-    let mut jac = DMatrix::<f64>::zeros(10, 10);
-    for k in 0..10 {
-        let h = 1e-6 * p[k].abs().max(1e-9 * p[0].abs().max(1e-9));
-        let (mut a, mut b) = (p, p);
-        a[k] += h;
-        b[k] -= h;
-        if let (Some(fa), Some(fb)) = (to_physical(&a), to_physical(&b)) {
-            jac.set_column(k, &((fa - fb) / (2.0 * h)));
-        }
-    }
-    let cov_dm = DMatrix::from_fn(10, 10, |a, b| cov[(a, b)]);
-    let cov_phys = &jac * cov_dm * jac.transpose();
+    let proj = project(&theta_ls, &cov);
+    let p = SVector::<f64, 10>::from(proj.params);
+    // the margin of `project` keeps the mass positive: the conversion cannot fail
+    let phys = to_physical(&p).unwrap_or_else(|| SVector::repeat(f64::NAN));
+    let cov_phys = propagate(&p, &cov);
     let sd = |k: usize| cov_phys[(k, k)].max(0.0).sqrt();
+    let ls_violation = violation(&theta_ls);
+    let ls_phys = to_physical(&SVector::from(theta_ls));
+    let physical = PhysicalFit {
+        ls_possible: ls_violation.possible,
+        ls_violation,
+        ls_params: theta_ls,
+        ls_com: ls_phys.map(|v| [v[1], v[2], v[3]]),
+        ls_inertia: ls_phys.map(|v| [v[4], v[5], v[6], v[7], v[8], v[9]]),
+        mahalanobis2: proj.distance2,
+        dof: proj.dof,
+        p_value: proj.p_value,
+        constraints_active: proj.params != theta_ls,
+        violation: violation(&proj.params),
+    };
     Ok(Ok(PayloadEstimate {
         mass: phys[0],
         com: [phys[1], phys[2], phys[3]],
@@ -127,6 +176,24 @@ pub fn payload_from_fit(
         mass_std: sd(0),
         com_std: [sd(1), sd(2), sd(3)],
         inertia_std: [sd(4), sd(5), sd(6), sd(7), sd(8), sd(9)],
-        params: p.into(),
+        params: proj.params,
+        physical,
     }))
+}
+
+/// The covariance of `(m, c, I_c)` from that of the 10 parameters, by the delta method at
+/// `p` (central differences, steps ~ 1e-6 of each parameter's scale).
+fn propagate(p: &SVector<f64, 10>, cov: &SMatrix<f64, 10, 10>) -> DMatrix<f64> {
+    let mut jac = DMatrix::<f64>::zeros(10, 10);
+    for k in 0..10 {
+        let h = 1e-6 * p[k].abs().max(1e-9 * p[0].abs().max(1e-9));
+        let (mut a, mut b) = (*p, *p);
+        a[k] += h;
+        b[k] -= h;
+        if let (Some(fa), Some(fb)) = (to_physical(&a), to_physical(&b)) {
+            jac.set_column(k, &((fa - fb) / (2.0 * h)));
+        }
+    }
+    let cov_dm = DMatrix::from_fn(10, 10, |a, b| cov[(a, b)]);
+    &jac * cov_dm * jac.transpose()
 }
