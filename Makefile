@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data
+.PHONY: demo test venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -58,11 +58,14 @@ nostd:
 	$(CARGO) build --release --target thumbv7em-none-eabihf --manifest-path tools/nostd-check/Cargo.toml
 
 # Builds and installs the `ivdyn` package (crates/ivdyn-py via maturin, release, in-tree
-# target/) into the venv, then runs every pytest suite (python/reference, python/tests).
+# target/) into the venv.
 # --no-build-isolation: maturin comes from the venv (no download per run); it must be on PATH.
-py-test: venv
+py-install: venv
 	@test -x $(VENV)/bin/maturin || $(VENV)/bin/pip install -q maturin==1.16.0
 	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/pip install -q --no-build-isolation .
+
+# py-test runs every pytest suite (python/reference, python/tests, python/tests_io).
+py-test: py-install
 	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q python
 
 ## fixtures: regenerate fixtures/ from Pinocchio and the NumPy reference
@@ -103,3 +106,13 @@ DATA ?= ../shared/data/real
 real-data: venv
 	$(CARGO) run --release -p ivdyn-lab --example real_data -- $(DATA) --out out/real
 	$(PY) examples/plot_real_data.py --in out/real --out docs/figures
+
+## floor: ivdyn identify's defaults against the plain NumPy least-squares floor on the real
+## recordings (python/tools/ls_floor.py; the table of docs/real-data.md)
+floor: py-install
+	$(PY) python/tools/ls_floor.py --real $(DATA) --markdown out/floor.md --json out/floor.json
+
+## messy: identify on messy logs (jitter, repeats, standstills, a gap, currents with k_t
+## 10 % off) against the same motion logged cleanly (python/tools/messy_log.py)
+messy: py-install
+	$(PY) python/tools/messy_log.py

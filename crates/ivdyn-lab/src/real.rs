@@ -183,49 +183,12 @@ pub fn load_lwr_run(root: &Path, k: usize) -> Result<LwrRun> {
 pub fn load_lwr_robot(root: &Path) -> Result<Robot> {
     let file = root.join(LWR_DIR).join("kuka_lwr4.urdf");
     let text = std::fs::read_to_string(&file).map_err(|e| Error::Io { file: file.clone(), source: e })?;
-    ivdyn::robot::urdf::load_str(&first_joint_origin_only(&text), &file, None, None)
-}
-
-/// Drops every `<origin .../>` after the first inside each `<joint>...</joint>`
-/// (urdfdom's reading of duplicated joint origins).
-pub fn first_joint_origin_only(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut rest = text;
-    while let Some(js) = rest.find("<joint") {
-        out.push_str(&rest[..js]);
-        let Some(je) = rest[js..].find("</joint>").map(|e| js + e + "</joint>".len()) else {
-            rest = &rest[js..];
-            break;
-        };
-        let joint = &rest[js..je];
-        let mut seen = false;
-        let mut jr = joint;
-        while let Some(os) = jr.find("<origin") {
-            let oe = jr[os..].find("/>").map(|e| os + e + 2).unwrap_or(jr.len());
-            out.push_str(&jr[..os]);
-            if !seen {
-                out.push_str(&jr[os..oe]);
-                seen = true;
-            }
-            jr = &jr[oe..];
-        }
-        out.push_str(jr);
-        rest = &rest[je..];
-    }
-    out.push_str(rest);
-    out
+    ivdyn::robot::urdf::load_str(&text, &file, None, None)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn keeps_first_origin_of_joints_only() {
-        let s = r#"<link name="a"><visual><origin xyz="1 0 0"/><origin xyz="2 0 0"/></visual></link><joint name="j" type="fixed"><origin xyz="0 0 1"/><origin xyz="0 0 0"/><parent link="a"/></joint>"#;
-        let want = r#"<link name="a"><visual><origin xyz="1 0 0"/><origin xyz="2 0 0"/></visual></link><joint name="j" type="fixed"><origin xyz="0 0 1"/><parent link="a"/></joint>"#;
-        assert_eq!(first_joint_origin_only(s), want);
-    }
 
     #[test]
     fn tx40_map_matches_readme() {

@@ -40,6 +40,8 @@ pub(crate) struct Prepared {
     /// First row of each segment, then the total.
     pub bounds: Vec<usize>,
     pub conditioning: ConditionSummary,
+    /// Remarks (an instrument that could not be built).
+    pub notes: Vec<String>,
 }
 
 impl Prepared {
@@ -99,8 +101,9 @@ fn condition_all(logs: &[&JointLog], opts: &IdentifyOptions) -> Result<(Vec<Cond
     Ok((parts, ConditionSummary::merge(&summaries)))
 }
 
-/// One segment's filtered, decimated rows: `(phi, tau, z, q, qd, qdd)`.
-type Rows = (Vec<f64>, Vec<f64>, Option<Vec<f64>>, Vec<f64>, Vec<f64>, Vec<f64>);
+/// One segment's filtered, decimated rows: `(phi, tau, z, q, qd, qdd)`; `z` is the
+/// instrument's rows or why they could not be built.
+type Rows = (Vec<f64>, Vec<f64>, Option<Result<Vec<f64>>>, Vec<f64>, Vec<f64>, Vec<f64>);
 
 /// One segment: regressor (and instrument) rows stacked, then torque and rows through the
 /// same filter and decimation.
@@ -118,7 +121,7 @@ fn segment_rows(
     let phi = dec.apply(&phi_raw, n * b)?;
     drop(phi_raw);
     let tau = dec.apply(c.tau.as_ref().expect("checked"), n)?;
-    let z = if instrument {
+    let z = instrument.then(|| -> Result<Vec<f64>> {
         let (qz, qdz, qddz) = match &c.u {
             Some(u) => {
                 let mut qh = vec![0.0; c.t.len() * n];
@@ -128,21 +131,23 @@ fn segment_rows(
             None => nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?,
         };
         let z_raw = stack_rows(robot, &base.independent, &qz, &qdz, &qddz, None)?;
-        Some(dec.apply(&z_raw, n * b)?)
-    } else {
-        None
-    };
+        dec.apply(&z_raw, n * b)
+    });
     Ok((phi, tau, z, dec.apply(&c.d.q, n)?, dec.apply(&c.d.qd, n)?, dec.apply(&c.d.qdd, n)?))
 }
 
 /// Conditions `logs` (segments at gaps), stacks and parallel-filters each segment's rows
-/// and concatenates them (see the module docs).
+/// and concatenates them (see the module docs). An instrument that cannot be built (e.g.
+/// the nominal model's mass matrix is not positive definite, so it cannot be simulated)
+/// is an error only when `need_instrument`; otherwise it is left out with a note (it only
+/// serves the LS-vs-IV test then).
 pub(crate) fn prepare(
     robot: &Robot,
     base: &BaseParams,
     logs: &[&JointLog],
     opts: &IdentifyOptions,
     instrument: bool,
+    need_instrument: bool,
     what: &str,
 ) -> Result<Prepared> {
     let n = robot.dof();
@@ -175,13 +180,20 @@ pub(crate) fn prepare(
         factor: dec.factor,
         bounds: vec![0],
         conditioning,
+        notes: vec![],
     };
     for c in &parts {
         let (phi, tau, z, q, qd, qdd) = segment_rows(robot, base, c, &dec, instrument, Some(&st))?;
         p.phi.extend(phi);
         p.tau.extend(tau);
-        if let (Some(all), Some(z)) = (p.z.as_mut(), z) {
-            all.extend(z);
+        match z {
+            Some(Ok(z)) => p.z.as_mut().into_iter().for_each(|all| all.extend_from_slice(&z)),
+            Some(Err(e)) if !need_instrument => {
+                p.notes.push(format!("no instrument ({e}): the LS-vs-IV test is skipped"));
+                (p.z, p.instrument) = (None, None);
+            }
+            Some(Err(e)) => return Err(e),
+            None => {}
         }
         p.q.extend(q);
         p.qd.extend(qd);

@@ -67,10 +67,50 @@ pub fn load_str(text: &str, file: &Path, base: Option<&str>, tip: Option<&str>) 
 }
 
 /// Loads URDF text with `opts`; `file` is only used in error messages.
+///
+/// A joint with several `<origin>` elements (seen in URDFs exported by hand-edited
+/// xacro) is read as urdfdom, ROS's parser, reads it: the first origin counts.
 pub fn load_str_with(text: &str, file: &Path, opts: &UrdfOptions) -> Result<Robot> {
-    let urdf = urdf_rs::read_from_string(text)
-        .map_err(|e| Error::UrdfParse { file: file.to_path_buf(), msg: e.to_string() })?;
+    let parse = |t: &str| {
+        urdf_rs::read_from_string(t).map_err(|e| Error::UrdfParse { file: file.to_path_buf(), msg: e.to_string() })
+    };
+    let urdf = match parse(text) {
+        Err(Error::UrdfParse { msg, .. }) if msg.contains("duplicate field `origin`") => {
+            parse(&first_joint_origin_only(text))?
+        }
+        r => r?,
+    };
     Builder::new(&urdf, file)?.build(opts)
+}
+
+/// Drops every `<origin .../>` after the first inside each `<joint>...</joint>`
+/// (urdfdom's reading of duplicated joint origins).
+pub fn first_joint_origin_only(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(js) = rest.find("<joint") {
+        out.push_str(&rest[..js]);
+        let Some(je) = rest[js..].find("</joint>").map(|e| js + e + "</joint>".len()) else {
+            rest = &rest[js..];
+            break;
+        };
+        let joint = &rest[js..je];
+        let mut seen = false;
+        let mut jr = joint;
+        while let Some(os) = jr.find("<origin") {
+            let oe = jr[os..].find("/>").map(|e| os + e + 2).unwrap_or(jr.len());
+            out.push_str(&jr[..os]);
+            if !seen {
+                out.push_str(&jr[os..oe]);
+                seen = true;
+            }
+            jr = &jr[oe..];
+        }
+        out.push_str(jr);
+        rest = &rest[je..];
+    }
+    out.push_str(rest);
+    out
 }
 
 struct Builder<'a> {
@@ -474,4 +514,16 @@ fn limits(joint: &urdf_rs::Joint) -> JointLimits {
         _ => (f64::NEG_INFINITY, f64::INFINITY),
     };
     JointLimits { lower, upper, velocity: or_inf(l.velocity), effort: or_inf(l.effort) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn keeps_first_origin_of_joints_only() {
+        let s = r#"<link name="a"><visual><origin xyz="1 0 0"/><origin xyz="2 0 0"/></visual></link><joint name="j" type="fixed"><origin xyz="0 0 1"/><origin xyz="0 0 0"/><parent link="a"/></joint>"#;
+        let want = r#"<link name="a"><visual><origin xyz="1 0 0"/><origin xyz="2 0 0"/></visual></link><joint name="j" type="fixed"><origin xyz="0 0 1"/><parent link="a"/></joint>"#;
+        assert_eq!(first_joint_origin_only(s), want);
+    }
 }
