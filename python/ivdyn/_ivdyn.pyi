@@ -288,7 +288,8 @@ def identify(robot: Robot, log: Union[_Log, List[_Log]], method: str = "wls", va
              consistent: bool = False, in_memory: bool = False, json_out: Optional[str] = None,
              out_params: Optional[str] = None, write_urdf: Optional[str] = None,
              out_mcap: Optional[str] = None, velocity: str = "auto",
-             window: Optional[Tuple[float, float]] = None, stream: bool = False,
+             window: Optional[Tuple[float, float]] = None,
+             exclude: Optional[List[Tuple[float, float]]] = None, stream: bool = False,
              current_topic: Optional[str] = None, effort: str = "auto",
              torque_constant: _PerJoint = None, gear_ratio: _PerJoint = None,
              motor_constant: _PerJoint = None) -> str:
@@ -299,7 +300,7 @@ def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/
              params_json: Optional[str] = None, json_out: Optional[str] = None,
              progress: _Callback = None, velocity: str = "auto",
              window: Optional[Tuple[float, float]] = None,
-             current_topic: Optional[str] = None, effort: str = "auto",
+             exclude: Optional[List[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto",
              torque_constant: _PerJoint = None, gear_ratio: _PerJoint = None,
              motor_constant: _PerJoint = None) -> str:
     """``ivdyn diagnose`` -> ``diagnosis.json`` (and the output directory's files with ``out``)."""
@@ -308,7 +309,7 @@ def payload(robot: Robot, log: _Log, before: Optional[_Log] = None, topic: str =
             decimate: int = 0, params_json: Optional[str] = None, progress: _Callback = None,
             json_out: Optional[str] = None, write_urdf: Optional[str] = None, payload_as: str = "link",
             velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
-            current_topic: Optional[str] = None, effort: str = "auto", torque_constant: _PerJoint = None,
+            exclude: Optional[List[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto", torque_constant: _PerJoint = None,
             gear_ratio: _PerJoint = None, motor_constant: _PerJoint = None) -> str:
     """``ivdyn payload`` -> its ``--json`` document."""
 def simulate(robot: Robot, out: Optional[Union[str, PathLike[str]]] = None, traj_t: Optional[_F64] = None,

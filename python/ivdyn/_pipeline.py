@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any, Callable, Dict, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -137,6 +137,20 @@ def _window(w) -> Optional[Tuple[float, float]]:
         raise ValueError(f"window must be (start, end) in seconds, got {w!r}") from None
 
 
+def _spans(spans) -> Optional[List[Tuple[float, float]]]:
+    """A list of ``(start, end)`` spans in seconds, or None."""
+    if spans is None:
+        return None
+    out = []
+    for w in spans:
+        try:
+            a, b = w
+            out.append((float(a), float(b)))
+        except (TypeError, ValueError):
+            raise ValueError(f"exclude must be a list of (start, end) in seconds, got {spans!r}") from None
+    return out
+
+
 def _per_joint(x, what: str):
     """A per-joint value for the native module: a number (every joint), a list (one per
     joint), a dict ``{joint: number}``, or the command line's text."""
@@ -167,7 +181,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
              offset: bool = True, consistent: bool = False, in_memory: bool = False,
              out_json: Optional[PathLike] = None, out_params: Optional[PathLike] = None,
              write_urdf: Optional[PathLike] = None, out_mcap: Optional[PathLike] = None,
-             velocity: str = "auto", window: Optional[Tuple[float, float]] = None, stream: bool = False,
+             velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
+             exclude: Optional[Sequence[Tuple[float, float]]] = None, stream: bool = False,
              current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
              gear_ratio=None, motor_constant=None, progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
@@ -195,7 +210,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     MCAP log; by default only logs of more than 1 M values are streamed), ``velocity``
     (``"auto"``: the log's velocity on each joint where it agrees with the differentiated
     positions; ``"log"``; ``"positions"``), ``window`` (``(start, end)`` seconds from the
-    log's first sample; ``float("inf")`` for the end); and the
+    log's first sample; ``float("inf")`` for the end), ``exclude`` (a list of such spans
+    left out; the log is cut there like at a gap); and the
     files: ``out_json`` (the report), ``out_params`` (the parameter file), ``write_urdf``
     (a copy of the robot's URDF with the identified parameters and its side file; the robot
     must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
@@ -219,7 +235,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
                               friction=[str(f) for f in friction], armature=bool(armature), offset=bool(offset),
                               consistent=bool(consistent), in_memory=bool(in_memory), json_out=_path(out_json),
                               out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap),
-                              velocity=str(velocity), window=_window(window), stream=bool(stream),
+                              velocity=str(velocity), window=_window(window), exclude=_spans(exclude), stream=bool(stream),
                               **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()
@@ -232,6 +248,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
             log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
             out_json: Optional[PathLike] = None, write_urdf: Optional[PathLike] = None,
             payload_as: str = "link", velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
+            exclude: Optional[Sequence[Tuple[float, float]]] = None,
             current_topic: Optional[str] = None, effort: str = "auto",
             torque_constant=None, gear_ratio=None, motor_constant=None,
             progress: Progress = None) -> Dict[str, Any]:
@@ -259,7 +276,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
                              command_topic, bool(log_time), None if cutoff is None else float(cutoff),
                              int(decimate), _params(params), cb, json_out=_path(out_json),
                              write_urdf=_path(write_urdf), payload_as=str(payload_as), velocity=str(velocity),
-                             window=_window(window),
+                             window=_window(window), exclude=_spans(exclude),
                              **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()
@@ -323,7 +340,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
              log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3, min_effect: float = 0.5,
              ignore_log_velocity: bool = False, report: bool = True, out_json: Optional[PathLike] = None,
              velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
-             current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
+             exclude: Optional[Sequence[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
              gear_ratio=None, motor_constant=None, progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
@@ -349,7 +366,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
                                None if cutoff is None else float(cutoff), float(alpha), float(min_effect),
                                bool(ignore_log_velocity), bool(report), _params(params),
                                json_out=_path(out_json), progress=cb, velocity=str(velocity),
-                               window=_window(window),
+                               window=_window(window), exclude=_spans(exclude),
                                **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()

@@ -39,3 +39,14 @@ def test_messy_log_costs_at_most_20_percent(ur5, rate):
     assert c["resampled"]
     # the exact velocity in the log agrees with the positions: taken on every joint
     assert [v["source"] for v in c["velocity"]] == ["log"] * 6
+
+
+def test_window_and_exclude_from_python(ur5):
+    log = ivdyn.simulate(ur5, duration=10.0, noise=0.05, fc=messy_log.FC, fv=messy_log.FV)["log"]
+    rep = ivdyn.identify(ur5, log, window=(1.0, 9.0), exclude=[(4.0, 4.5)])
+    h = rep["conditioning"]
+    # 500 Hz: 1.0 .. 9.0 s inclusive keeps 4001 of 5001 samples; 4.0 .. 4.5 s is 251 of
+    # them (both counted from the log's first sample)
+    assert (h["outside_window"], h["excluded"], h["segments"]) == (1000, 251, 2)
+    with pytest.raises(ValueError, match="exclude"):
+        ivdyn.identify(ur5, log, exclude=[(3.0, 1.0)])

@@ -104,6 +104,10 @@ struct LogArgs {
     /// Use only START:END seconds from the log's first sample (`5:` from 5 s on, `:30` the first 30 s).
     #[arg(long, value_name = "START:END")]
     window: Option<String>,
+    /// Leave out START:END seconds (from the log's first sample); repeat for several spans.
+    /// The log is cut there like at a gap.
+    #[arg(long, value_name = "START:END")]
+    exclude: Vec<String>,
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -495,6 +499,12 @@ fn condition_opts(la: &LogArgs) -> R<ivdyn::prep::ConditionOptions> {
         VelocityArg::Positions => VelocitySource::Positions,
     };
     c.window = la.window.as_deref().map(ivdyn::prep::hygiene::parse_window).transpose().map_err(msg)?;
+    c.exclude = la
+        .exclude
+        .iter()
+        .map(|s| ivdyn::prep::hygiene::parse_span(s, "exclude"))
+        .collect::<ivdyn::error::Result<_>>()
+        .map_err(msg)?;
     Ok(c)
 }
 

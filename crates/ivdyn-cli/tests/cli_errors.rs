@@ -121,3 +121,16 @@ fn cli_error_currents_need_torque_constants() {
     fails("half_kt", "payload", &a, &["--motor-constant is needed"]);
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn cli_error_window_and_exclude() {
+    let with = |extra: &[&str]| {
+        let mut a = ur5_log("ur5_500hz.mcap");
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    fails("win_syntax", "identify", &with(&["--window", "2-3"]), &["--window", "START:END", "2-3"]);
+    fails("win_after", "identify", &with(&["--window", "500:600"]), &["ur5_500hz.mcap", "--window", "the log lasts"]);
+    fails("excl_order", "identify", &with(&["--exclude", "3:1"]), &["--exclude", "3:1"]);
+    fails("velocity_log", "diagnose", &with(&["--velocity", "log", "--out", "/nonexistent/d"]), &["--velocity"]);
+}

@@ -240,10 +240,16 @@ impl EffortArgs<'_, '_> {
     }
 }
 
-fn condition(cutoff: Option<f64>, velocity: &str, window: Option<(f64, f64)>) -> PyResult<ConditionOptions> {
+fn condition(
+    cutoff: Option<f64>,
+    velocity: &str,
+    window: Option<(f64, f64)>,
+    exclude: Option<Vec<(f64, f64)>>,
+) -> PyResult<ConditionOptions> {
     let mut c = ConditionOptions {
         velocity: ivdyn::prep::VelocitySource::parse(velocity).map_err(to_py)?,
         window,
+        exclude: exclude.unwrap_or_default(),
         ..Default::default()
     };
     if let Some(fc) = cutoff {
@@ -274,7 +280,7 @@ fn urdf_of(robot: &PyRobot, what: &str) -> PyResult<PathBuf> {
 #[pyo3(signature = (robot, log, method="wls", validate=None, holdout=0.25, topic="/joint_states", command_topic=None,
                     log_time=false, cutoff=None, decimate=0, params_json=None, progress=None, friction=None,
                     armature=true, offset=true, consistent=false, in_memory=false, json_out=None, out_params=None,
-                    write_urdf=None, out_mcap=None, velocity="auto", window=None, stream=false,
+                    write_urdf=None, out_mcap=None, velocity="auto", window=None, exclude=None, stream=false,
                     current_topic=None, effort="auto", torque_constant=None,
                     gear_ratio=None, motor_constant=None))]
 #[allow(clippy::too_many_arguments)]
@@ -303,6 +309,7 @@ fn identify(
     out_mcap: Option<PathBuf>,
     velocity: &str,
     window: Option<(f64, f64)>,
+    exclude: Option<Vec<(f64, f64)>>,
     stream: bool,
     current_topic: Option<&str>,
     effort: &str,
@@ -345,7 +352,7 @@ fn identify(
         stream,
         opts: IdentifyOptions {
             method,
-            condition: condition(cutoff, velocity, window)?,
+            condition: condition(cutoff, velocity, window, exclude)?,
             decimate,
             validation_fraction: holdout,
             drive,
@@ -367,7 +374,7 @@ fn identify(
 #[pyfunction]
 #[pyo3(signature = (robot, log, before=None, topic="/joint_states", command_topic=None, log_time=false, cutoff=None,
                     decimate=0, params_json=None, progress=None, json_out=None, write_urdf=None, payload_as="link",
-                    velocity="auto", window=None,
+                    velocity="auto", window=None, exclude=None,
                     current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None))]
 #[allow(clippy::too_many_arguments)]
 fn payload(
@@ -387,6 +394,7 @@ fn payload(
     payload_as: &str,
     velocity: &str,
     window: Option<(f64, f64)>,
+    exclude: Option<Vec<(f64, f64)>>,
     current_topic: Option<&str>,
     effort: &str,
     torque_constant: Option<&Bound<'_, PyAny>>,
@@ -405,7 +413,11 @@ fn payload(
         log: log_input(&r, log, "log")?,
         before: before.map(|b| log_input(&r, b, "before log")).transpose()?,
         source: effort.apply(log_source(topic, command_topic, log_time))?,
-        opts: PayloadOptions { condition: condition(cutoff, velocity, window)?, decimate, ..Default::default() },
+        opts: PayloadOptions {
+            condition: condition(cutoff, velocity, window, exclude)?,
+            decimate,
+            ..Default::default()
+        },
         json: json_out,
         urdf,
     };
@@ -524,7 +536,7 @@ fn simulate<'py>(
 #[pyfunction]
 #[pyo3(signature = (robot, log, out=None, topic="/joint_states", log_time=false, cutoff=None, alpha=1e-3,
                     min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None, json_out=None, progress=None,
-                    velocity="auto", window=None,
+                    velocity="auto", window=None, exclude=None,
                     current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
@@ -544,6 +556,7 @@ fn diagnose(
     progress: Option<Py<PyAny>>,
     velocity: &str,
     window: Option<(f64, f64)>,
+    exclude: Option<Vec<(f64, f64)>>,
     current_topic: Option<&str>,
     effort: &str,
     torque_constant: Option<&Bound<'_, PyAny>>,
@@ -567,6 +580,7 @@ fn diagnose(
                 ivdyn::prep::VelocitySource::parse(velocity).map_err(to_py)?
             },
             window,
+            exclude: exclude.unwrap_or_default(),
             urdf_name,
             ..Default::default()
         },

@@ -145,3 +145,54 @@ fn a_window_keeps_its_seconds() {
     let e = identify(&robot, &log, &opts).unwrap_err().to_string();
     assert!(e.contains("window") && e.contains("the log lasts"), "{e}");
 }
+
+#[test]
+fn excluded_spans_cut_like_gaps_and_clipped_torques_are_named() {
+    let robot = ur5();
+    let (log, val) = (sim(&robot, 11, 20.0), sim(&robot, 12, 20.0));
+    let mut opts = IdentifyOptions { validation_log: Some(val), ..Default::default() };
+    opts.condition.exclude = vec![(8.0, 8.4)];
+    let r = identify(&robot, &log, &opts).unwrap();
+    let h = &r.conditioning.hygiene;
+    // 500 Hz: the samples at 8.000 .. 8.400 s inclusive
+    assert_eq!((h.excluded, h.gaps, h.segments), (201, 1, 2));
+    assert!(h.clipped.is_empty(), "{:?}", h.clipped);
+    // the shoulder's torque clipped at 80 % of its largest magnitude: named, with its samples
+    let n = log.dof();
+    let mut clip = log.clone();
+    let tau = clip.tau.as_mut().unwrap();
+    let limit = 0.8 * (0..log.len()).map(|k| tau[k * n + 1].abs()).fold(0.0, f64::max);
+    let hits = (0..log.len()).filter(|&k| tau[k * n + 1].abs() > limit).count();
+    (0..log.len()).for_each(|k| tau[k * n + 1] = tau[k * n + 1].clamp(-limit, limit));
+    let r = identify(&robot, &clip, &opts).unwrap();
+    let c = &r.conditioning.hygiene.clipped;
+    assert!(!c.is_empty() && c.iter().all(|c| c.joint == robot.joint_names[1] && c.value.abs() == limit), "{c:?}");
+    let found: usize = c.iter().map(|c| c.samples).sum();
+    // the excluded span's samples are gone before the count
+    assert!(found <= hits && found + 201 >= hits, "{found} of {hits}");
+    assert!(r.notes.iter().any(|s| s.contains("clipped")), "{:?}", r.notes);
+}
+
+#[test]
+fn standstills_are_measured() {
+    let robot = ur5();
+    // 2 s at rest, a 1 s smoothstep into a 0.3 Hz sine on every joint, 7 s of motion
+    let (rate, n) = (500.0, 6);
+    let t: Vec<f64> = (0..5000).map(|k| k as f64 / rate).collect();
+    let q: Vec<f64> = t
+        .iter()
+        .flat_map(|&s| {
+            let u = ((s - 2.0) / 1.0).clamp(0.0, 1.0);
+            let w = u * u * (3.0 - 2.0 * u);
+            (0..n).map(move |j| 0.3 + w * 0.5 * (2.0 * std::f64::consts::PI * 0.3 * s + j as f64).sin())
+        })
+        .collect();
+    let opts = SimulateOptions { noise_tau: 0.05, encoder_bits: Some(16), ..Default::default() };
+    let log = simulate(&robot, &Trajectory::Samples { t, q }, &opts).unwrap();
+    let r = identify(&robot, &log, &IdentifyOptions::default()).unwrap();
+    let s = r.conditioning.hygiene.standstill_s;
+    // the 2 s hold, plus the start of the ramp where every joint is still below 2 % of its
+    // RMS velocity (smoothstep: ~0.1 s), minus filter edges
+    assert!((1.9..2.4).contains(&s), "{s}");
+    assert!(r.notes.iter().any(|x| x.contains("standstill")), "{:?}", r.notes);
+}

@@ -48,6 +48,7 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
         cutoff_hz: a.log_args.cutoff,
         velocity,
         window: cond.window,
+        exclude: cond.exclude.clone(),
         log_name: a.log.display().to_string(),
         urdf_name: a.robot.urdf.display().to_string(),
         ..Default::default()

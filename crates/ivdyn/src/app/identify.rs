@@ -411,6 +411,23 @@ pub(crate) fn conditioning_notes(c: &ConditionSummary) -> Vec<String> {
             c.hygiene.outside_window
         ));
     }
+    if c.hygiene.excluded > 0 {
+        notes.push(format!("{} samples in the excluded spans left out", c.hygiene.excluded));
+    }
+    for k in &c.hygiene.clipped {
+        notes.push(format!(
+            "{}: the torque sits at its extreme value {} N m in {} samples: clipped by the drive or the sensor? (those samples are fitted as measured; --exclude them if so)",
+            k.joint, k.value, k.samples
+        ));
+    }
+    if c.hygiene.standstill_s > 0.0 {
+        notes.push(format!(
+            "{:.1} s of standstill (every joint below {:.0} % of its RMS velocity for at least {} s): friction and inertia are not excited there, and a Coulomb term cannot say which way the joint is held",
+            c.hygiene.standstill_s,
+            100.0 * prep::hygiene::STANDSTILL_SHARE,
+            prep::hygiene::STANDSTILL_MIN_S
+        ));
+    }
     if c.hygiene.repeated > 0 {
         notes.push(format!(
             "{} samples repeated the previous position under a new stamp (a state published twice) and were dropped",
@@ -585,7 +602,7 @@ pub fn write_prediction(
     let tau =
         c.tau.as_ref().ok_or_else(|| Error::NoTorque { what: "log".into(), needed_by: "the prediction".into() })?;
     // the measured copy: the rows conditioning kept (window, repeated samples, duplicates)
-    let (log, _) = prep::hygiene::clean(log, condition.window)?;
+    let (log, _) = prep::hygiene::clean(log, condition.window, &condition.exclude)?;
     let dd = dsp::dedup_stamps(&log.t)?;
     let t_kept: Vec<f64> = dd.keep.iter().map(|&k| log.t[k]).collect();
     let measured = |a: &[f64]| -> Result<Vec<f64>> {

@@ -56,6 +56,8 @@ pub struct DiagnoseOptions {
     pub velocity: crate::prep::VelocitySource,
     /// Only the samples in `[start, end]` seconds from the log's first sample.
     pub window: Option<(f64, f64)>,
+    /// Spans left out (seconds from the log's first sample).
+    pub exclude: Vec<(f64, f64)>,
     /// Cross-validation blocks per fold (default 8).
     pub blocks_per_fold: usize,
     /// Most effects to add (default 10).
@@ -75,6 +77,7 @@ impl Default for DiagnoseOptions {
             cutoff_hz: None,
             velocity: crate::prep::VelocitySource::Auto,
             window: None,
+            exclude: vec![],
             blocks_per_fold: 8,
             max_steps: 10,
             log_name: String::new(),

@@ -35,6 +35,7 @@ pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) 
         diff: dsp::DiffMethod::Butterworth { order: 4, cutoff_hz: Some(cutoff_hz) },
         velocity: opts.velocity,
         window: opts.window,
+        exclude: opts.exclude.clone(),
         ..Default::default()
     };
     // prep's one policy: window, repeated samples, duplicates, resampling, smoothing, and

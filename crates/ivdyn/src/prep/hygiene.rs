@@ -1,6 +1,7 @@
-//! Log hygiene before conditioning: the time window the user asked for, and samples that
+//! Log hygiene: the time window and the excluded spans the user asked for, samples that
 //! repeat the previous one under a new stamp (a recorder that published a state the
-//! controller had not refreshed). Both are reported, never silent.
+//! controller had not refreshed), torques stuck at their extreme value (clipped), and
+//! standstills. All reported, never silent.
 
 use serde::Serialize;
 
@@ -29,12 +30,45 @@ pub struct Hygiene {
     pub short_samples: usize,
     /// Segments left out because one continuous signal was needed (the longest was kept).
     pub unused_segments: usize,
+    /// The spans excluded, in seconds from the log's first sample.
+    pub exclude: Vec<(f64, f64)>,
+    /// Samples in them.
+    pub excluded: usize,
+    /// Joints whose torque sits at its extreme value in many samples (clipped?).
+    pub clipped: Vec<Clip>,
+    /// Seconds of standstill: every joint below [`STANDSTILL_SHARE`] of its RMS velocity
+    /// for at least [`STANDSTILL_MIN_S`] (friction and inertia are not excited there).
+    pub standstill_s: f64,
 }
+
+/// A torque that reaches its extreme value in many samples.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Clip {
+    /// Joint name.
+    pub joint: String,
+    /// The extreme value (N m).
+    pub value: f64,
+    /// Samples at exactly that value.
+    pub samples: usize,
+}
+
+/// A joint stands still below this share of its RMS velocity over the log.
+pub const STANDSTILL_SHARE: f64 = 0.02;
+/// Shortest standstill reported (s).
+pub const STANDSTILL_MIN_S: f64 = 0.5;
+/// A torque at its extreme value in at least this share of the samples (and 5) is
+/// reported as clipped: a measured torque with noise reaches its maximum once.
+pub const CLIP_SHARE: f64 = 0.002;
 
 /// Parses a window `START:END` in seconds; either side may be empty (`5:` from 5 s to
 /// the end, `:30` the first 30 s).
 pub fn parse_window(s: &str) -> Result<(f64, f64)> {
-    let bad = || Error::Option { option: "window".into(), msg: format!("must be START:END in seconds, got '{s}'") };
+    parse_span(s, "window")
+}
+
+/// Parses a span `START:END` (seconds) given to `option`; an empty side is 0 or the end.
+pub fn parse_span(s: &str, option: &str) -> Result<(f64, f64)> {
+    let bad = || Error::Option { option: option.into(), msg: format!("must be START:END in seconds, got '{s}'") };
     let (a, b) = s.split_once(':').ok_or_else(bad)?;
     let num =
         |x: &str, empty: f64| if x.trim().is_empty() { Ok(empty) } else { x.trim().parse::<f64>().map_err(|_| bad()) };
@@ -92,10 +126,66 @@ pub fn repeated_samples(log: &JointLog) -> Vec<usize> {
     out
 }
 
-/// The window, then repeated samples dropped. Borrows the log when nothing changes.
-pub fn clean<'a>(log: &'a JointLog, window: Option<(f64, f64)>) -> Result<(std::borrow::Cow<'a, JointLog>, Hygiene)> {
+/// Indices of the samples outside every span of `exclude` (seconds from `t0`).
+fn outside(t: &[f64], exclude: &[(f64, f64)], t0: f64) -> Result<Vec<usize>> {
+    for &(a, b) in exclude {
+        if !(a.is_finite() && a >= 0.0 && b > a) {
+            return Err(Error::Option {
+                option: "exclude".into(),
+                msg: format!("{a}:{b}: must be START:END with 0 <= START < END (s)"),
+            });
+        }
+    }
+    Ok((0..t.len()).filter(|&k| !exclude.iter().any(|&(a, b)| (a..=b).contains(&(t[k] - t0)))).collect())
+}
+
+/// Joints whose torque is at its largest or smallest value in at least [`CLIP_SHARE`] of
+/// the samples (and 5).
+pub fn clipped(log: &JointLog) -> Vec<Clip> {
+    let (Some(tau), n) = (log.tau.as_deref(), log.dof()) else { return vec![] };
+    let t = log.len();
+    let least = ((CLIP_SHARE * t as f64).ceil() as usize).max(5);
+    let mut out = vec![];
+    for j in 0..n {
+        let col = || (0..t).map(|k| tau[k * n + j]);
+        let (lo, hi) = col().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(v), b.max(v)));
+        for value in [hi, lo] {
+            let samples = col().filter(|&v| v == value).count();
+            if samples >= least && hi > lo {
+                out.push(Clip { joint: log.joint_names[j].clone(), value, samples });
+            }
+        }
+    }
+    out
+}
+
+/// Seconds of standstill in a conditioned segment's velocities `qd` (`T x n`, step `dt`):
+/// runs of at least [`STANDSTILL_MIN_S`] where every joint is below its threshold `thr`.
+pub fn standstill_s(qd: &[f64], n: usize, dt: f64, thr: &[f64]) -> f64 {
+    let min_run = (STANDSTILL_MIN_S / dt).ceil() as usize;
+    let (mut run, mut total) = (0usize, 0usize);
+    for row in qd.chunks_exact(n) {
+        if row.iter().zip(thr).all(|(v, th)| v.abs() < *th) {
+            run += 1;
+        } else {
+            total += if run >= min_run { run } else { 0 };
+            run = 0;
+        }
+    }
+    total += if run >= min_run { run } else { 0 };
+    total as f64 * dt
+}
+
+/// The window, the excluded spans, then repeated samples dropped; clipped torques found.
+/// Borrows the log when nothing changes.
+pub fn clean<'a>(
+    log: &'a JointLog,
+    window: Option<(f64, f64)>,
+    exclude: &[(f64, f64)],
+) -> Result<(std::borrow::Cow<'a, JointLog>, Hygiene)> {
     use std::borrow::Cow;
-    let mut h = Hygiene { window, ..Default::default() };
+    let mut h = Hygiene { window, exclude: exclude.to_vec(), ..Default::default() };
+    let t0 = log.t.first().copied().unwrap_or(0.0);
     let mut log = Cow::Borrowed(log);
     if let Some(w) = window {
         let keep = window_rows(&log.t, w)?;
@@ -104,6 +194,14 @@ pub fn clean<'a>(log: &'a JointLog, window: Option<(f64, f64)>) -> Result<(std::
             log = Cow::Owned(log.rows(&keep));
         }
     }
+    if !exclude.is_empty() {
+        let keep = outside(&log.t, exclude, t0)?;
+        h.excluded = log.len() - keep.len();
+        if h.excluded > 0 {
+            log = Cow::Owned(log.rows(&keep));
+        }
+    }
+    h.clipped = clipped(&log);
     let rep = repeated_samples(&log);
     if !rep.is_empty() {
         h.repeated = rep.len();
@@ -129,7 +227,7 @@ mod tests {
         let q = [0.0, 1.0, 2.0, 2.0, 4.0, 5.0, 6.0, 7.0, 7.0, 7.0, 7.0, 7.0];
         let log = ramp_log(&t, &q);
         assert_eq!(repeated_samples(&log), vec![3]);
-        let (c, h) = clean(&log, None).unwrap();
+        let (c, h) = clean(&log, None, &[]).unwrap();
         assert_eq!(h.repeated, 1);
         assert_eq!(c.len(), 11);
         assert!(!c.t.contains(&3e-3));
@@ -146,15 +244,15 @@ mod tests {
     fn window_keeps_seconds_from_the_first_sample() {
         let t: Vec<f64> = (0..11).map(|k| 5.0 + k as f64 * 0.1).collect();
         let log = ramp_log(&t, &[0.0; 11]);
-        let (c, h) = clean(&log, Some((0.25, 0.55))).unwrap();
+        let (c, h) = clean(&log, Some((0.25, 0.55)), &[]).unwrap();
         assert_eq!(c.t.len(), 3, "{:?}", c.t);
         assert_eq!(h.outside_window, 8);
-        let e = clean(&log, Some((2.0, 3.0))).unwrap_err().to_string();
+        let e = clean(&log, Some((2.0, 3.0)), &[]).unwrap_err().to_string();
         assert!(e.contains("window") && e.contains("lasts 1.000 s"), "{e}");
-        let e = clean(&log, Some((0.5, 0.2))).unwrap_err().to_string();
+        let e = clean(&log, Some((0.5, 0.2)), &[]).unwrap_err().to_string();
         assert!(e.contains("end must come after"), "{e}");
-        assert!(clean(&log, Some((f64::NAN, 1.0))).is_err());
-        assert_eq!(clean(&log, Some((0.0, f64::INFINITY))).unwrap().0.len(), 11);
+        assert!(clean(&log, Some((f64::NAN, 1.0)), &[]).is_err());
+        assert_eq!(clean(&log, Some((0.0, f64::INFINITY)), &[]).unwrap().0.len(), 11);
         assert_eq!(parse_window("0.25:0.55").unwrap(), (0.25, 0.55));
         assert_eq!(parse_window(":3").unwrap(), (0.0, 3.0));
         assert_eq!(parse_window("2:").unwrap(), (2.0, f64::INFINITY));

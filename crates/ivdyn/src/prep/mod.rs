@@ -43,6 +43,9 @@ pub struct ConditionOptions {
     pub velocity: VelocitySource,
     /// Only the samples in `[start, end]` seconds from the log's first sample.
     pub window: Option<(f64, f64)>,
+    /// Spans `[start, end]` (seconds from the log's first sample, like the window) left
+    /// out; the log is cut there like at a gap.
+    pub exclude: Vec<(f64, f64)>,
 }
 
 impl Default for ConditionOptions {
@@ -55,6 +58,7 @@ impl Default for ConditionOptions {
             diff: DiffMethod::default(),
             velocity: VelocitySource::Auto,
             window: None,
+            exclude: vec![],
         }
     }
 }
@@ -134,6 +138,9 @@ impl ConditionSummary {
             h.gaps += o.gaps;
             h.segments += o.segments;
             h.short_samples += o.short_samples;
+            h.excluded += o.excluded;
+            h.standstill_s += o.standstill_s;
+            h.clipped.extend(o.clipped.iter().cloned());
             m.duplicate_stamps += s.duplicate_stamps;
             m.resampled |= s.resampled;
         }
@@ -204,7 +211,7 @@ fn split_at_gaps(t: &[f64], rows: &[usize], dt: f64) -> (Vec<Vec<usize>>, usize)
 /// ([`velocity::decide`]). One [`Conditioned`] per segment, in time order.
 pub fn condition_segments(log: &JointLog, opts: &ConditionOptions) -> Result<Vec<Conditioned>> {
     log.check_shapes()?;
-    let (log, mut hygiene) = hygiene::clean(log, opts.window)?;
+    let (log, mut hygiene) = hygiene::clean(log, opts.window, &opts.exclude)?;
     let dd = dedup_stamps(&log.t)?;
     let t_kept: Vec<f64> = dd.keep.iter().map(|&k| log.t[k]).collect();
     let dt = match opts.dt {
@@ -240,12 +247,15 @@ pub fn condition_segments(log: &JointLog, opts: &ConditionOptions) -> Result<Vec
     let pairs: Vec<_> = parts.iter().zip(&lvs).map(|(p, lv)| (&p.d, lv.as_ref())).collect();
     let choices = velocity::decide(&pairs, names, opts.velocity)?;
     let from_log = choices.iter().any(|v| v.source == "log");
+    for (p, lv) in parts.iter_mut().zip(&lvs) {
+        velocity::apply(&mut p.d, lv.as_ref(), &choices);
+    }
+    hygiene.standstill_s = standstill(&parts, log.dof(), dt);
     Ok(parts
         .into_iter()
         .zip(&lvs)
         .enumerate()
-        .map(|(i, (mut p, lv))| {
-            velocity::apply(&mut p.d, lv.as_ref(), &choices);
+        .map(|(i, (p, _))| {
             Conditioned {
                 t: p.t,
                 dt,
@@ -262,6 +272,19 @@ pub fn condition_segments(log: &JointLog, opts: &ConditionOptions) -> Result<Vec
             }
         })
         .collect())
+}
+
+/// Seconds of standstill over the segments: every joint below
+/// [`hygiene::STANDSTILL_SHARE`] of its RMS velocity over all of them.
+fn standstill(parts: &[Uniform], n: usize, dt: f64) -> f64 {
+    let rows: usize = parts.iter().map(|p| p.t.len()).sum();
+    let thr: Vec<f64> = (0..n)
+        .map(|j| {
+            let ss: f64 = parts.iter().flat_map(|p| p.d.qd.iter().skip(j).step_by(n)).map(|v| v * v).sum();
+            hygiene::STANDSTILL_SHARE * (ss / rows.max(1) as f64).sqrt()
+        })
+        .collect();
+    parts.iter().map(|p| hygiene::standstill_s(&p.d.qd, n, dt, &thr)).sum()
 }
 
 /// [`condition_segments`], keeping the longest segment when the log has gaps (for the
