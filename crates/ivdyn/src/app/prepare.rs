@@ -10,7 +10,6 @@ use crate::Robot;
 use crate::batch::stack_rows;
 use crate::dsp::Decimator;
 use crate::error::{Error, Result};
-use crate::ident::BaseParams;
 use crate::ident::instrument::{TRACKING_INSTRUMENT, nominal_tracking};
 use crate::log::JointLog;
 use crate::prep::{self, ConditionSummary, Conditioned, parallel_filter};
@@ -28,7 +27,7 @@ pub(crate) struct Prepared {
     pub q: Vec<f64>,
     pub qd: Vec<f64>,
     pub qdd: Vec<f64>,
-    /// `T x n x b`
+    /// `T x n x b` (`b` = the columns asked for)
     pub phi: Vec<f64>,
     /// `T x n`
     pub tau: Vec<f64>,
@@ -106,15 +105,15 @@ type Rows = (Vec<f64>, Vec<f64>, Option<Vec<f64>>, Vec<f64>, Vec<f64>, Vec<f64>)
 /// same filter and decimation.
 fn segment_rows(
     robot: &Robot,
-    base: &BaseParams,
+    cols: &[usize],
     c: &Conditioned,
     dec: &Decimator,
     instrument: bool,
     stage: Option<&Stage>,
 ) -> Result<Rows> {
     let n = robot.dof();
-    let b = base.base_count();
-    let phi_raw = stack_rows(robot, &base.independent, &c.d.q, &c.d.qd, &c.d.qdd, stage)?;
+    let b = cols.len();
+    let phi_raw = stack_rows(robot, cols, &c.d.q, &c.d.qd, &c.d.qdd, stage)?;
     let phi = dec.apply(&phi_raw, n * b)?;
     drop(phi_raw);
     let tau = dec.apply(c.tau.as_ref().expect("checked"), n)?;
@@ -127,7 +126,7 @@ fn segment_rows(
             }
             None => nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?,
         };
-        let z_raw = stack_rows(robot, &base.independent, &qz, &qdz, &qddz, None)?;
+        let z_raw = stack_rows(robot, cols, &qz, &qdz, &qddz, None)?;
         Some(dec.apply(&z_raw, n * b)?)
     } else {
         None
@@ -136,10 +135,11 @@ fn segment_rows(
 }
 
 /// Conditions `logs` (segments at gaps), stacks and parallel-filters each segment's rows
-/// and concatenates them (see the module docs).
+/// of the full-regressor columns `cols` (the base parameters' independent columns, for
+/// identify) and concatenates them (see the module docs).
 pub(crate) fn prepare(
     robot: &Robot,
-    base: &BaseParams,
+    cols: &[usize],
     logs: &[&JointLog],
     opts: &IdentifyOptions,
     instrument: bool,
@@ -177,7 +177,7 @@ pub(crate) fn prepare(
         conditioning,
     };
     for c in &parts {
-        let (phi, tau, z, q, qd, qdd) = segment_rows(robot, base, c, &dec, instrument, Some(&st))?;
+        let (phi, tau, z, q, qd, qdd) = segment_rows(robot, cols, c, &dec, instrument, Some(&st))?;
         p.phi.extend(phi);
         p.tau.extend(tau);
         if let (Some(all), Some(z)) = (p.z.as_mut(), z) {

@@ -145,7 +145,7 @@ mod tests {
     #[test]
     fn window_keeps_seconds_from_the_first_sample() {
         let t: Vec<f64> = (0..11).map(|k| 5.0 + k as f64 * 0.1).collect();
-        let log = ramp_log(&t, &vec![0.0; 11]);
+        let log = ramp_log(&t, &[0.0; 11]);
         let (c, h) = clean(&log, Some((0.25, 0.55))).unwrap();
         assert_eq!(c.t.len(), 3, "{:?}", c.t);
         assert_eq!(h.outside_window, 8);
