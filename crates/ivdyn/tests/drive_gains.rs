@@ -256,3 +256,28 @@ fn currents_are_taken_as_the_effort_and_constants_refused() {
         KnownPayload::from_parts(1.0, None, Some(&[0.0; 6])).unwrap_err().to_string().contains("needs payload_com")
     );
 }
+
+/// The numbers of docs/cli.md for the slow pair (`cargo test -p ivdyn --test drive_gains --
+/// --ignored`): the base joint's relative std, and the coverage of the gains reported.
+#[test]
+#[ignore = "a 40-seed Monte Carlo for the docs' table; the checks run in the tests above"]
+fn slow_pair_monte_carlo() {
+    let robot = ur5();
+    let seeds = 40;
+    let (mut inside, mut count, mut rel, mut reported_base) = (0, 0, 0.0, 0);
+    for s in 0..seeds {
+        let rep = run(&robot, MOVES_LITTLE, 100 + s, None);
+        rel += rep.gains[0].rel_std_pct.unwrap() / seeds as f64;
+        reported_base += usize::from(rep.gains[0].identifiable);
+        for (j, g) in rep.gains.iter().enumerate() {
+            if let (Some(v), Some(sd)) = (g.value, g.std) {
+                count += 1;
+                inside += usize::from(((v - GAINS[j]) / sd).abs() < 2.0);
+            }
+        }
+    }
+    eprintln!(
+        "base joint: mean rel std {rel:.1} %, reported {reported_base}/{seeds}; others inside 2 std {inside}/{count}"
+    );
+    assert_eq!(reported_base, 0);
+}
