@@ -14,7 +14,8 @@ from typing_extensions import Self
 __all__ = [
     "Robot", "FitReport", "BaseParams", "Rls", "Riv", "PaperSim", "fit_ls", "fit_iv", "base_params",
     "fit_robot", "payload_from_fit", "read_joint_states", "paper_estimators", "terminal_base",
-    "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "simulate", "diagnose", "excite",
+    "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "gains", "simulate", "diagnose",
+    "excite",
     "batch_threads", "__version__", "MAX_DOF",
 ]
 

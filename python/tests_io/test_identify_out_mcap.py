@@ -49,8 +49,9 @@ def test_out_mcap_read_by_python(tmp_path, ivdyn_bin):
     subprocess.run([exe, "simulate", *CHAIN, "--duration", "6", "--seed", "12", "--noise", "0.05",
                     "--fc", "2,2,1.5,0.6,0.6,0.4", "--fv", "0.8,0.8,0.5,0.2,0.2,0.1",
                     "--out", str(log), "--quiet"], check=True, capture_output=True)
-    subprocess.run([exe, "identify", *CHAIN, "--log", str(log), "--out-params", str(params),
-                    "--out-mcap", str(pred), "--quiet"], check=True, capture_output=True)
+    # velocities from positions: the check below rebuilds qdd from the predicted q
+    subprocess.run([exe, "identify", *CHAIN, "--log", str(log), "--velocity", "positions", "--out-params",
+                    str(params), "--out-mcap", str(pred), "--quiet"], check=True, capture_output=True)
 
     schemas, topics = read_topics(pred)
     assert schemas == {t: "sensor_msgs/msg/JointState" for t in ["/joint_states", "/ivdyn/predicted", "/ivdyn/residual"]}
