@@ -7,8 +7,8 @@ Rust library ``ivdyn`` (multi-threaded over samples, GIL released); identificati
 :class:`Rls`, :class:`Riv`, the terminal-link estimator :func:`terminal_link`), log
 reading (:func:`read_joint_states`), closed-loop simulation (:func:`closed_loop`,
 :func:`control_experiment`), the command line's pipelines (:func:`identify`,
-:func:`payload`, :func:`simulate`), the paper's simulation study (:mod:`ivdyn.paper`) and
-plotting helpers (:mod:`ivdyn.plot`).
+:func:`payload`, :func:`drive_gains`, :func:`simulate`), the paper's simulation study
+(:mod:`ivdyn.paper`) and plotting helpers (:mod:`ivdyn.plot`).
 
 Conventions (SI units throughout: m, kg, s, rad, N, N m):
 
@@ -50,7 +50,7 @@ __all__ = [
     # terminal link, closed-loop simulation, control experiments (python/ivdyn/_control.py)
     "terminal_base", "terminal_link", "closed_loop", "control_experiment",
     # the command line's pipelines (python/ivdyn/_pipeline.py)
-    "identify", "payload", "simulate", "diagnose", "excite", "tqdm_progress",
+    "identify", "payload", "drive_gains", "simulate", "diagnose", "excite", "tqdm_progress",
     # submodules
     "paper", "plot",
 ]
@@ -64,7 +64,7 @@ from ._ident import (  # noqa: E402
     read_joint_states,
 )
 from ._control import closed_loop, control_experiment, terminal_base, terminal_link  # noqa: E402
-from ._pipeline import diagnose, excite, identify, payload, simulate, tqdm_progress  # noqa: E402
+from ._pipeline import diagnose, drive_gains, excite, identify, payload, simulate, tqdm_progress  # noqa: E402
 from . import paper, plot  # noqa: E402
 
 

@@ -14,7 +14,8 @@ from typing_extensions import Self
 __all__ = [
     "Robot", "FitReport", "BaseParams", "Rls", "Riv", "PaperSim", "fit_ls", "fit_iv", "base_params",
     "fit_robot", "payload_from_fit", "read_joint_states", "paper_estimators", "terminal_base",
-    "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "simulate", "diagnose", "excite",
+    "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "gains", "simulate", "diagnose",
+    "excite",
     "batch_threads", "__version__", "MAX_DOF",
 ]
 
@@ -312,6 +313,14 @@ def payload(robot: Robot, log: _Log, before: Optional[_Log] = None, topic: str =
             exclude: Optional[List[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto", torque_constant: _PerJoint = None,
             gear_ratio: _PerJoint = None, motor_constant: _PerJoint = None) -> str:
     """``ivdyn payload`` -> its ``--json`` document."""
+def gains(robot: Robot, unloaded: _Log, loaded: _Log, payload_mass: float,
+          payload_com: Optional[List[float]] = None, payload_inertia: Optional[List[float]] = None,
+          topic: str = "/joint_states", log_time: bool = False, cutoff: Optional[float] = None,
+          decimate: int = 0, params_json: Optional[str] = None, progress: _Callback = None,
+          json_out: Optional[str] = None, velocity: str = "auto",
+          window: Optional[Tuple[float, float]] = None, current_topic: Optional[str] = None,
+          effort: str = "auto", max_rel_std: float = 0.1) -> str:
+    """``ivdyn gains`` -> its ``--json`` document."""
 def simulate(robot: Robot, out: Optional[Union[str, PathLike[str]]] = None, traj_t: Optional[_F64] = None,
              traj_q: Optional[_F64] = None, duration: float = 20.0, rate: float = 500.0, seed: int = 1,
              amplitude: float = 0.8, payload_mass: Optional[float] = None,

@@ -1,6 +1,7 @@
 """The command line's pipelines from Python: :func:`identify`, :func:`payload`,
-:func:`simulate` run ``ivdyn::app`` (the code behind ``ivdyn identify / payload /
-simulate``) and return the same content as the command's ``--json`` file, as a dict.
+:func:`drive_gains`, :func:`simulate` run ``ivdyn::app`` (the code behind ``ivdyn identify
+/ payload / gains / simulate``) and return the same content as the command's ``--json``
+file, as a dict.
 
 Long calls release the GIL and report progress: ``progress=callable(done, total)`` is
 called from the pipeline's progress hook (``total`` 0 for a step of unknown length; a
@@ -281,6 +282,50 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     finally:
         close()
     return json.loads(out)
+
+
+def drive_gains(robot, unloaded, loaded, payload_mass: float, *, payload_com: Optional[Sequence[float]] = None,
+                payload_inertia: Optional[Sequence[float]] = None, base: Optional[str] = None,
+                tip: Optional[str] = None, fuse_beyond_tip: bool = False, params=None,
+                topic: str = "/joint_states", log_time: bool = False, cutoff: Optional[float] = None,
+                decimate: int = 0, velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
+                current_topic: Optional[str] = None, effort: str = "auto", max_rel_std: float = 0.1,
+                out_json: Optional[PathLike] = None, progress: Progress = None) -> Dict[str, Any]:
+    """``ivdyn gains`` from Python: the drive gains (torque constants at the joint, N m per
+    current unit, gear ratio included) from a log of the arm without the payload
+    (``unloaded``) and one with a payload of known mass ``payload_mass`` (kg) on the last
+    link (``loaded``), both with the drive currents. Returns the ``--json`` report as a dict
+    (``docs/cli.md``): ``gains`` [{joint, identifiable, value, std, rel_std_pct, reason}]
+    (``value`` and ``std`` are None for a gain the pair does not determine, with the
+    reason), ``payload`` (the ten parameters, the COM), ``base`` (base parameters in
+    absolute units), ``unloaded`` / ``loaded`` (residual RMS per joint, current units),
+    ``notes``.
+
+    ``unloaded``, ``loaded``: a ``.mcap`` / ``.csv`` path or a dict of arrays ``{"t": (T,)
+    s, "q": (T, N) rad, "current": (T, N) A, "qd": optional}``. ``effort``: ``"auto"`` (the
+    motor current when the log has one, else the effort field ``"tau"``), ``"current"``,
+    ``"torque"`` (the effort field holds the current); ``current_topic``: the MCAP topic of
+    the currents. ``payload_com`` (x, y, z) m and ``payload_inertia`` (Ixx, Ixy, Ixz, Iyy,
+    Iyz, Izz) kg m^2 about the COM, when known (else estimated). ``max_rel_std``: a gain
+    whose relative std is larger is reported as not identifiable. The other arguments as
+    in :func:`identify`.
+    """
+    native = _robot(robot, base, tip, fuse_beyond_tip)
+
+    def seq(x):
+        return None if x is None else [float(v) for v in np.asarray(x, dtype=np.float64).ravel()]
+
+    cb, close = _callback(progress)
+    try:
+        text = _ivdyn.gains(native, _log(unloaded, native.dof, "unloaded"), _log(loaded, native.dof, "loaded"),
+                            float(payload_mass), seq(payload_com), seq(payload_inertia), str(topic), bool(log_time),
+                            None if cutoff is None else float(cutoff), int(decimate), _params(params), cb,
+                            json_out=_path(out_json), velocity=str(velocity), window=_window(window),
+                            current_topic=None if current_topic is None else str(current_topic),
+                            effort=str(effort), max_rel_std=float(max_rel_std))
+    finally:
+        close()
+    return json.loads(text)
 
 
 def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = None, tip: Optional[str] = None,

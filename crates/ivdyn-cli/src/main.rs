@@ -1,4 +1,4 @@
-//! The `ivdyn` command line: `identify`, `payload`, `simulate`, `diagnose`, `excite`
+//! The `ivdyn` command line: `identify`, `payload`, `gains`, `simulate`, `diagnose`, `excite`
 //! (see `docs/cli.md`). Arguments become an `ivdyn::app` job; the job reads, runs and
 //! writes; this binary prints its summary and draws the progress bars.
 
@@ -33,6 +33,9 @@ enum Cmd {
     Identify(IdentifyArgs),
     /// Estimate a payload on the last link from a log after the grasp.
     Payload(PayloadArgs),
+    /// Drive gains (torque constants at the joint, N m/A) from a log without and a log
+    /// with a payload of known mass, both with the drive currents.
+    Gains(gains_cmd::GainsArgs),
     /// Write a synthetic log (inverse dynamics along a trajectory, with noise).
     Simulate(SimulateArgs),
     /// Find what the nominal model misses in a log, name it, add it (docs/diagnose.md).
@@ -297,6 +300,8 @@ struct SimulateArgs {
 
 #[path = "cmd/diagnose.rs"]
 mod diagnose_cmd;
+#[path = "cmd/gains.rs"]
+mod gains_cmd;
 #[derive(Args)]
 struct ExciteArgs {
     #[command(flatten)]
@@ -362,6 +367,7 @@ fn main() -> ExitCode {
     let r = match cli.cmd {
         Cmd::Identify(a) => identify(a, &bars),
         Cmd::Payload(a) => payload(a, &bars),
+        Cmd::Gains(a) => gains_cmd::run(a, &bars),
         Cmd::Simulate(a) => simulate(a, &bars),
         Cmd::Diagnose(a) => diagnose_cmd::run(a, &bars),
         Cmd::Excite(a) => excite(a, &bars),

@@ -1,5 +1,5 @@
 //! The command line's jobs from Python: `ivdyn::app::{identify_job, payload_job,
-//! simulate_job, diagnose_job, excite_job}` (the same functions the command line calls, with
+//! gains_job, simulate_job, diagnose_job, excite_job}` (the same functions the command line calls, with
 //! the same options) on a robot and a log (a file, or arrays), returning the JSON document
 //! the command line writes with `--json` (as a string; the Python wrapper parses it), with
 //! the GIL released. This file only converts arguments and results.
@@ -430,6 +430,59 @@ fn payload(
     json(&out.report)
 }
 
+/// `ivdyn gains` -> the `--json` document (a string); writes it to `json_out` when given.
+#[pyfunction]
+#[pyo3(signature = (robot, unloaded, loaded, payload_mass, payload_com=None, payload_inertia=None,
+                    topic="/joint_states", log_time=false, cutoff=None, decimate=0, params_json=None, progress=None,
+                    json_out=None, velocity="auto", window=None, current_topic=None, effort="auto", max_rel_std=0.1))]
+#[allow(clippy::too_many_arguments)]
+fn gains(
+    py: Python<'_>,
+    robot: PyRef<'_, PyRobot>,
+    unloaded: &Bound<'_, PyAny>,
+    loaded: &Bound<'_, PyAny>,
+    payload_mass: f64,
+    payload_com: Option<Vec<f64>>,
+    payload_inertia: Option<Vec<f64>>,
+    topic: &str,
+    log_time: bool,
+    cutoff: Option<f64>,
+    decimate: usize,
+    params_json: Option<&str>,
+    progress: Option<Py<PyAny>>,
+    json_out: Option<PathBuf>,
+    velocity: &str,
+    window: Option<(f64, f64)>,
+    current_topic: Option<&str>,
+    effort: &str,
+    max_rel_std: f64,
+) -> PyResult<String> {
+    // the torque constants are what the job estimates: none are passed on
+    let effort = EffortArgs { current_topic, effort, torque_constant: None, gear_ratio: None, motor_constant: None };
+    let r = robot_with_params(&robot.inner, params_json)?;
+    let job = app::GainsJob {
+        unloaded: log_input(&r, unloaded, "unloaded log")?,
+        loaded: log_input(&r, loaded, "loaded log")?,
+        source: effort.apply(log_source(topic, None, log_time))?,
+        payload: app::KnownPayload::from_parts(payload_mass, payload_com.as_deref(), payload_inertia.as_deref())
+            .map_err(to_py)?,
+        opts: app::GainsOptions {
+            condition: condition(cutoff, velocity, window, None)?,
+            decimate,
+            max_rel_std,
+            ..Default::default()
+        },
+        json: json_out,
+    };
+    let out = run(py, progress, |p| {
+        app::gains_job(
+            &r,
+            &app::GainsJob { opts: app::GainsOptions { progress: p, ..job.opts.clone() }, ..job.clone() },
+        )
+    })?;
+    json(&out.report)
+}
+
 // ------------------------------------------------------------------ simulate
 
 /// A log as the dict of arrays every Python function takes and returns: `t` (T,), `q`,
@@ -665,6 +718,7 @@ fn excite<'py>(
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(diagnose, m)?)?;
     m.add_function(wrap_pyfunction!(excite, m)?)?;
+    m.add_function(wrap_pyfunction!(gains, m)?)?;
     m.add_function(wrap_pyfunction!(identify, m)?)?;
     m.add_function(wrap_pyfunction!(payload, m)?)?;
     m.add_function(wrap_pyfunction!(simulate, m)?)?;

@@ -119,6 +119,14 @@ pub enum Error {
         /// What needs the torques ("identification", "payload estimation").
         needed_by: String,
     },
+    /// A log without the drive currents that the drive-gain fit needs.
+    #[error(
+        "{what} has no drive currents (CSV columns <joint>.i, an MCAP current topic, or the effort field); the drive-gain fit needs them"
+    )]
+    NoCurrent {
+        /// Which log ("unloaded log", "loaded log").
+        what: String,
+    },
     /// A log whose joints are not the robot's (names or order after matching).
     #[error("{what} joints {log:?} are not the robot's {robot:?}")]
     JointMismatch {

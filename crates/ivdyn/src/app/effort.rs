@@ -197,6 +197,46 @@ pub fn to_torque<'a>(
     Ok(log)
 }
 
+/// `log` with the drive current as its effort (`tau`), for the drive-gain fit, which
+/// estimates the torque constants instead of taking them: `auto` takes the motor current
+/// when the log has one, else the effort field (a drive that publishes its current there);
+/// `current` the current; `torque` the effort field. Returns the log and which signal it is
+/// (`"motor current"` or `"effort field"`). Torque constants given are an error.
+pub fn current_as_effort<'a>(
+    log: Cow<'a, JointLog>,
+    effort: Effort,
+    constants: &TorqueConstants,
+    what: &str,
+) -> Result<(Cow<'a, JointLog>, &'static str)> {
+    if *constants != TorqueConstants::default() {
+        let option = if constants.torque_constant.is_some() { "torque_constant" } else { "gear_ratio/motor_constant" };
+        return Err(bad_option(option, "is what the drive-gain fit estimates; leave the torque constants out".into()));
+    }
+    let use_current = match effort {
+        Effort::Auto => log.current.is_some(),
+        Effort::Current if log.current.is_none() => {
+            return Err(bad_option(
+                "effort",
+                format!(
+                    "is 'current' but the {what} has no motor currents (CSV columns <joint>.i, or an MCAP current topic)"
+                ),
+            ));
+        }
+        Effort::Current => true,
+        Effort::Torque => false,
+    };
+    if use_current {
+        let mut log = log;
+        let current = log.current.clone();
+        log.to_mut().tau = current;
+        return Ok((log, "motor current"));
+    }
+    if log.tau.is_none() {
+        return Err(Error::NoCurrent { what: what.into() });
+    }
+    Ok((log, "effort field"))
+}
+
 fn bad_option(option: &str, msg: String) -> Error {
     Error::Option { option: option.into(), msg }
 }

@@ -253,7 +253,7 @@ pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) 
     };
     let b = base.base_count();
     let want_iv = opts.method != Method::IdimIv;
-    let prep = prepare(robot, &base, logs, opts, want_iv, opts.method == Method::Iv, "log")?;
+    let prep = prepare(robot, &base.independent, logs, opts, want_iv, opts.method == Method::Iv, "log")?;
     notes.extend(prep.notes.iter().cloned());
     let t = prep.len();
     let (fit_range, val_range) = split_ranges(t, opts);
@@ -264,7 +264,7 @@ pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) 
     }
     let validation = match (&opts.validation_log, val_range) {
         (Some(vlog), _) => {
-            let vp = prepare(robot, &base, &[vlog], opts, false, false, "validation log")?;
+            let vp = prepare(robot, &base.independent, &[vlog], opts, false, false, "validation log")?;
             let t2 = vp.len();
             let e2 = (t2 / 100).min(20);
             let mut v = JointAccs::new(n, b, false);

@@ -125,11 +125,28 @@ impl LogInput {
     /// The log in memory, its effort chosen and, for a motor current, turned into joint
     /// torques ([`effort::to_torque`]): the one place every job's logs go through.
     pub fn load(&self, robot: &Robot, src: &LogSource) -> Result<Cow<'_, JointLog>> {
-        let log = match self {
+        let log = self.raw(robot, src)?;
+        effort::to_torque(log, src.effort, &src.torque_constants, &robot.joint_names).map_err(|e| self.context(e))
+    }
+
+    /// The log in memory with the drive current as its effort, for the drive-gain fit
+    /// ([`effort::current_as_effort`]), and which signal that is.
+    pub fn load_current(
+        &self,
+        robot: &Robot,
+        src: &LogSource,
+        what: &str,
+    ) -> Result<(Cow<'_, JointLog>, &'static str)> {
+        let log = self.raw(robot, src)?;
+        effort::current_as_effort(log, src.effort, &src.torque_constants, what).map_err(|e| self.context(e))
+    }
+
+    /// The log as read (a file) or given (arrays).
+    fn raw(&self, robot: &Robot, src: &LogSource) -> Result<Cow<'_, JointLog>> {
+        Ok(match self {
             LogInput::File(p) => Cow::Owned(src.read(p, robot)?),
             LogInput::Arrays(l) => Cow::Borrowed(l),
-        };
-        effort::to_torque(log, src.effort, &src.torque_constants, &robot.joint_names).map_err(|e| self.context(e))
+        })
     }
 
     /// `e` prefixed with the log file, unless it already names a file.

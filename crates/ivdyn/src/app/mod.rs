@@ -1,5 +1,5 @@
-//! The one orchestration: every command (`identify`, `payload`, `simulate`, `diagnose`,
-//! `excite`) as a job that reads its inputs, runs, and writes its outputs whole or not at
+//! The one orchestration: every command (`identify`, `payload`, `gains`, `simulate`,
+//! `diagnose`, `excite`) as a job that reads its inputs, runs, and writes its outputs whole or not at
 //! all. The command line (`crates/ivdyn-cli`) and the Python package (`crates/ivdyn-py`)
 //! build a job from their arguments, call it, and present the result; neither holds any
 //! orchestration of its own.
@@ -10,6 +10,7 @@
 pub mod diagnose;
 pub mod effort;
 pub mod excite;
+pub mod gains;
 pub mod identify;
 pub mod identify_job;
 pub mod io;
@@ -22,6 +23,7 @@ pub mod stream;
 pub use diagnose::{DiagnoseJob, diagnose_job};
 pub use effort::{Effort, PerJoint, TorqueConstants};
 pub use excite::{ExciteJob, excite_job};
+pub use gains::{GainsJob, GainsOptions, GainsReport, KnownPayload, drive_gains, gains_job};
 pub use identify::{IdentifyOptions, IdentifyReport, Method, identify, identify_base, identify_logs, write_prediction};
 pub use identify_job::{IdentifyJob, IdentifyOutputs, identify_job};
 pub use io::{LogInput, LogSource, RobotSource};

@@ -10,7 +10,6 @@ use crate::Robot;
 use crate::batch::stack_rows;
 use crate::dsp::Decimator;
 use crate::error::{Error, Result};
-use crate::ident::BaseParams;
 use crate::ident::instrument::{TRACKING_INSTRUMENT, nominal_tracking};
 use crate::log::JointLog;
 use crate::prep::{self, ConditionSummary, Conditioned, parallel_filter};
@@ -28,7 +27,7 @@ pub(crate) struct Prepared {
     pub q: Vec<f64>,
     pub qd: Vec<f64>,
     pub qdd: Vec<f64>,
-    /// `T x n x b`
+    /// `T x n x b` (`b` = the columns asked for)
     pub phi: Vec<f64>,
     /// `T x n`
     pub tau: Vec<f64>,
@@ -109,15 +108,15 @@ type Rows = (Vec<f64>, Vec<f64>, Option<Result<Vec<f64>>>, Vec<f64>, Vec<f64>, V
 /// same filter and decimation.
 fn segment_rows(
     robot: &Robot,
-    base: &BaseParams,
+    cols: &[usize],
     c: &Conditioned,
     dec: &Decimator,
     instrument: bool,
     stage: Option<&Stage>,
 ) -> Result<Rows> {
     let n = robot.dof();
-    let b = base.base_count();
-    let phi_raw = stack_rows(robot, &base.independent, &c.d.q, &c.d.qd, &c.d.qdd, stage)?;
+    let b = cols.len();
+    let phi_raw = stack_rows(robot, cols, &c.d.q, &c.d.qd, &c.d.qdd, stage)?;
     let phi = dec.apply(&phi_raw, n * b)?;
     drop(phi_raw);
     let tau = dec.apply(c.tau.as_ref().expect("checked"), n)?;
@@ -130,20 +129,21 @@ fn segment_rows(
             }
             None => nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?,
         };
-        let z_raw = stack_rows(robot, &base.independent, &qz, &qdz, &qddz, None)?;
+        let z_raw = stack_rows(robot, cols, &qz, &qdz, &qddz, None)?;
         dec.apply(&z_raw, n * b)
     });
     Ok((phi, tau, z, dec.apply(&c.d.q, n)?, dec.apply(&c.d.qd, n)?, dec.apply(&c.d.qdd, n)?))
 }
 
 /// Conditions `logs` (segments at gaps), stacks and parallel-filters each segment's rows
-/// and concatenates them (see the module docs). An instrument that cannot be built (e.g.
-/// the nominal model's mass matrix is not positive definite, so it cannot be simulated)
-/// is an error only when `need_instrument`; otherwise it is left out with a note (it only
-/// serves the LS-vs-IV test then).
+/// of the full-regressor columns `cols` (the base parameters' independent columns, for
+/// identify) and concatenates them (see the module docs). An instrument that cannot be
+/// built (e.g. the nominal model's mass matrix is not positive definite, so it cannot be
+/// simulated) is an error only when `need_instrument`; otherwise it is left out with a
+/// note (it only serves the LS-vs-IV test then).
 pub(crate) fn prepare(
     robot: &Robot,
-    base: &BaseParams,
+    cols: &[usize],
     logs: &[&JointLog],
     opts: &IdentifyOptions,
     instrument: bool,
@@ -183,7 +183,7 @@ pub(crate) fn prepare(
         notes: vec![],
     };
     for c in &parts {
-        let (phi, tau, z, q, qd, qdd) = segment_rows(robot, base, c, &dec, instrument, Some(&st))?;
+        let (phi, tau, z, q, qd, qdd) = segment_rows(robot, cols, c, &dec, instrument, Some(&st))?;
         p.phi.extend(phi);
         p.tau.extend(tau);
         match z {

@@ -17,7 +17,8 @@
 //!   quality follow without the data; [`drive`]: which drive terms are fitted;
 //! - [`instrument`]: the tracking-simulation instrument; [`batch_fit`]: LS straight from
 //!   states; [`arrays`]: fits and recursive estimators on plain arrays (Python's entry);
-//! - [`transmission`]: motor-side regressors, gear ratios, drive gains;
+//! - [`transmission`]: motor-side regressors, gear ratios, drive gains; [`gains`]: the
+//!   drive-gain fit (current as the output, honest identifiability);
 //!
 //! ```
 //! use ivdyn::ident::{fit_ls, LsAccumulator};
@@ -37,6 +38,7 @@ pub mod batch_fit;
 pub mod consistent;
 pub mod drive;
 pub mod fit;
+pub mod gains;
 pub mod idim;
 pub mod instrument;
 pub mod joint_acc;

@@ -33,17 +33,13 @@
 //! `(c g, c θ)` predict the same currents. A payload of **known mass** `m_L` breaks this:
 //! with runs before and after attaching it, `g_i i_i = φ_i θ + φ_i^L θ_L` on the loaded
 //! rows, where the payload's mass column `φ^L_m m_L` is known in absolute units; its other
-//! nine parameters (first moments, inertia) are unknowns like `θ`. Moving the unknowns
-//! to one side,
-//!
-//! ```text
-//! φ_i θ  +  [loaded] φ^L_i,rest θ_L,rest  -  i_i g_i  =  -[loaded] φ^L_i,m m_L
-//! ```
-//!
-//! is linear in `(θ, θ_L,rest, g)` with a right side in newtons: [`fit_drive_gains`].
-//! A gain is identifiable when the known mass moves its motor (or moves parameters
-//! shared with motors whose gain is fixed); [`fit_drive_gains`] checks this at the
-//! estimate and reports the gains it cannot determine instead of a number.
+//! nine parameters (first moments, inertia) are unknowns like `θ`. [`fit_drive_gains`]
+//! fits `i_i = (φ_i θ + [loaded] φ^L_i θ_L) / g_i` with the current as the output
+//! ([`crate::ident::gains`]: the linear form with the current in the regressor is biased
+//! toward `g = 0` by the current's noise). A gain is identifiable when the known mass
+//! loads its motor (or loads parameters shared with motors whose gain is fixed) enough for
+//! its relative std to stay within 10 %; the others are reported as not identifiable
+//! instead of a number.
 //! (Gautier and Briot, "Global identification of joint drive gains and dynamic parameters
 //! of robots", ASME J. Dyn. Syst. Meas. Control 136(5), 2014.)
 
@@ -52,7 +48,8 @@ use nalgebra::DMatrix;
 use crate::Robot;
 use crate::batch::regressor_batch;
 use crate::error::{Error, Result};
-use crate::ident::{BaseParams, FitReport, LsAccumulator, fit_ls};
+use crate::ident::BaseParams;
+use crate::ident::gains::{GainFit, GainOptions, GainRun, GainVerdict, fit_gains};
 use ivdyn_core::params::{DRIVE_PARAM_NAMES, DRIVE_PARAMS, DriveParams, LINK_PARAMS, PARAMS_PER_JOINT};
 use ivdyn_core::rng::Rng;
 
@@ -391,30 +388,22 @@ pub struct DriveGains {
     pub gains: Vec<f64>,
     /// Standard deviation of each gain (`NaN` where not identifiable).
     pub std: Vec<f64>,
-    /// Whether each gain is determined by the data (local structural identifiability at
-    /// the estimate, see [`fit_drive_gains`]).
+    /// Whether each gain is determined by the data ([`crate::ident::gains`]: excited, in
+    /// no null direction, relative std within the limit).
     pub identifiable: Vec<bool>,
-    /// The whole least-squares fit: base parameters, then the payload's nine unknown
-    /// parameters (`"payload.m*cx"` .. `"payload.Izz"`, in the last link's frame), then the
-    /// gains (`"<joint>.motor.gain"`).
-    pub fit: FitReport,
+    /// The whole fit: base parameters in absolute units, the payload's parameters, the
+    /// verdict on each gain, per-joint residual statistics.
+    pub fit: GainFit,
 }
 
-/// Relative singular value below which a direction of the noise-free (model-predicted)
-/// gain regressor counts as a null direction.
-pub const GAIN_NULL_TOL: f64 = 1e-8;
-
 /// Drive gains and the base parameters (in absolute units) from a run without and a run
-/// with a payload of known mass `payload_mass` fixed to the last link (module docs).
-/// `base` are the base parameters of `reg` (e.g. [`MotorRegressor::base_params`]).
-///
-/// Identifiability: the fit is least squares on the stacked rows; which gains it can
-/// determine depends on the robot and the payload (a mass at a point on the wrist axes
-/// puts no torque on the wrist motors). That is checked on the same rows with the
-/// measured currents replaced by the currents the estimate predicts (a noise-free
-/// version of the regressor at the estimate): a gain whose column takes part in a null
-/// direction of it (singular value below [`GAIN_NULL_TOL`] of the largest, columns
-/// scaled to unit norm) is reported as not identifiable, with `NaN`, never a number.
+/// with a payload of known mass `payload_mass` fixed to the last link (module docs), by
+/// [`crate::ident::gains::fit_gains`] on the motor-side rows: the currents are the
+/// output, and a gain the data cannot pin down is reported as not identifiable (`NaN`),
+/// never as a number with a small std. `base` are the base parameters of `reg` (e.g.
+/// [`MotorRegressor::base_params`]). The rows are used as given (no filtering): give
+/// states and currents that are already smooth, or use `ivdyn::app::drive_gains`, which
+/// conditions and filters joint-side logs.
 pub fn fit_drive_gains(
     reg: &MotorRegressor,
     base: &BaseParams,
@@ -427,83 +416,27 @@ pub fn fit_drive_gains(
     if base.full_cols != p {
         return Err(dim("base parameters' full column count (the regressor's parameters)", p, base.full_cols));
     }
-    if !(payload_mass.is_finite() && payload_mass > 0.0) {
-        return Err(Error::Option {
-            option: "payload_mass".into(),
-            msg: format!("must be positive, got {payload_mass} (the known payload of the drive-gain fit)"),
-        });
-    }
-    let b = base.base_count();
-    let last = LINK_PARAMS * (n - 1);
-    let cols = b + (LINK_PARAMS - 1) + n;
-    let mut names = base.names.clone();
-    names.extend(ivdyn_core::params::LINK_PARAM_NAMES[1..].iter().map(|s| format!("payload.{s}")));
-    names.extend(reg.robot.joint_names.iter().map(|j| format!("{j}.motor.gain")));
-    // Stacked rows: [φ_base | loaded φ_last[1..10] | -diag(i)] x = -loaded φ_last[m] m_L
-    let build = |log: &CurrentLog, is_loaded: bool, current: &[f64]| -> Result<(Vec<f64>, Vec<f64>)> {
-        let rows = reg.rows(log.q_m, log.qd_m, log.qdd_m)?;
-        let m = rows.len() / p;
-        if current.len() != m {
-            return Err(dim("current (T x n, as q_m)", m, current.len()));
+    // each row: the base columns, then the last link's ten (the payload's, through K⁻ᵀ)
+    let gain_rows = |log: &CurrentLog| -> Result<Vec<f64>> {
+        let full = reg.rows(log.q_m, log.qd_m, log.qdd_m)?;
+        let (b, last) = (base.base_count(), LINK_PARAMS * (n - 1));
+        let mut out = vec![0.0; full.len() / p * (b + LINK_PARAMS)];
+        for (f, o) in full.chunks_exact(p).zip(out.chunks_exact_mut(b + LINK_PARAMS)) {
+            base.select_row(f, &mut o[..b])?;
+            o[b..].copy_from_slice(&f[last..last + LINK_PARAMS]);
         }
-        let (mut a, mut y) = (vec![0.0; m * cols], vec![0.0; m]);
-        for r in 0..m {
-            let full = &rows[r * p..(r + 1) * p];
-            let out = &mut a[r * cols..(r + 1) * cols];
-            base.select_row(full, &mut out[..b])?;
-            if is_loaded {
-                out[b..b + LINK_PARAMS - 1].copy_from_slice(&full[last + 1..last + LINK_PARAMS]);
-                y[r] = -full[last] * payload_mass;
-            }
-            out[b + LINK_PARAMS - 1 + r % n] = -current[r];
-        }
-        Ok((a, y))
+        Ok(out)
     };
-    let mut acc = LsAccumulator::new(cols);
-    let (au, yu) = build(unloaded, false, unloaded.current)?;
-    let (al, yl) = build(loaded, true, loaded.current)?;
-    acc.add_rows(&au, &yu, None)?;
-    acc.add_rows(&al, &yl, None)?;
-    let fit = fit_ls(&acc, &names)?;
-
-    // noise-free regressor at the estimate: currents i = (φ θ + known) / g as predicted
-    let predicted = |a: &[f64], y: &[f64]| -> Vec<f64> {
-        let mut a2 = a.to_vec();
-        let m = y.len();
-        for r in 0..m {
-            let gcol = b + LINK_PARAMS - 1 + r % n;
-            let g = fit.theta[gcol];
-            let tau: f64 =
-                (0..gcol.min(b + LINK_PARAMS - 1)).map(|c| a[r * cols + c] * nan0(fit.theta[c])).sum::<f64>() - y[r];
-            a2[r * cols + gcol] = if g.is_finite() && g != 0.0 { -tau / g } else { a[r * cols + gcol] };
-        }
-        a2
-    };
-    let mut acc0 = LsAccumulator::new(cols);
-    acc0.add_rows(&predicted(&au, &yu), &yu, None)?;
-    acc0.add_rows(&predicted(&al, &yl), &yl, None)?;
-    let r = acc0.r();
-    let norms: Vec<f64> = (0..cols).map(|j| r.column(j).norm()).collect();
-    let scaled = DMatrix::from_fn(cols, cols, |i, j| if norms[j] > 0.0 { r[(i, j)] / norms[j] } else { 0.0 });
-    let svd = scaled.svd(false, true);
-    let vt = svd.v_t.as_ref().expect("asked for V");
-    let smax = svd.singular_values.max();
-    let mut identifiable = vec![true; n];
-    for (k, &s) in svd.singular_values.iter().enumerate() {
-        if s < GAIN_NULL_TOL * smax {
-            for (i, ok) in identifiable.iter_mut().enumerate() {
-                if vt[(k, b + LINK_PARAMS - 1 + i)].abs() > 1e-6 {
-                    *ok = false;
-                }
-            }
-        }
-    }
-    let g0 = b + LINK_PARAMS - 1;
-    let gains = (0..n).map(|i| if identifiable[i] { fit.theta[g0 + i] } else { f64::NAN }).collect();
-    let std = (0..n).map(|i| if identifiable[i] { fit.std[g0 + i] } else { f64::NAN }).collect();
-    Ok(DriveGains { gains, std, identifiable, fit })
-}
-
-fn nan0(x: f64) -> f64 {
-    if x.is_finite() { x } else { 0.0 }
+    let (ru, rl) = (gain_rows(unloaded)?, gain_rows(loaded)?);
+    // one continuous piece each
+    let (pu, pl) = (0..unloaded.current.len() / n, 0..loaded.current.len() / n);
+    let runs = [
+        GainRun { rows: &ru, current: unloaded.current, pieces: std::slice::from_ref(&pu), loaded: false },
+        GainRun { rows: &rl, current: loaded.current, pieces: std::slice::from_ref(&pl), loaded: true },
+    ];
+    let mut known = [None; LINK_PARAMS];
+    known[0] = Some(payload_mass);
+    let fit = fit_gains(n, &base.names, &runs, &known, &GainOptions::default())?;
+    let identifiable: Vec<bool> = fit.verdict.iter().map(|v| *v == GainVerdict::Identifiable).collect();
+    Ok(DriveGains { gains: fit.gain.clone(), std: fit.gain_std.clone(), identifiable, fit })
 }
