@@ -293,7 +293,7 @@ def identify(robot: Robot, log: Union[_Log, List[_Log]], method: str = "wls", va
              exclude: Optional[List[Tuple[float, float]]] = None, stream: bool = False,
              current_topic: Optional[str] = None, effort: str = "auto",
              torque_constant: _PerJoint = None, gear_ratio: _PerJoint = None,
-             motor_constant: _PerJoint = None) -> str:
+             motor_constant: _PerJoint = None, coulomb: str = "auto") -> str:
     """``ivdyn identify`` -> its ``--json`` document."""
 def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/joint_states",
              log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3,

@@ -185,7 +185,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
              velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
              exclude: Optional[Sequence[Tuple[float, float]]] = None, stream: bool = False,
              current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
-             gear_ratio=None, motor_constant=None, progress: Progress = None) -> Dict[str, Any]:
+             gear_ratio=None, motor_constant=None, coulomb: str = "auto",
+             progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
     torques; returns the ``--json`` report as a dict (``docs/cli.md``: ``method``,
     ``base`` [{name, value, std, rel_std_pct, nominal}], ``fit``, ``validation``, ``dwh``,
@@ -212,7 +213,9 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     (``"auto"``: the log's velocity on each joint where it agrees with the differentiated
     positions; ``"log"``; ``"positions"``), ``window`` (``(start, end)`` seconds from the
     log's first sample; ``float("inf")`` for the end), ``exclude`` (a list of such spans
-    left out; the log is cut there like at a gap); and the
+    left out; the log is cut there like at a gap), ``coulomb`` (``"auto"``: each joint's
+    Coulomb friction shape chosen by held-out validation, reported in ``["coulomb"]``;
+    ``"sign"``: the paper's ``sign(qd)``); and the
     files: ``out_json`` (the report), ``out_params`` (the parameter file), ``write_urdf``
     (a copy of the robot's URDF with the identified parameters and its side file; the robot
     must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
@@ -237,6 +240,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
                               consistent=bool(consistent), in_memory=bool(in_memory), json_out=_path(out_json),
                               out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap),
                               velocity=str(velocity), window=_window(window), exclude=_spans(exclude), stream=bool(stream),
+                              coulomb=str(coulomb),
                               **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()

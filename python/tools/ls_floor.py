@@ -59,8 +59,8 @@ def floor_signals(log):
     return q, qd, qdd, tau
 
 
-def rows(m, q, qd, qdd, idx):
-    return np.vstack([dynamics.regressor(m, q[i], qd[i], qdd[i]) for i in idx])
+def rows(m, q, qd, qdd, idx, coulomb=None):
+    return np.vstack([dynamics.regressor(m, q[i], qd[i], qdd[i], coulomb=coulomb) for i in idx])
 
 
 def r2(y, yhat):
@@ -79,7 +79,10 @@ def floor(m, q, qd, qdd, tau):
     theta, *_ = np.linalg.lstsq(rows(m, q, qd, qdd, fit_idx), tau[fit_idx].ravel(), rcond=None)
     yv = rows(m, q, qd, qdd, val_idx)
     n = q.shape[1]
-    predict = lambda th: (yv @ th).reshape(len(val_idx), n)  # noqa: E731
+
+    def predict(th, coulomb=None):
+        y = yv if coulomb is None else rows(m, q, qd, qdd, val_idx, coulomb)
+        return (y @ th).reshape(len(val_idx), n)
     return r2(tau[val_idx], predict(theta)), (tau[val_idx], predict)
 
 
@@ -91,10 +94,13 @@ def compare(name, urdf, log, base=None, tip=None):
     arrays = {k: log[k] for k in ("t", "q", "qd", "tau") if log.get(k) is not None}
     rep = ivdyn.identify(ivdyn.Robot.from_urdf(urdf, base, tip), arrays)
     own = np.array([np.nan if v is None else v for v in rep["validation"]["r2"]])
-    same_rows = r2(yval, predict(np.asarray(rep["params"]["theta"], float)))
+    shapes = rep["params"].get("coulomb")
+    shapes = None if shapes is None else [(c["v_scale"], c["asym"]) for c in shapes]
+    same_rows = r2(yval, predict(np.asarray(rep["params"]["theta"], float), shapes))
     vel = [v["source"] for v in rep["conditioning"]["velocity"]]
     return {"data": name, "joints": rep["joints"], "floor": fl.tolist(), "ivdyn": own.tolist(),
-            "ivdyn_on_floor_rows": same_rows.tolist(), "velocity": vel, "notes": rep["notes"]}
+            "ivdyn_on_floor_rows": same_rows.tolist(), "velocity": vel, "notes": rep["notes"],
+            "coulomb": [c["shape"] for c in rep["coulomb"]] or ["sign"] * len(rep["joints"])}
 
 
 def kuka(root):
@@ -139,6 +145,7 @@ def table(results):
         for key, label in (("floor", "plain LS floor (NumPy)"), ("ivdyn", "ivdyn defaults (its validation)"),
                            ("ivdyn_on_floor_rows", "ivdyn's parameters on the floor's rows")):
             lines.append(f"| {label} | " + " | ".join(f"{x:.3f}" for x in r[key]) + " |")
+        lines.append("| ivdyn's Coulomb shape | " + " | ".join(r["coulomb"]) + " |")
     return "\n".join(lines) + "\n"
 
 

@@ -171,6 +171,11 @@ struct IdentifyArgs {
     /// (terms left out keep their nominal values).
     #[arg(long, value_delimiter = ',', default_value = "coulomb,viscous")]
     friction: Vec<FrictionArg>,
+    /// Shape of the Coulomb friction: `auto` chooses per joint, by held-out validation,
+    /// between sign(qd), a smooth tanh(qd / v) with its velocity scale and their
+    /// direction-dependent variants; `sign` keeps the paper's sign(qd) on every joint.
+    #[arg(long, default_value = "auto")]
+    coulomb: String,
     /// Do not identify the armature (rotor inertia) of the joints.
     #[arg(long)]
     no_armature: bool,
@@ -541,6 +546,7 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
         decimate: a.log_args.decimate,
         validation_fraction: a.holdout,
         drive,
+        coulomb: ivdyn::app::identify::CoulombMode::from_name(&a.coulomb).map_err(msg)?,
         progress: bars.sink(),
         consistent: a.consistent,
         ..Default::default()

@@ -68,6 +68,8 @@ fn identify_out_mcap_measured_predicted_residual() {
             "--in-memory",
             "--velocity",
             "positions",
+            "--coulomb",
+            "sign",
             "--out-mcap",
             pred_m.to_str().unwrap(),
         ],
@@ -127,7 +129,8 @@ fn identify_out_mcap_measured_predicted_residual() {
         eprintln!("joint {j}: residual rms {rms:.4} N m");
         assert!(rms > 0.0475 && rms < 0.0525 + 0.005, "joint {j}: residual rms {rms}");
     }
-    // the in-memory path with the streamed path's velocity writes the same file content
+    // the in-memory path with the streamed path's velocity and Coulomb sign writes the same
+    // file content
     // (to rounding)
     let mem = read_out(&pred_m, &names);
     assert_eq!(

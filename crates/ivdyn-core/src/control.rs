@@ -24,7 +24,7 @@ use crate::data::Data;
 use crate::error::{Error, check_finite};
 use crate::estim::terminal::{Method, TerminalLink, TerminalSpec};
 use crate::model::Model;
-use crate::params::{DRIVE_PARAMS, LINK_PARAMS, sign};
+use crate::params::{DRIVE_PARAMS, LINK_PARAMS};
 use crate::{VecN, rnea};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
@@ -153,7 +153,8 @@ impl<const N: usize> ComputedTorque<N> {
         rnea(model, data, q, qd, &qdd);
         if self.coulomb == CoulombVelocity::Reference {
             for i in 0..N {
-                data.tau[i] += model.drive[i].fc * (sign(r.qd[i]) - sign(qd[i]));
+                let c = &model.drive[i].coulomb;
+                data.tau[i] += model.drive[i].fc * (c.value(r.qd[i]) - c.value(qd[i]));
             }
         }
         saturate(&mut data.tau, &self.tau_limit);

@@ -126,7 +126,7 @@ pub fn from_paper_grouping<const N: usize>(
         let h = alpha - m_out * r;
         let i_o = ibar_j - m_out * (r.dot(&r) * Mat3::identity() - r * r.transpose());
         inertia[i] = LinkInertia::from_parts(masses[i], &h, &i_o);
-        drive[i] = DriveParams { fc: g[9], fv: g[10], ia: 0.0, tau0: 0.0 };
+        drive[i] = DriveParams { fc: g[9], fv: g[10], ia: 0.0, tau0: 0.0, ..DriveParams::ZERO };
         m_out += masses[i];
     }
     (inertia, drive)

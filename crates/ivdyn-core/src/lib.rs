@@ -76,7 +76,7 @@ pub use error::Error;
 pub use fd::forward_dynamics;
 pub use inertia::LinkInertia;
 pub use model::{Joint, JointKind, JointLimits, Model};
-pub use params::{DRIVE_PARAMS, DriveParams, LINK_PARAMS};
+pub use params::{CoulombShape, DRIVE_PARAMS, DriveParams, LINK_PARAMS};
 pub use regressor::{Regressor, gravity_regressor, regressor};
 pub use rnea::{gravity, rnea};
 pub use spatial::Transform;

@@ -140,7 +140,8 @@ impl<const N: usize> Model<N> {
             let d0 = LINK_PARAMS * N + DRIVE_PARAMS * i;
             let mut d = [0.0; DRIVE_PARAMS];
             d.copy_from_slice(&theta[d0..d0 + DRIVE_PARAMS]);
-            self.drive[i] = DriveParams::from_array(d);
+            // the Coulomb shape is a model constant: kept
+            self.drive[i] = DriveParams { coulomb: self.drive[i].coulomb, ..DriveParams::from_array(d) };
         }
         Ok(())
     }

@@ -68,7 +68,7 @@ pub fn robot_from_table(table: &[Table2Row; 6]) -> Model<6> {
     let mut model = model_from_dh(&DH);
     for i in 0..6 {
         model.inertia[i] = inertia_from_dh_frame(&DH[i], &table[i].inertia_dh_frame());
-        model.drive[i] = DriveParams { fc: table[i].f, fv: table[i].d, ia: 0.0, tau0: 0.0 };
+        model.drive[i] = DriveParams { fc: table[i].f, fv: table[i].d, ia: 0.0, tau0: 0.0, ..DriveParams::ZERO };
     }
     model
 }

@@ -60,7 +60,42 @@ pub const fn drive_col(n: usize, joint: usize, k: usize) -> usize {
     LINK_PARAMS * n + DRIVE_PARAMS * joint + k
 }
 
-/// Joint drive parameters: `tau_drive = fc sign(qd) + fv qd + ia qdd + tau0`.
+/// Shape of a joint's Coulomb friction: a model constant, not part of `theta`, so the
+/// torque stays linear in `fc`. The Coulomb term is `fc c(qd)` with
+/// `c(v) = s(v) + asym |s(v)|`, where `s(v) = sign(v)` (`v_scale = 0`: paper eq 8) or the
+/// smooth `s(v) = tanh(v / v_scale)` (a real drive's friction rises over a velocity band:
+/// pre-sliding, lubrication, and a noisy velocity that dithers around zero at standstill).
+/// `asym` makes it direction-dependent: `fc (1 + asym)` moving forward, `fc (1 - asym)`
+/// backward.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CoulombShape {
+    /// Velocity scale of the smooth sign (rad/s, or m/s for prismatic); 0: exact sign.
+    pub v_scale: f64,
+    /// Direction asymmetry (`fc+ = fc (1 + asym)`, `fc- = fc (1 - asym)`).
+    pub asym: f64,
+}
+
+impl CoulombShape {
+    /// The paper's `sign(qd)`.
+    pub const SIGN: CoulombShape = CoulombShape { v_scale: 0.0, asym: 0.0 };
+
+    /// `c(qd)`, the Coulomb regressor entry. With the default shape it is exactly `sign(qd)`.
+    #[inline]
+    pub fn value(&self, qd: f64) -> f64 {
+        // s(v) = tanh(v / v_s) or sign(v);  c = s + asym |s|
+        let s = if self.v_scale > 0.0 { libm::tanh(qd / self.v_scale) } else { sign(qd) };
+        if self.asym != 0.0 { s + self.asym * s.abs() } else { s }
+    }
+
+    /// Whether this is the exact sign of the paper.
+    pub fn is_sign(&self) -> bool {
+        *self == Self::SIGN
+    }
+}
+
+/// Joint drive parameters: `tau_drive = fc c(qd) + fv qd + ia qdd + tau0`, with
+/// `c = sign` unless [`DriveParams::coulomb`] says otherwise. The four coefficients are
+/// `theta`'s drive block; the Coulomb shape is a model constant.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct DriveParams {
     /// Coulomb friction (N m, or N for prismatic).
@@ -71,15 +106,17 @@ pub struct DriveParams {
     pub ia: f64,
     /// Constant torque offset (N m).
     pub tau0: f64,
+    /// Shape of the Coulomb term (not in `theta`; default: `sign`).
+    pub coulomb: CoulombShape,
 }
 
 impl DriveParams {
     /// All zero.
-    pub const ZERO: DriveParams = DriveParams { fc: 0.0, fv: 0.0, ia: 0.0, tau0: 0.0 };
+    pub const ZERO: DriveParams = DriveParams { fc: 0.0, fv: 0.0, ia: 0.0, tau0: 0.0, coulomb: CoulombShape::SIGN };
 
-    /// From `[fc, fv, ia, tau0]`.
+    /// From `[fc, fv, ia, tau0]` (Coulomb shape: `sign`).
     pub fn from_array(a: [f64; DRIVE_PARAMS]) -> Self {
-        Self { fc: a[FC], fv: a[FV], ia: a[IA], tau0: a[TAU0] }
+        Self { fc: a[FC], fv: a[FV], ia: a[IA], tau0: a[TAU0], coulomb: CoulombShape::SIGN }
     }
 
     /// As `[fc, fv, ia, tau0]`.
@@ -90,10 +127,16 @@ impl DriveParams {
     /// The drive torque (paper eq 8's friction terms, plus armature and offset).
     #[inline]
     pub fn torque(&self, qd: f64, qdd: f64) -> f64 {
-        self.fc * sign(qd) + self.fv * qd + self.ia * qdd + self.tau0
+        self.fc * self.coulomb.value(qd) + self.fv * qd + self.ia * qdd + self.tau0
     }
 
-    /// The drive regressor row `[sign(qd), qd, qdd, 1]`.
+    /// The drive regressor row `[c(qd), qd, qdd, 1]` of this joint's Coulomb shape.
+    #[inline]
+    pub fn regressor_row(&self, qd: f64, qdd: f64) -> [f64; DRIVE_PARAMS] {
+        [self.coulomb.value(qd), qd, qdd, 1.0]
+    }
+
+    /// The drive regressor row of the paper's model, `[sign(qd), qd, qdd, 1]`.
     #[inline]
     pub fn regressor(qd: f64, qdd: f64) -> [f64; DRIVE_PARAMS] {
         [sign(qd), qd, qdd, 1.0]

@@ -211,7 +211,7 @@ pub fn regressor<'d, const N: usize>(
 ) -> &'d Regressor<N> {
     regressor_links(model, &mut data.kin, &mut data.y, q, qd, qdd);
     for i in 0..N {
-        data.y.drive[i] = crate::params::DriveParams::regressor(qd[i], qdd[i]);
+        data.y.drive[i] = model.drive[i].regressor_row(qd[i], qdd[i]);
     }
     &data.y
 }

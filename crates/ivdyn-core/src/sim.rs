@@ -289,7 +289,12 @@ impl<const N: usize> Simulator<N> {
         let band = self.cfg.coulomb_band;
         if band > 0.0 {
             for i in 0..N {
-                t[i] -= self.model.drive[i].fc * libm::tanh(qd[i] / band);
+                // the model's own smooth shape wins; a sign gets the simulator's band
+                let mut c = self.model.drive[i].coulomb;
+                if c.v_scale <= 0.0 {
+                    c.v_scale = band;
+                }
+                t[i] -= self.model.drive[i].fc * c.value(qd[i]);
             }
         }
         Ok(*forward_dynamics(&self.smooth, &mut self.data, q, qd, &t)?)

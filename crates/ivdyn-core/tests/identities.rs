@@ -6,7 +6,8 @@ use common::{Rng, assert_close, random_model};
 use ivdyn_core::energy::{kinetic_energy, potential_energy};
 use ivdyn_core::rnea::rnea_rigid;
 use ivdyn_core::{
-    Data, Model, VecN, forward_dynamics, gravity, gravity_regressor, mass_matrix, params::param_count, regressor, rnea,
+    CoulombShape, Data, Model, VecN, forward_dynamics, gravity, gravity_regressor, mass_matrix, params::param_count,
+    regressor, rnea,
 };
 use proptest::prelude::*;
 
@@ -49,6 +50,29 @@ proptest! {
         }
         let ym = y.to_matrix::<84>();
         prop_assert!(((ym * model.params::<84>()) - tau).norm() <= 1e-12 * (1.0 + tau.norm()));
+    }
+
+    /// With shaped Coulomb friction (smooth, direction-dependent: a model constant) the
+    /// regressor is still linear in theta and reproduces RNEA; the Coulomb column is
+    /// `tanh(qd / v) + asym |tanh(qd / v)|` (or the sign's).
+    #[test]
+    fn regressor_times_theta_is_rnea_with_coulomb_shapes(seed in any::<u64>(), prismatic in any::<bool>()) {
+        let mut model = random_model::<N>(seed, prismatic);
+        let mut rng = Rng(seed ^ 0x5eed);
+        for d in model.drive.iter_mut() {
+            d.coulomb = CoulombShape { v_scale: rng.uniform(0.0, 0.5), asym: rng.uniform(-0.9, 0.9) };
+        }
+        model.drive[1].coulomb.v_scale = 0.0; // the sign with an asymmetry
+        let mut data = Data::<N>::new();
+        let (q, qd, qdd) = state(&mut rng);
+        let tau = *rnea(&model, &mut data, &q, &qd, &qdd);
+        let y = regressor(&model, &mut data, &q, &qd, &qdd).clone();
+        assert_close(y.mul(&theta(&model)).as_slice(), tau.as_slice(), 1e-12, 1e-12, "Y theta");
+        for i in 0..N {
+            let c = model.drive[i].coulomb;
+            let s = if c.v_scale > 0.0 { (qd[i] / c.v_scale).tanh() } else { qd[i].signum() * (qd[i] != 0.0) as u8 as f64 };
+            prop_assert!((y.drive[i][0] - (s + c.asym * s.abs())).abs() <= 1e-15);
+        }
     }
 
     #[test]

@@ -282,7 +282,7 @@ fn urdf_of(robot: &PyRobot, what: &str) -> PyResult<PathBuf> {
                     armature=true, offset=true, consistent=false, in_memory=false, json_out=None, out_params=None,
                     write_urdf=None, out_mcap=None, velocity="auto", window=None, exclude=None, stream=false,
                     current_topic=None, effort="auto", torque_constant=None,
-                    gear_ratio=None, motor_constant=None))]
+                    gear_ratio=None, motor_constant=None, coulomb="auto"))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
     py: Python<'_>,
@@ -316,8 +316,10 @@ fn identify(
     torque_constant: Option<&Bound<'_, PyAny>>,
     gear_ratio: Option<&Bound<'_, PyAny>>,
     motor_constant: Option<&Bound<'_, PyAny>>,
+    coulomb: &str,
 ) -> PyResult<String> {
     let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
+    let coulomb = app::identify::CoulombMode::from_name(coulomb).map_err(to_py)?;
     let method = match method {
         "ols" => Method::Ols,
         "wls" => Method::Wls,
@@ -356,6 +358,7 @@ fn identify(
             decimate,
             validation_fraction: holdout,
             drive,
+            coulomb,
             consistent,
             ..Default::default()
         },

@@ -60,6 +60,45 @@ pub struct ParamsFile {
     pub names: Vec<String>,
     /// Values (SI).
     pub theta: Vec<f64>,
+    /// Each joint's Coulomb-friction shape (`fc c(qd)`, `c = tanh(qd / v_scale)` or
+    /// `sign`, plus `asym |c|`); absent: `sign` on every joint.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coulomb: Option<Vec<CoulombShapeFile>>,
+}
+
+/// A joint's Coulomb-friction shape in a parameter file ([`ivdyn_core::CoulombShape`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CoulombShapeFile {
+    /// Velocity scale of the smooth sign (0: exact sign).
+    pub v_scale: f64,
+    /// Direction asymmetry (`fc+ = fc (1 + asym)`, `fc- = fc (1 - asym)`).
+    pub asym: f64,
+}
+
+impl ParamsFile {
+    /// The parameter file of `theta` for a robot whose joint `j` has Coulomb shape
+    /// `shapes[j]` (written only when some joint is not the exact sign).
+    pub fn new(
+        robot: &str,
+        joints: Vec<String>,
+        names: Vec<String>,
+        theta: Vec<f64>,
+        shapes: &[ivdyn_core::CoulombShape],
+    ) -> Self {
+        let coulomb = shapes
+            .iter()
+            .any(|c| !c.is_sign())
+            .then(|| shapes.iter().map(|c| CoulombShapeFile { v_scale: c.v_scale, asym: c.asym }).collect());
+        ParamsFile { robot: robot.into(), joints, names, theta, coulomb }
+    }
+
+    /// The Coulomb shapes (the exact sign when absent), `n` joints.
+    pub fn coulomb_shapes(&self, n: usize) -> Vec<ivdyn_core::CoulombShape> {
+        match &self.coulomb {
+            Some(c) => c.iter().map(|c| ivdyn_core::CoulombShape { v_scale: c.v_scale, asym: c.asym }).collect(),
+            None => vec![ivdyn_core::CoulombShape::SIGN; n],
+        }
+    }
 }
 
 /// A payload to add to the last link.

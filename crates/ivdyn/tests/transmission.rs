@@ -31,6 +31,7 @@ fn motor_drives() -> Vec<DriveParams> {
             fv: 0.002 * (i + 1) as f64,
             ia: 1e-4 * (6 - i) as f64,
             tau0: 0.01 * i as f64 - 0.02,
+            ..DriveParams::ZERO
         })
         .collect()
 }

@@ -24,7 +24,9 @@ Differences from the paper's DH form, derived from first principles:
       n_i = N_i + R_{i,i+1} n_{i+1} + p_{i+1} x (R_{i,i+1} f_{i+1})
 
   and tau_i = u . n_i (revolute) or u . f_i (prismatic), plus the drive terms (8):
-  fc sign(qd) + fv qd + ia qdd + tau0, with sign(0) = 0.
+  fc sign(qd) + fv qd + ia qdd + tau0, with sign(0) = 0. A joint may shape its Coulomb
+  term (ivdyn_core::CoulombShape): fc c(qd), c = s + asym |s|, s = tanh(qd / v_scale)
+  (v_scale > 0) or sign(qd); ``regressor(..., coulomb=[(v_scale, asym), ...])``.
 """
 from __future__ import annotations
 
@@ -160,8 +162,15 @@ def _L(v):
                      [0.0, 0.0, 0.0, x, y, z]])
 
 
-def regressor(model: ChainModel, q, qd, qdd, gravity=True):
+def coulomb_value(qd, v_scale=0.0, asym=0.0):
+    """The Coulomb regressor entry c(qd) = s + asym |s|, s = tanh(qd / v_scale) or sign(qd)."""
+    s = np.tanh(qd / v_scale) if v_scale > 0 else np.sign(qd)
+    return s + asym * np.abs(s)
+
+
+def regressor(model: ChainModel, q, qd, qdd, gravity=True, coulomb=None):
     """Y (N x 14N) with Y @ theta == rnea(q, qd, qdd, theta) (eq 21).
+    ``coulomb``: per joint ``(v_scale, asym)`` of the Coulomb term (default: sign).
 
     For each link j the 3x10 blocks (K_f, K_n) of its own wrench are propagated back
     to every joint i <= j with the same recursion as the forces (eqs 6-7):
@@ -183,7 +192,8 @@ def regressor(model: ChainModel, q, qd, qdd, gravity=True):
             Y[i, 10 * j:10 * j + 10] = u @ Bn if model.joints[i].type == "revolute" else u @ Bf
     for i in range(n):
         c = 10 * n + 4 * i
-        Y[i, c:c + 4] = [np.sign(qd[i]), qd[i], qdd[i], 1.0]
+        ci = np.sign(qd[i]) if coulomb is None else coulomb_value(qd[i], *coulomb[i])
+        Y[i, c:c + 4] = [ci, qd[i], qdd[i], 1.0]
     return Y
 
 

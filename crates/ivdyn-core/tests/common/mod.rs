@@ -79,6 +79,7 @@ pub fn random_model<const N: usize>(seed: u64, prismatic: bool) -> Model<N> {
             fv: rng.uniform(0.0, 0.5),
             ia: rng.uniform(0.0, 0.1),
             tau0: rng.uniform(-0.5, 0.5),
+            ..DriveParams::ZERO
         };
     }
     model.gravity = Vec3::new(rng.uniform(-2.0, 2.0), rng.uniform(-2.0, 2.0), -9.81);

@@ -238,7 +238,7 @@ fn prepare_run(robot: &Robot, cols: &[usize], log: &JointLog, io: &IdentifyOptio
     if log.tau.is_none() {
         return Err(Error::NoCurrent { what: what.into() });
     }
-    let prep = prepare(robot, cols, &[log], io, false, false, what)?;
+    let prep = prepare(robot, cols, &[log], io, what)?;
     let t = prep.len();
     let edge = (t / 100).min(20);
     let pieces = if t > 2 * edge { prep.pieces(edge..t - edge) } else { vec![] };

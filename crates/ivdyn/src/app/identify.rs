@@ -32,6 +32,7 @@ use super::prepare::{Prepared, prepare, rows_of};
 use crate::Robot;
 use crate::dsp;
 use crate::error::{Error, Result};
+use crate::ident::coulomb::CoulombChoice;
 use crate::ident::instrument::Tracker;
 use crate::ident::joint_acc::JointAccs;
 use crate::ident::wls::per_joint_weights;
@@ -72,6 +73,28 @@ impl Method {
     }
 }
 
+/// How [`identify`] shapes each joint's Coulomb friction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CoulombMode {
+    /// Chosen per joint by held-out validation: sign, smooth sign with a fitted velocity
+    /// scale, and their direction-dependent variants ([`ident::coulomb`]).
+    Auto,
+    /// The paper's `fc sign(qd)` on every joint.
+    Sign,
+}
+
+impl CoulombMode {
+    /// From its name (`"auto"`, `"sign"`).
+    pub fn from_name(s: &str) -> Result<Self> {
+        match s {
+            "auto" => Ok(CoulombMode::Auto),
+            "sign" => Ok(CoulombMode::Sign),
+            _ => Err(Error::Option { option: "coulomb".into(), msg: format!("must be 'auto' or 'sign', got '{s}'") }),
+        }
+    }
+}
+
 /// Options of [`identify`].
 #[derive(Clone)]
 pub struct IdentifyOptions {
@@ -97,6 +120,8 @@ pub struct IdentifyOptions {
     pub idim_tol: f64,
     /// Drive parameters to estimate (default: all of `fc, fv, ia, tau0`).
     pub drive: DriveTerms,
+    /// Shape of the Coulomb friction (default: chosen per joint).
+    pub coulomb: CoulombMode,
     /// Progress sink.
     pub progress: ProgressSink,
     /// Also fit physically consistent full parameters ([`ident::consistent`]).
@@ -116,6 +141,7 @@ impl Default for IdentifyOptions {
             idim_max_iter: 10,
             idim_tol: 1e-3,
             drive: DriveTerms::default(),
+            coulomb: CoulombMode::Auto,
             progress: None,
             consistent: false,
         }
@@ -133,6 +159,10 @@ pub struct IdentifyReport {
     pub joints: Vec<String>,
     /// Drive parameters estimated per joint (subset of `fc, fv, ia, tau0`).
     pub drive_terms: Vec<String>,
+    /// The Coulomb-friction shape chosen per joint and the held-out RMS that chose it
+    /// (empty when the shapes were not chosen: `--coulomb sign`, a streamed log, too few
+    /// samples; a note says why).
+    pub coulomb: Vec<CoulombChoice>,
     /// Sample rate of the data fitted (after decimation), Hz.
     pub sample_rate_hz: f64,
     /// Decimation factor.
@@ -245,6 +275,7 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
 /// [`identify`] on several logs of the same arm at once: their segments are conditioned
 /// and filtered apart and fitted together; the held-out tail is the last log's.
 pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) -> Result<IdentifyReport> {
+    let robot = &with_sign_coulomb(robot)?;
     let n = robot.dof();
     let mut notes = vec![];
     let base = {
@@ -253,10 +284,16 @@ pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) 
     };
     let b = base.base_count();
     let want_iv = opts.method != Method::IdimIv;
-    let prep = prepare(robot, &base.independent, logs, opts, want_iv, opts.method == Method::Iv, "log")?;
-    notes.extend(prep.notes.iter().cloned());
+    let cols = &base.independent;
+    let mut prep = prepare(robot, cols, logs, opts, "log")?;
     let t = prep.len();
     let (fit_range, val_range) = split_ranges(t, opts);
+    let (shaped, coulomb) = coulomb_shapes(robot, cols, &mut prep, fit_range.clone(), opts, &mut notes)?;
+    let robot = &shaped;
+    if want_iv {
+        prep.add_instrument(robot, cols, opts.method == Method::Iv)?;
+    }
+    notes.extend(prep.notes.iter().cloned());
     let mut fit = JointAccs::new(n, b, prep.z.is_some());
     accumulate(&mut fit, &prep, fit_range.clone(), true)?;
     if fit.samples() * n < 2 * b {
@@ -264,7 +301,7 @@ pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) 
     }
     let validation = match (&opts.validation_log, val_range) {
         (Some(vlog), _) => {
-            let vp = prepare(robot, &base.independent, &[vlog], opts, false, false, "validation log")?;
+            let vp = prepare(robot, cols, &[vlog], opts, "validation log")?;
             let t2 = vp.len();
             let e2 = (t2 / 100).min(20);
             let mut v = JointAccs::new(n, b, false);
@@ -328,7 +365,60 @@ pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) 
         notes,
         conditioning: prep.conditioning,
     };
-    finish_identify(robot, &base, opts, data)
+    let mut r = finish_identify(robot, &base, opts, data)?;
+    r.coulomb = coulomb;
+    Ok(r)
+}
+
+/// The model with each joint's Coulomb shape: chosen on the fit rows ([`super::coulomb`])
+/// with [`CoulombMode::Auto`], else the paper's sign; a note says which joints changed
+/// or why nothing was chosen.
+fn coulomb_shapes(
+    robot: &Robot,
+    cols: &[usize],
+    prep: &mut Prepared,
+    fit: std::ops::Range<usize>,
+    opts: &IdentifyOptions,
+    notes: &mut Vec<String>,
+) -> Result<(Robot, Vec<CoulombChoice>)> {
+    if opts.coulomb == CoulombMode::Sign {
+        return Ok((robot.clone(), vec![]));
+    }
+    let _st = Stage::begin(&opts.progress, "Coulomb friction shapes", 0);
+    match super::coulomb::choose(robot, cols, prep, fit)? {
+        Ok((shaped, choices)) => {
+            let changed: Vec<String> = choices
+                .iter()
+                .filter(|c| c.shape != "sign")
+                .map(|c| {
+                    let gain = 100.0 * (1.0 - c.heldout_rms / c.heldout_rms_sign);
+                    format!(
+                        "{} {} (v_scale {:.3}, asym {:.2}; held-out RMS -{gain:.1} %)",
+                        c.joint, c.shape, c.v_scale, c.asym
+                    )
+                })
+                .collect();
+            if !changed.is_empty() {
+                notes.push(format!(
+                    "Coulomb friction shape chosen on held-out data: {}; sign elsewhere",
+                    changed.join(", ")
+                ));
+            }
+            Ok((shaped, choices))
+        }
+        Err(why) => {
+            notes.push(format!("Coulomb friction kept as sign(qd): {why}"));
+            Ok((robot.clone(), vec![]))
+        }
+    }
+}
+
+/// `robot` with the paper's `sign(qd)` on every joint (the shapes a parameter file may
+/// have set are chosen again, or reset by [`CoulombMode::Sign`]).
+pub(crate) fn with_sign_coulomb(robot: &Robot) -> Result<Robot> {
+    let mut sign = robot.clone();
+    sign.set_coulomb_shapes(&vec![ivdyn_core::CoulombShape::SIGN; robot.dof()])?;
+    Ok(sign)
 }
 
 /// Adds the rows `r` of `p` (inside its segments, [`Prepared::pieces`]) to `acc`, with the
@@ -378,6 +468,7 @@ pub(crate) fn finish_identify(
         instrument: instrument_text(opts.method, &d.instrument),
         joints: robot.joint_names.clone(),
         drive_terms: opts.drive.names(),
+        coulomb: vec![],
         sample_rate_hz: 1.0 / d.dt,
         decimation: d.factor,
         filter_cutoff_hz: d.cutoff_hz,
@@ -581,7 +672,7 @@ fn instrument_text(method: Method, instrument: &Option<String>) -> Option<String
 
 /// Full parameters `theta` of `robot` as a reloadable params file.
 fn params_file(robot: &Robot, theta: Vec<f64>) -> ParamsFile {
-    ParamsFile { robot: robot.name.clone(), joints: robot.joint_names.clone(), names: robot.param_names(), theta }
+    ParamsFile::new(&robot.name, robot.joint_names.clone(), robot.param_names(), theta, &robot.coulomb_shapes())
 }
 
 /// Writes `log`'s measured torques, the torques predicted by `model` (e.g. the identified

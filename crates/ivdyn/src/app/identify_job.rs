@@ -133,7 +133,9 @@ fn write_outputs(
             "ivdyn identify: nominal parameters corrected in the identifiable directions (BaseParams::apply)"
         };
         let text = std::fs::read_to_string(input).map_err(|e| Error::Io { file: input.clone(), source: e })?;
-        let wb = urdf_write::write_back(&text, input, robot, Some(&params.theta), None, vec![source.to_string()])?;
+        let mut shaped = robot.clone();
+        crate::robot::load::load_params(&mut shaped, params)?;
+        let wb = urdf_write::write_back(&text, input, &shaped, Some(&params.theta), None, vec![source.to_string()])?;
         urdf_write::write_files(path, &wb)?;
         written.push(format!(
             "URDF written to {} (armature and offsets in {})",
@@ -147,7 +149,7 @@ fn write_outputs(
     }
     if let Some(p) = &out.mcap {
         let mut model = robot.clone();
-        model.set_params(&rep.params.theta)?;
+        crate::robot::load::load_params(&mut model, &rep.params)?;
         let k = prediction(robot, &model, job, mem, p)?;
         written.push(format!("measured, predicted and residual torques ({k} samples) written to {} (topics /joint_states, /ivdyn/predicted, /ivdyn/residual)", p.display()));
     }

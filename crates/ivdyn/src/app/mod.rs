@@ -7,6 +7,7 @@
 //! Below the jobs: [`identify()`], [`payload()`] and [`simulate()`] on logs in memory, and
 //! the streaming identify of MCAP files ([`stream`]).
 
+mod coulomb;
 pub mod diagnose;
 pub mod effort;
 pub mod excite;

@@ -10,6 +10,7 @@ use crate::Robot;
 use crate::batch::stack_rows;
 use crate::dsp::Decimator;
 use crate::error::{Error, Result};
+use crate::ident::coulomb;
 use crate::ident::instrument::{TRACKING_INSTRUMENT, nominal_tracking};
 use crate::log::JointLog;
 use crate::prep::{self, ConditionSummary, Conditioned, parallel_filter};
@@ -41,6 +42,10 @@ pub(crate) struct Prepared {
     pub conditioning: ConditionSummary,
     /// Remarks (an instrument that could not be built).
     pub notes: Vec<String>,
+    /// The conditioned segments (for the instrument and the Coulomb-shape candidates,
+    /// built after `phi`) and their filter.
+    segments: Vec<Conditioned>,
+    dec: Decimator,
 }
 
 impl Prepared {
@@ -100,18 +105,16 @@ fn condition_all(logs: &[&JointLog], opts: &IdentifyOptions) -> Result<(Vec<Cond
     Ok((parts, ConditionSummary::merge(&summaries)))
 }
 
-/// One segment's filtered, decimated rows: `(phi, tau, z, q, qd, qdd)`; `z` is the
-/// instrument's rows or why they could not be built.
-type Rows = (Vec<f64>, Vec<f64>, Option<Result<Vec<f64>>>, Vec<f64>, Vec<f64>, Vec<f64>);
+/// One segment's filtered, decimated rows: `(phi, tau, q, qd, qdd)`.
+type Rows = (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>);
 
-/// One segment: regressor (and instrument) rows stacked, then torque and rows through the
-/// same filter and decimation.
+/// One segment: regressor rows stacked, then torque and rows through the same filter and
+/// decimation.
 fn segment_rows(
     robot: &Robot,
     cols: &[usize],
     c: &Conditioned,
     dec: &Decimator,
-    instrument: bool,
     stage: Option<&Stage>,
 ) -> Result<Rows> {
     let n = robot.dof();
@@ -120,34 +123,44 @@ fn segment_rows(
     let phi = dec.apply(&phi_raw, n * b)?;
     drop(phi_raw);
     let tau = dec.apply(c.tau.as_ref().expect("checked"), n)?;
-    let z = instrument.then(|| -> Result<Vec<f64>> {
-        let (qz, qdz, qddz) = match &c.u {
-            Some(u) => {
-                let mut qh = vec![0.0; c.t.len() * n];
-                crate::batch::forward_dynamics_batch(robot, &c.d.q, &c.d.qd, u, &mut qh)?;
-                (c.d.q.clone(), c.d.qd.clone(), qh)
-            }
-            None => nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?,
-        };
-        let z_raw = stack_rows(robot, cols, &qz, &qdz, &qddz, None)?;
-        dec.apply(&z_raw, n * b)
-    });
-    Ok((phi, tau, z, dec.apply(&c.d.q, n)?, dec.apply(&c.d.qd, n)?, dec.apply(&c.d.qdd, n)?))
+    Ok((phi, tau, dec.apply(&c.d.q, n)?, dec.apply(&c.d.qd, n)?, dec.apply(&c.d.qdd, n)?))
+}
+
+/// One segment's instrument rows: with a command, the regressor at the nominal model's
+/// forward dynamics driven by it; otherwise at a tracking simulation of the model.
+fn segment_instrument(robot: &Robot, cols: &[usize], c: &Conditioned, dec: &Decimator) -> Result<Vec<f64>> {
+    let n = robot.dof();
+    let (qz, qdz, qddz) = match &c.u {
+        Some(u) => {
+            let mut qh = vec![0.0; c.t.len() * n];
+            crate::batch::forward_dynamics_batch(robot, &c.d.q, &c.d.qd, u, &mut qh)?;
+            (c.d.q.clone(), c.d.qd.clone(), qh)
+        }
+        None => nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?,
+    };
+    let z_raw = stack_rows(robot, cols, &qz, &qdz, &qddz, None)?;
+    dec.apply(&z_raw, n * cols.len())
+}
+
+/// One segment's Coulomb-shape candidate columns ([`coulomb::candidate_row`]) at the
+/// conditioned velocity, through the same filter as the regressor.
+fn segment_candidates(c: &Conditioned, n: usize, scales: &[[f64; coulomb::K]], dec: &Decimator) -> Result<Vec<f64>> {
+    let mut raw = Vec::with_capacity(c.t.len() * n * coulomb::WIDTH);
+    for qd in c.d.qd.chunks_exact(n) {
+        coulomb::candidate_row(qd, scales, &mut raw);
+    }
+    dec.apply(&raw, n * coulomb::WIDTH)
 }
 
 /// Conditions `logs` (segments at gaps), stacks and parallel-filters each segment's rows
 /// of the full-regressor columns `cols` (the base parameters' independent columns, for
-/// identify) and concatenates them (see the module docs). An instrument that cannot be
-/// built (e.g. the nominal model's mass matrix is not positive definite, so it cannot be
-/// simulated) is an error only when `need_instrument`; otherwise it is left out with a
-/// note (it only serves the LS-vs-IV test then).
+/// identify) and concatenates them (see the module docs). The instrument comes after,
+/// from [`Prepared::add_instrument`].
 pub(crate) fn prepare(
     robot: &Robot,
     cols: &[usize],
     logs: &[&JointLog],
     opts: &IdentifyOptions,
-    instrument: bool,
-    need_instrument: bool,
     what: &str,
 ) -> Result<Prepared> {
     let n = robot.dof();
@@ -159,7 +172,6 @@ pub(crate) fn prepare(
     let dec = parallel_filter(opts.decimate, 1.0 / dt, &opts.condition)?;
     let total: usize = parts.iter().map(|c| c.t.len()).sum();
     let st = Stage::begin(&opts.progress, &format!("{what}: regressor and filtering"), total as u64);
-    let with_command = parts.iter().all(|c| c.u.is_some());
     let mut p = Prepared {
         n,
         dt: dt * dec.factor as f64,
@@ -168,37 +180,76 @@ pub(crate) fn prepare(
         qdd: vec![],
         phi: vec![],
         tau: vec![],
-        z: instrument.then(Vec::new),
-        instrument: instrument.then(|| {
-            if with_command {
-                "nominal model's forward dynamics at the (filtered) measured state driven by the command u: qdd_hat = FD_nom(q, qd, u)".to_string()
-            } else {
-                TRACKING_INSTRUMENT.to_string()
-            }
-        }),
+        z: None,
+        instrument: None,
         cutoff_hz: dec.filter.cutoff_hz,
         factor: dec.factor,
         bounds: vec![0],
         conditioning,
         notes: vec![],
+        segments: vec![],
+        dec,
     };
     for c in &parts {
-        let (phi, tau, z, q, qd, qdd) = segment_rows(robot, cols, c, &dec, instrument, Some(&st))?;
+        let (phi, tau, q, qd, qdd) = segment_rows(robot, cols, c, &p.dec, Some(&st))?;
         p.phi.extend(phi);
         p.tau.extend(tau);
-        match z {
-            Some(Ok(z)) => p.z.as_mut().into_iter().for_each(|all| all.extend_from_slice(&z)),
-            Some(Err(e)) if !need_instrument => {
-                p.notes.push(format!("no instrument ({e}): the LS-vs-IV test is skipped"));
-                (p.z, p.instrument) = (None, None);
-            }
-            Some(Err(e)) => return Err(e),
-            None => {}
-        }
         p.q.extend(q);
         p.qd.extend(qd);
         p.qdd.extend(qdd);
         p.bounds.push(p.tau.len() / n);
     }
+    p.segments = parts;
     Ok(p)
+}
+
+impl Prepared {
+    /// The RMS velocity of each joint over all segments (conditioned, before filtering).
+    pub fn rms_velocity(&self) -> Vec<f64> {
+        let n = self.n;
+        let mut s = vec![0.0; n];
+        let mut k = 0usize;
+        for qd in self.segments.iter().flat_map(|c| c.d.qd.chunks_exact(n)) {
+            s.iter_mut().zip(qd).for_each(|(a, v)| *a += v * v);
+            k += 1;
+        }
+        s.iter().map(|a| (a / k.max(1) as f64).sqrt()).collect()
+    }
+
+    /// The Coulomb-shape candidate columns of every segment for the velocity scales
+    /// `scales` (`T x n x` [`coulomb::WIDTH`], aligned with `phi`).
+    pub fn coulomb_candidates(&self, scales: &[[f64; coulomb::K]]) -> Result<Vec<f64>> {
+        let mut out = Vec::with_capacity(self.len() * self.n * coulomb::WIDTH);
+        for c in &self.segments {
+            out.extend(segment_candidates(c, self.n, scales, &self.dec)?);
+        }
+        Ok(out)
+    }
+
+    /// Builds the instrument rows of every segment with `robot` (whose Coulomb shapes are
+    /// the chosen ones) for the columns `cols`. An instrument that cannot be built (e.g.
+    /// the model's mass matrix is not positive definite, so it cannot be simulated) is an
+    /// error only when `need`; otherwise it is left out with a note (it only serves the
+    /// LS-vs-IV test then).
+    pub fn add_instrument(&mut self, robot: &Robot, cols: &[usize], need: bool) -> Result<()> {
+        let mut z = Vec::with_capacity(self.phi.len());
+        for c in &self.segments {
+            match segment_instrument(robot, cols, c, &self.dec) {
+                Ok(zs) => z.extend(zs),
+                Err(e) if !need => {
+                    self.notes.push(format!("no instrument ({e}): the LS-vs-IV test is skipped"));
+                    return Ok(());
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        let with_command = self.segments.iter().all(|c| c.u.is_some());
+        self.instrument = Some(if with_command {
+            "nominal model's forward dynamics at the (filtered) measured state driven by the command u: qdd_hat = FD_nom(q, qd, u)".to_string()
+        } else {
+            TRACKING_INSTRUMENT.to_string()
+        });
+        self.z = Some(z);
+        Ok(())
+    }
 }

@@ -345,12 +345,13 @@ pub fn simulate_job(
         let secs = log.t.last().copied().unwrap_or(0.0);
         written.push(format!("wrote {} samples of {} joints ({secs:.2} s) to {}", log.len(), log.dof(), p.display()));
     }
-    let true_params = ParamsFile {
-        robot: robot.name.clone(),
-        joints: robot.joint_names.clone(),
-        names: robot.param_names(),
-        theta: truth.params(),
-    };
+    let true_params = ParamsFile::new(
+        &robot.name,
+        robot.joint_names.clone(),
+        robot.param_names(),
+        truth.params(),
+        &truth.coulomb_shapes(),
+    );
     let summary = SimulateSummary {
         out: job.out.as_ref().map(|p| p.display().to_string()),
         samples: log.len(),

@@ -851,6 +851,7 @@ pub fn identify_mcap(
             robot: robot.joint_names.clone(),
         });
     }
+    let robot = &super::identify::with_sign_coulomb(robot)?;
     let base = {
         let _st = Stage::begin(&opts.progress, "base parameters", 0);
         super::identify::identify_base(robot, opts)?
@@ -860,6 +861,9 @@ pub fn identify_mcap(
         Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(w)),
     };
     let mut notes = vec![];
+    if opts.coulomb == super::identify::CoulombMode::Auto {
+        notes.push("Coulomb friction kept as sign(qd): a streamed log is not held to choose its shape per joint (--in-memory chooses it)".into());
+    }
     if main.info.truncated {
         notes.push("the log was truncated; only the samples before the damage were used".into());
     }

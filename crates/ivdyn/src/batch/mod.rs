@@ -328,12 +328,12 @@ fn packs_chunk_portable<const N: usize>(m: &Model<N>, first: usize, x: &States, 
                                 if j < i { [0.0; LINK_PARAMS] } else { core::array::from_fn(|c| y.link[i][j][c].0[k]) };
                         }
                         if !rigid_only {
-                            // drive columns: joint i's [sign(qd), qd, qdd, 1], zero elsewhere
+                            // drive columns: joint i's [c(qd), qd, qdd, 1], zero elsewhere
                             let d = &mut oi[lc..];
                             d.fill(0.0);
                             let (v, a) = (qdp[i].0[k], qddp[i].0[k]);
                             d[DRIVE_PARAMS * i..DRIVE_PARAMS * (i + 1)]
-                                .copy_from_slice(&core_::params::DriveParams::regressor(v, a));
+                                .copy_from_slice(&m.drive[i].regressor_row(v, a));
                         }
                     }
                 }
@@ -504,6 +504,12 @@ mod tests {
             *v = 0.1 + 0.01 * k as f64;
         }
         ur5.set_params(&theta).unwrap();
+        // shaped Coulomb friction on some joints (smooth, direction-dependent)
+        let mut shaped = ur5.coulomb_shapes();
+        shaped[1] = ivdyn_core::CoulombShape { v_scale: 0.05, asym: 0.0 };
+        shaped[3] = ivdyn_core::CoulombShape { v_scale: 0.2, asym: -0.3 };
+        shaped[4] = ivdyn_core::CoulombShape { v_scale: 0.0, asym: 0.4 };
+        ur5.set_coulomb_shapes(&shaped).unwrap();
         vec![
             Robot::paper(),
             ur5,

@@ -11,6 +11,8 @@
 //! - [`base`]: [`BaseParams`], the identifiable parameter combinations found numerically,
 //!   and [`robot_base_params`];
 //! - [`stats`]: chi-square, F and normal distributions;
+//! - [`coulomb`]: each joint's Coulomb-friction shape (sign, smooth, direction-dependent)
+//!   chosen by held-out validation;
 //! - [`consistent`]: the LS fit with physical consistency enforced (log-Cholesky
 //!   parametrisation; the checks are [`crate::robot::physical`]);
 //! - [`joint_acc`]: per-joint statistics from which OLS, two-step WLS, IV and per-joint
@@ -36,6 +38,7 @@ pub mod arrays;
 pub mod base;
 pub mod batch_fit;
 pub mod consistent;
+pub mod coulomb;
 pub mod drive;
 pub mod fit;
 pub mod gains;

@@ -8,7 +8,8 @@ use serde::{Deserialize, Serialize};
 use super::Robot;
 use super::urdf::{self, UrdfOptions};
 use crate::error::{Error, Result};
-use crate::report::{ParamsFile, PayloadSpec};
+use crate::report::{CoulombShapeFile, ParamsFile, PayloadSpec};
+use ivdyn_core::CoulombShape;
 use ivdyn_core::params::{IA, TAU0, drive_col};
 
 /// Format marker of the side file.
@@ -37,6 +38,10 @@ pub struct SideFile {
     pub damping: Vec<f64>,
     /// The payload written, if any.
     pub payload: Option<PayloadSpec>,
+    /// Each joint's Coulomb-friction shape when some joint is not the exact sign (URDF's
+    /// `<dynamics friction>` is the coefficient `fc` only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub coulomb: Option<Vec<CoulombShapeFile>>,
     /// Remarks (where the parameters came from, links whose own share is not consistent).
     pub notes: Vec<String>,
 }
@@ -73,7 +78,16 @@ impl Robot {
             th[drive_col(n, j, IA)] = side.armature[j];
             th[drive_col(n, j, TAU0)] = side.tau0[j];
         }
-        self.set_params(&th)
+        self.set_params(&th)?;
+        match &side.coulomb {
+            Some(c) if c.len() != n => {
+                Err(Error::Log { file: path.to_path_buf(), msg: format!("{} Coulomb shapes for {n} joints", c.len()) })
+            }
+            Some(c) => self.set_coulomb_shapes(
+                &c.iter().map(|c| CoulombShape { v_scale: c.v_scale, asym: c.asym }).collect::<Vec<_>>(),
+            ),
+            None => Ok(()),
+        }
     }
 
     /// Loads a URDF ([`crate::robot::urdf`]; `base` and `tip` pick the chain, and the
@@ -119,7 +133,8 @@ pub fn load_params(robot: &mut Robot, p: &ParamsFile) -> Result<()> {
             joints: robot.joint_names.clone(),
         });
     }
-    robot.set_params(&p.theta)
+    robot.set_params(&p.theta)?;
+    robot.set_coulomb_shapes(&p.coulomb_shapes(robot.dof()))
 }
 
 /// Loads the parameter file `text` (JSON, [`ParamsFile`]; `name` names it in errors) into

@@ -9,7 +9,9 @@ pub mod write;
 
 use crate::error::{Error, Result};
 use ivdyn_core::params::{DRIVE_PARAM_NAMES, LINK_PARAM_NAMES, param_count};
-use ivdyn_core::{self as core_, DriveParams, Joint, JointLimits, LinkInertia, Model, Transform, Vec3, VecN};
+use ivdyn_core::{
+    self as core_, CoulombShape, DriveParams, Joint, JointLimits, LinkInertia, Model, Transform, Vec3, VecN,
+};
 
 /// Largest supported number of movable joints.
 pub const MAX_DOF: usize = 12;
@@ -223,6 +225,31 @@ impl Robot {
     /// Sets all parameters from `theta`.
     pub fn set_params(&mut self, theta: &[f64]) -> Result<()> {
         with_model!(&mut self.model, m => m.set_params_from_slice(theta)?);
+        Ok(())
+    }
+
+    /// The shape of each joint's Coulomb friction (model constants, not in `theta`).
+    pub fn coulomb_shapes(&self) -> Vec<CoulombShape> {
+        with_model!(&self.model, m => m.drive.iter().map(|d| d.coulomb).collect())
+    }
+
+    /// Sets the shape of each joint's Coulomb friction (one per joint; finite, `v_scale >= 0`,
+    /// `|asym| < 1` so that both directions keep the sign of `fc`).
+    pub fn set_coulomb_shapes(&mut self, shapes: &[CoulombShape]) -> Result<()> {
+        if shapes.len() != self.dof() {
+            return Err(dim("Coulomb shapes", self.dof(), shapes.len()));
+        }
+        if let Some(j) = shapes.iter().position(|c| !(c.v_scale >= 0.0 && c.v_scale.is_finite() && c.asym.abs() < 1.0))
+        {
+            return Err(Error::Option {
+                option: "coulomb".into(),
+                msg: format!(
+                    "joint {}: velocity scale {} must be finite and >= 0 and asymmetry {} inside (-1, 1)",
+                    self.joint_names[j], shapes[j].v_scale, shapes[j].asym
+                ),
+            });
+        }
+        with_model!(&mut self.model, m => m.drive.iter_mut().zip(shapes).for_each(|(d, c)| d.coulomb = *c));
         Ok(())
     }
 

@@ -379,7 +379,7 @@ impl<'a> Builder<'a> {
         w.chain.joints.push(self.joint(joint)?);
         w.chain.limits.push(limits(joint));
         w.chain.drive.push(match &joint.dynamics {
-            Some(d) => DriveParams { fc: d.friction, fv: d.damping, ia: 0.0, tau0: 0.0 },
+            Some(d) => DriveParams { fc: d.friction, fv: d.damping, ia: 0.0, tau0: 0.0, ..DriveParams::ZERO },
             None => DriveParams::ZERO,
         });
         w.chain.inertia.push(LinkInertia::ZERO);

@@ -30,6 +30,7 @@ use serde::Serialize;
 
 use super::Robot;
 use crate::error::{Error, Result};
+use crate::report::CoulombShapeFile;
 use crate::report::PayloadSpec;
 use crate::robot::load::{SIDE_FORMAT, SideFile, side_path};
 use crate::robot::physical::check_link;
@@ -446,6 +447,9 @@ fn side_file(robot: &Robot, theta: &[f64], payload: Option<PayloadSpec>, notes: 
         friction: col(FC),
         damping: col(FV),
         payload,
+        coulomb: robot.coulomb_shapes().iter().any(|c| !c.is_sign()).then(|| {
+            robot.coulomb_shapes().iter().map(|c| CoulombShapeFile { v_scale: c.v_scale, asym: c.asym }).collect()
+        }),
         notes,
     }
 }
