@@ -206,7 +206,8 @@ fn nominal_model(robot: &Robot, before: Option<&JointLog>, opts: &PayloadOptions
         // the same conditioning as the after-log (the window is the after-log's)
         o.condition = ConditionOptions { window: None, ..opts.condition.clone() };
         let rep = identify(robot, b, &o)?;
-        nom.robot.set_params(&rep.params.theta)?;
+        // with the Coulomb shapes identify chose: its fc belong to them
+        crate::robot::load::load_params(&mut nom.robot, &rep.params)?;
         nom.name = "before log".into();
         let fit = rep.fit_report.as_ref().ok_or_else(|| Error::Estimation { msg: "before log: no fit".into() })?;
         nom.before = Some(BeforeModel::new(identify_base(robot, &o)?, fit, rep.fit.clone()));
