@@ -1,8 +1,8 @@
 //! `identify`'s choice of each joint's Coulomb-friction shape ([`ident::coulomb`]): the
-//! fit part of the prepared rows is split again (its first 75 % fitted, the rest held
-//! out), every candidate scored on a coarse grid of velocity scales and then on a finer
-//! one around the choice, and the chosen shapes written into the regressor rows and the
-//! model.
+//! fit part of the prepared rows is cut into [`coulomb::FOLDS`] blocks of time, each scored
+//! by a fit on the others, every candidate on a coarse grid of velocity scales and then on
+//! a finer one around the choice; the chosen shapes are written into the regressor rows
+//! and the model.
 
 use std::ops::Range;
 
@@ -13,10 +13,8 @@ use crate::Robot;
 use crate::error::Result;
 use crate::ident::coulomb::{self, CoulombChoice, Selection, ShapeStats, WIDTH};
 
-/// Share of the fit rows the candidates are fitted on (the rest scores them).
-const TRAIN_SHARE: f64 = 0.75;
-/// Fewest held-out samples worth a choice.
-const MIN_HELD_OUT: usize = 50;
+/// Fewest samples in a fold worth a choice.
+const MIN_FOLD: usize = 50;
 
 /// Chooses the shapes on the rows `fit` of `prep` (base columns `cols`), rewrites the
 /// `fc` columns of `prep.phi` with them and returns the model with those shapes and the
@@ -32,17 +30,22 @@ pub(crate) fn choose(
     if fc_col.iter().all(Option::is_none) {
         return Ok(Err("no Coulomb friction is fitted".into()));
     }
-    let cut = fit.start + ((fit.end - fit.start) as f64 * TRAIN_SHARE) as usize;
-    if fit.end - cut < MIN_HELD_OUT {
-        return Ok(Err(format!("too few samples to hold out ({} < {MIN_HELD_OUT})", fit.end - cut)));
+    let fold_len = fit.len() / coulomb::FOLDS;
+    if fold_len < MIN_FOLD {
+        return Ok(Err(format!("too few samples to hold out ({fold_len} a fold, < {MIN_FOLD})")));
     }
+    let folds: Vec<Range<usize>> = (0..coulomb::FOLDS)
+        .map(|f| {
+            fit.start + f * fold_len..if f + 1 == coulomb::FOLDS { fit.end } else { fit.start + (f + 1) * fold_len }
+        })
+        .collect();
     let mut scales = coulomb::scales_for(&prep.rms_velocity());
     let mut cand = prep.coulomb_candidates(&scales)?;
-    let mut sel = pass(prep, cols, &cand, &fc_col, &scales, fit.start..cut, cut..fit.end, robot)?;
+    let mut sel = pass(prep, cols, &cand, &fc_col, &scales, &folds, robot)?;
     if sel.columns.iter().any(|(s, _)| s.is_some()) {
         scales = coulomb::refine(&scales, &sel);
         cand = prep.coulomb_candidates(&scales)?;
-        sel = pass(prep, cols, &cand, &fc_col, &scales, fit.start..cut, cut..fit.end, robot)?;
+        sel = pass(prep, cols, &cand, &fc_col, &scales, &folds, robot)?;
     }
     let mut shaped = robot.clone();
     shaped.set_coulomb_shapes(&sel.shapes)?;
@@ -50,25 +53,22 @@ pub(crate) fn choose(
     Ok(Ok((shaped, sel.choices)))
 }
 
-/// One choice over the candidates `cand` (scales `scales`): fitted on `train`, scored on
-/// `held_out`.
-#[allow(clippy::too_many_arguments)]
+/// One choice over the candidates `cand` (scales `scales`), cross-validated over `folds`.
 fn pass(
     prep: &Prepared,
     cols: &[usize],
     cand: &[f64],
     fc_col: &[Option<usize>],
     scales: &[[f64; coulomb::K]],
-    train: Range<usize>,
-    held_out: Range<usize>,
+    folds: &[Range<usize>],
     robot: &Robot,
 ) -> Result<Selection> {
     let (n, b) = (prep.n, cols.len());
     let mut stats = ShapeStats::new(n, b);
-    for (test, r) in [(false, train), (true, held_out)] {
-        for piece in prep.pieces(r) {
+    for (f, r) in folds.iter().enumerate() {
+        for piece in prep.pieces(r.clone()) {
             let phi = rows_of(&prep.phi, n * b, piece.clone());
-            stats.add(test, phi, rows_of(cand, n * WIDTH, piece.clone()), rows_of(&prep.tau, n, piece))?;
+            stats.add(f, phi, rows_of(cand, n * WIDTH, piece.clone()), rows_of(&prep.tau, n, piece))?;
         }
     }
     coulomb::select(&stats, fc_col, scales, &robot.joint_names)

@@ -10,8 +10,9 @@
 //! kept in the model as `asym = fd / fc`). The extra column differs from the offset
 //! `tau0` only where `|s| < 1`, at low speed and standstill.
 //!
-//! Every candidate is scored by the held-out residual of a fit on the other part of the
-//! data, all joints fitted together (they share the inertial parameters). A richer shape
+//! Every candidate is scored by cross-validation over [`FOLDS`] blocks of time: each block's
+//! residual under a fit on the others, all joints fitted together (they share the inertial
+//! parameters). A richer shape
 //! replaces a simpler one only when it lowers that joint's held-out RMS by [`GAIN`].
 //! The statistics are per-joint QR factors of `[phi_i | candidates_i | tau_i]`
 //! ([`ShapeStats`]): any candidate's fit and held-out residual follow from them without
@@ -30,11 +31,11 @@ pub const SCALES: [f64; 9] = [0.002, 0.004, 0.008, 0.016, 0.032, 0.064, 0.128, 0
 pub const K: usize = SCALES.len();
 /// Candidate columns per joint: `s_1..s_K`, `|sign|`, `|s_1|..|s_K|`.
 pub const WIDTH: usize = 2 * K + 1;
-/// Relative held-out RMS a richer shape must gain to be chosen. It guards against the
-/// best of ~20 candidates winning by chance: on simulated logs whose truth is the exact
-/// sign, the best smooth candidate gains up to 1.4 % (UR5, 0.05 N m noise), while a real
-/// smooth friction gains tens of percent.
-pub const GAIN: f64 = 0.03;
+/// Relative cross-validated RMS a richer shape must gain to be chosen: a guard against
+/// the best of ~20 candidates winning by chance. On simulated UR5 logs whose truth is the
+/// exact sign (0.05 N m noise, seeds 3-8), the best smooth candidate gained at most 0.27 %;
+/// a real smooth friction gains tens of percent.
+pub const GAIN: f64 = 0.01;
 /// The direction-dependent coefficient `fd` must exceed this many of its standard
 /// deviations (two-sided 99.7 % under the fit's noise model; the held-out gain alone lets a
 /// column that soaks up a little unmodelled structure through).
@@ -74,37 +75,40 @@ pub fn refine(scales: &[[f64; K]], sel: &Selection) -> Vec<[f64; K]> {
         .collect()
 }
 
-/// Per-joint statistics of the rows `[phi_i (b) | candidates_i (WIDTH)] -> tau_i`, for the
-/// part fitted (`train`) and the part held out (`test`).
+/// Per-joint statistics of the rows `[phi_i (b) | candidates_i (WIDTH)] -> tau_i` in
+/// [`FOLDS`] contiguous folds: each fold is scored by a fit on the others (cross-validation
+/// over blocks of time, so that one unusual stretch does not decide).
 pub struct ShapeStats {
     n: usize,
     b: usize,
-    train: Vec<LsAccumulator>,
-    test: Vec<LsAccumulator>,
-    test_samples: usize,
+    /// `[fold][joint]`.
+    folds: Vec<Vec<LsAccumulator>>,
+    samples: usize,
 }
+
+/// Folds of the cross-validation.
+pub const FOLDS: usize = 4;
 
 impl ShapeStats {
     /// Empty statistics for `n` joints and `b` base parameters.
     pub fn new(n: usize, b: usize) -> Self {
-        let acc = || (0..n).map(|_| LsAccumulator::new(b + WIDTH)).collect();
-        ShapeStats { n, b, train: acc(), test: acc(), test_samples: 0 }
+        let folds = (0..FOLDS).map(|_| (0..n).map(|_| LsAccumulator::new(b + WIDTH)).collect()).collect();
+        ShapeStats { n, b, folds, samples: 0 }
     }
 
-    /// Adds `T` samples: `phi` `T x n x b`, `cand` `T x n x WIDTH`, `tau` `T x n`.
-    pub fn add(&mut self, held_out: bool, phi: &[f64], cand: &[f64], tau: &[f64]) -> Result<()> {
+    /// Adds `T` samples to fold `fold`: `phi` `T x n x b`, `cand` `T x n x WIDTH`, `tau` `T x n`.
+    pub fn add(&mut self, fold: usize, phi: &[f64], cand: &[f64], tau: &[f64]) -> Result<()> {
         let (n, b) = (self.n, self.b);
         let t = tau.len() / n;
-        if phi.len() != t * n * b || cand.len() != t * n * WIDTH {
+        if phi.len() != t * n * b || cand.len() != t * n * WIDTH || fold >= FOLDS {
             return Err(Error::Dimension {
                 what: "ShapeStats::add: phi and candidates".into(),
                 expected: t * n * b,
                 got: phi.len(),
             });
         }
-        let accs = if held_out { &mut self.test } else { &mut self.train };
         let mut row = Vec::with_capacity(t * (b + WIDTH));
-        for (i, acc) in accs.iter_mut().enumerate() {
+        for (i, acc) in self.folds[fold].iter_mut().enumerate() {
             row.clear();
             for k in 0..t {
                 row.extend_from_slice(&phi[(k * n + i) * b..(k * n + i + 1) * b]);
@@ -113,10 +117,33 @@ impl ShapeStats {
             let y: Vec<f64> = (0..t).map(|k| tau[k * n + i]).collect();
             acc.add_rows(&row, &y, None)?;
         }
-        if held_out {
-            self.test_samples += t;
-        }
+        self.samples += t;
         Ok(())
+    }
+
+    /// The statistics of every fold but `skip` (`None`: all), per joint.
+    fn merged(&self, skip: Option<usize>) -> Result<Vec<LsAccumulator>> {
+        let mut out: Vec<LsAccumulator> = (0..self.n).map(|_| LsAccumulator::new(self.b + WIDTH)).collect();
+        for (f, fold) in self.folds.iter().enumerate().filter(|(f, _)| Some(*f) != skip) {
+            debug_assert!(Some(f) != skip);
+            for (o, a) in out.iter_mut().zip(fold) {
+                o.merge(a)?;
+            }
+        }
+        out.iter_mut().for_each(LsAccumulator::finish);
+        Ok(out)
+    }
+}
+
+/// The training statistics of each fold (all the others) and of all folds together.
+struct Training {
+    per_fold: Vec<Vec<LsAccumulator>>,
+    all: Vec<LsAccumulator>,
+}
+
+impl Training {
+    fn of(s: &ShapeStats) -> Result<Self> {
+        Ok(Training { per_fold: (0..FOLDS).map(|f| s.merged(Some(f))).collect::<Result<_>>()?, all: s.merged(None)? })
     }
 }
 
@@ -180,9 +207,10 @@ fn columns(b: usize, fc_col: Option<usize>, o: Opt, fd_col: usize) -> Vec<(usize
     m
 }
 
-/// Fits all joints under `opts` (weights `w`) on the training statistics, then scores
-/// every joint on the held-out ones.
-fn score(s: &ShapeStats, fc_col: &[Option<usize>], opts: &[Opt], w: &[f64]) -> Result<Scored> {
+/// Fits all joints under `opts` (weights `w`) on each fold's training statistics and
+/// scores every joint on the fold held out (the sum over the folds); `fc`, `fd` come from
+/// the fit on all folds.
+fn score(s: &ShapeStats, tr: &Training, fc_col: &[Option<usize>], opts: &[Opt], w: &[f64]) -> Result<Scored> {
     let (n, b) = (s.n, s.b);
     let fd_cols: Vec<usize> = opts
         .iter()
@@ -197,10 +225,49 @@ fn score(s: &ShapeStats, fc_col: &[Option<usize>], opts: &[Opt], w: &[f64]) -> R
         .collect();
     let g = b + opts.iter().filter(|o| o.asym).count();
     let maps: Vec<_> = (0..n).map(|i| columns(b, fc_col[i], opts[i], fd_cols[i])).collect();
-    // the training rows of every joint, ‖R_aug,i [θ_i; -1]‖² in the global columns
+    let mut rss = vec![0.0; n];
+    for (f, train) in tr.per_fold.iter().enumerate() {
+        let theta = fit_global(train, &maps, g, b, w)?.theta;
+        for (i, r) in rss.iter_mut().enumerate() {
+            *r += held_out_rss(&s.folds[f][i], &maps[i], &theta, b);
+        }
+    }
+    let fit = fit_global(&tr.all, &maps, g, b, w)?;
+    let theta = finite(&fit.theta);
+    let fc = (0..n).map(|i| fc_col[i].map_or(0.0, |c| theta[c])).collect();
+    let fd = (0..n).map(|i| if opts[i].asym { theta[fd_cols[i]] } else { 0.0 }).collect();
+    let fd_std = (0..n).map(|i| if opts[i].asym { fit.std[fd_cols[i]] } else { f64::NAN }).collect();
+    Ok(Scored { rss, fc, fd, fd_std })
+}
+
+/// `theta` with unexcited (NaN) entries at 0.
+fn finite(theta: &[f64]) -> Vec<f64> {
+    theta.iter().map(|t| if t.is_finite() { *t } else { 0.0 }).collect()
+}
+
+/// Joint `i`'s residual sum of squares on `test` for the global parameters `theta`.
+fn held_out_rss(test: &LsAccumulator, map: &[(usize, usize)], theta: &[f64], b: usize) -> f64 {
+    let theta = finite(theta);
+    let mut v = DVector::zeros(b + WIDTH + 1);
+    for &(l, c) in map {
+        v[l] = theta[c];
+    }
+    v[b + WIDTH] = -1.0;
+    (test.r_aug() * v).norm_squared()
+}
+
+/// The LS fit of all joints' statistics `train` (joint `i` weighted by `w[i]`) in the
+/// `g` global columns: every joint's `‖R_aug,i [θ_i; -1]‖²` with its columns mapped.
+fn fit_global(
+    train: &[LsAccumulator],
+    maps: &[Vec<(usize, usize)>],
+    g: usize,
+    b: usize,
+    w: &[f64],
+) -> Result<crate::ident::FitReport> {
     let mut acc = LsAccumulator::new(g);
-    for i in 0..n {
-        let r = s.train[i].r_aug();
+    for (i, tr) in train.iter().enumerate() {
+        let r = tr.r_aug();
         let (mut rows, mut y) = (vec![], vec![]);
         for row in 0..r.nrows() {
             let mut x = vec![0.0; g];
@@ -214,22 +281,7 @@ fn score(s: &ShapeStats, fc_col: &[Option<usize>], opts: &[Opt], w: &[f64]) -> R
     }
     acc.finish();
     let names: Vec<String> = (0..g).map(|c| format!("c{c}")).collect();
-    let fit = fit_ls(&acc, &names)?;
-    let theta: Vec<f64> = fit.theta.iter().map(|t| if t.is_finite() { *t } else { 0.0 }).collect();
-    let rss = (0..n)
-        .map(|i| {
-            let mut v = DVector::zeros(b + WIDTH + 1);
-            for &(l, c) in &maps[i] {
-                v[l] = theta[c];
-            }
-            v[b + WIDTH] = -1.0;
-            (s.test[i].r_aug() * v).norm_squared()
-        })
-        .collect();
-    let fc = (0..n).map(|i| fc_col[i].map_or(0.0, |c| theta[c])).collect();
-    let fd = (0..n).map(|i| if opts[i].asym { theta[fd_cols[i]] } else { 0.0 }).collect();
-    let fd_std = (0..n).map(|i| if opts[i].asym { fit.std[fd_cols[i]] } else { f64::NAN }).collect();
-    Ok(Scored { rss, fc, fd, fd_std })
+    fit_ls(&acc, &names)
 }
 
 /// Chooses each joint's shape (see the module docs). `fc_col[i]`: the base column of
@@ -237,20 +289,21 @@ fn score(s: &ShapeStats, fc_col: &[Option<usize>], opts: &[Opt], w: &[f64]) -> R
 /// `scales` from [`scales_for`]; `joints` names them.
 pub fn select(s: &ShapeStats, fc_col: &[Option<usize>], scales: &[[f64; K]], joints: &[String]) -> Result<Selection> {
     let n = s.n;
-    let rms = |rss: f64| (rss / s.test_samples.max(1) as f64).sqrt();
-    // weights from the sign model's training residuals (two-step WLS, as the fit)
+    let rms = |rss: f64| (rss / s.samples.max(1) as f64).sqrt();
+    let tr = Training::of(s)?;
+    // weights from the sign model's held-out residuals (two-step WLS, as the fit)
     let ones = vec![1.0; n];
     let mut opts = vec![SIGN; n];
-    let first = score(s, fc_col, &opts, &ones)?;
+    let first = score(s, &tr, fc_col, &opts, &ones)?;
     let w = crate::ident::wls::per_joint_weights(&first.rss.iter().map(|r| rms(*r)).collect::<Vec<_>>());
-    let sign = score(s, fc_col, &opts, &w)?;
+    let sign = score(s, &tr, fc_col, &opts, &w)?;
     let mut best = sign.rss.clone();
     let mut fd_fc = vec![(0.0, 0.0); n];
     for j in (0..n).filter(|&j| fc_col[j].is_some()) {
         let better = |new: f64, old: f64| new < old * (1.0 - GAIN).powi(2);
         let (mut smooth, mut smooth_rss) = (SIGN, f64::INFINITY);
         for o in (0..K).map(|k| Opt { smooth: Some(k), asym: false }) {
-            let trial = try_opt(&mut opts, j, o, s, fc_col, &w)?;
+            let trial = try_opt(&mut opts, j, o, s, &tr, fc_col, &w)?;
             if trial.rss[j] < smooth_rss {
                 (smooth, smooth_rss) = (o, trial.rss[j]);
             }
@@ -259,7 +312,7 @@ pub fn select(s: &ShapeStats, fc_col: &[Option<usize>], scales: &[[f64; K]], joi
             (opts[j], best[j]) = (smooth, smooth_rss);
         }
         let o = Opt { asym: true, ..opts[j] };
-        let trial = try_opt(&mut opts, j, o, s, fc_col, &w)?;
+        let trial = try_opt(&mut opts, j, o, s, &tr, fc_col, &w)?;
         let (fc, fd) = (trial.fc[j], trial.fd[j]);
         let significant = fd.abs() > ASYM_Z * trial.fd_std[j];
         if better(trial.rss[j], best[j]) && significant && fc > 0.0 && (fd / fc).abs() <= MAX_ASYM {
@@ -293,10 +346,18 @@ pub fn select(s: &ShapeStats, fc_col: &[Option<usize>], scales: &[[f64; K]], joi
 }
 
 /// Scores `opts` with joint `j`'s candidate replaced by `o` (restored afterwards).
-fn try_opt(opts: &mut [Opt], j: usize, o: Opt, s: &ShapeStats, fc_col: &[Option<usize>], w: &[f64]) -> Result<Scored> {
+fn try_opt(
+    opts: &mut [Opt],
+    j: usize,
+    o: Opt,
+    s: &ShapeStats,
+    tr: &Training,
+    fc_col: &[Option<usize>],
+    w: &[f64],
+) -> Result<Scored> {
     let keep = opts[j];
     opts[j] = o;
-    let r = score(s, fc_col, opts, w);
+    let r = score(s, tr, fc_col, opts, w);
     opts[j] = keep;
     r
 }
