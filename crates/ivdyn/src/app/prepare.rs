@@ -41,11 +41,26 @@ pub(crate) struct Prepared {
     pub conditioning: ConditionSummary,
     /// Remarks (an instrument that could not be built).
     pub notes: Vec<String>,
+    /// The conditioned segments (full rate) and the parallel filter, to rebuild the
+    /// instrument rows with another model ([`Prepared::instrument_rows`]).
+    pub segments: Vec<Conditioned>,
+    pub dec: Decimator,
 }
 
 impl Prepared {
     pub fn len(&self) -> usize {
         self.tau.len() / self.n
+    }
+
+    /// The instrument rows of every segment with `model` as the simulated arm (its
+    /// parameters; `robot` gives the regressor), filtered and decimated as the regressor:
+    /// [`segment_instrument`].
+    pub fn instrument_rows(&self, robot: &Robot, model: &Robot, cols: &[usize]) -> Result<Vec<f64>> {
+        let mut z = Vec::with_capacity(self.phi.len());
+        for c in &self.segments {
+            z.extend(segment_instrument(robot, model, cols, c, &self.dec)?);
+        }
+        Ok(z)
     }
 
     /// The parts of the rows `r` that lie inside one segment, without the filter edges at
@@ -120,19 +135,35 @@ fn segment_rows(
     let phi = dec.apply(&phi_raw, n * b)?;
     drop(phi_raw);
     let tau = dec.apply(c.tau.as_ref().expect("checked"), n)?;
-    let z = instrument.then(|| -> Result<Vec<f64>> {
-        let (qz, qdz, qddz) = match &c.u {
-            Some(u) => {
-                let mut qh = vec![0.0; c.t.len() * n];
-                crate::batch::forward_dynamics_batch(robot, &c.d.q, &c.d.qd, u, &mut qh)?;
-                (c.d.q.clone(), c.d.qd.clone(), qh)
-            }
-            None => nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?,
-        };
-        let z_raw = stack_rows(robot, cols, &qz, &qdz, &qddz, None)?;
-        dec.apply(&z_raw, n * b)
-    });
+    let z = instrument.then(|| segment_instrument(robot, robot, cols, c, dec));
     Ok((phi, tau, z, dec.apply(&c.d.q, n)?, dec.apply(&c.d.qd, n)?, dec.apply(&c.d.qdd, n)?))
+}
+
+/// One segment's instrument rows, the base regressor (of `robot`'s structure) at the motion
+/// of `model` (the nominal model, or for `--method iv` the identified one), filtered and
+/// decimated like the regressor rows: with a command `u`, at `(q, qd, FD_model(q, qd, u))`;
+/// otherwise on a closed-loop simulation of `model` tracking the measured motion
+/// ([`nominal_tracking`], the stand-in control law of IDIM-IV). The simulated states carry
+/// none of the torque noise, so the rows are uncorrelated with it (the paper's eq 32 with
+/// `Z` from noise-free states).
+pub(crate) fn segment_instrument(
+    robot: &Robot,
+    model: &Robot,
+    cols: &[usize],
+    c: &Conditioned,
+    dec: &Decimator,
+) -> Result<Vec<f64>> {
+    let n = robot.dof();
+    let (qz, qdz, qddz) = match &c.u {
+        Some(u) => {
+            let mut qh = vec![0.0; c.t.len() * n];
+            crate::batch::forward_dynamics_batch(model, &c.d.q, &c.d.qd, u, &mut qh)?;
+            (c.d.q.clone(), c.d.qd.clone(), qh)
+        }
+        None => nominal_tracking(model, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?,
+    };
+    let z_raw = stack_rows(robot, cols, &qz, &qdz, &qddz, None)?;
+    dec.apply(&z_raw, n * cols.len())
 }
 
 /// Conditions `logs` (segments at gaps), stacks and parallel-filters each segment's rows
@@ -181,6 +212,8 @@ pub(crate) fn prepare(
         bounds: vec![0],
         conditioning,
         notes: vec![],
+        segments: vec![],
+        dec: dec.clone(),
     };
     for c in &parts {
         let (phi, tau, z, q, qd, qdd) = segment_rows(robot, cols, c, &dec, instrument, Some(&st))?;
@@ -200,5 +233,6 @@ pub(crate) fn prepare(
         p.qdd.extend(qdd);
         p.bounds.push(p.tau.len() / n);
     }
+    p.segments = parts;
     Ok(p)
 }
