@@ -388,7 +388,8 @@ fn iterate_instrument(
     let (weights, mut theta) = wls_of(&ls_acc, base, &nom_base)?;
     let mut sim = robot.clone();
     let lags = hac_lags(prep.dt, prep.cutoff_hz);
-    let (mut rounds, mut shrunk) = (0, false);
+    let mut rounds = 0;
+    let mut last_alpha;
     let (fit, converged) = loop {
         let mut built = None;
         for alpha in [1.0, 0.5, 0.25, 0.125, 0.0] {
@@ -402,7 +403,7 @@ fn iterate_instrument(
             }
         }
         let (alpha, z) = built.expect("tried")?;
-        shrunk |= alpha < 1.0;
+        last_alpha = alpha;
         prep.z = Some(z);
         let mut fit = JointAccs::new(n, b, true).with_lags(lags);
         accumulate(&mut fit, prep, fit_range.clone(), true)?;
@@ -418,7 +419,11 @@ fn iterate_instrument(
             prep.instrument = Some(format!(
                 "regressor on a closed-loop simulation of the identified model tracking the measured motion (IDIM-IV's instrument, iterated: {rounds} rounds, {}; stand-in M-scaled PD, 10 Hz, damping 0.7, plus inverse-dynamics feed-forward{})",
                 if converged { "converged" } else { "not converged" },
-                if prep.segments.iter().all(|c| c.u.is_some()) { "; with the command u: the identified model's forward dynamics driven by u" } else { "" }
+                if prep.segments.iter().all(|c| c.u.is_some()) {
+                    "; with the command u: the identified model's forward dynamics driven by u"
+                } else {
+                    ""
+                }
             ));
             break (fit, converged);
         }
@@ -429,8 +434,11 @@ fn iterate_instrument(
             opts.idim_tol
         ));
     }
-    if shrunk {
-        notes.push("IV: an estimate could not be simulated and was stepped toward the nominal model for the instrument".into());
+    if last_alpha < 1.0 {
+        notes.push(format!(
+            "IV: the identified model could not be simulated (not physical: a mass matrix that is not positive definite); the instrument's model is nominal + {last_alpha} x (estimate - nominal){}",
+            if last_alpha == 0.0 { ", i.e. the nominal model's instrument" } else { "" }
+        ));
     }
     Ok(fit)
 }
@@ -657,12 +665,20 @@ fn dwh_verdict(method: Method, d: &ident::DwhTest, worst: Option<(String, f64)>)
     }
     let by = worst.map(|(p, z)| format!("; largest difference {z:.1} std ({p})")).unwrap_or_default();
     if !d.ls_biased {
-        let kept = if method == Method::Iv { "the IV estimate is not needed (WLS gives the same within its uncertainty)" } else { "LS is kept" };
+        let kept = if method == Method::Iv {
+            "the IV estimate is not needed (WLS gives the same within its uncertainty)"
+        } else {
+            "LS is kept"
+        };
         return format!("LS and IV agree within their uncertainty (p = {:.3}{by}): {kept}", d.p_value);
     }
     let todo = match method {
-        Method::Iv | Method::IdimIv => "keep this IV estimate, and compare the validation of WLS and IV: a difference that validation does not confirm points at a model gap (friction, flexibility, a missing load: `ivdyn diagnose`) rather than noise in the regressor",
-        _ => "try `--method iv` (the simulated identified model as the instrument) and keep it if its validation is as good; a difference that validation does not confirm points at a model gap (`ivdyn diagnose`) rather than noise in the regressor",
+        Method::Iv | Method::IdimIv => {
+            "keep this IV estimate, and compare the validation of WLS and IV: a difference that validation does not confirm points at a model gap (friction, flexibility, a missing load: `ivdyn diagnose`) rather than noise in the regressor"
+        }
+        _ => {
+            "try `--method iv` (the simulated identified model as the instrument) and keep it if its validation is as good; a difference that validation does not confirm points at a model gap (`ivdyn diagnose`) rather than noise in the regressor"
+        }
     };
     format!("LS and IV differ beyond their uncertainty (p = {:.2e} < 0.01{by}): {todo}", d.p_value)
 }

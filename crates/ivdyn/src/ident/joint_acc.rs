@@ -76,10 +76,7 @@ impl LagSums {
     /// `vᵀ M_l v` for `l = 1..=L`.
     fn quad(&self, v: &[f64]) -> Vec<f64> {
         let w = v.len();
-        self.m
-            .iter()
-            .map(|m| (0..w).map(|r| v[r] * (0..w).map(|c| m[r * w + c] * v[c]).sum::<f64>()).sum())
-            .collect()
+        self.m.iter().map(|m| (0..w).map(|r| v[r] * (0..w).map(|c| m[r * w + c] * v[c]).sum::<f64>()).sum()).collect()
     }
 }
 
@@ -112,9 +109,7 @@ impl JointAccs {
     /// [`long_run_factor`](Self::long_run_factor). Call before adding rows.
     pub fn with_lags(mut self, lags: usize) -> Self {
         let w = self.b + 1;
-        self.lags = (0..self.n)
-            .map(|_| LagSums { m: vec![vec![0.0; w * w]; lags], carry: VecDeque::new() })
-            .collect();
+        self.lags = (0..self.n).map(|_| LagSums { m: vec![vec![0.0; w * w]; lags], carry: VecDeque::new() }).collect();
         self
     }
 
