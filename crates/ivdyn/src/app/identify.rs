@@ -11,13 +11,16 @@
 //! * **parallel filtering**: the measured torque and every column of the stacked base
 //!   regressor go through the same zero-phase low-pass ([`dsp::Decimator`], default
 //!   factor 1: the default differentiation filter), then are decimated by the same factor;
-//! * `iv` instrument: with a command topic (`u`), the regressor at `(q, qd, qdd_hat)` with
-//!   `qdd_hat = FD_nominal(q, qd, u)` (the nominal model's forward dynamics driven by the
-//!   command, which carries no torque-measurement noise). The paper's per-joint LTI model
+//! * `iv` instrument: the simulated *identified* model, iterated ([`iterate_instrument`]):
+//!   from the WLS estimate, the regressor on a closed-loop simulation of the current model
+//!   tracking the measured positions (the stand-in control law of `idim-iv`), or with a
+//!   command topic (`u`) at `(q, qd, FD_model(q, qd, u))` (forward dynamics driven by the
+//!   command, which carries no torque-measurement noise). The DWH test of `ols`/`wls` uses
+//!   the same construction with the nominal model, in one pass (the streaming path does the
+//!   same). The paper's per-joint LTI model
 //!   eq (35) was tried first and is a poor instrument on a UR5 (the command is dominated by
 //!   gravity, which a per-joint LTI model ignores: validation RMS 0.17 N m against 0.016 for
-//!   WLS). Without a command: the regressor on a closed-loop simulation of the nominal model
-//!   tracking the measured positions (the stand-in control law of `idim-iv`). The
+//!   WLS). The
 //!   pointwise "forward dynamics driven by the measured torque" instrument was also tried
 //!   and rejected: it shares the torque noise with the output (biased, DWH always rejects);
 //! * `idim-iv`: [`ident::idim_iv`] with a stand-in control law, a stiff PD on the measured
@@ -54,7 +57,8 @@ pub enum Method {
     Ols,
     /// Two-step weighted LS: OLS, then weights = 1 / (per-joint residual variance).
     Wls,
-    /// Instrumental variables (weighted as WLS); see the module docs for the instrument.
+    /// Instrumental variables (weighted as WLS), the instrument the simulated identified
+    /// model, iterated (module docs).
     Iv,
     /// IDIM-IV: the instrument is the regressor on a closed-loop simulation.
     IdimIv,
