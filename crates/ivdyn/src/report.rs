@@ -43,8 +43,16 @@ pub struct Dwh {
     pub dof: usize,
     /// p-value.
     pub p_value: f64,
-    /// `p < 0.01`: LS is biased.
+    /// `p < 0.01`: LS and IV differ beyond their uncertainty (LS biased, or a model gap
+    /// that biases both differently).
     pub ls_biased: bool,
+    /// The largest `|θ_IV - θ_LS|` over the base parameters, in standard deviations of
+    /// that difference (`null` when nothing was tested).
+    #[serde(default)]
+    pub largest_difference: Option<f64>,
+    /// The base parameter where that difference is largest.
+    #[serde(default)]
+    pub largest_difference_param: Option<String>,
     /// The verdict in words.
     pub verdict: String,
 }

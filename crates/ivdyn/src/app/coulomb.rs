@@ -39,13 +39,15 @@ pub(crate) fn choose(
             fit.start + f * fold_len..if f + 1 == coulomb::FOLDS { fit.end } else { fit.start + (f + 1) * fold_len }
         })
         .collect();
-    let mut scales = coulomb::scales_for(&prep.rms_velocity());
+    let (rms_qd, rms_qdd) = prep.rms_motion();
+    let v_min = coulomb::resolvable_scale(&rms_qdd, prep.cutoff_hz);
+    let mut scales = coulomb::scales_for(&rms_qd);
     let mut cand = prep.coulomb_candidates(&scales)?;
-    let mut sel = pass(prep, cols, &cand, &fc_col, &scales, &folds, robot)?;
+    let mut sel = pass(prep, cols, &cand, (&fc_col, &v_min), &scales, &folds, robot)?;
     if sel.columns.iter().any(|(s, _)| s.is_some()) {
         scales = coulomb::refine(&scales, &sel);
         cand = prep.coulomb_candidates(&scales)?;
-        sel = pass(prep, cols, &cand, &fc_col, &scales, &folds, robot)?;
+        sel = pass(prep, cols, &cand, (&fc_col, &v_min), &scales, &folds, robot)?;
     }
     let mut shaped = robot.clone();
     shaped.set_coulomb_shapes(&sel.shapes)?;
@@ -58,7 +60,7 @@ fn pass(
     prep: &Prepared,
     cols: &[usize],
     cand: &[f64],
-    fc_col: &[Option<usize>],
+    (fc_col, v_min): (&[Option<usize>], &[f64]),
     scales: &[[f64; coulomb::K]],
     folds: &[Range<usize>],
     robot: &Robot,
@@ -71,7 +73,7 @@ fn pass(
             stats.add(f, phi, rows_of(cand, n * WIDTH, piece.clone()), rows_of(&prep.tau, n, piece))?;
         }
     }
-    coulomb::select(&stats, fc_col, scales, &robot.joint_names)
+    coulomb::select(&stats, fc_col, scales, v_min, &robot.joint_names)
 }
 
 /// Writes the chosen shapes into the `fc` columns of `prep.phi`: `c(qd) = s(qd) + asym |s(qd)|`,

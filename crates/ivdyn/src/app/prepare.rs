@@ -44,8 +44,8 @@ pub(crate) struct Prepared {
     pub notes: Vec<String>,
     /// The conditioned segments (for the instrument and the Coulomb-shape candidates,
     /// built after `phi`) and their filter.
-    segments: Vec<Conditioned>,
-    dec: Decimator,
+    pub segments: Vec<Conditioned>,
+    pub dec: Decimator,
 }
 
 impl Prepared {
@@ -126,17 +126,28 @@ fn segment_rows(
     Ok((phi, tau, dec.apply(&c.d.q, n)?, dec.apply(&c.d.qd, n)?, dec.apply(&c.d.qdd, n)?))
 }
 
-/// One segment's instrument rows: with a command, the regressor at the nominal model's
-/// forward dynamics driven by it; otherwise at a tracking simulation of the model.
-fn segment_instrument(robot: &Robot, cols: &[usize], c: &Conditioned, dec: &Decimator) -> Result<Vec<f64>> {
+/// One segment's instrument rows, the base regressor (of `robot`'s structure) at the motion
+/// of `model` (the nominal model, or for `--method iv` the identified one), filtered and
+/// decimated like the regressor rows: with a command `u`, at `(q, qd, FD_model(q, qd, u))`;
+/// otherwise on a closed-loop simulation of `model` tracking the measured motion
+/// ([`nominal_tracking`], the stand-in control law of IDIM-IV). The simulated states carry
+/// none of the torque noise, so the rows are uncorrelated with it (the paper's eq 32 with
+/// `Z` from noise-free states).
+pub(crate) fn segment_instrument(
+    robot: &Robot,
+    model: &Robot,
+    cols: &[usize],
+    c: &Conditioned,
+    dec: &Decimator,
+) -> Result<Vec<f64>> {
     let n = robot.dof();
     let (qz, qdz, qddz) = match &c.u {
         Some(u) => {
             let mut qh = vec![0.0; c.t.len() * n];
-            crate::batch::forward_dynamics_batch(robot, &c.d.q, &c.d.qd, u, &mut qh)?;
+            crate::batch::forward_dynamics_batch(model, &c.d.q, &c.d.qd, u, &mut qh)?;
             (c.d.q.clone(), c.d.qd.clone(), qh)
         }
-        None => nominal_tracking(robot, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?,
+        None => nominal_tracking(model, &c.d.q, &c.d.qd, &c.d.qdd, c.dt)?,
     };
     let z_raw = stack_rows(robot, cols, &qz, &qdz, &qddz, None)?;
     dec.apply(&z_raw, n * cols.len())
@@ -204,16 +215,31 @@ pub(crate) fn prepare(
 }
 
 impl Prepared {
-    /// The RMS velocity of each joint over all segments (conditioned, before filtering).
-    pub fn rms_velocity(&self) -> Vec<f64> {
+    /// The RMS velocity and acceleration of each joint over all segments (conditioned,
+    /// before filtering).
+    pub fn rms_motion(&self) -> (Vec<f64>, Vec<f64>) {
         let n = self.n;
-        let mut s = vec![0.0; n];
-        let mut k = 0usize;
-        for qd in self.segments.iter().flat_map(|c| c.d.qd.chunks_exact(n)) {
-            s.iter_mut().zip(qd).for_each(|(a, v)| *a += v * v);
-            k += 1;
+        let rms = |x: fn(&Conditioned) -> &Vec<f64>| -> Vec<f64> {
+            let mut s = vec![0.0; n];
+            let mut k = 0usize;
+            for v in self.segments.iter().flat_map(|c| x(c).chunks_exact(n)) {
+                s.iter_mut().zip(v).for_each(|(a, v)| *a += v * v);
+                k += 1;
+            }
+            s.iter().map(|a| (a / k.max(1) as f64).sqrt()).collect()
+        };
+        (rms(|c| &c.d.qd), rms(|c| &c.d.qdd))
+    }
+
+    /// The instrument rows of every segment with `model` as the simulated arm (its
+    /// parameters; `robot` gives the regressor), filtered and decimated as the regressor:
+    /// [`segment_instrument`].
+    pub fn instrument_rows(&self, robot: &Robot, model: &Robot, cols: &[usize]) -> Result<Vec<f64>> {
+        let mut z = Vec::with_capacity(self.phi.len());
+        for c in &self.segments {
+            z.extend(segment_instrument(robot, model, cols, c, &self.dec)?);
         }
-        s.iter().map(|a| (a / k.max(1) as f64).sqrt()).collect()
+        Ok(z)
     }
 
     /// The Coulomb-shape candidate columns of every segment for the velocity scales
@@ -234,7 +260,7 @@ impl Prepared {
     pub fn add_instrument(&mut self, robot: &Robot, cols: &[usize], need: bool) -> Result<()> {
         let mut z = Vec::with_capacity(self.phi.len());
         for c in &self.segments {
-            match segment_instrument(robot, cols, c, &self.dec) {
+            match segment_instrument(robot, robot, cols, c, &self.dec) {
                 Ok(zs) => z.extend(zs),
                 Err(e) if !need => {
                     self.notes.push(format!("no instrument ({e}): the LS-vs-IV test is skipped"));

@@ -21,7 +21,11 @@
 //! 6. the fits, the DWH test and the quality figures come from the accumulators
 //!    ([`super::identify::finish_identify`], shared with the in-memory path).
 //!
-//! What is not streamed (use [`super::identify::identify`]): IDIM-IV (iterates over the data), a
+//! The instrument streamed is the nominal model's (it serves the DWH test of `ols`/`wls`,
+//! identical to the in-memory path's); `--method iv`, whose instrument is the simulated
+//! *identified* model, iterated, needs the data again each round and is not streamed.
+//!
+//! What is not streamed (use [`super::identify::identify`]): IDIM-IV and IV (iterate over the data), a
 //! command topic, torque outlier rejection, Savitzky-Golay differentiation, a forced
 //! resampling step, and logs with uneven stamps.
 
@@ -67,6 +71,9 @@ pub enum Streamed<T> {
 pub fn unsupported(opts: &IdentifyOptions, read: &ReadOptions) -> Option<String> {
     if opts.method == Method::IdimIv {
         return Some("IDIM-IV iterates over the data".into());
+    }
+    if opts.method == Method::Iv {
+        return Some("IV simulates the identified model over the data, round after round".into());
     }
     if read.command_topic.is_some() {
         return Some("a command topic is aligned in memory".into());
@@ -808,7 +815,8 @@ fn accumulate(
                 edge,
                 cut,
                 pending: VecDeque::new(),
-                fit: JointAccs::new(n, b, instrument),
+                fit: JointAccs::new(n, b, instrument)
+                    .with_lags(crate::ident::joint_acc::hac_lags(dt * dec.factor as f64, dec.filter.cutoff_hz)),
                 val: cut.map(|_| JointAccs::new(n, b, false)),
             };
             state = Some((stacker, route, dec));

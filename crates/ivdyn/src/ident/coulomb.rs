@@ -61,6 +61,16 @@ pub fn scales_for(rms: &[f64]) -> Vec<[f64; K]> {
     rms.iter().map(|r| SCALES.map(|f| f * if *r > 0.0 { *r } else { 1.0 })).collect()
 }
 
+/// The smallest velocity scale the data can tell from the sign: the transition `|qd| < v`
+/// lasts about `v / |qdd|` at a reversal, and after the parallel low-pass (cut-off `f_c`)
+/// one shorter than `1 / (2 pi f_c)` looks like a step. So `v_min = rms(qdd) / (2 pi f_c)`
+/// per joint; smaller scales only let a candidate fit the noise near reversals (on
+/// simulated logs whose truth is the exact sign they were picked, with scales of 0.1-0.3 %
+/// of the RMS velocity).
+pub fn resolvable_scale(rms_qdd: &[f64], cutoff_hz: f64) -> Vec<f64> {
+    rms_qdd.iter().map(|a| a / (2.0 * core::f64::consts::PI * cutoff_hz)).collect()
+}
+
 /// The scales of a second, finer pass: around each joint's chosen smooth scale, a factor
 /// `2^(1/4)` apart over a factor 2 either way (the coarse grid's step); a joint that kept
 /// the sign keeps the coarse grid.
@@ -287,7 +297,14 @@ fn fit_global(
 /// Chooses each joint's shape (see the module docs). `fc_col[i]`: the base column of
 /// joint `i`'s `fc` (`None`: Coulomb friction not fitted there, the sign is kept);
 /// `scales` from [`scales_for`]; `joints` names them.
-pub fn select(s: &ShapeStats, fc_col: &[Option<usize>], scales: &[[f64; K]], joints: &[String]) -> Result<Selection> {
+/// Scales below `v_min[j]` are not tried ([`resolvable_scale`]).
+pub fn select(
+    s: &ShapeStats,
+    fc_col: &[Option<usize>],
+    scales: &[[f64; K]],
+    v_min: &[f64],
+    joints: &[String],
+) -> Result<Selection> {
     let n = s.n;
     let rms = |rss: f64| (rss / s.samples.max(1) as f64).sqrt();
     let tr = Training::of(s)?;
@@ -302,7 +319,7 @@ pub fn select(s: &ShapeStats, fc_col: &[Option<usize>], scales: &[[f64; K]], joi
     for j in (0..n).filter(|&j| fc_col[j].is_some()) {
         let better = |new: f64, old: f64| new < old * (1.0 - GAIN).powi(2);
         let (mut smooth, mut smooth_rss) = (SIGN, f64::INFINITY);
-        for o in (0..K).map(|k| Opt { smooth: Some(k), asym: false }) {
+        for o in (0..K).filter(|&k| scales[j][k] >= v_min[j]).map(|k| Opt { smooth: Some(k), asym: false }) {
             let trial = try_opt(&mut opts, j, o, s, &tr, fc_col, &w)?;
             if trial.rss[j] < smooth_rss {
                 (smooth, smooth_rss) = (o, trial.rss[j]);

@@ -39,8 +39,11 @@ pub struct DwhTest {
     pub dof: usize,
     /// `P(χ²(dof) > H)`.
     pub p_value: f64,
-    /// `p_value < 0.01`: the LS estimate is biased at the 1 % level; use IV.
+    /// `p_value < 0.01`: the LS estimate is biased at the 1 % level.
     pub ls_biased: bool,
+    /// The parameter (index) where `|θ_IV - θ_LS|` is largest in units of its own standard
+    /// deviation `sqrt(Var(d)_jj)`, and that ratio (`None` without a tested direction).
+    pub worst: Option<(usize, f64)>,
 }
 
 /// Result of a batch fit.
@@ -272,9 +275,11 @@ pub fn fit_iv(acc: &IvAccumulator, names: &[String]) -> Result<FitReport> {
     // With an exact fit (rss at rounding level) both estimates agree to rounding and
     // the scale-free statistic would only measure rounding noise: no test.
     let dwh = if rss <= EXACT_FIT_TOL * EXACT_FIT_TOL * acc.sum_wyy() {
-        DwhTest { statistic: 0.0, dof: 0, p_value: 1.0, ls_biased: false }
+        DwhTest { statistic: 0.0, dof: 0, p_value: 1.0, ls_biased: false, worst: None }
     } else {
-        dwh_test(&d, &v_iv, &v_ls)
+        let mut t = dwh_test(&d, &v_iv, &v_ls);
+        t.worst = t.worst.map(|(i, z)| (sel[i], z));
+        t
     };
 
     let theta = scatter(p, sel, theta_sel.as_slice());
@@ -297,21 +302,26 @@ pub fn fit_iv(acc: &IvAccumulator, names: &[String]) -> Result<FitReport> {
     })
 }
 
-/// `H = dᵀ (V_IV - V_LS)⁺ d`: the difference is scaled by `s = sqrt(diag V_IV)` (unit
-/// free), eigen-decomposed, and eigenvalues above [`DWH_TOL`] times the largest
-/// eigenvalue of the scaled `V_IV` (a correlation matrix, so ~1) count towards the
-/// pseudo-inverse and the degrees of freedom.
+/// `H = dᵀ (V_IV - V_LS)⁺ d` (Hausman's shortcut: `Var(d) = V_IV - V_LS` when LS is
+/// efficient, i.e. iid residuals and weights `1 / σ_i²`); see [`dwh_var`].
 pub fn dwh_test(d: &DVector<f64>, v_iv: &DMatrix<f64>, v_ls: &DMatrix<f64>) -> DwhTest {
+    dwh_var(d, &(v_iv - v_ls), v_iv)
+}
+
+/// `H = dᵀ Var(d)⁺ d`: `Var(d)` is scaled by `s = sqrt(diag V_IV)` (unit free),
+/// eigen-decomposed, and eigenvalues above [`DWH_TOL`] times the largest eigenvalue of the
+/// scaled `V_IV` (a correlation matrix, so ~1) count towards the pseudo-inverse and the
+/// degrees of freedom (directions where the instrument is the regressor itself have
+/// `Var(d) = 0` and `d = 0`).
+pub fn dwh_var(d: &DVector<f64>, var_d: &DMatrix<f64>, v_iv: &DMatrix<f64>) -> DwhTest {
     let b = d.len();
     let scale: Vec<f64> = (0..b).map(|i| v_iv[(i, i)].max(0.0).sqrt()).collect();
     let unit = |i: usize| if scale[i] > 0.0 { 1.0 / scale[i] } else { 0.0 };
-    let diff = DMatrix::from_fn(b, b, |i, j| {
-        0.5 * ((v_iv[(i, j)] - v_ls[(i, j)]) + (v_iv[(j, i)] - v_ls[(j, i)])) * unit(i) * unit(j)
-    });
+    let diff = DMatrix::from_fn(b, b, |i, j| 0.5 * (var_d[(i, j)] + var_d[(j, i)]) * unit(i) * unit(j));
     let corr = DMatrix::from_fn(b, b, |i, j| v_iv[(i, j)] * unit(i) * unit(j));
     let ds = DVector::from_fn(b, |i, _| d[i] * unit(i));
     let top = if b > 0 { corr.symmetric_eigenvalues().iter().cloned().fold(0.0, f64::max) } else { 0.0 };
-    let eig = diff.symmetric_eigen();
+    let eig = diff.clone().symmetric_eigen();
     let (mut h, mut dof) = (0.0, 0usize);
     for (k, &lambda) in eig.eigenvalues.iter().enumerate() {
         if lambda > DWH_TOL * top {
@@ -321,7 +331,47 @@ pub fn dwh_test(d: &DVector<f64>, v_iv: &DMatrix<f64>, v_ls: &DMatrix<f64>) -> D
         }
     }
     let p_value = if dof == 0 { 1.0 } else { chi2_sf(h, dof as f64) };
-    DwhTest { statistic: h, dof, p_value, ls_biased: p_value < 0.01 }
+    let worst = (0..b)
+        .filter(|&i| diff[(i, i)] > DWH_TOL * top)
+        .map(|i| (i, ds[i].abs() / diff[(i, i)].sqrt()))
+        .max_by(|a, b| a.1.total_cmp(&b.1));
+    DwhTest { statistic: h, dof, p_value, ls_biased: p_value < 0.01, worst }
+}
+
+/// The DWH test with the variance of `d = θ_IV - θ_LS` computed directly (a sandwich), not
+/// by Hausman's shortcut `V_IV - V_LS`, which needs LS to be efficient and fails when the
+/// residual is autocorrelated (the parallel filter's low-pass) or the weights are not
+/// `1 / σ_i²`. With `θ_IV = G_z ZᵀW y`, `θ_LS = G_φ ΦᵀW y`, `G_z = (ZᵀWΦ)⁻¹`,
+/// `G_φ = (ΦᵀWΦ)⁻¹` (statistics `acc`, weights `W`) and the middle statistics `mid`, the
+/// same rows accumulated with weights `Λ = W Ω W` (`Ω`: the residual's long-run variance
+/// per row, e.g. `w_i² σ_i² c_i` for joint `i` with
+/// [`JointAccs::long_run_factor`](crate::ident::joint_acc::JointAccs::long_run_factor)):
+///
+/// `Var(d) = G_z ZᵀΛZ G_zᵀ - G_z ZᵀΛΦ G_φ - G_φ ΦᵀΛZ G_zᵀ + G_φ ΦᵀΛΦ G_φ`.
+///
+/// Errors like [`fit_iv`] when `ZᵀWΦ` is singular.
+pub fn dwh_sandwich(acc: &IvAccumulator, mid: &IvAccumulator) -> Result<DwhTest> {
+    let core = ls_core(acc.ls());
+    let (sel, b) = (&core.sel, core.b());
+    let a = sub(acc.ztwphi(), sel);
+    let lu = a.clone().full_piv_lu();
+    let g = DVector::from_fn(b, |i, _| acc.ztwy()[sel[i]]);
+    let theta_iv = lu.solve(&g).ok_or(Error::Core(ivdyn_core::Error::Singular))?;
+    let theta_ls = core.theta();
+    let d = DVector::from_fn(b, |i, _| theta_iv[i] - theta_ls[i]);
+    let gz = lu.try_inverse().ok_or(Error::Core(ivdyn_core::Error::Singular))?;
+    let gphi = core.unscaled_cov();
+    let p = acc.p();
+    let r_mid = mid.ls().r_aug();
+    let r_mid = r_mid.view((0, 0), (p, p));
+    let s_pp = sub(&(r_mid.transpose() * r_mid), sel);
+    let (s_zz, s_zp) = (sub(mid.ztwz(), sel), sub(mid.ztwphi(), sel));
+    let cross = &gz * &s_zp * &gphi;
+    let v_iv = &gz * &s_zz * gz.transpose();
+    let var_d = &v_iv - &cross - cross.transpose() + &gphi * s_pp * &gphi;
+    let mut t = dwh_var(&d, &var_d, &v_iv);
+    t.worst = t.worst.map(|(i, z)| (sel[i], z));
+    Ok(t)
 }
 
 impl fmt::Display for FitReport {

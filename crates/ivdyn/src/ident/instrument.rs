@@ -76,9 +76,9 @@ impl Tracker {
                 }
                 let (qv, qdv) = (ivdyn_core::VecN::from_column_slice(&qs), ivdyn_core::VecN::from_column_slice(&qds));
                 let a = ivdyn_core::forward_dynamics(&**m, &mut data, &qv, &qdv, &tau)
-                    .map_err(|e| Error::Diverged { what: "instrument: the simulation of the nominal model".into(), sample: s, detail: format!(" ({e})") })?;
+                    .map_err(|e| Error::Diverged { what: "instrument: the closed-loop simulation of the model".into(), sample: s, detail: format!(" ({e})") })?;
                 if a.iter().chain(&qs).any(|v| !v.is_finite() || v.abs() > 1e6) {
-                    return Err(Error::Diverged { what: "instrument: the simulation of the nominal model".into(), sample: s, detail: String::new() });
+                    return Err(Error::Diverged { what: "instrument: the closed-loop simulation of the model".into(), sample: s, detail: String::new() });
                 }
                 oq.extend_from_slice(&qs);
                 oqd.extend_from_slice(&qds);

@@ -9,7 +9,13 @@
 //!   rows, [`LsAccumulator::r_aug`]): the per-joint residual without a second pass;
 //! * two-step WLS with per-joint weights `w_i = 1 / σ_i²` is the merge of the accumulators
 //!   scaled by `w_i` ([`LsAccumulator::scaled`]): the same statistics as adding every row
-//!   with its weight, known only after the OLS fit.
+//!   with its weight, known only after the OLS fit;
+//! * with [`with_lags`](JointAccs::with_lags)`(L)`, the lagged products `M_l = Σ_k a_k a_{k+l}ᵀ`
+//!   of `a_k = [φ_k; τ_k]` (`l = 1..L`, consecutive rows of one segment): the residual's
+//!   autocovariance `γ_i(l) = [θ; -1]ᵀ M_l [θ; -1] / T` for any `θ`, hence its long-run
+//!   variance ([`long_run_factor`](JointAccs::long_run_factor)) without a second pass.
+
+use std::collections::VecDeque;
 
 use nalgebra::DVector;
 
@@ -27,6 +33,51 @@ pub struct JointAccs {
     sum_y: Vec<f64>,
     sum_yy: Vec<f64>,
     samples: usize,
+    /// Per joint: the lagged products (empty without lags).
+    lags: Vec<LagSums>,
+}
+
+/// Lagged products `M_l = Σ_k a_k a_{k+l}ᵀ`, `a_k = [φ_k; τ_k]` (`b + 1` entries), of one
+/// joint's rows, `l = 1..=L`, row-major, and the last `L` rows (carried across blocks).
+#[derive(Debug, Clone, Default)]
+struct LagSums {
+    m: Vec<Vec<f64>>,
+    carry: VecDeque<Vec<f64>>,
+}
+
+impl LagSums {
+    /// Adds the rows `ph` (`T x b`) with outputs `y` (`T`), after the carried rows.
+    fn add(&mut self, ph: &[f64], y: &[f64]) {
+        let lags = self.m.len();
+        if lags == 0 {
+            return;
+        }
+        let b = ph.len() / y.len().max(1);
+        for (k, &yk) in y.iter().enumerate() {
+            let mut a = Vec::with_capacity(b + 1);
+            a.extend_from_slice(&ph[k * b..(k + 1) * b]);
+            a.push(yk);
+            for (l, prev) in self.carry.iter().rev().enumerate() {
+                let m = &mut self.m[l];
+                for (r, &pr) in prev.iter().enumerate() {
+                    if pr != 0.0 {
+                        let row = &mut m[r * (b + 1)..(r + 1) * (b + 1)];
+                        row.iter_mut().zip(&a).for_each(|(o, &ac)| *o += pr * ac);
+                    }
+                }
+            }
+            if self.carry.len() == lags {
+                self.carry.pop_front();
+            }
+            self.carry.push_back(a);
+        }
+    }
+
+    /// `vᵀ M_l v` for `l = 1..=L`.
+    fn quad(&self, v: &[f64]) -> Vec<f64> {
+        let w = v.len();
+        self.m.iter().map(|m| (0..w).map(|r| v[r] * (0..w).map(|c| m[r * w + c] * v[c]).sum::<f64>()).sum()).collect()
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -51,7 +102,45 @@ impl JointAccs {
         let per = (0..n)
             .map(|_| if with_iv { Acc::Iv(Box::new(IvAccumulator::new(b))) } else { Acc::Ls(LsAccumulator::new(b)) })
             .collect();
-        JointAccs { n, b, per, sum_y: vec![0.0; n], sum_yy: vec![0.0; n], samples: 0 }
+        JointAccs { n, b, per, sum_y: vec![0.0; n], sum_yy: vec![0.0; n], samples: 0, lags: vec![] }
+    }
+
+    /// Also keeps the lagged products of lags `1..=lags` (module docs), for
+    /// [`long_run_factor`](Self::long_run_factor). Call before adding rows.
+    pub fn with_lags(mut self, lags: usize) -> Self {
+        let w = self.b + 1;
+        self.lags = (0..self.n).map(|_| LagSums { m: vec![vec![0.0; w * w]; lags], carry: VecDeque::new() }).collect();
+        self
+    }
+
+    /// Marks a break in the rows (a new segment): no lagged product spans it.
+    pub fn gap(&mut self) {
+        self.lags.iter_mut().for_each(|l| l.carry.clear());
+    }
+
+    /// The long-run variance of joint `i`'s residual for `theta` relative to its variance,
+    /// `c_i = 1 + 2 Σ_{l=1..L} (1 - l / (L + 1)) γ_i(l) / γ_i(0)` (Bartlett window,
+    /// Newey-West): the factor by which the iid covariance `σ² (ΦᵀΦ)⁻¹` understates the
+    /// variance of an estimate when the residual is autocorrelated (the parallel filter's
+    /// low-pass, a pre-filtered log) and the regressor is slow against that correlation.
+    /// `1` without lags; at least `1 / (L + 1)` (a Bartlett estimate is never negative).
+    pub fn long_run_factor(&self, i: usize, theta: &[f64]) -> f64 {
+        let Some(ls) = self.lags.get(i) else { return 1.0 };
+        let g0 = self.rss(i, theta);
+        if g0 <= 0.0 || ls.m.is_empty() {
+            return 1.0;
+        }
+        let mut v: Vec<f64> = theta.to_vec();
+        v.push(-1.0);
+        let big_l = ls.m.len() as f64;
+        let sum: f64 =
+            ls.quad(&v).iter().enumerate().map(|(l, g)| (1.0 - (l + 1) as f64 / (big_l + 1.0)) * g / g0).sum();
+        (1.0 + 2.0 * sum).max(1.0 / (big_l + 1.0))
+    }
+
+    /// Joints.
+    pub fn joints(&self) -> usize {
+        self.n
     }
 
     /// Samples added.
@@ -99,22 +188,27 @@ impl JointAccs {
             }
             out
         };
-        let work = |i: usize, acc: &mut Acc| -> Result<()> {
+        let work = |i: usize, (acc, lag): (&mut Acc, Option<&mut LagSums>)| -> Result<()> {
             let ph = gather(phi, i);
             let y: Vec<f64> = (0..t).map(|k| tau[k * n + i]).collect();
+            if let Some(lag) = lag {
+                lag.add(&ph, &y);
+            }
             match acc {
                 Acc::Ls(a) => a.add_rows(&ph, &y, None),
                 Acc::Iv(a) => a.add_rows(&ph, &gather(z.expect("checked"), i), &y, None),
             }
         };
+        let mut lags = self.lags.iter_mut();
+        let pairs: Vec<(&mut Acc, Option<&mut LagSums>)> = self.per.iter_mut().map(|a| (a, lags.next())).collect();
         if t * n < 256 || crate::batch::threads_for(t * n) < 2 {
-            for (i, acc) in self.per.iter_mut().enumerate() {
-                work(i, acc)?;
+            for (i, pair) in pairs.into_iter().enumerate() {
+                work(i, pair)?;
             }
             return Ok(());
         }
         // two workers, joints interleaved (every joint's rows cost the same)
-        let (even, odd): (Vec<_>, Vec<_>) = self.per.iter_mut().enumerate().partition(|(i, _)| i % 2 == 0);
+        let (even, odd): (Vec<_>, Vec<_>) = pairs.into_iter().enumerate().partition(|(i, _)| i % 2 == 0);
         let work = &work;
         let res: Vec<Result<()>> = std::thread::scope(|s| {
             let h = s.spawn(move || odd.into_iter().try_for_each(|(i, a)| work(i, a)));
@@ -178,3 +272,15 @@ impl JointAccs {
         Some(Ok(acc))
     }
 }
+
+/// Lags of [`JointAccs::long_run_factor`] for rows at sample time `dt` after a zero-phase
+/// low-pass at `cutoff_hz`: twice the filter's correlation time `1 / cutoff_hz` in samples
+/// (5 at the automatic decimation, 2.5 samples per cut-off period), between 2 and 12 (the
+/// lagged products cost `L (b + 1)²` per row; with `--decimate 1` the residual stays
+/// correlated over more than 12 rows and the correction is short).
+pub fn hac_lags(dt: f64, cutoff_hz: f64) -> usize {
+    ((2.0 / (cutoff_hz * dt)).ceil() as usize).clamp(2, MAX_HAC_LAGS)
+}
+
+/// The most lags [`hac_lags`] returns.
+pub const MAX_HAC_LAGS: usize = 12;

@@ -55,6 +55,6 @@ pub use accum::{IvAccumulator, LsAccumulator};
 pub use base::{BaseParams, robot_base_params, robot_base_params_excluding};
 pub use batch_fit::fit_ls_batch;
 pub use drive::DriveTerms;
-pub use fit::{DwhTest, FitReport, dwh_test, fit_iv, fit_ls};
+pub use fit::{DwhTest, FitReport, dwh_sandwich, dwh_test, dwh_var, fit_iv, fit_ls};
 pub use idim::{Experiment, IdimIvResult, idim_iv};
 pub use payload::{NotIdentifiable, PayloadEstimate, PhysicalFit, payload_from_fit};
