@@ -113,6 +113,8 @@ floor: py-install
 	$(PY) python/tools/ls_floor.py --real $(DATA) --markdown out/floor.md --json out/floor.json
 
 ## messy: identify on messy logs (jitter, repeats, standstills, a gap, currents with k_t
-## 10 % off) against the same motion logged cleanly (python/tools/messy_log.py)
+## 10 % off) against the same motion logged cleanly, then the loaded/unloaded messy pair:
+## drive gains, the payload with them and with the believed k_t, and the std's coverage
+## (python/tools/messy_log.py; the table of docs/real-logs.md, "The messy pair")
 messy: py-install
 	$(PY) python/tools/messy_log.py

@@ -311,7 +311,8 @@ def payload(robot: Robot, log: _Log, before: Optional[_Log] = None, topic: str =
             json_out: Optional[str] = None, write_urdf: Optional[str] = None, payload_as: str = "link",
             velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
             exclude: Optional[List[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto", torque_constant: _PerJoint = None,
-            gear_ratio: _PerJoint = None, motor_constant: _PerJoint = None) -> str:
+            gear_ratio: _PerJoint = None, motor_constant: _PerJoint = None,
+            torque_constant_std: _PerJoint = None, gains: Optional[str] = None) -> str:
     """``ivdyn payload`` -> its ``--json`` document."""
 def gains(robot: Robot, unloaded: _Log, loaded: _Log, payload_mass: float,
           payload_com: Optional[List[float]] = None, payload_inertia: Optional[List[float]] = None,

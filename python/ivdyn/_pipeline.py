@@ -215,7 +215,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     log's first sample; ``float("inf")`` for the end), ``exclude`` (a list of such spans
     left out; the log is cut there like at a gap), ``coulomb`` (``"auto"``: each joint's
     Coulomb friction shape chosen by held-out validation, reported in ``["coulomb"]``;
-    ``"sign"``: the paper's ``sign(qd)``); and the
+    ``"sign"``: the paper's ``sign(qd)``; ``"model"``: the shapes ``params`` brought); and the
     files: ``out_json`` (the report), ``out_params`` (the parameter file), ``write_urdf``
     (a copy of the robot's URDF with the identified parameters and its side file; the robot
     must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
@@ -256,6 +256,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
             exclude: Optional[Sequence[Tuple[float, float]]] = None,
             current_topic: Optional[str] = None, effort: str = "auto",
             torque_constant=None, gear_ratio=None, motor_constant=None,
+            torque_constant_std=None, gains=None,
             progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn payload`` from Python: the payload on the last link from a log after the
     grasp (and optionally ``before``, a log of the unloaded arm, identified first and used
@@ -272,6 +273,13 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     file; ``write_urdf``: a copy of the URDF with the payload, as a fixed child link of the tip (``payload_as="link"``)
     or merged into it (``"merge"``), written only when the payload is identifiable (and
     never with an inertia that is not a rigid body's: ``RuntimeError``, nothing written).
+
+    When the effort is a current and the torque constants are themselves estimates, their
+    uncertainty goes into the payload's std (``uncertainty_sources`` lists what the std
+    cover): ``gains``, a :func:`drive_gains` report (dict) or its JSON file, whose
+    determined gains become the torque constants with their covariance; the joints it
+    leaves open take ``torque_constant`` with ``torque_constant_std`` (N m/A per joint,
+    the forms of ``torque_constant``), which alone also work (independent errors).
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
@@ -282,10 +290,20 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
                              int(decimate), _params(params), cb, json_out=_path(out_json),
                              write_urdf=_path(write_urdf), payload_as=str(payload_as), velocity=str(velocity),
                              window=_window(window), exclude=_spans(exclude),
-                             **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
+                             **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant),
+                             torque_constant_std=_per_joint(torque_constant_std, "torque_constant_std"),
+                             gains=_gains_text(gains))
     finally:
         close()
     return json.loads(out)
+
+
+def _gains_text(gains) -> Optional[str]:
+    """A drive_gains report as JSON text: a dict, or the path of its JSON file."""
+    if gains is None or isinstance(gains, dict):
+        return None if gains is None else json.dumps(gains)
+    with open(os.fspath(gains)) as f:
+        return f.read()
 
 
 def drive_gains(robot, unloaded, loaded, payload_mass: float, *, payload_com: Optional[Sequence[float]] = None,

@@ -14,6 +14,13 @@ Both are dicts of arrays (``t, q, qd`` and ``tau`` or ``current``) that
 ``ivdyn.identify`` takes. ``make messy`` (``python python/tools/messy_log.py``) prints the comparison of
 identify's validation RMS on both variants (100 Hz and 1 kHz); the test
 ``python/tests/test_messy_logs.py`` asserts it.
+
+``make_pair`` records the arm twice, messy, without and with a known payload (``PAYLOAD``;
+other seeds, so other trajectories, jitter and noise); ``pair_study`` measures the drive
+gains from that pair (truth ``KT_TRUE``, which the user believes ``KT_TRUE * KT_ERROR``),
+the payload with those gains (their covariance in its std) and with the believed
+constants, and whether the stated std cover the truth. ``make messy`` prints the table of
+docs/real-logs.md ("The messy pair"); ``python/tests/test_messy_pair.py`` asserts 100 Hz.
 """
 
 import numpy as np
@@ -30,7 +37,7 @@ FC = [2.0, 2.0, 1.5, 0.6, 0.6, 0.4]
 FV = [0.8, 0.8, 0.5, 0.2, 0.2, 0.1]
 
 
-def _motion(robot, duration, fine_rate, seed):
+def _motion(robot, duration, fine_rate, seed, payload):
     """The true motion on a fine uniform grid: a Fourier excitation faded in and out of
     standstills of HOLD_S at both ends (smoothstep over RAMP_S), and its simulated log."""
     base = ivdyn.simulate(robot, duration=duration, rate=fine_rate, seed=seed)["log"]
@@ -43,7 +50,8 @@ def _motion(robot, duration, fine_rate, seed):
     w = (s * s * (3.0 - 2.0 * s))[:, None]
     qpad = np.vstack([np.repeat(qf[:1], hold, axis=0), qf, np.repeat(qf[-1:], hold, axis=0)])
     q = c + w * (qpad - c)
-    return ivdyn.simulate(robot, traj={"t": t, "q": q}, seed=seed, fc=FC, fv=FV, noise=0.05, encoder_bits=16)["log"]
+    return ivdyn.simulate(robot, traj={"t": t, "q": q}, seed=seed, fc=FC, fv=FV, noise=0.05, encoder_bits=16,
+                          **payload)["log"]
 
 
 def _sample(fine, times):
@@ -64,26 +72,34 @@ def _jittered_times(t_end, dt, rng):
     return times[times <= t_end]
 
 
-def make(robot, rate, seed, duration=30.0):
-    """(clean, messy) logs of the same motion at `rate` Hz (see the module docs)."""
-    rng = np.random.default_rng(seed)
-    fine = _motion(robot, duration, max(4 * rate, 2000.0), seed)
+def _messify(fine, rate, rng):
+    """`fine` sampled at jittered instants of nominal `rate` Hz, with a gap of GAP_S at 40 %
+    of the log, isolated repeated messages (q, qd and effort copied from the previous
+    sample) and the effort as the current through the true torque constants. Returns the
+    log and the number of repeats."""
     t_end = fine["t"][-1]
-    clean = _sample(fine, np.arange(0.0, t_end, 1.0 / rate))
     messy = _sample(fine, _jittered_times(t_end, 1.0 / rate, rng))
     t = messy["t"]
-    # a gap of GAP_S at 40 % of the log
     g0 = 0.4 * t_end
     keep = (t < g0) | (t > g0 + GAP_S)
     messy = {k: v[keep] for k, v in messy.items()}
-    # repeated messages: isolated samples copy the previous one's q, qd and effort
     rep = np.flatnonzero(rng.random(len(messy["t"])) < REPEAT_SHARE)
     rep = rep[rep > 0]
     rep = rep[np.concatenate([[True], np.diff(rep) > 1])]
     for key in ("q", "qd", "tau"):
         messy[key][rep] = messy[key][rep - 1]
     messy["current"] = messy.pop("tau") / KT_TRUE
-    return clean, messy, len(rep)
+    return messy, len(rep)
+
+
+def make(robot, rate, seed, duration=30.0, payload=None):
+    """(clean, messy, repeats) logs of the same motion at `rate` Hz (see the module docs);
+    `payload`: ivdyn.simulate's payload_mass/com/inertia keywords (the arm carries it)."""
+    rng = np.random.default_rng(seed)
+    fine = _motion(robot, duration, max(4 * rate, 2000.0), seed, payload or {})
+    clean = _sample(fine, np.arange(0.0, fine["t"][-1], 1.0 / rate))
+    messy, repeats = _messify(fine, rate, rng)
+    return clean, messy, repeats
 
 
 def kt_given():
@@ -106,6 +122,95 @@ def compare(robot, rate, seed):
             "messy_kt_off": rk["validation"]["rms"], "conditioning": rm["conditioning"], "notes": rm["notes"]}
 
 
+# --- the loaded/unloaded pair (issue 14): drive gains and the payload from messy currents
+
+PAYLOAD_MASS = 2.0
+PAYLOAD_COM = [0.02, -0.03, 0.05]  # m, in tool0's frame
+PAYLOAD_INERTIA = [0.006, 0.0, 0.0, 0.005, 0.0, 0.004]  # about the COM: a rigid body (I1 + I2 > I3)
+PAYLOAD = dict(payload_mass=PAYLOAD_MASS, payload_com=PAYLOAD_COM, payload_inertia=PAYLOAD_INERTIA)
+KT_STD = 0.1  # the user's relative std of the believed constants (they are 10 % off)
+PAIR_SEED = 21
+COVERAGE_SEEDS = {100.0: 10, 1000.0: 5}  # `make messy` repeats the pair on this many seeds
+COVER = 2.5  # a stated std covers the truth when |error| <= COVER std
+
+
+def make_pair(robot, rate, seed, duration=30.0):
+    """Messy logs of one arm without and then with PAYLOAD, as two recordings: another
+    trajectory, jitter, repeats and noise each (seeds `seed` and `seed + 1`). The currents
+    are through KT_TRUE, which the user does not know (they believe `kt_given()`)."""
+    _, unloaded, _ = make(robot, rate, seed, duration)
+    _, loaded, _ = make(robot, rate, seed + 1, duration, payload=PAYLOAD)
+    return unloaded, loaded
+
+
+def _payload_errors(p):
+    """Mass and COM errors of a payload report against PAYLOAD, and whether its stated
+    std covers them (per quantity: |error| <= COVER std)."""
+    dm = p["mass"] - PAYLOAD_MASS
+    dc = np.asarray(p["com"]) - PAYLOAD_COM
+    cs = np.asarray(p["com_std"])
+    return {"mass_err_pct": 100.0 * dm / PAYLOAD_MASS, "com_err_cm": 100.0 * np.linalg.norm(dc),
+            "mass_z": abs(dm) / p["mass_std"], "com_z": np.abs(dc) / cs,
+            "covered": bool(abs(dm) <= COVER * p["mass_std"] and np.all(np.abs(dc) <= COVER * cs)),
+            "sources": p.get("uncertainty_sources")}
+
+
+def pair_study(robot, rate, seed, duration=30.0):
+    """(a) the drive gains from a messy pair with the payload's mass known, against
+    KT_TRUE; (b) the payload from the same pair (unloaded as the before log) with the
+    estimated gains, and with the believed constants; (c) whether its std covers the truth.
+    A gain the pair does not determine takes the believed value, with a KT_STD std."""
+    unloaded, loaded = make_pair(robot, rate, seed, duration)
+    g = ivdyn.drive_gains(robot, unloaded, loaded, payload_mass=PAYLOAD_MASS)
+    ident = [x["identifiable"] for x in g["gains"]]
+    est = np.array([x["value"] if ok else np.nan for x, ok in zip(g["gains"], ident)])
+    kt = np.where(ident, est, kt_given())
+    # the gains as exact (the std cover the noise and the before model only), then with
+    # their covariance (and the believed constants, 10 % std, where the pair says nothing)
+    exact = ivdyn.payload(robot, loaded, before=unloaded, torque_constant=list(kt))
+    with_gains = ivdyn.payload(robot, loaded, before=unloaded, gains=g, torque_constant=kt_given(),
+                               torque_constant_std=list(KT_STD * np.array(kt_given())))
+    believed = ivdyn.payload(robot, loaded, before=unloaded, torque_constant=kt_given())
+    believed_std = ivdyn.payload(robot, loaded, before=unloaded, torque_constant=kt_given(),
+                                 torque_constant_std=list(KT_STD * np.array(kt_given())))
+    return {"rate": rate, "gain_err_pct": 100.0 * (est - KT_TRUE) / KT_TRUE,
+            "gain_rel_std_pct": np.array([x["rel_std_pct"] or np.nan for x in g["gains"]]),
+            "identifiable": ident, "not_identifiable": [x["joint"] for x in g["gains"] if not x["identifiable"]],
+            "gains_exact": _payload_errors(exact), "with_gains": _payload_errors(with_gains),
+            "believed": _payload_errors(believed), "believed_std": _payload_errors(believed_std)}
+
+
+PAYLOAD_ROWS = [("with_gains", "estimated gains, their covariance in the std"),
+                ("gains_exact", "estimated gains taken as exact"),
+                ("believed", "believed constants (10 % off) as exact"),
+                ("believed_std", "believed constants, 10 % std")]
+
+
+def pair_table(robot, results):
+    """The pair study's numbers as a markdown table, one column per rate."""
+    cols = " | ".join(f"{r['rate']:.0f} Hz" for r in results)
+    lines = [f"| quantity | {cols} | target |", "|---" * (len(results) + 2) + "|"]
+
+    def row(name, cells, target=""):
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {target} |")
+
+    for j, joint in enumerate(robot.joint_names):
+        row(f"gain error {joint} (rel. std), %",
+            [f"{r['gain_err_pct'][j]:+.2f} ({r['gain_rel_std_pct'][j]:.2f})" if r["identifiable"][j]
+             else f"not identifiable ({r['gain_rel_std_pct'][j]:.1f})" for r in results], "within 2")
+    row("gains not identifiable", [", ".join(r["not_identifiable"]) or "none" for r in results], "listed")
+    targets = {"with_gains": ("<= 3, <= 1", "covered"), "believed": ("<= 3, <= 1", "")}
+    for key, what in PAYLOAD_ROWS:
+        t_err, t_z = targets.get(key, ("", ""))
+        row(f"payload, {what}: mass error %, COM error cm",
+            [f"{r[key]['mass_err_pct']:+.2f}, {r[key]['com_err_cm']:.2f}" for r in results], t_err)
+        row(f"payload, {what}: \\|error\\|/std mass; COM x, y, z",
+            [f"{r[key]['mass_z']:.2f}; " + ", ".join(f"{z:.2f}" for z in r[key]["com_z"])
+             + (" (covered)" if r[key]["covered"] else " (**not covered**)") for r in results], t_z)
+    row("payload std cover (estimated gains)", [", ".join(r["with_gains"]["sources"]) for r in results])
+    return "\n".join(lines)
+
+
 def main():
     robot = ivdyn.Robot.from_urdf("fixtures/ur5.urdf", "base_link", "tool0")
     for rate in (100.0, 1000.0):
@@ -116,6 +221,29 @@ def main():
               f"mean ratio {ratio:.3f} (k_t 10 % off, own units: {off:.3f}); "
               f"{r['repeats']} repeats injected, found {r['conditioning']['repeated']}, "
               f"gaps {r['conditioning']['gaps']}, velocity {[v['source'] for v in r['conditioning']['velocity']]}")
+    print(f"\nloaded/unloaded pair (seed {PAIR_SEED}; {PAYLOAD_MASS} kg at {PAYLOAD_COM} m; k_t true {KT_TRUE.tolist()}, "
+          f"believed x{KT_ERROR.tolist()}; covered: |error| <= {COVER} std on mass and every COM axis)\n")
+    print(pair_table(robot, [pair_study(robot, rate, PAIR_SEED) for rate in (100.0, 1000.0)]))
+    for rate, count in COVERAGE_SEEDS.items():
+        print()
+        print(seed_summary(robot, rate, range(PAIR_SEED, PAIR_SEED + count)))
+
+
+def seed_summary(robot, rate, seeds):
+    """The pair study over `seeds` at `rate` Hz: the largest errors and how often each
+    payload variant's std covered the truth."""
+    runs = [pair_study(robot, rate, s) for s in seeds]
+    head = f"{rate:.0f} Hz, seeds {seeds.start}-{seeds.stop - 1}"
+    err = np.array([np.abs(r["gain_err_pct"]) for r in runs])
+    z = err / np.array([r["gain_rel_std_pct"] for r in runs])
+    lines = [f"{head}: largest |gain error| per joint {np.nanmax(err, axis=0).round(2)} %, largest "
+             f"|error|/std {np.nanmax(z, axis=0).round(1)}; not identifiable: "
+             f"{sorted({j for r in runs for j in r['not_identifiable']}) or 'none'}"]
+    for key, what in PAYLOAD_ROWS:
+        lines.append(f"{head}, payload with {what}: covered in {sum(r[key]['covered'] for r in runs)} of "
+                     f"{len(runs)}; |mass error| <= {max(abs(r[key]['mass_err_pct']) for r in runs):.2f} %, "
+                     f"COM error <= {max(r[key]['com_err_cm'] for r in runs):.2f} cm")
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":

@@ -173,7 +173,8 @@ struct IdentifyArgs {
     friction: Vec<FrictionArg>,
     /// Shape of the Coulomb friction: `auto` chooses per joint, by held-out validation,
     /// between sign(qd), a smooth tanh(qd / v) with its velocity scale and their
-    /// direction-dependent variants; `sign` keeps the paper's sign(qd) on every joint.
+    /// direction-dependent variants; `sign` keeps the paper's sign(qd) on every joint;
+    /// `model` keeps the shapes the model has (from --params).
     #[arg(long, default_value = "auto")]
     coulomb: String,
     /// Do not identify the armature (rotor inertia) of the joints.
@@ -235,6 +236,15 @@ struct PayloadArgs {
     /// How the payload goes into the URDF: a fixed child link of the tip, or merged into it.
     #[arg(long, value_enum, default_value = "link")]
     payload_as: PayloadAsArg,
+    /// Standard deviation of each torque constant (N m/A; the forms of --torque-constant):
+    /// added to the payload's uncertainty (independent errors).
+    #[arg(long, allow_hyphen_values = true)]
+    torque_constant_std: Option<String>,
+    /// An `ivdyn gains --json` report: the gains it determined are the torque constants, and
+    /// their covariance goes into the payload's uncertainty; the other joints take
+    /// --torque-constant and --torque-constant-std.
+    #[arg(long)]
+    gains: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -692,6 +702,7 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
         },
         json: a.json.clone(),
         urdf: a.write_urdf.clone().map(|o| (a.robot.urdf.clone(), o, mode)),
+        torque_constant_prior: torque_constant_prior(&a)?,
     };
     let out = app::payload_job(&robot, &job).map_err(msg)?;
     let rep = &out.report;
@@ -703,6 +714,16 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
         return Ok(ExitCode::from(2));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `--torque-constant-std` and `--gains` of `payload`.
+fn torque_constant_prior(a: &PayloadArgs) -> R<app::TorqueConstantPrior> {
+    let std = a.torque_constant_std.as_deref().map(|t| PerJoint::parse("torque_constant_std", t)).transpose();
+    let gains_report = match &a.gains {
+        Some(p) => Some(std::fs::read_to_string(p).map_err(|e| format!("--gains {}: {e}", p.display()))?),
+        None => None,
+    };
+    Ok(app::TorqueConstantPrior { std: std.map_err(msg)?, gains_report })
 }
 
 fn print_payload(rep: &app::PayloadReport) {
@@ -722,6 +743,7 @@ fn print_payload(rep: &app::PayloadReport) {
         );
         println!("  inertia  [{}] kg m^2 about the COM (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)", fmt_list(&i, 5));
         println!("           std [{}]", fmt_list(&is, 5));
+        println!("  the std cover: {}", rep.uncertainty_sources.join(", "));
         match &rep.physical {
             Some(ph) if ph.ls_possible => {
                 println!("  physical the least-squares payload is a rigid body (reported as fitted)")

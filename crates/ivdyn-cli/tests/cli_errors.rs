@@ -133,5 +133,5 @@ fn cli_error_window_and_exclude() {
     fails("win_after", "identify", &with(&["--window", "500:600"]), &["ur5_500hz.mcap", "--window", "the log lasts"]);
     fails("excl_order", "identify", &with(&["--exclude", "3:1"]), &["--exclude", "3:1"]);
     fails("velocity_log", "diagnose", &with(&["--velocity", "log", "--out", "/nonexistent/d"]), &["--velocity"]);
-    fails("coulomb", "identify", &with(&["--coulomb", "tanh"]), &["coulomb", "'auto' or 'sign'", "tanh"]);
+    fails("coulomb", "identify", &with(&["--coulomb", "tanh"]), &["coulomb", "'auto', 'sign' or 'model'", "tanh"]);
 }

@@ -51,6 +51,26 @@ fn cli_gains_ur5_pair() {
         assert_eq!(g["identifiable"], true);
     }
     assert_eq!(r["loaded"]["current_from"], "motor current");
+    // the payload with these gains as the torque constants and their covariance in its std
+    // (the joints the pair leaves open: a datasheet 5 % off, with a 10 % std)
+    let pj = d.join("payload.json");
+    let pjs = s(&pj);
+    let datasheet: Vec<String> = GAINS.iter().map(|g| format!("{}", 1.05 * g)).collect();
+    let (kt, kt_std) = (datasheet.join(","), "1.0".to_string());
+    let args = ["--log", &ls, "--before", &us, "--current-topic", "/ivdyn/current", "--gains", &js];
+    let mut with = args.to_vec();
+    with.extend(["--torque-constant", &kt, "--torque-constant-std", &kt_std, "--json", &pjs]);
+    let out = run(ur5_cmd("payload", &with));
+    ok(&out);
+    assert!(String::from_utf8_lossy(&out.stdout).contains("the std cover: noise, before model, torque constants"));
+    let p = json(&pj);
+    let m = p["mass"].as_f64().unwrap();
+    assert!((m - 2.0).abs() < 0.03 * 2.0 && (m - 2.0).abs() < 2.5 * p["mass_std"].as_f64().unwrap(), "{p}");
+    assert_eq!(p["uncertainty_sources"][2], "torque constants");
+    let mut torque = args.to_vec();
+    torque.extend(["--effort", "torque"]);
+    let err = run(ur5_cmd("payload", &torque));
+    assert!(!err.status.success() && String::from_utf8_lossy(&err.stderr).contains("--effort is 'torque'"));
     // the gains are what is estimated: constants are refused, and nothing is written
     let mut args = logs.to_vec();
     args.extend(["--torque-constant", "10", "--json", &j2s]);

@@ -378,7 +378,8 @@ fn identify(
 #[pyo3(signature = (robot, log, before=None, topic="/joint_states", command_topic=None, log_time=false, cutoff=None,
                     decimate=0, params_json=None, progress=None, json_out=None, write_urdf=None, payload_as="link",
                     velocity="auto", window=None, exclude=None,
-                    current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None))]
+                    current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None,
+                    torque_constant_std=None, gains=None))]
 #[allow(clippy::too_many_arguments)]
 fn payload(
     py: Python<'_>,
@@ -403,8 +404,12 @@ fn payload(
     torque_constant: Option<&Bound<'_, PyAny>>,
     gear_ratio: Option<&Bound<'_, PyAny>>,
     motor_constant: Option<&Bound<'_, PyAny>>,
+    torque_constant_std: Option<&Bound<'_, PyAny>>,
+    gains: Option<String>,
 ) -> PyResult<String> {
     let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
+    let prior =
+        app::TorqueConstantPrior { std: per_joint("torque_constant_std", torque_constant_std)?, gains_report: gains };
     let mode = match payload_as {
         "link" => app::PayloadMode::Link,
         "merge" => app::PayloadMode::Merge,
@@ -423,6 +428,7 @@ fn payload(
         },
         json: json_out,
         urdf,
+        torque_constant_prior: prior,
     };
     let out = run(py, progress, |p| {
         app::payload_job(

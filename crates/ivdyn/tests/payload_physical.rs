@@ -184,10 +184,38 @@ fn an_impossible_payload_is_never_written() {
         opts: PayloadOptions::default(),
         json: None,
         urdf: Some((PathBuf::from(UR5), written.clone(), PayloadMode::Link)),
+        torque_constant_prior: Default::default(),
     };
     let out = app::payload_job(&robot, &job).unwrap();
     assert!(written.exists() && out.written.iter().any(|w| w.contains("point_mass.urdf")));
     let back = Robot::from_urdf(&written, Some("base_link"), Some("tool0")).unwrap();
     let p = &back.params()[ivdyn_core::params::link_col(5, 0)..ivdyn_core::params::link_col(5, 10)];
     assert!(ivdyn::robot::physical::check_link(p).is_empty(), "{:?}", ivdyn::robot::physical::check_link(p));
+}
+
+/// The torque constants' covariance in the payload's ([`PayloadOptions::torque_constant_cov`]):
+/// a common 1 % scale error of every constant is a 1 % error of the whole payload (the
+/// estimate is homogeneous in the torques), so the mass's variance grows by `(0.01 m)^2`.
+#[test]
+fn torque_constant_covariance_reaches_the_payload() {
+    let robot = ur5();
+    let spec = PayloadSpec { mass: 2.0, com: COM, inertia: [0.004, 0.0, 0.0, 0.005, 0.0, 0.003] };
+    let before = log(&robot, 5, 0.05, None, Some((1.0, 1.0)));
+    let after = log(&robot, 6, 0.05, Some(spec), Some((1.0, 1.0)));
+    let run = |cov: Option<Vec<f64>>| {
+        let opts = PayloadOptions { torque_constant_cov: cov, ..Default::default() };
+        app::payload(&robot, &after, Some(&before), &opts).unwrap()
+    };
+    let plain = run(None);
+    assert_eq!(plain.uncertainty_sources, ["noise", "before model"]);
+    let common = run(Some(vec![1e-4; 36]));
+    assert_eq!(common.uncertainty_sources, ["noise", "before model", "torque constants"]);
+    let (m, s0, s1) = (plain.mass.unwrap(), plain.mass_std.unwrap(), common.mass_std.unwrap());
+    let added = (s1 * s1 - s0 * s0).sqrt();
+    assert!((added / (0.01 * m) - 1.0).abs() < 0.02, "added mass std {added}, 1 % of the mass {}", 0.01 * m);
+    // the same estimate: only its stated uncertainty changed
+    assert!((common.mass.unwrap() - m).abs() < 0.5 * s1, "{} vs {m}", common.mass.unwrap());
+    let bad = PayloadOptions { torque_constant_cov: Some(vec![1e-4; 35]), ..Default::default() };
+    let e = app::payload(&robot, &after, Some(&before), &bad).unwrap_err().to_string();
+    assert!(e.starts_with("torque_constant_cov needs 6 x 6"), "{e}");
 }

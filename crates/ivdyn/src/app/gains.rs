@@ -208,6 +208,11 @@ pub struct GainsReport {
     pub joints: Vec<String>,
     /// The gains.
     pub gains: Vec<GainValue>,
+    /// Covariance of the gains, (N m/A)^2, joint by joint in the order of `joints` (`null`
+    /// in the row and column of a gain that is not identifiable): what `payload --gains`
+    /// adds to the payload's uncertainty (the gains share the payload's mass and the arm's
+    /// parameters, so their errors are correlated).
+    pub gain_covariance: Vec<Vec<Option<f64>>>,
     /// The payload.
     pub payload: GainsPayload,
     /// Base parameters in absolute units (N m from the currents through the gains).
@@ -300,6 +305,7 @@ pub fn drive_gains(
     Ok(GainsReport {
         joints: robot.joint_names.clone(),
         gains: gain_values(robot, &fit, opts.max_rel_std),
+        gain_covariance: gain_covariance(&fit),
         payload: payload_report(robot, &fit, payload),
         base: (0..base.base_count())
             .map(|i| BaseValue {
@@ -333,6 +339,24 @@ fn gain_values(robot: &Robot, fit: &GainFit, max_rel_std: f64) -> Vec<GainValue>
                 rel_std_pct: pct(fit.rel_std[j]),
                 reason: reason(&fit.verdict[j], max_rel_std),
             }
+        })
+        .collect()
+}
+
+/// The gains' covariance from that of the inverse gains `h = 1/g` (the fit's last `n`
+/// parameters): `dg = -g^2 dh` (delta method), only among the identifiable gains.
+fn gain_covariance(fit: &GainFit) -> Vec<Vec<Option<f64>>> {
+    let n = fit.gain.len();
+    let off = fit.covariance.nrows() - n;
+    let ok = |j: usize| fit.verdict[j] == GainVerdict::Identifiable;
+    (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| {
+                    let (gi, gj) = (fit.gain[i], fit.gain[j]);
+                    (ok(i) && ok(j)).then(|| fit.covariance[(off + i, off + j)] * gi * gi * gj * gj)
+                })
+                .collect()
         })
         .collect()
 }

@@ -86,15 +86,21 @@ pub enum CoulombMode {
     Auto,
     /// The paper's `fc sign(qd)` on every joint.
     Sign,
+    /// The shapes the model has (e.g. from a parameter file), not chosen again.
+    Model,
 }
 
 impl CoulombMode {
-    /// From its name (`"auto"`, `"sign"`).
+    /// From its name (`"auto"`, `"sign"`, `"model"`).
     pub fn from_name(s: &str) -> Result<Self> {
         match s {
             "auto" => Ok(CoulombMode::Auto),
             "sign" => Ok(CoulombMode::Sign),
-            _ => Err(Error::Option { option: "coulomb".into(), msg: format!("must be 'auto' or 'sign', got '{s}'") }),
+            "model" => Ok(CoulombMode::Model),
+            _ => Err(Error::Option {
+                option: "coulomb".into(),
+                msg: format!("must be 'auto', 'sign' or 'model', got '{s}'"),
+            }),
         }
     }
 }
@@ -279,7 +285,7 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
 /// [`identify`] on several logs of the same arm at once: their segments are conditioned
 /// and filtered apart and fitted together; the held-out tail is the last log's.
 pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) -> Result<IdentifyReport> {
-    let robot = &with_sign_coulomb(robot)?;
+    let robot = &starting_shapes(robot, opts.coulomb)?;
     let n = robot.dof();
     let mut notes = vec![];
     let base = {
@@ -393,7 +399,7 @@ fn coulomb_shapes(
     opts: &IdentifyOptions,
     notes: &mut Vec<String>,
 ) -> Result<(Robot, Vec<CoulombChoice>)> {
-    if opts.coulomb == CoulombMode::Sign {
+    if opts.coulomb != CoulombMode::Auto {
         return Ok((robot.clone(), vec![]));
     }
     let _st = Stage::begin(&opts.progress, "Coulomb friction shapes", 0);
@@ -425,12 +431,15 @@ fn coulomb_shapes(
     }
 }
 
-/// `robot` with the paper's `sign(qd)` on every joint (the shapes a parameter file may
-/// have set are chosen again, or reset by [`CoulombMode::Sign`]).
-pub(crate) fn with_sign_coulomb(robot: &Robot) -> Result<Robot> {
-    let mut sign = robot.clone();
-    sign.set_coulomb_shapes(&vec![ivdyn_core::CoulombShape::SIGN; robot.dof()])?;
-    Ok(sign)
+/// The model a fit starts from: with [`CoulombMode::Model`] `robot` as it is, else with the
+/// paper's `sign(qd)` on every joint (the shapes a parameter file may have set are chosen
+/// again, or reset by [`CoulombMode::Sign`]).
+pub(crate) fn starting_shapes(robot: &Robot, mode: CoulombMode) -> Result<Robot> {
+    let mut r = robot.clone();
+    if mode != CoulombMode::Model {
+        r.set_coulomb_shapes(&vec![ivdyn_core::CoulombShape::SIGN; robot.dof()])?;
+    }
+    Ok(r)
 }
 
 /// Adds the rows `r` of `p` (inside its segments, [`Prepared::pieces`]) to `acc`, with the

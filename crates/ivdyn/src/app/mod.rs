@@ -17,6 +17,7 @@ pub mod identify_job;
 pub mod io;
 pub mod payload;
 pub mod payload_before;
+mod payload_gains;
 mod prepare;
 pub mod simulate;
 pub mod stream;
@@ -28,7 +29,10 @@ pub use gains::{GainsJob, GainsOptions, GainsReport, KnownPayload, drive_gains, 
 pub use identify::{IdentifyOptions, IdentifyReport, Method, identify, identify_base, identify_logs, write_prediction};
 pub use identify_job::{IdentifyJob, IdentifyOutputs, identify_job};
 pub use io::{LogInput, LogSource, RobotSource};
-pub use payload::{BeforeCheck, Hidden, PayloadJob, PayloadMode, PayloadOptions, PayloadReport, payload, payload_job};
+pub use payload::{
+    BeforeCheck, Hidden, PayloadJob, PayloadMode, PayloadOptions, PayloadReport, TorqueConstantPrior, payload,
+    payload_job,
+};
 pub use simulate::{
     SimulateJob, SimulateOptions, SimulateSummary, Trajectory, fourier_trajectory, simulate, simulate_job, true_robot,
 };

@@ -6,10 +6,13 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 use super::Outcome;
+use super::effort::{Effort, PerJoint, TorqueConstants};
 use super::identify::{IdentifyOptions, Method, identify, identify_base};
 use super::io::{LogInput, LogSource};
 pub use super::payload_before::{BEFORE_CHECK_CONFIDENCE, BeforeCheck};
 use super::payload_before::{BeforeModel, add_before_uncertainty, before_check, before_note};
+pub use super::payload_gains::TorqueConstantPrior;
+use super::payload_gains::add_torque_constant_uncertainty;
 use super::prepare::rows_of;
 use crate::Robot;
 use crate::batch::stack_rows;
@@ -45,6 +48,11 @@ pub struct PayloadOptions {
     pub seed: u64,
     /// Options for identifying the unloaded arm on the `before` log.
     pub before: IdentifyOptions,
+    /// Covariance of the relative errors `dk_i/k_i` of the torque constants that turned
+    /// both logs' currents into torques, `n x n` row-major (an `ivdyn gains` fit's, or the
+    /// datasheet's); added to the payload's ([`super::payload_gains`]). `None`: not
+    /// covered (torques measured, or constants taken as exact).
+    pub torque_constant_cov: Option<Vec<f64>>,
     /// Progress sink.
     pub progress: ProgressSink,
 }
@@ -57,6 +65,7 @@ impl Default for PayloadOptions {
             base_samples: 200,
             seed: 2,
             before: IdentifyOptions { validation_fraction: 0.0, method: Method::Wls, ..Default::default() },
+            torque_constant_cov: None,
             progress: None,
         }
     }
@@ -111,9 +120,19 @@ pub struct PayloadReport {
     pub physical: Option<PhysicalFit>,
     /// With a before log: whether it fits this log (the residual level of both); else `null`.
     pub before_check: Option<BeforeCheck>,
+    /// What the stated std cover: [`STD_NOISE`] always, [`STD_BEFORE`] with a before log,
+    /// [`STD_TORQUE_CONSTANTS`] when the torque constants' covariance was given.
+    pub uncertainty_sources: Vec<String>,
     /// Remarks.
     pub notes: Vec<String>,
 }
+
+/// [`PayloadReport::uncertainty_sources`]: the log's own noise (the WLS covariance).
+pub const STD_NOISE: &str = "noise";
+/// The before log's model error ([`super::payload_before`]).
+pub const STD_BEFORE: &str = "before model";
+/// The torque constants' covariance ([`super::payload_gains`]).
+pub const STD_TORQUE_CONSTANTS: &str = "torque constants";
 
 /// Below this p-value the Mahalanobis distance to the nearest rigid body says the data
 /// contradict a rigid payload (a note; the number is in `physical.p_value`).
@@ -129,7 +148,6 @@ pub fn payload(
 ) -> Result<PayloadReport> {
     let n = robot.dof();
     let mut notes = vec![];
-    let nom = nominal_model(robot, before, opts)?;
     let (cols, names10) = payload_columns(robot);
     // payload base columns from random states
     let bp = {
@@ -138,16 +156,28 @@ pub fn payload(
         BaseParams::from_rows(&rows, &names10)
     };
     check_log(robot, after)?;
-    let raw = RawRows::new(robot, &nom, after, &cols, opts)?;
-    let _st = Stage::begin(&opts.progress, "filtering and fitting", 0);
-    let rows = raw.filtered(n)?;
+    let LsPayload { nom, rows, phib, mut fit, w } = ls_payload(robot, after, before, opts, &bp, &cols)?;
     let res = &rows.res;
-    let phib = bp.select_rows(&rows.phi10, res.len())?;
-    let (mut fit, w) = fit_wls(&bp, &phib, res, n)?;
     let thf: Vec<f64> = fit.theta.iter().map(|v| if v.is_finite() { *v } else { 0.0 }).collect();
     let ls_q = quality(String::new(), &phib, res, &thf, n);
+    let mut sources = vec![STD_NOISE.to_string()];
     if let Some(b) = &nom.before {
         add_before_uncertainty(&mut fit, &phib, &w, &rows.phi_before, b)?;
+        sources.push(STD_BEFORE.into());
+    }
+    if let Some(c) = &opts.torque_constant_cov {
+        let _st = Stage::begin(&opts.progress, "torque-constant sensitivity", 0);
+        // the before log's Coulomb shapes stay those chosen above: a choice that flipped
+        // under a 0.1 % torque step would be a jump, not a derivative
+        let mut fixed = robot.clone();
+        fixed.set_coulomb_shapes(&nom.robot.coulomb_shapes())?;
+        let mut quiet = PayloadOptions { progress: None, ..opts.clone() };
+        quiet.before.coulomb = super::identify::CoulombMode::Model;
+        let rerun = |a: &JointLog, b: Option<&JointLog>| -> Result<Vec<f64>> {
+            Ok(ls_payload(&fixed, a, b, &quiet, &bp, &cols)?.fit.theta)
+        };
+        add_torque_constant_uncertainty(&mut fit, c, after, before, rerun)?;
+        sources.push(STD_TORQUE_CONSTANTS.into());
     }
     let idx: [usize; 10] = std::array::from_fn(|k| k);
     let est = ident::payload_from_fit(&bp, &fit, &idx, &names10)?;
@@ -183,9 +213,41 @@ pub fn payload(
         rms_after: after_q.rms,
         physical: None,
         before_check,
+        uncertainty_sources: sources,
         notes,
     };
     Ok(with_estimate(rep, est))
+}
+
+/// The least-squares payload of one (after, before) pair of logs: the nominal model, the
+/// filtered rows, the payload's base rows `phib`, its WLS fit and the row weights.
+struct LsPayload {
+    nom: Nominal,
+    rows: Rows,
+    phib: Vec<f64>,
+    fit: FitReport,
+    w: Vec<f64>,
+}
+
+/// [`LsPayload`] of `after` (and `before`) over the payload base columns `bp` of the
+/// full-parameter columns `cols`: what [`payload`] runs once, and again per torque
+/// constant for its sensitivity.
+fn ls_payload(
+    robot: &Robot,
+    after: &JointLog,
+    before: Option<&JointLog>,
+    opts: &PayloadOptions,
+    bp: &BaseParams,
+    cols: &[usize],
+) -> Result<LsPayload> {
+    let n = robot.dof();
+    let nom = nominal_model(robot, before, opts)?;
+    let raw = RawRows::new(robot, &nom, after, cols, opts)?;
+    let _st = Stage::begin(&opts.progress, "filtering and fitting", 0);
+    let rows = raw.filtered(n)?;
+    let phib = bp.select_rows(&rows.phi10, rows.res.len())?;
+    let (fit, w) = fit_wls(bp, &phib, &rows.res, n)?;
+    Ok(LsPayload { nom, rows, phib, fit, w })
 }
 
 /// The model the residual is taken against ([`nominal_model`]).
@@ -418,13 +480,18 @@ pub struct PayloadJob {
     pub json: Option<PathBuf>,
     /// A copy of the URDF `.0` with the payload, written to `.1` (when identifiable).
     pub urdf: Option<(PathBuf, PathBuf, PayloadMode)>,
+    /// The torque constants' uncertainty (their std, or an `ivdyn gains` report), added to
+    /// the payload's ([`super::payload_gains`]).
+    pub torque_constant_prior: TorqueConstantPrior,
 }
 
 /// Runs `job` on `robot`, then writes its outputs.
 pub fn payload_job(robot: &Robot, job: &PayloadJob) -> Result<Outcome<PayloadReport>> {
-    let after = read(robot, &job.log, &job.source, &job.opts.progress)?;
-    let before = job.before.as_ref().map(|b| read(robot, b, &job.source, &job.opts.progress)).transpose()?;
+    let (source, kt_cov) = with_torque_constant_prior(robot, &job.source, &job.torque_constant_prior)?;
+    let after = read(robot, &job.log, &source, &job.opts.progress)?;
+    let before = job.before.as_ref().map(|b| read(robot, b, &source, &job.opts.progress)).transpose()?;
     let mut opts = job.opts.clone();
+    opts.torque_constant_cov = kt_cov.or(opts.torque_constant_cov);
     opts.before.condition = opts.condition.clone();
     opts.before.decimate = opts.decimate;
     let rep = payload(robot, &after, before.as_deref(), &opts).map_err(|e| job.log.context(e))?;
@@ -438,6 +505,33 @@ pub fn payload_job(robot: &Robot, job: &PayloadJob) -> Result<Outcome<PayloadRep
         written.push(format!("URDF with the payload written to {}", out.display()));
     }
     Ok(Outcome { report: rep, written })
+}
+
+/// `src` with the torque constants `prior` settles (a gains report's replace the given
+/// ones), the effort the current, and the covariance of the constants' relative errors;
+/// `src` unchanged and `None` without a prior.
+fn with_torque_constant_prior(
+    robot: &Robot,
+    src: &LogSource,
+    prior: &TorqueConstantPrior,
+) -> Result<(LogSource, Option<Vec<f64>>)> {
+    if !prior.is_given() {
+        return Ok((src.clone(), None));
+    }
+    let effort = match src.effort {
+        Effort::Torque => {
+            return Err(Error::Option {
+                option: "effort".into(),
+                msg: "is 'torque', but a torque-constant uncertainty (torque_constant_std, gains) is for an effort given as current".into(),
+            });
+        }
+        // the constants' uncertainty only means something for the current
+        Effort::Auto | Effort::Current => Effort::Current,
+    };
+    let given = src.torque_constants.resolve(&robot.joint_names)?;
+    let (k, rel_cov) = prior.resolve(&robot.joint_names, given.as_deref())?;
+    let torque_constants = TorqueConstants { torque_constant: Some(PerJoint::List(k)), ..Default::default() };
+    Ok((LogSource { effort, torque_constants, ..src.clone() }, Some(rel_cov)))
 }
 
 /// Writes a copy of the URDF `input` with the payload of `rep` to `out` (and its side

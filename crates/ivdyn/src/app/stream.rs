@@ -859,7 +859,7 @@ pub fn identify_mcap(
             robot: robot.joint_names.clone(),
         });
     }
-    let robot = &super::identify::with_sign_coulomb(robot)?;
+    let robot = &super::identify::starting_shapes(robot, opts.coulomb)?;
     let base = {
         let _st = Stage::begin(&opts.progress, "base parameters", 0);
         super::identify::identify_base(robot, opts)?

@@ -159,21 +159,22 @@ pub fn clipped(log: &JointLog) -> Vec<Clip> {
     out
 }
 
-/// Seconds of standstill in a conditioned segment's velocities `qd` (`T x n`, step `dt`):
-/// runs of at least [`STANDSTILL_MIN_S`] where every joint is below its threshold `thr`.
-pub fn standstill_s(qd: &[f64], n: usize, dt: f64, thr: &[f64]) -> f64 {
+/// The standstills of a conditioned segment's velocities `qd` (`T x n`, step `dt`): runs
+/// of rows, at least [`STANDSTILL_MIN_S`] long, where every joint is below its threshold
+/// `thr`.
+pub fn standstills(qd: &[f64], n: usize, dt: f64, thr: &[f64]) -> Vec<std::ops::Range<usize>> {
     let min_run = (STANDSTILL_MIN_S / dt).ceil() as usize;
-    let (mut run, mut total) = (0usize, 0usize);
-    for row in qd.chunks_exact(n) {
-        if row.iter().zip(thr).all(|(v, th)| v.abs() < *th) {
-            run += 1;
-        } else {
-            total += if run >= min_run { run } else { 0 };
-            run = 0;
+    let still: Vec<bool> = qd.chunks_exact(n).map(|row| row.iter().zip(thr).all(|(v, th)| v.abs() < *th)).collect();
+    let mut out = vec![];
+    let mut k = 0;
+    while k < still.len() {
+        let end = still[k..].iter().position(|s| !s).map_or(still.len(), |p| k + p);
+        if end - k >= min_run {
+            out.push(k..end);
         }
+        k = end + 1;
     }
-    total += if run >= min_run { run } else { 0 };
-    total as f64 * dt
+    out
 }
 
 /// The window, the excluded spans, then repeated samples dropped; clipped torques found.

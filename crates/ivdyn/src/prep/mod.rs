@@ -250,7 +250,7 @@ pub fn condition_segments(log: &JointLog, opts: &ConditionOptions) -> Result<Vec
     for (p, lv) in parts.iter_mut().zip(&lvs) {
         velocity::apply(&mut p.d, lv.as_ref(), &choices);
     }
-    hygiene.standstill_s = standstill(&parts, log.dof(), dt);
+    hygiene.standstill_s = settle_standstills(&mut parts, log.dof(), dt);
     Ok(parts
         .into_iter()
         .zip(&lvs)
@@ -274,9 +274,15 @@ pub fn condition_segments(log: &JointLog, opts: &ConditionOptions) -> Result<Vec
         .collect())
 }
 
-/// Seconds of standstill over the segments: every joint below
-/// [`hygiene::STANDSTILL_SHARE`] of its RMS velocity over all of them.
-fn standstill(parts: &[Uniform], n: usize, dt: f64) -> f64 {
+/// Seconds of standstill over the segments (every joint below
+/// [`hygiene::STANDSTILL_SHARE`] of its RMS velocity over all of them, for at least
+/// [`hygiene::STANDSTILL_MIN_S`]), where the arm is set at rest: `qd = qdd = 0`. The
+/// zero-phase filter spreads the motion's edges into a standstill as ringing of ~1e-6
+/// rad/s, whose sign would switch the Coulomb column between `+1` and `-1` while the arm
+/// holds still; at rest the model's Coulomb term is then 0, the middle of the band
+/// `[-fc, fc]` a joint at rest can hold (on a messy UR5 pair with 2 s standstills at both
+/// ends the chatter put the wrist gains 2-8 % off, python/tools/messy_log.py).
+fn settle_standstills(parts: &mut [Uniform], n: usize, dt: f64) -> f64 {
     let rows: usize = parts.iter().map(|p| p.t.len()).sum();
     let thr: Vec<f64> = (0..n)
         .map(|j| {
@@ -284,7 +290,15 @@ fn standstill(parts: &[Uniform], n: usize, dt: f64) -> f64 {
             hygiene::STANDSTILL_SHARE * (ss / rows.max(1) as f64).sqrt()
         })
         .collect();
-    parts.iter().map(|p| hygiene::standstill_s(&p.d.qd, n, dt, &thr)).sum()
+    let mut still = 0;
+    for p in parts.iter_mut() {
+        for r in hygiene::standstills(&p.d.qd, n, dt, &thr) {
+            still += r.len();
+            p.d.qd[r.start * n..r.end * n].fill(0.0);
+            p.d.qdd[r.start * n..r.end * n].fill(0.0);
+        }
+    }
+    still as f64 * dt
 }
 
 /// [`condition_segments`], keeping the longest segment when the log has gaps (for the
@@ -371,6 +385,32 @@ mod tests {
         let plain = JointLog { qd: None, ..log };
         let c2 = condition(&plain, &ConditionOptions::default()).unwrap();
         assert!(c2.d == c.d && c2.velocity[0].why == "the log has no velocity");
+    }
+
+    #[test]
+    fn a_standstill_is_at_rest() {
+        // 1 s at rest, then a 1 Hz sine on both joints, 1 s at rest again: the filter rings
+        // into the rests; there the velocity and acceleration are exactly 0
+        let t: Vec<f64> = (0..4000).map(|k| k as f64 * 1e-3).collect();
+        let w = 2.0 * std::f64::consts::PI;
+        let moving = |s: f64| (1.0..3.0).contains(&s);
+        let log = JointLog {
+            joint_names: vec!["a".into(), "b".into()],
+            q: t.iter()
+                .flat_map(|&s| if moving(s) { [(w * s).sin(), 1.0 - (w * s).cos()] } else { [0.0; 2] })
+                .collect(),
+            tau: Some(vec![0.0; 8000]),
+            t: t.clone(),
+            ..Default::default()
+        };
+        let c = condition(&log, &ConditionOptions::default()).unwrap();
+        assert!((1.8..2.0).contains(&c.hygiene.standstill_s), "{}", c.hygiene.standstill_s);
+        let at = |k: usize| &c.d.qd[2 * k..2 * k + 2];
+        for k in (0..900).chain(3100..4000) {
+            assert_eq!(at(k), &[0.0, 0.0], "sample {k}");
+            assert_eq!(&c.d.qdd[2 * k..2 * k + 2], &[0.0, 0.0], "sample {k}");
+        }
+        assert!(at(2000)[0].abs() > 1.0);
     }
 
     #[test]
