@@ -113,10 +113,10 @@ def test_identify_matches_cli(ur5, logs, cli, tmp_path, method):
 
 def test_identify_from_arrays_equals_file(ur5, logs):
     log = ivdyn.read_joint_states(logs / "before.mcap", ur5)
-    a = ivdyn.identify(ur5, log, velocity="positions")
-    b = ivdyn.identify(ur5, logs / "before.mcap", stream=True)
-    # arrays are identified in memory, a streamed MCAP path differentiates positions too:
-    # the same numbers
+    a = ivdyn.identify(ur5, log, velocity="positions", coulomb="sign")
+    b = ivdyn.identify(ur5, logs / "before.mcap", stream=True, coulomb="sign")
+    # arrays are identified in memory, a streamed MCAP path differentiates positions too
+    # and keeps the Coulomb sign (it cannot choose a shape): the same numbers
     assert a.pop("streamed") is False and b.pop("streamed") is True
     ca, cb = a.pop("conditioning"), b.pop("conditioning")
     assert [v["source"] for v in ca["velocity"]] == [v["source"] for v in cb["velocity"]] == ["positions"] * 6

@@ -67,7 +67,10 @@ def test_out_mcap_read_by_python(tmp_path, ivdyn_bin):
         assert np.array_equal(r[4], m[4] - p[4])                  # residual, exactly
 
     # predicted == reference inverse dynamics with the identified parameters
-    theta = np.array(json.load(open(params))["theta"])
+    pf = json.load(open(params))
+    theta = np.array(pf["theta"])
+    # the Coulomb shapes identify chose (absent: the sign on every joint)
+    coulomb = None if pf.get("coulomb") is None else [(c["v_scale"], c["asym"]) for c in pf["coulomb"]]
     stamps = np.array([p[0] for p in prd], dtype=np.int64)
     dt = np.median(np.diff(stamps)) * 1e-9
     Q = np.array([p[2] for p in prd])
@@ -76,7 +79,7 @@ def test_out_mcap_read_by_python(tmp_path, ivdyn_bin):
     tau_pred = np.array([p[4] for p in prd])[1:-1]
     every = slice(0, None, 7)   # the plain NumPy reference is slow; 428 samples suffice
     Q, QD, QDD, tau_pred = Q[1:-1][every], QD[1:-1][every], QDD[every], tau_pred[every]
-    ref = np.array([rnea(model, q, qd, qdd, theta=theta) for q, qd, qdd in zip(Q, QD, QDD)])
+    ref = np.array([rnea(model, q, qd, qdd, theta=theta, coulomb=coulomb) for q, qd, qdd in zip(Q, QD, QDD)])
     scale = np.abs(tau_pred).max()
     err = np.abs(ref - tau_pred).max()
     assert err < 1e-8 * scale, (err, scale)

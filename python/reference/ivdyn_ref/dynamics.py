@@ -101,14 +101,16 @@ def _link_wrench(phi, w, wd, a):
     return F, N
 
 
-def _drive_torque(drive, qd, qdd):
+def _drive_torque(drive, qd, qdd, coulomb=None):
     fc, fv, ia, tau0 = drive[:, 0], drive[:, 1], drive[:, 2], drive[:, 3]
-    return fc * np.sign(qd) + fv * qd + ia * qdd + tau0
+    c = np.sign(qd) if coulomb is None else np.array([coulomb_value(v, *s) for v, s in zip(qd, coulomb)])
+    return fc * c + fv * qd + ia * qdd + tau0
 
 
-def rnea(model: ChainModel, q, qd, qdd, theta=None, gravity=True, drive=True):
+def rnea(model: ChainModel, q, qd, qdd, theta=None, gravity=True, drive=True, coulomb=None):
     """Inverse dynamics tau(q, qd, qdd) including the drive terms (eq 8).
-    theta (14 N) overrides the model's parameters."""
+    theta (14 N) overrides the model's parameters; ``coulomb``: per joint
+    ``(v_scale, asym)`` of the Coulomb term (default: sign)."""
     links, drv = _split_theta(model, theta)
     q, qd, qdd = _check(model, q, qd, qdd)
     kin = kinematics(model, q, qd, qdd, gravity)
@@ -131,7 +133,7 @@ def rnea(model: ChainModel, q, qd, qdd, theta=None, gravity=True, drive=True):
         u = model.joints[i].axis
         tau[i] = u @ nm if model.joints[i].type == "revolute" else u @ f    # eq 8
     if drive:
-        tau += _drive_torque(drv, qd, qdd)
+        tau += _drive_torque(drv, qd, qdd, coulomb)
     return tau
 
 
