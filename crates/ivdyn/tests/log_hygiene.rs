@@ -196,3 +196,21 @@ fn standstills_are_measured() {
     assert!((1.9..2.4).contains(&s), "{s}");
     assert!(r.notes.iter().any(|x| x.contains("standstill")), "{:?}", r.notes);
 }
+
+/// Positions logged in degrees: far outside the UR5's limits (±2π), inside them read as
+/// degrees. Every job's log goes through `LogInput::load`: a clear error naming the joint,
+/// not a fit of nonsense. Radians of the same motion pass.
+#[test]
+fn positions_in_degrees_are_refused() {
+    use ivdyn::app::{LogInput, LogSource};
+    let robot = ur5();
+    let log = sim(&robot, 9, 4.0);
+    assert!(LogInput::Arrays(log.clone()).load(&robot, &LogSource::default()).is_ok());
+    let mut deg = log.clone();
+    deg.q.iter_mut().for_each(|q| *q = q.to_degrees());
+    // at least one joint's motion spans more than 2π + π rad once in degrees
+    let err = LogInput::Arrays(deg).load(&robot, &LogSource::default()).unwrap_err().to_string();
+    eprintln!("{err}");
+    assert!(err.contains("degrees") && err.contains("give positions in radians"), "{err}");
+    assert!(robot.joint_names.iter().any(|j| err.contains(&format!("'{j}'"))), "{err}");
+}

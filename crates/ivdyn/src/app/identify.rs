@@ -5,9 +5,12 @@
 //!
 //! Choices made here (documented in `docs/cli.md`):
 //!
-//! * conditioning: [`dsp::condition`] (duplicate stamps dropped, uneven stamps
-//!   resampled, `q` smoothed and differentiated: zero-phase Butterworth + central
-//!   differences; the log's own velocities are not used);
+//! * conditioning: [`prep::condition_segments`] (log hygiene, segments at gaps, uneven
+//!   stamps resampled, the log's velocity where it agrees with the differentiated
+//!   positions, else `q` smoothed and differentiated: zero-phase Butterworth + central
+//!   differences);
+//! * the Coulomb term's shape per joint (sign, smooth, direction-dependent), chosen by
+//!   cross-validation on the fit rows ([`super::coulomb`], `--coulomb auto`);
 //! * **parallel filtering**: the measured torque and every column of the stacked base
 //!   regressor go through the same zero-phase low-pass ([`dsp::Decimator`], default
 //!   factor 1: the default differentiation filter), then are decimated by the same factor;

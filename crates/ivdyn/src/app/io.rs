@@ -143,10 +143,13 @@ impl LogInput {
 
     /// The log as read (a file) or given (arrays).
     fn raw(&self, robot: &Robot, src: &LogSource) -> Result<Cow<'_, JointLog>> {
-        Ok(match self {
+        let log = match self {
             LogInput::File(p) => Cow::Owned(src.read(p, robot)?),
             LogInput::Arrays(l) => Cow::Borrowed(l),
-        })
+        };
+        // positions in degrees would pass every other check and fit nonsense
+        crate::prep::hygiene::degrees_check(&log, &revolute_limits(robot)).map_err(|e| self.context(e))?;
+        Ok(log)
     }
 
     /// `e` prefixed with the log file, unless it already names a file.
@@ -171,4 +174,20 @@ pub fn write_log(path: &Path, log: &JointLog) -> Result<()> {
     write_atomic(path, |tmp| {
         if ext == "csv" { crate::log::write_csv(tmp, log) } else { crate::log::write_mcap(tmp, log, &[]).map(|_| ()) }
     })
+}
+
+/// Each joint's position limits in rad when it is revolute and has them.
+fn revolute_limits(robot: &Robot) -> Vec<Option<(f64, f64)>> {
+    let c = robot.model.to_chain();
+    c.joints
+        .iter()
+        .zip(&c.limits)
+        .map(|(j, l)| {
+            (j.kind == ivdyn_core::JointKind::Revolute
+                && l.lower.is_finite()
+                && l.upper.is_finite()
+                && l.upper > l.lower)
+                .then_some((l.lower, l.upper))
+        })
+        .collect()
 }

@@ -213,6 +213,35 @@ pub fn clean<'a>(
     Ok((log, h))
 }
 
+/// Logged positions of a revolute joint that lie far outside its limits (by more than
+/// half the range) but inside them once read as degrees: the log is in degrees (ROS
+/// `JointState` positions are radians). `limits[j]`: joint `j`'s `(lower, upper)` in rad,
+/// `None` for a prismatic joint or one without limits. Errors naming the joint.
+pub fn degrees_check(log: &JointLog, limits: &[Option<(f64, f64)>]) -> Result<()> {
+    let n = log.dof();
+    for (j, lim) in limits.iter().enumerate().take(n) {
+        let Some((lo, hi)) = *lim else { continue };
+        let (mn, mx) = log
+            .q
+            .iter()
+            .skip(j)
+            .step_by(n)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| (a.min(*v), b.max(*v)));
+        let slack = 0.5 * (hi - lo);
+        let inside = |a: f64, b: f64| a >= lo - slack && b <= hi + slack;
+        let d = std::f64::consts::PI / 180.0;
+        if mn.is_finite() && !inside(mn, mx) && inside(mn * d, mx * d) {
+            return Err(Error::Signal {
+                msg: format!(
+                    "joint '{}': positions span {mn:.1} to {mx:.1}, far outside its limits [{lo:.3}, {hi:.3}] rad, and inside them read as degrees: give positions in radians",
+                    log.joint_names[j]
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
