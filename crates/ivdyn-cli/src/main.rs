@@ -17,6 +17,9 @@ use ivdyn::app::{
 use ivdyn::progress::Progress;
 use ivdyn::report::PayloadSpec;
 
+mod stdout;
+use stdout::say;
+
 #[derive(Parser)]
 #[command(name = "ivdyn", version, about = "Robot-arm dynamics identification from motion logs")]
 struct Cli {
@@ -387,8 +390,20 @@ fn main() -> ExitCode {
         Cmd::Diagnose(a) => diagnose_cmd::run(a, &bars),
         Cmd::Excite(a) => excite(a, &bars),
     };
+    // the job has written its files by now; a closed or full stdout only changes the code
+    let out_failed = stdout::finish();
     match r {
-        Ok(code) => code,
+        Ok(code) => match out_failed {
+            // a job's own failure code (2: not identifiable) says more than a lost summary
+            Some(_) if code != ExitCode::SUCCESS => code,
+            None => code,
+            Some(m) => {
+                if !m.is_empty() {
+                    eprintln!("{m}");
+                }
+                ExitCode::from(stdout::EXIT_STDOUT)
+            }
+        },
         Err(e) => {
             let line = e.replace('\n', " ");
             eprintln!("ivdyn: error: {line}");
@@ -482,7 +497,7 @@ fn load_robot(a: &RobotArgs) -> R<Robot> {
     }
     // on stdout with the results: stderr is for the one-line error
     for n in robot.chain_notes() {
-        println!("note: {n}");
+        say!("note: {n}");
     }
     Ok(robot)
 }
@@ -535,7 +550,7 @@ fn fmt_list(v: &[f64], prec: usize) -> String {
 
 fn print_written(lines: &[String]) {
     for l in lines {
-        println!("{l}");
+        say!("{l}");
     }
 }
 
@@ -584,7 +599,7 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
 
 fn print_identify(robot: &Robot, rep: &app::IdentifyReport) {
     if let Some(fit) = &rep.fit_report {
-        println!(
+        say!(
             "robot '{}', {} joints, {} samples at {:.1} Hz (filter {:.1} Hz), method {}",
             robot.name,
             robot.dof(),
@@ -594,10 +609,10 @@ fn print_identify(robot: &Robot, rep: &app::IdentifyReport) {
             rep.method
         );
         if let Some(i) = &rep.instrument {
-            println!("instrument: {i}");
+            say!("instrument: {i}");
         }
-        println!();
-        println!(
+        say!();
+        say!(
             "{} fit: {} rows, rank {}/{}, sigma2 = {:.4e}, cond = {:.3e}",
             fit.method,
             fit.rows,
@@ -606,42 +621,45 @@ fn print_identify(robot: &Robot, rep: &app::IdentifyReport) {
             fit.sigma2,
             fit.condition_number
         );
-        println!("  {:>3}  {:>13}  {:>10}  {:>8}  {:>13}  base parameter", "#", "value", "std", "rel %", "nominal");
+        say!("  {:>3}  {:>13}  {:>10}  {:>8}  {:>13}  base parameter", "#", "value", "std", "rel %", "nominal");
         for (i, b) in rep.base.iter().enumerate() {
             let name = if b.name.chars().count() > 70 {
                 format!("{}...", b.name.chars().take(67).collect::<String>())
             } else {
                 b.name.clone()
             };
-            println!(
+            say!(
                 "  {i:>3}  {:>13.6e}  {:>10.3e}  {:>8.2}  {:>13.6e}  {name}",
-                b.value, b.std, b.rel_std_pct, b.nominal
+                b.value,
+                b.std,
+                b.rel_std_pct,
+                b.nominal
             );
         }
         if !rep.unexcited.is_empty() {
-            println!("  not excited (left at nominal): {}", rep.unexcited.join(", "));
+            say!("  not excited (left at nominal): {}", rep.unexcited.join(", "));
         }
     }
-    println!();
-    println!("fit quality per joint ({}):", rep.fit.data);
+    say!();
+    say!("fit quality per joint ({}):", rep.fit.data);
     print_quality(&rep.joints, &rep.fit);
     if let Some(v) = &rep.validation {
-        println!("validation ({}, {} samples):", v.data, v.samples);
+        say!("validation ({}, {} samples):", v.data, v.samples);
         print_quality(&rep.joints, v);
     }
     match &rep.dwh {
-        Some(d) => println!("LS vs IV (Durbin-Wu-Hausman): H = {:.3}, dof {}: {}", d.statistic, d.dof, d.verdict),
-        None => println!("LS vs IV: not tested"),
+        Some(d) => say!("LS vs IV (Durbin-Wu-Hausman): H = {:.3}, dof {}: {}", d.statistic, d.dof, d.verdict),
+        None => say!("LS vs IV: not tested"),
     }
     for n in &rep.notes {
-        println!("note: {n}");
+        say!("note: {n}");
     }
     if rep.physical.consistent {
-        println!("identified full parameters (nominal + base correction) are physically consistent");
+        say!("identified full parameters (nominal + base correction) are physically consistent");
     } else {
-        println!("identified full parameters (nominal + base correction) are NOT physically consistent:");
+        say!("identified full parameters (nominal + base correction) are NOT physically consistent:");
         for l in rep.physical.lines() {
-            println!("  {l}");
+            say!("  {l}");
         }
     }
     if let Some(c) = &rep.consistent {
@@ -656,7 +674,7 @@ fn print_consistent(joints: &[String], c: &ivdyn::ident::consistent::ConsistentR
     } else {
         format!("still inconsistent: {}", r.check.lines().join("; "))
     };
-    println!(
+    say!(
         "consistent fit ({} LM iterations{}): weighted RSS {:.6e} -> {:.6e} (+{:.3}%), {}",
         k.iterations,
         if k.converged { "" } else { ", NOT converged" },
@@ -665,20 +683,20 @@ fn print_consistent(joints: &[String], c: &ivdyn::ident::consistent::ConsistentR
         100.0 * k.rss_increase,
         verdict
     );
-    println!("  {} unidentifiable directions pulled toward the nominal parameters", k.regularised_directions);
-    println!("fit quality per joint with the consistent parameters:");
+    say!("  {} unidentifiable directions pulled toward the nominal parameters", k.regularised_directions);
+    say!("fit quality per joint with the consistent parameters:");
     print_quality(joints, &c.fit);
     if let Some(v) = &c.validation {
-        println!("validation with the consistent parameters ({}):", v.data);
+        say!("validation with the consistent parameters ({}):", v.data);
         print_quality(joints, v);
     }
 }
 
 fn print_quality(joints: &[String], q: &ivdyn::report::Quality) {
     let w = joints.iter().map(|j| j.len()).max().unwrap_or(5).max(5);
-    println!("  {:<w$}  {:>12}  {:>12}  {:>8}", "joint", "rms [N m]", "tau rms", "R^2");
+    say!("  {:<w$}  {:>12}  {:>12}  {:>8}", "joint", "rms [N m]", "tau rms", "R^2");
     for (i, j) in joints.iter().enumerate() {
-        println!("  {:<w$}  {:>12.4e}  {:>12.4e}  {:>8.5}", j, q.rms[i], q.tau_rms[i], q.r2[i]);
+        say!("  {:<w$}  {:>12.4e}  {:>12.4e}  {:>8.5}", j, q.rms[i], q.tau_rms[i], q.r2[i]);
     }
 }
 
@@ -727,46 +745,49 @@ fn torque_constant_prior(a: &PayloadArgs) -> R<app::TorqueConstantPrior> {
 }
 
 fn print_payload(rep: &app::PayloadReport) {
-    println!(
+    say!(
         "payload on link '{}' (COM and inertia in its frame), nominal model: {}, {} samples",
-        rep.link, rep.nominal, rep.samples
+        rep.link,
+        rep.nominal,
+        rep.samples
     );
     if rep.identifiable {
         let (m, ms) = (rep.mass.unwrap_or(f64::NAN), rep.mass_std.unwrap_or(f64::NAN));
         let (c, cs) = (rep.com.unwrap_or([f64::NAN; 3]), rep.com_std.unwrap_or([f64::NAN; 3]));
         let (i, is) = (rep.inertia.unwrap_or([f64::NAN; 6]), rep.inertia_std.unwrap_or([f64::NAN; 6]));
-        println!("  mass     {m:.4} kg  (std {ms:.2e})");
-        println!(
+        say!("  mass     {m:.4} kg  (std {ms:.2e})");
+        say!(
             "  com      [{}] m  (std [{}])",
             fmt_list(&c, 4),
             cs.iter().map(|x| format!("{x:.1e}")).collect::<Vec<_>>().join(", ")
         );
-        println!("  inertia  [{}] kg m^2 about the COM (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)", fmt_list(&i, 5));
-        println!("           std [{}]", fmt_list(&is, 5));
-        println!("  the std cover: {}", rep.uncertainty_sources.join(", "));
+        say!("  inertia  [{}] kg m^2 about the COM (Ixx, Ixy, Ixz, Iyy, Iyz, Izz)", fmt_list(&i, 5));
+        say!("           std [{}]", fmt_list(&is, 5));
+        say!("  the std cover: {}", rep.uncertainty_sources.join(", "));
         match &rep.physical {
             Some(ph) if ph.ls_possible => {
-                println!("  physical the least-squares payload is a rigid body (reported as fitted)")
+                say!("  physical the least-squares payload is a rigid body (reported as fitted)")
             }
-            Some(ph) => println!(
+            Some(ph) => say!(
                 "  physical the least-squares payload is NOT a rigid body; reported: the nearest one (squared Mahalanobis distance {:.3}, p = {:.3})",
-                ph.mahalanobis2, ph.p_value
+                ph.mahalanobis2,
+                ph.p_value
             ),
             None => {}
         }
     } else {
-        println!("  the payload is NOT identifiable from this log:");
+        say!("  the payload is NOT identifiable from this log:");
         for h in &rep.not_identifiable {
-            println!("    {} (part of: {})", h.parameter, h.combined_in);
+            say!("    {} (part of: {})", h.parameter, h.combined_in);
         }
     }
-    println!(
+    say!(
         "  residual rms per joint before [{}] N m, after [{}] N m",
         fmt_list(&rep.rms_before, 4),
         fmt_list(&rep.rms_after, 4)
     );
     if let Some(c) = &rep.before_check {
-        println!(
+        say!(
             "  before log fits this log: {} (variance ratio after/before per joint [{}], critical {:.3})",
             if c.fits { "yes" } else { "NO" },
             fmt_list(&c.variance_ratio, 3),
@@ -774,7 +795,7 @@ fn print_payload(rep: &app::PayloadReport) {
         );
     }
     for n in &rep.notes {
-        println!("note: {n}");
+        say!("note: {n}");
     }
 }
 
@@ -837,7 +858,7 @@ fn excite(a: ExciteArgs, bars: &Bars) -> R<ExitCode> {
     let job = app::ExciteJob { opts, csv: Some(a.out.clone()), mcap: a.out_mcap.clone(), json: a.json.clone() };
     let out = app::excite_job(&robot, &job).map_err(|e| format!("{}: {}", a.robot.urdf.display(), msg(e)))?;
     let rep = &out.report;
-    println!(
+    say!(
         "robot '{}', {} joints, {} base parameters, {} harmonics of {} Hz, {} s at {} Hz",
         rep.robot,
         rep.joints.len(),
@@ -847,22 +868,22 @@ fn excite(a: ExciteArgs, bars: &Bars) -> R<ExitCode> {
         rep.duration_s,
         rep.rate_hz
     );
-    println!(
-        "  optimised ({:?}): cond = {:.4e}, log det = {:.4}",
-        rep.criterion, rep.optimised.cond, rep.optimised.logdet
-    );
-    println!(
+    say!("  optimised ({:?}): cond = {:.4e}, log det = {:.4}", rep.criterion, rep.optimised.cond, rep.optimised.logdet);
+    say!(
         "  random Fourier ({} draws, same harmonics and bounds): median cond = {:.4e} (best {:.4e}), median log det = {:.4}",
-        rep.random.draws, rep.random.cond_median, rep.random.cond_min, rep.random.logdet_median
+        rep.random.draws,
+        rep.random.cond_median,
+        rep.random.cond_min,
+        rep.random.logdet_median
     );
-    println!("  condition number {:.1}x better than the random median", rep.cond_improvement);
-    println!(
+    say!("  condition number {:.1}x better than the random median", rep.cond_improvement);
+    say!(
         "  peak |qd| / limit per joint [{}], peak |qdd| / limit [{}]",
         fmt_list(&rep.velocity_use, 3),
         fmt_list(&rep.acceleration_use, 3)
     );
     for n in &rep.notes {
-        println!("note: {n}");
+        say!("note: {n}");
     }
     print_written(&out.written);
     Ok(ExitCode::SUCCESS)

@@ -135,3 +135,109 @@ fn cli_error_window_and_exclude() {
     fails("velocity_log", "diagnose", &with(&["--velocity", "log", "--out", "/nonexistent/d"]), &["--velocity"]);
     fails("coulomb", "identify", &with(&["--coulomb", "tanh"]), &["coulomb", "'auto', 'sign' or 'model'", "tanh"]);
 }
+
+/// Issue 16: a cut-off far below the sample rate (or past Nyquist) is refused with the
+/// option and the allowed range named, in every job that differentiates. `1e-30` used to
+/// panic (the diagnosis' edge trim wrapped, the automatic decimation factor overflowed).
+#[test]
+fn cli_error_cutoff_out_of_range() {
+    let with = |extra: &[&str]| {
+        let mut a = ur5_log("ur5_500hz.mcap");
+        a.extend(extra.iter().map(|s| s.to_string()));
+        a
+    };
+    let want = ["ur5_500hz.mcap", "--cutoff", "1e-30 Hz", "500 Hz", "allowed [0.05, 200] Hz"];
+    fails("fc_id", "identify", &with(&["--cutoff", "1e-30"]), &want);
+    fails("fc_id_stream", "identify", &with(&["--cutoff", "1e-30", "--stream"]), &want);
+    fails("fc_pl", "payload", &with(&["--cutoff", "1e-30"]), &want);
+    fails("fc_nyq", "identify", &with(&["--cutoff", "300"]), &["--cutoff", "300 Hz", "Nyquist frequency 250 Hz"]);
+    let d = tmpdir("fc_diag_out");
+    let diag = with(&["--cutoff", "1e-30", "--out", &s(&d.join("diag"))]);
+    fails("fc_diag", "diagnose", &diag, &want);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Issue 16: 200 rows 1e-25 s apart (stamps in the wrong unit, say): the default cut-off
+/// is out of range at that rate; the error says so and points at the stamps. The
+/// diagnosis used to panic ("range start index 18446744073709551615").
+#[test]
+fn cli_error_absurd_sample_spacing() {
+    let d = tmpdir("tiny_dt_src");
+    let names: Vec<String> = ["shoulder_pan", "shoulder_lift", "elbow", "wrist_1", "wrist_2", "wrist_3"]
+        .iter()
+        .map(|j| format!("{j}_joint"))
+        .collect();
+    let mut csv = String::from("t");
+    for j in &names {
+        csv += &format!(",{j}.q");
+    }
+    for j in &names {
+        csv += &format!(",{j}.tau");
+    }
+    csv += "\n";
+    for k in 0..200 {
+        csv += &format!("{:e}", k as f64 * 1e-25);
+        for j in 0..2 * names.len() {
+            csv += &format!(",{}", 0.1 * j as f64 + 0.01 * (0.1 * k as f64 + j as f64).sin());
+        }
+        csv += "\n";
+    }
+    let path = d.join("tiny_dt.csv");
+    std::fs::write(&path, csv).unwrap();
+    let mut a = ur5_args();
+    a.extend(["--log".into(), s(&path)]);
+    let want = ["tiny_dt.csv", "default cut-off 20 Hz", "sample spacing 1e-25 s", "stamps", "--cutoff"];
+    fails("tiny_dt_id", "identify", &a, &want);
+    a.extend(["--out".into(), s(&d.join("diag"))]);
+    fails("tiny_dt_diag", "diagnose", &a, &want);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Issue 16: `simulate` sizes its arrays by `--duration x --rate`: an infinite or huge
+/// duration is refused with the bound, before anything is allocated or written.
+#[test]
+fn cli_error_simulate_duration_bounded() {
+    let d = tmpdir("sim_dur");
+    for (dur, want) in [("inf", "finite"), ("1e12", "at most 1e7")] {
+        let mut a = ur5_args();
+        a.extend(["--duration".into(), dur.into(), "--out".into(), s(&d.join("x.mcap"))]);
+        fails(&format!("sim_dur_{dur}"), "simulate", &a, &["--duration", want]);
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Runs `identify` with stdout `out` (a pipe closed before the start, or /dev/full):
+/// exit code 3, no panic, and the JSON report written and whole.
+fn identify_with_stdout(name: &str, out: std::process::Stdio) {
+    let d = tmpdir(name);
+    let report = d.join("out.json");
+    let mut a = ur5_log("ur5_500hz.mcap");
+    a.extend(["--json".into(), s(&report), "--quiet".into()]);
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_ivdyn"))
+        .arg("identify")
+        .args(&a)
+        .stdout(out)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .expect("run ivdyn");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{name}: {err}");
+    assert_eq!(o.status.code(), Some(3), "{name}: {err}");
+    // whole: it parses (json() panics otherwise) and has the fit in it
+    assert!(json(&report).get("fit").is_some(), "{name}: report without the fit");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Issue 16: `ivdyn identify ... | head -1` and `> /dev/full` used to panic on the first
+/// line of the summary (before the job ran: no JSON). The job now finishes, its files are
+/// whole, and the exit code is 3; a closed pipe prints nothing, a full device one line.
+#[test]
+fn cli_closed_or_full_stdout() {
+    let (r, w) = std::io::pipe().unwrap();
+    drop(r); // the reader is gone before the first byte, as after `head -1` has read its line
+    identify_with_stdout("epipe", w.into());
+    if std::path::Path::new("/dev/full").exists() {
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        identify_with_stdout("enospc", full.into());
+    }
+}

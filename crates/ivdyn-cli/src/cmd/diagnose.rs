@@ -1,5 +1,6 @@
 //! `ivdyn diagnose`: the model-gap diagnosis (docs/diagnose.md).
 
+use crate::stdout::say;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -68,17 +69,17 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
 
 fn print_summary(d: &diagnose::Diagnosis) {
     let j = &d.json;
-    println!("{}", d.verdict);
+    say!("{}", d.verdict);
     for (st, e) in d.steps.iter().zip(&j.effects) {
-        println!("\n{} ({})", st.effect.label(), e.name);
+        say!("\n{} ({})", st.effect.label(), e.name);
         for line in &st.evidence {
-            println!("  - {line}");
+            say!("  - {line}");
         }
-        println!("  parameters: {}", serde_json::Value::Object(e.parameters.clone()));
+        say!("  parameters: {}", serde_json::Value::Object(e.parameters.clone()));
     }
-    println!("\nRMS residual per joint (N m):");
-    println!("  {:<24} {:>10} {:>10} {:>10}", "joint", "nominal", "final", "noise");
+    say!("\nRMS residual per joint (N m):");
+    say!("  {:<24} {:>10} {:>10} {:>10}", "joint", "nominal", "final", "noise");
     for (k, name) in j.joints.iter().enumerate() {
-        println!("  {:<24} {:>10.4} {:>10.4} {:>10.4}", name, j.baseline_rms[k], j.final_rms[k], d.noise_std[k]);
+        say!("  {:<24} {:>10.4} {:>10.4} {:>10.4}", name, j.baseline_rms[k], j.final_rms[k], d.noise_std[k]);
     }
 }

@@ -1,6 +1,7 @@
 //! `ivdyn gains`: the drive gains (torque constants at the joint) from a log without and a
 //! log with a payload of known mass (docs/cli.md).
 
+use crate::stdout::say;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -68,21 +69,21 @@ pub fn run(a: GainsArgs, bars: &Bars) -> R<ExitCode> {
 
 fn print_gains(rep: &GainsReport) {
     let p = &rep.payload;
-    println!(
+    say!(
         "drive gains (N m per current unit, at the joint) with a payload of {} kg on '{}' (given: {})",
         p.mass,
         p.link,
         p.given.join(", ")
     );
     let w = rep.joints.iter().map(|j| j.len()).max().unwrap_or(5).max(5);
-    println!("  {:<w$}  {:>11}  {:>10}  {:>9}  identifiable", "joint", "gain", "std", "rel std %");
+    say!("  {:<w$}  {:>11}  {:>10}  {:>9}  identifiable", "joint", "gain", "std", "rel std %");
     for g in &rep.gains {
         let num = |v: Option<f64>, prec: usize| v.map_or("-".to_string(), |x| format!("{x:.prec$}"));
         let verdict = match &g.reason {
             None => "yes".to_string(),
             Some(r) => format!("no: {r}"),
         };
-        println!(
+        say!(
             "  {:<w$}  {:>11}  {:>10}  {:>9}  {verdict}",
             g.joint,
             num(g.value, 5),
@@ -90,9 +91,9 @@ fn print_gains(rep: &GainsReport) {
             num(g.rel_std_pct, 2)
         );
     }
-    println!("  payload COM [{}] m (std [{}])", fmt_list(&p.com, 4), fmt_list(&p.com_std, 4));
+    say!("  payload COM [{}] m (std [{}])", fmt_list(&p.com, 4), fmt_list(&p.com_std, 4));
     for (what, r) in [("unloaded", &rep.unloaded), ("loaded", &rep.loaded)] {
-        println!(
+        say!(
             "  {what} log ({}, {} samples at {:.1} Hz): residual rms per joint [{}], current rms [{}]",
             r.current_from,
             r.samples,
@@ -102,6 +103,6 @@ fn print_gains(rep: &GainsReport) {
         );
     }
     for n in &rep.notes {
-        println!("note: {n}");
+        say!("note: {n}");
     }
 }

@@ -271,14 +271,31 @@ impl PayloadSpec {
     }
 }
 
+/// Most samples one `simulate` run produces (`duration * rate`): every array of the log is
+/// allocated at this length up front, so an option must not size it unbounded (`--duration
+/// 1e12` asked for 4 PB). 10 million is 2.8 h at 1 kHz (`make bench-hour` needs 3.6
+/// million), about 3 GB for a 6-joint arm.
+pub const MAX_SIMULATE_SAMPLES: f64 = 1e7;
+
 impl SimulateOptions {
     /// Rejects values that cannot give a log: non-finite or non-positive duration and
-    /// rate, negative or non-finite noise and amplitude.
+    /// rate, more than [`MAX_SIMULATE_SAMPLES`] samples, negative or non-finite noise and
+    /// amplitude.
     pub fn check(&self) -> Result<()> {
         for (name, x) in [("duration", self.duration_s), ("rate", self.rate_hz)] {
             if !(x > 0.0 && x.is_finite()) {
                 return Err(bad_option(name, format!("must be finite and > 0, got {x}")));
             }
+        }
+        let samples = self.duration_s * self.rate_hz;
+        if !(samples <= MAX_SIMULATE_SAMPLES) {
+            return Err(bad_option(
+                "duration",
+                format!(
+                    "{} s at {} Hz is {samples:.3e} samples; at most {MAX_SIMULATE_SAMPLES:.0e} per run (shorten --duration or lower --rate)",
+                    self.duration_s, self.rate_hz
+                ),
+            ));
         }
         for (name, x) in [("noise", self.noise_tau), ("noise_q", self.noise_q), ("amplitude", self.amplitude)] {
             if !(x >= 0.0 && x.is_finite()) {

@@ -284,7 +284,7 @@ impl Front {
         self.dt = Some(dt);
         let fs = 1.0 / dt;
         let (order, cutoff) = self.diff;
-        let f = Butterworth::zero_phase(order, cutoff.unwrap_or_else(|| dsp::default_cutoff(fs)), fs)?;
+        let f = Butterworth::zero_phase(order, dsp::resolve_cutoff(cutoff, fs)?, fs)?;
         self.cond = Some(StreamCondition::new(&f, self.n, dt, FILTER_BLOCK));
         for b in std::mem::take(&mut self.probe) {
             if let Err(why) = self.feed(b, out)? {

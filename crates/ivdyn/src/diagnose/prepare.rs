@@ -30,9 +30,12 @@ pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions
     // the differentiation cutoff: given, or the one on a grid that leaves the least
     // residual once every candidate effect is in (too low a cutoff removes real
     // acceleration the torque contains, too high lets differentiation noise through)
+    // (the given or default cutoff is checked against the sample rate first: an absurd one
+    // or absurd stamps get an error naming the option, not a filter of NaN)
+    let checked = dsp::resolve_cutoff(opts.cutoff_hz, fs)?;
     let cutoffs: Vec<f64> = match opts.cutoff_hz {
-        Some(c) => vec![c],
-        None => CUTOFF_GRID.iter().copied().filter(|&c| c <= 0.25 * fs).collect(),
+        Some(_) => vec![checked],
+        None => CUTOFF_GRID.iter().copied().filter(|&c| c <= 0.25 * fs && c >= dsp::MIN_CUTOFF_FRACTION * fs).collect(),
     };
     let cutoffs = if cutoffs.is_empty() { vec![dsp::default_cutoff(fs)] } else { cutoffs };
     let mut best: Option<(f64, Prepared)> = None;

@@ -51,8 +51,9 @@ pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) 
     }
     // the first and last samples carry the filters' and differences' edge transients:
     // two time constants of the cutoff (at least 2 samples) are left out at both ends
+    // (`as usize` saturates for an absurd cutoff or sample spacing: the sum must not wrap)
     let trim = ((2.0 / (cutoff_hz * c.dt)).ceil() as usize).max(2);
-    if t_len <= 2 * trim + 50 {
+    if trim.checked_mul(2).and_then(|e| e.checked_add(50)).is_none_or(|need| t_len <= need) {
         return Err(bad(format!(
             "the log has {t_len} samples; with {trim} edge samples dropped at each end (cutoff {cutoff_hz} Hz) fewer than 50 are left"
         )));

@@ -40,6 +40,53 @@ pub fn default_cutoff(fs: f64) -> f64 {
     DEFAULT_CUTOFF_HZ.min(0.2 * fs)
 }
 
+/// Lowest differentiation cut-off accepted, as a fraction of the sample rate. Below it the
+/// bilinear design's coefficients round to an integrator (`1 + a1 + a2 = 0` at 1e-30 fs,
+/// so the filter state is NaN), the edge transients span the whole log and the automatic
+/// decimation factor `fs / (2.5 fc)` overflows; 1e-4 fs is 0.05 Hz at 500 Hz.
+pub const MIN_CUTOFF_FRACTION: f64 = 1e-4;
+/// Highest cut-off accepted, as a fraction of the sample rate: below the Nyquist frequency
+/// `fs / 2` with room for the zero-phase design's raised single-pass cut-off (x1.116 for
+/// order 4; at 0.45 fs its pre-warped frequency is past `fs / 2`).
+pub const MAX_CUTOFF_FRACTION: f64 = 0.4;
+
+/// The differentiation cut-off (Hz) for sample rate `fs`: `cutoff_hz`, or
+/// [`default_cutoff`] when `None`, checked against `[1e-4 fs, 0.4 fs]`
+/// ([`MIN_CUTOFF_FRACTION`], [`MAX_CUTOFF_FRACTION`]). The error names the option
+/// (`--cutoff`, `cutoff_hz` in Python) and the range at this log's rate; with the default
+/// it points at the stamps, since only an absurd sample rate puts 20 Hz out of range.
+pub fn resolve_cutoff(cutoff_hz: Option<f64>, fs: f64) -> Result<f64> {
+    if !(fs.is_finite() && fs > 0.0) {
+        return Err(bad(format!("sample rate {fs} Hz must be finite and positive (check the log's stamps)")));
+    }
+    let (lo, hi) = (MIN_CUTOFF_FRACTION * fs, MAX_CUTOFF_FRACTION * fs);
+    let c = cutoff_hz.unwrap_or_else(|| default_cutoff(fs));
+    if c.is_finite() && c >= lo && c <= hi {
+        return Ok(c);
+    }
+    let (lo, hi, c, nyq, fs_s) = (num(lo), num(hi), num(c), num(0.5 * fs), num(fs));
+    let range = format!("[{lo}, {hi}] Hz (1e-4 fs to 0.4 fs, below the Nyquist frequency {nyq} Hz)");
+    Err(bad(match cutoff_hz {
+        Some(_) => format!(
+            "cut-off (--cutoff / cutoff_hz) {c} Hz is out of range at the log's sample rate {fs_s} Hz: allowed {range}"
+        ),
+        None => format!(
+            "the default cut-off {c} Hz is out of range at the log's sample rate {fs_s} Hz (sample spacing {} s): allowed {range}; check the log's stamps (units?) or give --cutoff",
+            num(1.0 / fs)
+        ),
+    }))
+}
+
+/// `x` for a message: plain in the usual range, else in exponent form (1e-30, not 31 zeros).
+fn num(x: f64) -> String {
+    if x == 0.0 || (1e-3..1e6).contains(&x.abs()) {
+        format!("{}", (x * 1e6).round() / 1e6)
+    } else {
+        // four significant digits: 9.999999999999956e24 reads as 1e25
+        format!("{:e}", format!("{x:.3e}").parse::<f64>().unwrap_or(x))
+    }
+}
+
 /// Median of the positive stamp differences (`None` if there are none).
 pub fn median_dt(t: &[f64]) -> Option<f64> {
     let mut d: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).filter(|d| *d > 0.0).collect();
@@ -436,7 +483,7 @@ pub fn differentiate(q: &[f64], n: usize, dt: f64, method: &DiffMethod) -> Resul
     match method {
         DiffMethod::Butterworth { order, cutoff_hz } => {
             let fs = 1.0 / dt;
-            let f = Butterworth::zero_phase(*order, cutoff_hz.unwrap_or_else(|| default_cutoff(fs)), fs)?;
+            let f = Butterworth::zero_phase(*order, resolve_cutoff(*cutoff_hz, fs)?, fs)?;
             let qf = f.filtfilt_columns(q, n)?;
             let qd = central_diff(&qf, n, dt)?;
             let qdd = second_diff(&qf, n, dt)?;

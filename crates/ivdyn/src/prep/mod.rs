@@ -329,6 +329,11 @@ pub fn auto_decimation(fs: f64, condition: &ConditionOptions) -> usize {
 /// The parallel filter: [`Decimator::new`] for a factor > 1 (`0` = [`auto_decimation`]),
 /// else the default differentiation filter alone.
 pub(crate) fn parallel_filter(decimate: usize, fs: f64, condition: &ConditionOptions) -> Result<Decimator> {
+    // a cut-off far below the rate would make the automatic factor overflow: refuse it here,
+    // with the option named, before anything is sized by it
+    if let DiffMethod::Butterworth { cutoff_hz, .. } = &condition.diff {
+        crate::dsp::resolve_cutoff(*cutoff_hz, fs)?;
+    }
     let f = if decimate == 0 { auto_decimation(fs, condition) } else { decimate };
     if f > 1 { Decimator::new(f, fs) } else { Decimator::with_filter(1, Butterworth::default_for(fs)?) }
 }

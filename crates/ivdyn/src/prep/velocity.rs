@@ -13,7 +13,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::dsp::Derivatives;
-use crate::dsp::{Butterworth, DiffMethod, SavitzkyGolay, central_diff, default_cutoff};
+use crate::dsp::{Butterworth, DiffMethod, SavitzkyGolay, central_diff};
 use crate::error::{Error, Result};
 
 /// Largest relative scale error of a consistent log velocity.
@@ -130,7 +130,7 @@ fn smooth(qd: &[f64], n: usize, dt: f64, method: &DiffMethod) -> Result<(Vec<f64
     match method {
         DiffMethod::Butterworth { order, cutoff_hz } => {
             let fs = 1.0 / dt;
-            let f = Butterworth::zero_phase(*order, cutoff_hz.unwrap_or_else(|| default_cutoff(fs)), fs)?;
+            let f = Butterworth::zero_phase(*order, crate::dsp::resolve_cutoff(*cutoff_hz, fs)?, fs)?;
             let qd = f.filtfilt_columns(qd, n)?;
             let qdd = central_diff(&qd, n, dt)?;
             Ok((qd, qdd))
