@@ -286,7 +286,7 @@ def test_riv_matches_batch():
 
 
 def test_recursive_errors():
-    with pytest.raises(ValueError, match="p must be at least 1"):
+    with pytest.raises(ValueError, match=r"p must be in 1\.\.=4096, got 0"):
         ivdyn.Rls(0)
     with pytest.raises(ValueError, match="forgetting"):
         ivdyn.Riv(3, forgetting=1.5)

@@ -9,8 +9,8 @@
 
 use ivdyn::Error;
 use ivdyn::core::Error as CoreError;
-use pyo3::PyErr;
 use pyo3::exceptions::{PyFileNotFoundError, PyOSError, PyRuntimeError, PyValueError};
+use pyo3::{PyErr, PyResult};
 
 fn core_is_input(e: &CoreError) -> bool {
     matches!(
@@ -50,4 +50,21 @@ pub fn to_py(e: Error) -> PyErr {
         Error::Sample { source, .. } if core_is_input(source) => PyValueError::new_err(msg),
         _ => PyRuntimeError::new_err(msg),
     }
+}
+
+/// A Rust panic caught at a binding's entry point -> `RuntimeError` with its message.
+/// Left alone, pyo3 raises `PanicException`, a `BaseException` that `except Exception`
+/// does not catch; a panic is a bug in ivdyn, but the caller's error handling should see it.
+pub fn panic_to_py(payload: Box<dyn std::any::Any + Send>) -> PyErr {
+    let what = payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "(no message)".into());
+    PyRuntimeError::new_err(format!("internal error in ivdyn (please report): {what}"))
+}
+
+/// Runs `f`, turning a panic into [`panic_to_py`]'s `RuntimeError`.
+pub fn no_panic<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|p| Err(panic_to_py(p)))
 }

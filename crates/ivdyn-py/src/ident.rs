@@ -281,8 +281,9 @@ fn base_params(
     rigid_only: bool,
 ) -> PyResult<PyBaseParams> {
     let r = robot.inner.clone();
-    let inner =
-        py.detach(|| ivdyn::ident::base::robot_base_params_with(&r, samples, seed, rigid_only)).map_err(to_py)?;
+    let inner = crate::error::no_panic(|| {
+        py.detach(|| ivdyn::ident::base::robot_base_params_with(&r, samples, seed, rigid_only)).map_err(to_py)
+    })?;
     Ok(PyBaseParams { inner })
 }
 
@@ -370,7 +371,7 @@ impl PyRls {
     #[new]
     #[pyo3(signature = (p, p0=1e4, forgetting=1.0))]
     fn new(p: usize, p0: f64, forgetting: f64) -> PyResult<Self> {
-        Ok(Self { inner: RecursiveLs::new(p, p0, forgetting).map_err(start_err)? })
+        crate::error::no_panic(|| Ok(Self { inner: RecursiveLs::new(p, p0, forgetting).map_err(start_err)? }))
     }
     #[pyo3(signature = (phi, y, w=1.0))]
     fn update(&mut self, phi: PyReadonlyArray1<'_, f64>, y: f64, w: f64) -> PyResult<()> {

@@ -98,7 +98,8 @@ fn run<T: Send>(
     match (r, failed) {
         (_, Some(e)) => Err(e),
         (Ok(r), None) => r.map_err(to_py),
-        (Err(p), None) => resume_unwind(p),
+        // a RuntimeError, not pyo3's PanicException (a BaseException `except Exception` misses)
+        (Err(p), None) => Err(crate::error::panic_to_py(p)),
     }
 }
 

@@ -131,3 +131,17 @@ fn ur5_rigid_body_base_count_is_36() {
     println!("UR5 with drive parameters: {} base parameters; dependent drive columns {dep:?}", full.base_count());
     assert!(identity_error(&robot, &full, p, 9) < 1e-10);
 }
+
+/// Issue 16: the sampled regressor is sized by `samples`: bounded, with the argument named,
+/// and neither the allocation nor `samples * dof` is attempted beyond it.
+#[test]
+fn base_params_samples_bounded() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf");
+    let robot = Robot::from_urdf(path, Some("base_link"), Some("tool0")).unwrap();
+    for samples in [ivdyn::ident::base::MAX_BASE_SAMPLES + 1, usize::MAX] {
+        let e = robot_base_params(&robot, samples, 1).unwrap_err().to_string();
+        assert!(e.contains("samples must be at most 20000"), "{e}");
+    }
+    let e = ivdyn::ident::arrays::RecursiveLs::new(30000, 1e4, 1.0).err().unwrap().to_string();
+    assert!(e.contains("p must be in 1..=4096, got 30000"), "{e}");
+}

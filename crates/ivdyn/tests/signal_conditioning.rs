@@ -303,3 +303,33 @@ fn condition_a_jittered_log() {
         assert!((c.tau.as_ref().unwrap()[k * n] - s).abs() < 1e-9);
     }
 }
+
+/// Issue 16: the cut-off is checked against the sample rate before any filter is built:
+/// 1e-30 Hz (an integrator after rounding, NaN state) and past 0.4 fs are refused with the
+/// option and the range named; the default is checked too, naming the stamps.
+#[test]
+fn cutoff_out_of_range_is_an_error_naming_the_option() {
+    assert_eq!(resolve_cutoff(None, 500.0).unwrap(), 20.0);
+    assert_eq!(resolve_cutoff(Some(0.05), 500.0).unwrap(), 0.05);
+    assert_eq!(resolve_cutoff(Some(200.0), 500.0).unwrap(), 200.0);
+    for bad in [1e-30, 0.0, -1.0, 201.0, f64::NAN, f64::INFINITY] {
+        let e = resolve_cutoff(Some(bad), 500.0).unwrap_err().to_string();
+        assert!(e.contains("--cutoff") && e.contains("allowed [0.05, 200] Hz"), "{e}");
+    }
+    let e = resolve_cutoff(None, 1e25).unwrap_err().to_string();
+    assert!(e.contains("default cut-off 20 Hz") && e.contains("sample spacing 1e-25 s"), "{e}");
+    let q: Vec<f64> = (0..300).map(|k| (k as f64 * 0.01).sin()).collect();
+    let m = DiffMethod::Butterworth { order: 4, cutoff_hz: Some(1e-30) };
+    assert!(differentiate(&q, 1, 0.002, &m).unwrap_err().to_string().contains("--cutoff"));
+}
+
+/// Issue 16: `simulate` refuses more than `MAX_SIMULATE_SAMPLES` samples before allocating.
+#[test]
+fn simulate_sample_count_bounded() {
+    let mut o = ivdyn::app::SimulateOptions { duration_s: 1e12, ..Default::default() };
+    let e = o.check().unwrap_err().to_string();
+    assert!(e.contains("duration") && e.contains("at most 1e7"), "{e}");
+    o.duration_s = 3600.0;
+    o.rate_hz = 1000.0; // `make bench-hour`
+    o.check().unwrap();
+}

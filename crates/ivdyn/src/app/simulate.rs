@@ -292,7 +292,7 @@ impl SimulateOptions {
             return Err(bad_option(
                 "duration",
                 format!(
-                    "{} s at {} Hz is {samples:.3e} samples; at most {MAX_SIMULATE_SAMPLES:.0e} per run (shorten --duration or lower --rate)",
+                    "{} s at {} Hz is {samples:.3e} samples; at most {MAX_SIMULATE_SAMPLES:.0e} per run (a shorter duration or a lower rate)",
                     self.duration_s, self.rate_hz
                 ),
             ));

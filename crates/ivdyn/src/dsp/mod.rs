@@ -53,7 +53,7 @@ pub const MAX_CUTOFF_FRACTION: f64 = 0.4;
 /// The differentiation cut-off (Hz) for sample rate `fs`: `cutoff_hz`, or
 /// [`default_cutoff`] when `None`, checked against `[1e-4 fs, 0.4 fs]`
 /// ([`MIN_CUTOFF_FRACTION`], [`MAX_CUTOFF_FRACTION`]). The error names the option
-/// (`--cutoff`, `cutoff_hz` in Python) and the range at this log's rate; with the default
+/// (`--cutoff`, `cutoff` in Python) and the range at this log's rate; with the default
 /// it points at the stamps, since only an absurd sample rate puts 20 Hz out of range.
 pub fn resolve_cutoff(cutoff_hz: Option<f64>, fs: f64) -> Result<f64> {
     if !(fs.is_finite() && fs > 0.0) {
@@ -67,9 +67,9 @@ pub fn resolve_cutoff(cutoff_hz: Option<f64>, fs: f64) -> Result<f64> {
     let (lo, hi, c, nyq, fs_s) = (num(lo), num(hi), num(c), num(0.5 * fs), num(fs));
     let range = format!("[{lo}, {hi}] Hz (1e-4 fs to 0.4 fs, below the Nyquist frequency {nyq} Hz)");
     Err(bad(match cutoff_hz {
-        Some(_) => format!(
-            "cut-off (--cutoff / cutoff_hz) {c} Hz is out of range at the log's sample rate {fs_s} Hz: allowed {range}"
-        ),
+        Some(_) => {
+            format!("cutoff (--cutoff) {c} Hz is out of range at the log's sample rate {fs_s} Hz: allowed {range}")
+        }
         None => format!(
             "the default cut-off {c} Hz is out of range at the log's sample rate {fs_s} Hz (sample spacing {} s): allowed {range}; check the log's stamps (units?) or give --cutoff",
             num(1.0 / fs)

@@ -81,11 +81,18 @@ pub fn fit_iv_rows(phi: &[f64], z: &[f64], y: &[f64], w: Option<&[f64]>, names: 
     fit_iv(&acc, names)
 }
 
+/// Most parameters of a [`RecursiveLs`]: its covariance is `p x p` and allocated up front,
+/// so `Rls(30000)` asked for 7 GB and aborted the interpreter. 4096 is a 128 MB covariance,
+/// 40x the parameters of a 7-joint arm with every drive term.
+pub const MAX_RLS_PARAMS: usize = 4096;
+
 fn check_start(p: usize, p0: f64, forgetting: f64) -> Result<()> {
-    if p == 0 {
+    if p == 0 || p > MAX_RLS_PARAMS {
         return Err(Error::Option {
             option: "p".into(),
-            msg: "must be at least 1 (parameters of the recursive estimator)".into(),
+            msg: format!(
+                "must be in 1..={MAX_RLS_PARAMS}, got {p} (parameters of the recursive estimator; its covariance is p x p)"
+            ),
         });
     }
     if !(p0 > 0.0 && p0.is_finite()) {

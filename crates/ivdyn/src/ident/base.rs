@@ -259,6 +259,11 @@ pub fn robot_base_params(robot: &crate::Robot, samples: usize, seed: u64) -> Res
     robot_base_params_with(robot, samples, seed, false)
 }
 
+/// Most random states [`robot_base_params_with`] samples: the regressor it factors is
+/// `samples * dof x p` (20000 states of a 6-joint arm with 84 parameters: 80 MB). The
+/// default is 100; the numerical rank settles within a few hundred.
+pub const MAX_BASE_SAMPLES: usize = 20_000;
+
 /// [`robot_base_params`] over the `10 N` inertial columns only (`rigid_only`), as a
 /// rigid-body-only fit (e.g. Pinocchio's regressor) uses them, or over all `14 N`.
 pub fn robot_base_params_with(robot: &crate::Robot, samples: usize, seed: u64, rigid_only: bool) -> Result<BaseParams> {
@@ -278,6 +283,16 @@ pub fn robot_base_params_excluding(
 ) -> Result<BaseParams> {
     let (n, p_all) = (robot.dof(), robot.num_params());
     let p = if rigid_only { ivdyn_core::params::LINK_PARAMS * n } else { p_all };
+    // the sampled regressor is `samples * dof x p`, allocated at once: bounded so that an
+    // argument cannot ask for terabytes (or overflow `samples * n`)
+    if samples > MAX_BASE_SAMPLES {
+        return Err(Error::Option {
+            option: "samples".into(),
+            msg: format!(
+                "must be at most {MAX_BASE_SAMPLES}, got {samples} (random states for the base parameters; a few hundred suffice)"
+            ),
+        });
+    }
     if samples * n < p {
         return Err(Error::Dimension {
             what: "samples * dof (rows; must be >= parameter count)".into(),
