@@ -105,3 +105,103 @@ fn urdf_depth_scan_accepts_ordinary_files() {
     let r = urdf::load_str(&robot(&body), Path::new(FILE), None, None).unwrap();
     assert_eq!(r.dof(), 1);
 }
+
+// ---- logs: huge values, gaps, decimation, sample spacing -------------------------------
+
+use ivdyn::Robot;
+use ivdyn::app::stream::{self as st, Streamed};
+use ivdyn::app::{self, IdentifyOptions, SimulateOptions, Trajectory};
+use ivdyn::log::JointLog;
+
+fn test_arm() -> Robot {
+    Robot::from_urdf(concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/test_arm.urdf"), None, Some("tool")).unwrap()
+}
+
+/// 4 s at 250 Hz: small, but enough for identify and the diagnosis to run.
+fn small_log(robot: &Robot) -> JointLog {
+    let o = SimulateOptions { rate_hz: 250.0, duration_s: 4.0, seed: 3, noise_tau: 0.05, ..Default::default() };
+    app::simulate(robot, &Trajectory::Fourier, &o).unwrap()
+}
+
+fn temp(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("ivdyn-hostile-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+/// One velocity of 1e300 used to hang `diagnose` in an SVD without an iteration limit;
+/// refused while conditioning, naming the sample and the joint (identify too).
+#[test]
+fn huge_finite_value_is_refused_naming_sample_and_joint() {
+    let robot = test_arm();
+    let mut log = small_log(&robot);
+    let n = robot.dof();
+    log.qd.get_or_insert_with(|| vec![0.0; log.t.len() * n])[100 * n + 1] = 1e300;
+    let joint = &robot.joint_names[1];
+    let d = ivdyn::diagnose::diagnose(&robot, &log, &Default::default()).map(|_| ()).unwrap_err().to_string();
+    assert!(d.contains("sample 100") && d.contains(joint.as_str()) && d.contains("qd"), "{d}");
+    let i = app::identify(&robot, &log, &IdentifyOptions::default()).map(|_| ()).unwrap_err().to_string();
+    assert!(i.contains("sample 100") && i.contains(joint.as_str()), "{i}");
+    let mut log = small_log(&robot);
+    log.q[7 * n] = -2e6;
+    let i = app::identify(&robot, &log, &IdentifyOptions::default()).map(|_| ()).unwrap_err().to_string();
+    assert!(i.contains("sample 7") && i.contains(" q "), "{i}");
+}
+
+/// The decompositions give up with an error instead of iterating forever.
+#[test]
+fn svd_of_non_finite_matrix_is_an_error() {
+    let m = nalgebra::DMatrix::from_element(3, 3, f64::NAN);
+    let e = ivdyn::linalg::svd(m, true, true, "test matrix").map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("test matrix"), "{e}");
+    let m = nalgebra::Matrix4::from_element(f64::INFINITY);
+    assert!(ivdyn::linalg::sym_eigen(m, "pseudo-inertia").is_err());
+}
+
+/// Two samples 1e6 s apart at 1 ms would be resampled into 1e9 samples (8 GB): refused.
+#[test]
+fn resampling_across_a_gap_is_refused() {
+    let t = [0.0, 1e-3, 2e-3, 1e6];
+    let e = ivdyn::dsp::resample_uniform(&t, &[0.0; 4], 1, 1e-3, ivdyn::dsp::Interp::Linear).unwrap_err().to_string();
+    assert!(e.contains("4 samples") && e.contains("gap"), "{e}");
+    // a log with such a gap is cut into segments, not resampled across it
+    let robot = test_arm();
+    let mut log = small_log(&robot);
+    let half = log.t.len() / 2;
+    log.t.iter_mut().skip(half).for_each(|t| *t += 1e6);
+    let _ = app::identify(&robot, &log, &IdentifyOptions::default());
+}
+
+/// `--decimate 1000000000` used to abort; the factor is bounded by the samples.
+#[test]
+fn absurd_decimation_is_refused_naming_the_option() {
+    let robot = test_arm();
+    let log = small_log(&robot);
+    let opts = IdentifyOptions { decimate: 1_000_000_000, ..Default::default() };
+    let e = app::identify(&robot, &log, &opts).map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("decimate") && e.contains("1000000000"), "{e}"); // the streamed identify (an MCAP with a message count) checks it too
+    let path = temp("decimate.mcap");
+    ivdyn::log::write_mcap(&path, &log, &[]).unwrap();
+    let read = ivdyn::log::ReadOptions::new(&robot.joint_names);
+    let e = st::identify_mcap(&robot, &path, None, &read, &opts).map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("decimate") && e.contains("1000000000"), "{e}");
+}
+
+/// Samples 1 ns apart in a streamed MCAP: a sample time no arm log has, refused before the
+/// filters are designed for a 1 GHz rate.
+#[test]
+fn nanosecond_sample_spacing_is_refused_when_streaming() {
+    let robot = test_arm();
+    let mut log = small_log(&robot);
+    log.t.iter_mut().enumerate().for_each(|(k, t)| *t = k as f64 * 1e-9);
+    let path = temp("ns.mcap");
+    ivdyn::log::write_mcap(&path, &log, &[]).unwrap();
+    let read = ivdyn::log::ReadOptions::new(&robot.joint_names);
+    match st::identify_mcap(&robot, &path, None, &read, &IdentifyOptions::default()) {
+        Err(e) => assert!(e.to_string().contains("sample time"), "{e}"),
+        Ok(Streamed::Unsupported(why)) => panic!("fell back to the in-memory path: {why}"),
+        Ok(Streamed::Done(_)) => panic!("identified a 1 GHz log"),
+    }
+    let e = app::identify(&robot, &log, &IdentifyOptions::default()).map(|_| ()).unwrap_err().to_string();
+    assert!(e.contains("sample time"), "{e}");
+}

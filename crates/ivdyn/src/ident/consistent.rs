@@ -398,7 +398,7 @@ fn null_rows(as_: &DMatrix<f64>, s: &[f64]) -> Result<DMatrix<f64>> {
     // as null then changed with the last bits of the data.
     let mut padded = DMatrix::zeros(p.max(b), p);
     padded.rows_mut(0, b).copy_from(as_);
-    let svd = padded.svd(false, true);
+    let svd = crate::linalg::svd(padded, false, true, "consistent fit: null space of the scaled regressor")?;
     let vt = svd.v_t.as_ref().ok_or_else(|| bad("consistent fit: SVD failed".to_string()))?;
     let top = svd.singular_values.max().max(0.0);
     let null: Vec<usize> = (0..vt.nrows()).filter(|&k| !(svd.singular_values[k] > NULL_TOL * top)).collect();
