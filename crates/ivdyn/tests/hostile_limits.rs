@@ -78,7 +78,7 @@ fn urdf_long_chain_is_refused_without_overflow() {
     let mut body = String::with_capacity(n * 400);
     body += &link("l0");
     for k in 1..=n {
-        let _ = write!(body, "<link name=\"l{k}\"/>\n");
+        let _ = writeln!(body, "<link name=\"l{k}\"/>");
         body += &joint(&format!("j{k}"), "revolute", &format!("l{}", k - 1), &format!("l{k}"));
     }
     let msg = load(&robot(&body), None, None);
