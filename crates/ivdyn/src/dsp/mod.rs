@@ -495,8 +495,10 @@ pub enum Interp {
 }
 
 /// [`resample_uniform`] makes at most `MAX_RESAMPLE_FACTOR x T + MAX_RESAMPLE_EXTRA`
-/// samples from `T`; more is refused (a gap, or a step far below the sample time).
-pub const MAX_RESAMPLE_FACTOR: usize = 4;
+/// samples from `T`; more is refused (a gap, or a step far below the sample time). 6: a
+/// segment without gaps (no interval above 10 median intervals, half of them at most the
+/// median) spans at most 5.5 T median intervals, so it is never refused.
+pub const MAX_RESAMPLE_FACTOR: usize = 6;
 /// See [`MAX_RESAMPLE_FACTOR`].
 pub const MAX_RESAMPLE_EXTRA: usize = 1000;
 

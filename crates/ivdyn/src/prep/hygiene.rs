@@ -220,13 +220,14 @@ pub fn clean<'a>(
 /// infinite) it stalls the linear algebra downstream instead of failing.
 pub const MAX_MAGNITUDE: f64 = 1e6;
 
-/// Refuses a value beyond [`MAX_MAGNITUDE`] (or not finite), naming the sample, the joint
-/// and the signal.
+/// Refuses a finite value beyond [`MAX_MAGNITUDE`], naming the sample, the joint and the
+/// signal. Non-finite values are left to the finiteness checks, which know whether the
+/// signal is used (a NaN log velocity is harmless when velocities come from positions).
 pub fn magnitude_check(log: &JointLog) -> Result<()> {
     let n = log.dof().max(1);
     for (field, a) in log.fields() {
         let Some(a) = a else { continue };
-        if let Some(i) = a.iter().position(|x| !(x.abs() <= MAX_MAGNITUDE)) {
+        if let Some(i) = a.iter().position(|x| x.is_finite() && x.abs() > MAX_MAGNITUDE) {
             let joint = log.joint_names.get(i % n).map_or("?", String::as_str);
             return Err(Error::Signal {
                 msg: format!(
