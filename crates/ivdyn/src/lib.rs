@@ -36,6 +36,7 @@ pub mod report;
 pub mod robot;
 
 pub mod dsp;
+pub mod linalg;
 pub mod log;
 
 pub mod prep;

@@ -333,7 +333,7 @@ impl RawRows {
         let n = robot.dof();
         let c = prep::condition(after, &opts.condition)?;
         let fs = 1.0 / c.dt;
-        let dec = parallel_filter(opts.decimate, fs, &opts.condition)?;
+        let dec = parallel_filter(opts.decimate, fs, c.t.len(), &opts.condition)?;
         let t = c.t.len();
         let mut tau_nom = vec![0.0; t * n];
         crate::batch::rnea_batch(&nom.robot, &c.d.q, &c.d.qd, &c.d.qdd, &mut tau_nom)?;

@@ -180,8 +180,8 @@ pub(crate) fn prepare(
     }
     let (parts, conditioning) = condition_all(logs, opts)?;
     let dt = parts[0].dt;
-    let dec = parallel_filter(opts.decimate, 1.0 / dt, &opts.condition)?;
     let total: usize = parts.iter().map(|c| c.t.len()).sum();
+    let dec = parallel_filter(opts.decimate, 1.0 / dt, total, &opts.condition)?;
     let st = Stage::begin(&opts.progress, &format!("{what}: regressor and filtering"), total as u64);
     let mut p = Prepared {
         n,

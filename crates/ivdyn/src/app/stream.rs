@@ -280,6 +280,8 @@ impl Front {
                 self.probed
             )));
         };
+        // before the filters are designed at 1 / dt: their state grows with the rate
+        prep::check_sample_time(dt).map_err(|e| self.log_err(e.to_string()))?;
         self.t0 = Some(t0);
         self.dt = Some(dt);
         let fs = 1.0 / dt;
@@ -801,7 +803,7 @@ fn accumulate(
     let mut expected = 0;
     let pass = conditioned_pass(path, read, opts, Some(&st), |blk, dt| {
         if state.is_none() {
-            let dec = prep::parallel_filter(opts.decimate, 1.0 / dt, &opts.condition)?;
+            let dec = prep::parallel_filter(opts.decimate, 1.0 / dt, hint, &opts.condition)?;
             let stacker = Stacker::new(robot, base, dt, &dec, instrument)?;
             // the split of the in-memory path, placed from the message count
             expected = hint.div_ceil(dec.factor);

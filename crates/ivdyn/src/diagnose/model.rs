@@ -154,7 +154,11 @@ pub(super) fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]
     let s: Vec<f64> = (0..p).map(|i| if a[(i, i)] > 0.0 { 1.0 / a[(i, i)].sqrt() } else { 0.0 }).collect();
     let an = DMatrix::from_fn(p, p, |i, k| a[(i, k)] * s[i] * s[k]);
     let bn = DVector::from_fn(p, |i, _| b[i] * s[i]);
-    let svd = an.clone().svd(true, true);
+    // The Gram matrices are checked finite before the search (`prepare`), so this converges;
+    // were it not to, the candidate explains nothing (zero effects) rather than hanging.
+    let Ok(svd) = crate::linalg::svd(an, true, true, "diagnosis: candidate fit") else {
+        return Fit { params: model_params.to_vec(), theta: vec![0.0; p] };
+    };
     let tol = 1e-10 * svd.singular_values.max();
     let pinv = svd.pseudo_inverse(tol).unwrap_or_else(|_| DMatrix::zeros(p, p));
     let xn = &pinv * &bn;

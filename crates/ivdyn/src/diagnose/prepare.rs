@@ -26,7 +26,9 @@ pub(super) struct Prepared {
 /// The log prepared at the best cutoff, then again with the acceleration aligned to the
 /// torque.
 pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result<Prepared> {
-    let fs = 1.0 / log.median_dt().ok_or_else(|| bad("need at least two distinct stamps"))?;
+    let dt = log.median_dt().ok_or_else(|| bad("need at least two distinct stamps"))?;
+    crate::prep::check_sample_time(dt)?;
+    let fs = 1.0 / dt;
     // the differentiation cutoff: given, or the one on a grid that leaves the least
     // residual once every candidate effect is in (too low a cutoff removes real
     // acceleration the torque contains, too high lets differentiation noise through)
@@ -69,6 +71,13 @@ fn prepare(
     batch::rnea_batch(robot, &s.q, &s.qd, &s.qdd, &mut tau_nom).map_err(|e| bad(format!("nominal model: {e}")))?;
     let d = build_dictionary(robot, &s, &tau_nom)?;
     let gr = grams(&d, t_len, opts.blocks_per_fold.max(1));
+    // every fit of the search decomposes these sums: a non-finite one would not converge
+    if let Some(j) = gr.g.iter().position(|g| g.iter().any(|m| m.iter().any(|x| !x.is_finite()))) {
+        return Err(bad(format!(
+            "joint '{}': the regressor sums overflow (values in the log too large)",
+            log.joint_names.get(j).map_or("?", String::as_str)
+        )));
+    }
     Ok(Prepared { s, tau_nom, d, gr })
 }
 

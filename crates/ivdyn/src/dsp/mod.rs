@@ -541,6 +541,14 @@ pub enum Interp {
     Cubic,
 }
 
+/// [`resample_uniform`] makes at most `MAX_RESAMPLE_FACTOR x T + MAX_RESAMPLE_EXTRA`
+/// samples from `T`; more is refused (a gap, or a step far below the sample time). 6: a
+/// segment without gaps (no interval above 10 median intervals, half of them at most the
+/// median) spans at most 5.5 T median intervals, so it is never refused.
+pub const MAX_RESAMPLE_FACTOR: usize = 6;
+/// See [`MAX_RESAMPLE_FACTOR`].
+pub const MAX_RESAMPLE_EXTRA: usize = 1000;
+
 /// Resamples a `T x m` array with strictly increasing stamps `t` onto the grid
 /// `t[0] + k dt` (up to `t[T-1]`). Returns `(grid, values)`. Run [`dedup_stamps`] first
 /// if stamps repeat.
@@ -569,7 +577,16 @@ pub fn resample_uniform(t: &[f64], x: &[f64], m: usize, dt: f64, interp: Interp)
         }
     }
     let span = t[n - 1] - t[0];
-    let count = (span / dt + 1e-9).floor() as usize + 1;
+    let count = (span / dt + 1e-9).floor() + 1.0;
+    // a gap in the stamps would be filled with span / dt samples (a 1e6 s gap at 1 ms:
+    // gigabytes); a log is resampled near its own rate, never far above it
+    let bound = MAX_RESAMPLE_FACTOR * n + MAX_RESAMPLE_EXTRA;
+    if !(count <= bound as f64) {
+        return Err(bad(format!(
+            "resampling {n} samples over {span} s at {dt} s steps would make {count:.0} samples, more than {MAX_RESAMPLE_FACTOR} x the input + {MAX_RESAMPLE_EXTRA}: a gap in the stamps, or a step far below the sample time"
+        )));
+    }
+    let count = count as usize;
     let grid: Vec<f64> = (0..count).map(|k| t[0] + k as f64 * dt).collect();
     // slopes for the cubic: per sample, per column
     let slopes = if interp == Interp::Cubic && n >= 3 {

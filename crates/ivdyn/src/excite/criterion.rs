@@ -81,8 +81,8 @@ struct Spectrum {
 
 impl Spectrum {
     /// Decomposes `Phi^T Phi` and finds its largest and smallest eigenvalues (first index on ties).
-    fn of(phi: &DMatrix<f64>) -> Spectrum {
-        let eig = phi.tr_mul(phi).symmetric_eigen();
+    fn of(phi: &DMatrix<f64>) -> Result<Spectrum> {
+        let eig = crate::linalg::sym_eigen(phi.tr_mul(phi), "excitation criterion: information matrix")?;
         let (mut imax, mut imin) = (0, 0);
         for j in 0..eig.eigenvalues.len() {
             if eig.eigenvalues[j] > eig.eigenvalues[imax] {
@@ -92,7 +92,7 @@ impl Spectrum {
                 imin = j;
             }
         }
-        Spectrum { eig, imax, imin }
+        Ok(Spectrum { eig, imax, imin })
     }
 }
 
@@ -130,7 +130,7 @@ impl<'a> Problem<'a> {
         let (co, info) = self.realise(x, &self.bound_grid);
         let rows = self.regressor_rows(&co, want_grad)?;
         let phi = self.phi(&rows);
-        let sp = Spectrum::of(&phi);
+        let sp = Spectrum::of(&phi)?;
         let (lmax, lmin) = (sp.eig.eigenvalues[sp.imax], sp.eig.eigenvalues[sp.imin]);
         if !(lmin > 0.0) {
             return Ok(Eval { f: f64::INFINITY, grad: None });

@@ -172,7 +172,7 @@ fn link_with_margin(x: &[f64], margin: &Matrix4<f64>) -> [f64; LINK_PARAMS] {
 fn start_link(p: &[f64], margin: &Matrix4<f64>) -> Option<[f64; 10]> {
     let j = pseudo_inertia(p) - margin;
     log_cholesky_from_link(&from_pseudo_inertia(&j))
-        .or_else(|| log_cholesky_from_link(&project_link(&from_pseudo_inertia(&j))))
+        .or_else(|| log_cholesky_from_link(&project_link(&from_pseudo_inertia(&j))?))
 }
 
 /// Inverse of [`link_from_log_cholesky`] for a positive definite pseudo-inertia: `None`
@@ -199,12 +199,13 @@ pub fn log_cholesky_from_link(p: &[f64]) -> Option<[f64; 10]> {
 }
 
 /// The nearest (Frobenius) pseudo-inertia with eigenvalues `>= 1e-6 max eigenvalue`.
-fn project_link(p: &[f64]) -> [f64; LINK_PARAMS] {
-    let e = pseudo_inertia(p).symmetric_eigen();
+/// `None` when the decomposition does not converge (non-finite parameters).
+fn project_link(p: &[f64]) -> Option<[f64; LINK_PARAMS]> {
+    let e = crate::linalg::sym_eigen(pseudo_inertia(p), "pseudo-inertia").ok()?;
     let top = e.eigenvalues.max().max(1e-12);
     let clipped = e.eigenvalues.map(|l| l.max(START_FLOOR * top));
     let j = e.eigenvectors * Matrix4::from_diagonal(&clipped) * e.eigenvectors.transpose();
-    from_pseudo_inertia(&j)
+    Some(from_pseudo_inertia(&j))
 }
 
 /// The consistent parameters of `x` (layout: `10 n` log-Cholesky, then per joint `[u, v, w, tau0]`).
@@ -398,7 +399,7 @@ fn null_rows(as_: &DMatrix<f64>, s: &[f64]) -> Result<DMatrix<f64>> {
     // as null then changed with the last bits of the data.
     let mut padded = DMatrix::zeros(p.max(b), p);
     padded.rows_mut(0, b).copy_from(as_);
-    let svd = padded.svd(false, true);
+    let svd = crate::linalg::svd(padded, false, true, "consistent fit: null space of the scaled regressor")?;
     let vt = svd.v_t.as_ref().ok_or_else(|| bad("consistent fit: SVD failed".to_string()))?;
     let top = svd.singular_values.max().max(0.0);
     let null: Vec<usize> = (0..vt.nrows()).filter(|&k| !(svd.singular_values[k] > NULL_TOL * top)).collect();

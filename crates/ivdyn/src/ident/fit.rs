@@ -16,6 +16,7 @@ use super::accum::{IvAccumulator, LsAccumulator, back_substitute, triangular_fac
 use super::base::{BaseParams, format_sig};
 use super::stats::chi2_sf;
 use crate::error::{Error, Result};
+use crate::linalg;
 use nalgebra::{DMatrix, DVector};
 use std::fmt;
 
@@ -320,8 +321,12 @@ pub fn dwh_var(d: &DVector<f64>, var_d: &DMatrix<f64>, v_iv: &DMatrix<f64>) -> D
     let diff = DMatrix::from_fn(b, b, |i, j| 0.5 * (var_d[(i, j)] + var_d[(j, i)]) * unit(i) * unit(j));
     let corr = DMatrix::from_fn(b, b, |i, j| v_iv[(i, j)] * unit(i) * unit(j));
     let ds = DVector::from_fn(b, |i, _| d[i] * unit(i));
-    let top = if b > 0 { corr.symmetric_eigenvalues().iter().cloned().fold(0.0, f64::max) } else { 0.0 };
-    let eig = diff.clone().symmetric_eigen();
+    // a non-finite variance (a degenerate fit) would never converge: nothing is testable then
+    let (Ok(ec), Ok(eig)) = (linalg::sym_eigen(corr, "DWH: V_IV"), linalg::sym_eigen(diff.clone(), "DWH: Var(d)"))
+    else {
+        return DwhTest { statistic: 0.0, dof: 0, p_value: 1.0, ls_biased: false, worst: None };
+    };
+    let top = if b > 0 { ec.eigenvalues.iter().cloned().fold(0.0, f64::max) } else { 0.0 };
     let (mut h, mut dof) = (0.0, 0usize);
     for (k, &lambda) in eig.eigenvalues.iter().enumerate() {
         if lambda > DWH_TOL * top {

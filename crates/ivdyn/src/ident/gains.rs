@@ -261,7 +261,7 @@ pub fn fit_gains(
     let acc = gn_system(&p, &st, 0.0)?;
     let fit = fit_ls(&acc, &p.names)?;
     let mut out = assemble(&p, &st, &fit, stats, iterations, converged);
-    out.verdict = verdicts(&p, &fit, &null_directions(&acc), &out.rel_std, opts.max_rel_std);
+    out.verdict = verdicts(&p, &fit, &null_directions(&acc)?, &out.rel_std, opts.max_rel_std);
     for (j, v) in out.verdict.iter().enumerate() {
         if *v != GainVerdict::Identifiable {
             (out.gain[j], out.gain_std[j]) = (f64::NAN, f64::NAN);
@@ -569,17 +569,17 @@ pub fn inflation(pieces: &[Vec<f64>]) -> f64 {
 
 /// The unit null vectors of the column-scaled `R` (singular values below [`RANK_TOL`] of
 /// the largest), as rows.
-fn null_directions(acc: &LsAccumulator) -> Vec<Vec<f64>> {
+fn null_directions(acc: &LsAccumulator) -> Result<Vec<Vec<f64>>> {
     let r = acc.r();
     let norms: Vec<f64> = (0..r.ncols()).map(|c| r.column(c).norm()).collect();
     let scaled = DMatrix::from_fn(r.nrows(), r.ncols(), |i, c| if norms[c] > 0.0 { r[(i, c)] / norms[c] } else { 0.0 });
-    let svd = scaled.svd(false, true);
-    let Some(vt) = svd.v_t.as_ref() else { return vec![] };
+    let svd = crate::linalg::svd(scaled, false, true, "drive gains: null directions of the regressor")?;
+    let Some(vt) = svd.v_t.as_ref() else { return Ok(vec![]) };
     let smax = svd.singular_values.max();
-    (0..svd.singular_values.len())
+    Ok((0..svd.singular_values.len())
         .filter(|&k| svd.singular_values[k] < RANK_TOL * smax)
         .map(|k| vt.row(k).iter().copied().collect())
-        .collect()
+        .collect())
 }
 
 /// Each gain's verdict from the final fit (module docs).

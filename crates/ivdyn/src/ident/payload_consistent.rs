@@ -110,6 +110,17 @@ pub struct Projection {
 
 /// The violations of `p` (see [`Violation`]).
 pub fn violation(p: &[f64; 10]) -> Violation {
+    // the eigenvalues of a non-finite matrix never converge; nothing is possible then
+    if p.iter().any(|v| !v.is_finite()) {
+        let nan = f64::NAN;
+        return Violation {
+            possible: false,
+            mass: p[0],
+            min_eig_pseudo_inertia: nan,
+            min_principal_moment: None,
+            triangle_margin: None,
+        };
+    }
     let min_eig = pseudo_inertia(p).symmetric_eigenvalues().min();
     let mut v = Violation {
         possible: min_eig >= 0.0,
@@ -142,6 +153,11 @@ fn inertia_about_com(p: &[f64; 10]) -> nalgebra::Matrix3<f64> {
 /// statistics: on data whose std is below it (a noise-free simulation) it would otherwise
 /// be all the distance.
 pub fn project(theta_ls: &[f64; 10], cov: &M10) -> Projection {
+    // outside the precondition the eigen-decompositions below would never converge: the
+    // fit is returned as it is, at an undefined distance
+    if theta_ls.iter().chain(cov.iter()).any(|v| !v.is_finite()) {
+        return Projection { params: *theta_ls, distance2: f64::NAN, dof: 10, p_value: f64::NAN, iterations: 0 };
+    }
     let (rigid, d0) = Problem::new(theta_ls, cov, 0.0).nearest();
     let (margin, d) = Problem::new(theta_ls, cov, MARGIN).nearest();
     let distance2 = rigid.map_or(0.0, |(_, cost)| cost);

@@ -144,7 +144,7 @@ impl JointLog {
 
 impl JointLog {
     /// Every `T x N` array with its field name (`None`: not in the log).
-    fn fields(&self) -> [(&'static str, Option<&Vec<f64>>); 5] {
+    pub(crate) fn fields(&self) -> [(&'static str, Option<&Vec<f64>>); 5] {
         [
             ("q", Some(&self.q)),
             ("qd", self.qd.as_ref()),

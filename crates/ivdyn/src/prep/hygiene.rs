@@ -185,6 +185,7 @@ pub fn clean<'a>(
     exclude: &[(f64, f64)],
 ) -> Result<(std::borrow::Cow<'a, JointLog>, Hygiene)> {
     use std::borrow::Cow;
+    magnitude_check(log)?;
     let mut h = Hygiene { window, exclude: exclude.to_vec(), ..Default::default() };
     let t0 = log.t.first().copied().unwrap_or(0.0);
     let mut log = Cow::Borrowed(log);
@@ -211,6 +212,33 @@ pub fn clean<'a>(
         log = Cow::Owned(log.rows(&keep));
     }
     Ok((log, h))
+}
+
+/// Largest magnitude accepted for any logged value (position, velocity, effort, command,
+/// current) in SI units. No arm moves 1e6 rad or m, or 1e6 rad/s, or carries 1e6 N m;
+/// such a value is a corrupt sample, and squared in the regressors (1e300 squared is
+/// infinite) it stalls the linear algebra downstream instead of failing.
+pub const MAX_MAGNITUDE: f64 = 1e6;
+
+/// Refuses a finite value beyond [`MAX_MAGNITUDE`], naming the sample, the joint and the
+/// signal. Non-finite values are left to the finiteness checks, which know whether the
+/// signal is used (a NaN log velocity is harmless when velocities come from positions).
+pub fn magnitude_check(log: &JointLog) -> Result<()> {
+    let n = log.dof().max(1);
+    for (field, a) in log.fields() {
+        let Some(a) = a else { continue };
+        if let Some(i) = a.iter().position(|x| x.is_finite() && x.abs() > MAX_MAGNITUDE) {
+            let joint = log.joint_names.get(i % n).map_or("?", String::as_str);
+            return Err(Error::Signal {
+                msg: format!(
+                    "sample {}: joint '{joint}' {field} is {:e}, beyond the {MAX_MAGNITUDE:e} accepted in SI units (a corrupt sample?)",
+                    i / n,
+                    a[i]
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Logged positions of a revolute joint that lie far outside its limits (by more than

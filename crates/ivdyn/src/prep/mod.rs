@@ -218,6 +218,7 @@ pub fn condition_segments(log: &JointLog, opts: &ConditionOptions) -> Result<Vec
         Some(dt) => dt,
         None => median_dt(&t_kept).ok_or_else(|| bad("need at least two distinct stamps"))?,
     };
+    check_sample_time(dt)?;
     let (segments, gaps) = split_at_gaps(&log.t, &dd.keep, dt);
     hygiene.gaps = gaps;
     let mut parts = vec![];
@@ -326,13 +327,41 @@ pub fn auto_decimation(fs: f64, condition: &ConditionOptions) -> usize {
     ((fs / (2.5 * fc) + 1e-9).floor() as usize).max(1)
 }
 
+/// Shortest sample time accepted (s): 100 kHz, above any arm's logging rate. The
+/// filters are designed at the sample rate and their start-up padding grows with it (a log
+/// with 1 ns stamps asked for 12 GB of filter state); such stamps are in the wrong unit.
+pub const MIN_SAMPLE_TIME: f64 = 1e-5;
+
+/// Refuses a sample time below [`MIN_SAMPLE_TIME`] (or not positive and finite).
+pub fn check_sample_time(dt: f64) -> Result<()> {
+    if dt.is_finite() && dt >= MIN_SAMPLE_TIME {
+        return Ok(());
+    }
+    Err(bad(&format!(
+        "sample time {dt:e} s is below the {MIN_SAMPLE_TIME:e} s (100 kHz) accepted: stamps in the wrong unit?"
+    )))
+}
+
 /// The parallel filter: [`Decimator::new`] for a factor > 1 (`0` = [`auto_decimation`]),
-/// else the default differentiation filter alone.
-pub(crate) fn parallel_filter(decimate: usize, fs: f64, condition: &ConditionOptions) -> Result<Decimator> {
+/// else the default differentiation filter alone. A factor above `samples` (the log's
+/// sample count) would leave no sample, and the filter for it would be designed at a
+/// vanishing cutoff: refused, naming the option.
+pub(crate) fn parallel_filter(
+    decimate: usize,
+    fs: f64,
+    samples: usize,
+    condition: &ConditionOptions,
+) -> Result<Decimator> {
     // a cut-off far below the rate would make the automatic factor overflow: refuse it here,
     // with the option named, before anything is sized by it
     if let DiffMethod::Butterworth { cutoff_hz, .. } = &condition.diff {
         crate::dsp::resolve_cutoff(*cutoff_hz, fs)?;
+    }
+    if decimate > samples.max(1) {
+        return Err(Error::Option {
+            option: "decimate".into(),
+            msg: format!("must be at most the log's {samples} samples, got {decimate}"),
+        });
     }
     let f = if decimate == 0 { auto_decimation(fs, condition) } else { decimate };
     if f > 1 { Decimator::new(f, fs) } else { Decimator::with_filter(1, Butterworth::default_for(fs)?) }

@@ -21,7 +21,7 @@
 //!   below the root on fixed joints.
 //! - `<dynamics damping friction>` become the viscous and Coulomb drive parameters.
 
-use super::{Chain, DynModel, Robot};
+use super::{Chain, DynModel, MAX_DOF, Robot};
 use crate::error::{Error, Result};
 use ivdyn_core::model::GRAVITY_Z;
 use ivdyn_core::{DriveParams, Joint, JointLimits, LinkInertia, Mat3, Transform, Vec3};
@@ -71,6 +71,7 @@ pub fn load_str(text: &str, file: &Path, base: Option<&str>, tip: Option<&str>) 
 /// A joint with several `<origin>` elements (seen in URDFs exported by hand-edited
 /// xacro) is read as urdfdom, ROS's parser, reads it: the first origin counts.
 pub fn load_str_with(text: &str, file: &Path, opts: &UrdfOptions) -> Result<Robot> {
+    check_xml_depth(text, file)?;
     let parse = |t: &str| {
         urdf_rs::read_from_string(t).map_err(|e| Error::UrdfParse { file: file.to_path_buf(), msg: e.to_string() })
     };
@@ -81,6 +82,61 @@ pub fn load_str_with(text: &str, file: &Path, opts: &UrdfOptions) -> Result<Robo
         r => r?,
     };
     Builder::new(&urdf, file)?.build(opts)
+}
+
+/// Deepest element nesting accepted in a URDF. Real URDFs nest about 6 deep
+/// (`robot/link/visual/geometry/mesh`); urdf-rs parses recursively and overflows the stack
+/// at some tens of thousands, so anything beyond this is refused before parsing.
+pub const MAX_XML_DEPTH: usize = 256;
+
+/// Refuses XML nested deeper than [`MAX_XML_DEPTH`], naming `file` and the line. A cheap
+/// linear scan of the raw text (comments, CDATA, `<?...?>`, `<!...>` and quoted attribute
+/// values skipped), run before urdf-rs because its recursion cannot be bounded from outside.
+pub fn check_xml_depth(text: &str, file: &Path) -> Result<()> {
+    let b = text.as_bytes();
+    let skip_to = |from: usize, end: &str| text[from..].find(end).map_or(b.len(), |e| from + e + end.len());
+    let (mut i, mut depth) = (0, 0usize);
+    while let Some(lt) = text[i..].find('<').map(|o| i + o) {
+        let rest = &text[lt..];
+        i = if rest.starts_with("<!--") {
+            skip_to(lt, "-->")
+        } else if rest.starts_with("<![CDATA[") {
+            skip_to(lt, "]]>")
+        } else if rest.starts_with("<?") {
+            skip_to(lt, "?>")
+        } else if rest.starts_with("<!") || rest.starts_with("</") {
+            depth = depth.saturating_sub(usize::from(rest.starts_with("</")));
+            skip_to(lt, ">")
+        } else {
+            let end = tag_end(b, lt + 1);
+            if b.get(end.wrapping_sub(1)) != Some(&b'/') {
+                depth += 1;
+                if depth > MAX_XML_DEPTH {
+                    let line = text[..lt].matches('\n').count() + 1;
+                    return Err(Error::UrdfParse {
+                        file: file.to_path_buf(),
+                        msg: format!("XML elements nested more than {MAX_XML_DEPTH} deep (line {line}); refused"),
+                    });
+                }
+            }
+            (end + 1).min(b.len())
+        };
+    }
+    Ok(())
+}
+
+/// Index of the `>` closing the tag that starts at `from` (quoted `>` skipped), or the end.
+fn tag_end(b: &[u8], from: usize) -> usize {
+    let mut quote = None;
+    for (k, &c) in b.iter().enumerate().skip(from) {
+        match (quote, c) {
+            (None, b'"' | b'\'') => quote = Some(c),
+            (Some(q), _) if c == q => quote = None,
+            (None, b'>') => return k,
+            _ => {}
+        }
+    }
+    b.len()
 }
 
 /// Drops every `<origin .../>` after the first inside each `<joint>...</joint>`
@@ -121,6 +177,8 @@ struct Builder<'a> {
     parent_joint: Vec<Option<usize>>,
     /// joints whose parent is this link
     child_joints: Vec<Vec<usize>>,
+    /// does the subtree below this link contain a movable joint?
+    movable_below: Vec<bool>,
 }
 
 /// The model chain being built, with names and each link's segment.
@@ -188,7 +246,65 @@ impl<'a> Builder<'a> {
             parent_joint[c] = Some(ji);
             child_joints[p].push(ji);
         }
-        Ok(Self { urdf, file, link_index, parent_joint, child_joints })
+        let mut b = Self { urdf, file, link_index, parent_joint, child_joints, movable_below: vec![] };
+        // every walk below (up to the root, down the subtrees) ends only on a tree
+        b.check_loops()?;
+        b.movable_below = b.movable_below_all();
+        Ok(b)
+    }
+
+    fn parent_link(&self, l: usize) -> Option<usize> {
+        self.parent_joint[l].map(|j| self.link_index[self.urdf.joints[j].parent.link.as_str()])
+    }
+
+    /// An error naming the links of the first kinematic loop (a link its own ancestor,
+    /// a self-loop included). Each link has at most one parent, so following parents from
+    /// every link, marking the links seen, finds each loop in linear time.
+    fn check_loops(&self) -> Result<()> {
+        const NEW: u8 = 0;
+        const ON_PATH: u8 = 1;
+        const DONE: u8 = 2;
+        let mut state = vec![NEW; self.urdf.links.len()];
+        for start in 0..state.len() {
+            let mut path: Vec<usize> = vec![];
+            let mut l = Some(start);
+            while let Some(k) = l.filter(|&k| state[k] != DONE) {
+                if state[k] == ON_PATH {
+                    let at = path.iter().position(|&p| p == k).unwrap_or(0);
+                    let mut cycle: Vec<String> =
+                        path[at..].iter().rev().map(|&p| format!("'{}'", self.urdf.links[p].name)).collect();
+                    cycle.push(cycle[0].clone());
+                    return Err(self.structure(format!("kinematic loop: {}", cycle.join(" -> "))));
+                }
+                state[k] = ON_PATH;
+                path.push(k);
+                l = self.parent_link(k);
+            }
+            path.iter().for_each(|&p| state[p] = DONE);
+        }
+        Ok(())
+    }
+
+    /// [`Self::movable_below`] for every link, children before parents (no recursion: a
+    /// long chain would overflow the stack). Needs a loop-free graph.
+    fn movable_below_all(&self) -> Vec<bool> {
+        let n = self.urdf.links.len();
+        let mut order: Vec<usize> = (0..n).filter(|&l| self.parent_joint[l].is_none()).collect();
+        let mut k = 0;
+        while k < order.len() {
+            let l = order[k];
+            order
+                .extend(self.child_joints[l].iter().map(|&j| self.link_index[self.urdf.joints[j].child.link.as_str()]));
+            k += 1;
+        }
+        let mut below = vec![false; n];
+        for &l in order.iter().rev() {
+            below[l] = self.child_joints[l].iter().any(|&j| {
+                let joint = &self.urdf.joints[j];
+                is_movable(&joint.joint_type) || below[self.link_index[joint.child.link.as_str()]]
+            });
+        }
+        below
     }
 
     fn link(&self, name: &str) -> Result<usize> {
@@ -215,14 +331,6 @@ impl<'a> Builder<'a> {
         Error::UrdfStructure { file: self.file.clone(), msg }
     }
 
-    /// Does the subtree below `link` contain a movable joint?
-    fn has_movable_below(&self, link: usize) -> bool {
-        self.child_joints[link].iter().any(|&j| {
-            let joint = &self.urdf.joints[j];
-            is_movable(&joint.joint_type) || self.has_movable_below(self.link(&joint.child.link).unwrap_or(0))
-        })
-    }
-
     /// Default tip: follow the only branch with movable joints until none is left.
     fn default_tip(&self, base: usize) -> Result<usize> {
         let mut link = base;
@@ -232,7 +340,7 @@ impl<'a> Builder<'a> {
                 .copied()
                 .filter(|&j| {
                     let joint = &self.urdf.joints[j];
-                    is_movable(&joint.joint_type) || self.has_movable_below(self.link_index[joint.child.link.as_str()])
+                    is_movable(&joint.joint_type) || self.movable_below[self.link_index[joint.child.link.as_str()]]
                 })
                 .collect();
             match branches.as_slice() {
@@ -265,6 +373,14 @@ impl<'a> Builder<'a> {
             None => self.default_tip(base)?,
         };
         let path = self.chain_path(base, tip)?;
+        // refused before the chain is built: the model has at most MAX_DOF joints
+        let dof = path.iter().filter(|&&j| is_movable(&self.urdf.joints[j].joint_type)).count();
+        if dof > MAX_DOF {
+            return Err(self.structure(format!(
+                "{dof} movable joints between base '{}' and tip '{}'; at most {MAX_DOF} are supported",
+                self.urdf.links[base].name, self.urdf.links[tip].name
+            )));
+        }
         let gravity = self.base_gravity(base)?;
         let mut walk = self.walk_chain(&path, base, tip, gravity)?;
         // a tip the caller chose ends the chain; the default tip only has rigid bodies below
