@@ -186,7 +186,9 @@ fn cli_error_absurd_sample_spacing() {
     std::fs::write(&path, csv).unwrap();
     let mut a = ur5_args();
     a.extend(["--log".into(), s(&path)]);
-    let want = ["tiny_dt.csv", "default cut-off 20 Hz", "sample spacing 1e-25 s", "stamps", "--cutoff"];
+    // the sample-time floor (prep::check_sample_time, 1e-5 s) speaks before the cut-off's
+    // range check would: the file, the spacing and the likely cause are named
+    let want = ["tiny_dt.csv", "sample time 1.00000", "e-25 s is below", "stamps in the wrong unit"];
     fails("tiny_dt_id", "identify", &a, &want);
     a.extend(["--out".into(), s(&d.join("diag"))]);
     fails("tiny_dt_diag", "diagnose", &a, &want);
