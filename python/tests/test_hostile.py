@@ -42,3 +42,19 @@ def test_cutoff_out_of_range_is_a_value_error(ur5, tmp_path):
     ivdyn.simulate(ur5, log, duration=2)
     with pytest.raises(ValueError, match=r"cutoff \(--cutoff\) 1e-30 Hz is out of range.*allowed"):
         ivdyn.identify(ur5, log, cutoff=1e-30)
+
+
+def test_urdf_self_loop_is_an_error_not_a_crash(tmp_path):
+    # a link that is its own child used to crash the interpreter (SIGSEGV: the recursive
+    # tree walk overflowed the stack); the loader now names the loop
+    link = ('<link name="{0}"><inertial><mass value="1"/><origin xyz="0 0 0"/>'
+            '<inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>')
+    joint = ('<joint name="{0}" type="{1}"><parent link="{2}"/><child link="{3}"/><origin xyz="0 0 0.2"/>'
+             '<axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="10" velocity="2"/></joint>')
+    body = "".join(link.format(n) for n in ("base", "arm", "tool"))
+    body += joint.format("j1", "revolute", "base", "arm") + joint.format("j_self", "fixed", "tool", "tool")
+    path = tmp_path / "loop.urdf"
+    path.write_text(f'<?xml version="1.0"?><robot name="hostile">{body}</robot>')
+    with pytest.raises(Exception, match=r"kinematic loop: 'tool' -> 'tool'") as e:
+        ivdyn.Robot.from_urdf(str(path))
+    assert isinstance(e.value, (ValueError, OSError, RuntimeError)), type(e.value)
