@@ -306,7 +306,7 @@ def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/
              motor_constant: _PerJoint = None) -> str:
     """``ivdyn diagnose`` -> ``diagnosis.json`` (and the output directory's files with ``out``)."""
 def payload(robot: Robot, log: _Log, before: Optional[_Log] = None, topic: str = "/joint_states",
-            command_topic: Optional[str] = None, log_time: bool = False, cutoff: Optional[float] = None,
+            log_time: bool = False, cutoff: Optional[float] = None,
             decimate: int = 0, params_json: Optional[str] = None, progress: _Callback = None,
             json_out: Optional[str] = None, write_urdf: Optional[str] = None, payload_as: str = "link",
             velocity: str = "auto", window: Optional[Tuple[float, float]] = None,

@@ -18,6 +18,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 import numpy as np
 
 from . import _ivdyn
+from ._guard import real_array
 
 PathLike = Union[str, "os.PathLike[str]"]
 Progress = Union[None, bool, Callable[[int, int], Any]]
@@ -114,10 +115,7 @@ def _log(log, n: int, what: str):
         x = log.get(key)
         if x is None:
             continue
-        try:
-            a = np.ascontiguousarray(x, dtype=np.float64)
-        except (TypeError, ValueError) as e:
-            raise ValueError(f"{what}['{key}'] must be a float array: {e}") from None
+        a = real_array(x, f"{what}['{key}']")
         if a.ndim != shape or (shape == 2 and a.shape[1] != n):
             want = "(T,)" if shape == 1 else f"(T, {n})"
             raise ValueError(f"{what}['{key}'] must have shape {want}, got {a.shape}")
@@ -159,10 +157,7 @@ def _per_joint(x, what: str):
         return x
     if isinstance(x, dict):
         return {str(k): float(v) for k, v in x.items()}
-    try:
-        a = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{what} must be a number, a sequence of numbers or a dict {{joint: number}}: {e}") from None
+    a = real_array(x, what)
     return float(a) if a.ndim == 0 else [float(v) for v in a.ravel()]
 
 
@@ -249,7 +244,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
 
 def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optional[str] = None,
             fuse_beyond_tip: bool = False,
-            params=None, topic: str = "/joint_states", command_topic: Optional[str] = None,
+            params=None, topic: str = "/joint_states",
             log_time: bool = False, cutoff: Optional[float] = None, decimate: int = 0,
             out_json: Optional[PathLike] = None, write_urdf: Optional[PathLike] = None,
             payload_as: str = "link", velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
@@ -286,7 +281,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     try:
         out = _ivdyn.payload(native, _log(log, native.dof, "log"),
                              None if before is None else _log(before, native.dof, "before"), str(topic),
-                             command_topic, bool(log_time), None if cutoff is None else float(cutoff),
+                             bool(log_time), None if cutoff is None else float(cutoff),
                              int(decimate), _params(params), cb, json_out=_path(out_json),
                              write_urdf=_path(write_urdf), payload_as=str(payload_as), velocity=str(velocity),
                              window=_window(window), exclude=_spans(exclude),
@@ -334,13 +329,13 @@ def drive_gains(robot, unloaded, loaded, payload_mass: float, *, payload_com: Op
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
 
-    def seq(x):
-        return None if x is None else [float(v) for v in np.asarray(x, dtype=np.float64).ravel()]
+    def seq(x, name):
+        return None if x is None else [float(v) for v in real_array(x, name).ravel()]
 
     cb, close = _callback(progress)
     try:
         text = _ivdyn.gains(native, _log(unloaded, native.dof, "unloaded"), _log(loaded, native.dof, "loaded"),
-                            float(payload_mass), seq(payload_com), seq(payload_inertia), str(topic), bool(log_time),
+                            float(payload_mass), seq(payload_com, "payload_com"), seq(payload_inertia, "payload_inertia"), str(topic), bool(log_time),
                             None if cutoff is None else float(cutoff), int(decimate), _params(params), cb,
                             json_out=_path(out_json), velocity=str(velocity), window=_window(window),
                             current_topic=None if current_topic is None else str(current_topic),
@@ -387,7 +382,7 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
         tt, tq = lg["t"], lg["q"]
 
     def seq(x, name):
-        return None if x is None else [float(v) for v in np.asarray(x, dtype=np.float64).ravel()]
+        return None if x is None else [float(v) for v in real_array(x, name).ravel()]
 
     summary, log = _ivdyn.simulate(native, None if out is None else os.fspath(out), tt, tq, float(duration),
                                    float(rate), int(seed), float(amplitude),
@@ -458,14 +453,14 @@ def excite(robot, out: Optional[PathLike] = None, *, base: Optional[str] = None,
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
 
-    def seq(x):
-        return None if x is None else [float(v) for v in np.atleast_1d(np.asarray(x, dtype=np.float64))]
+    def seq(x, name):
+        return None if x is None else [float(v) for v in np.atleast_1d(real_array(x, name))]
 
     cb, close = _callback(progress)
     try:
         text, traj = _ivdyn.excite(native, _path(out), _path(out_mcap), _path(out_json), float(duration),
-                                   int(harmonics), float(f0), float(rate), str(criterion), seq(acc_limit),
-                                   seq(vel_limit), float(margin), int(starts), int(iterations), int(random),
+                                   int(harmonics), float(f0), float(rate), str(criterion), seq(acc_limit, "acc_limit"),
+                                   seq(vel_limit, "vel_limit"), float(margin), int(starts), int(iterations), int(random),
                                    int(seed), _params(params), cb)
     finally:
         close()

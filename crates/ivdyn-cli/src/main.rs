@@ -33,17 +33,23 @@ struct Cli {
 #[derive(Subcommand)]
 enum Cmd {
     /// Identify base parameters from a log (MCAP or CSV) with measured torques.
+    #[command(allow_negative_numbers = true)]
     Identify(IdentifyArgs),
     /// Estimate a payload on the last link from a log after the grasp.
+    #[command(allow_negative_numbers = true)]
     Payload(PayloadArgs),
     /// Drive gains (torque constants at the joint, N m/A) from a log without and a log
     /// with a payload of known mass, both with the drive currents.
+    #[command(allow_negative_numbers = true)]
     Gains(gains_cmd::GainsArgs),
     /// Write a synthetic log (inverse dynamics along a trajectory, with noise).
+    #[command(allow_negative_numbers = true)]
     Simulate(SimulateArgs),
     /// Find what the nominal model misses in a log, name it, add it (docs/diagnose.md).
+    #[command(allow_negative_numbers = true)]
     Diagnose(diagnose_cmd::DiagnoseArgs),
     /// Design an excitation trajectory (finite Fourier series, optimised base regressor).
+    #[command(allow_negative_numbers = true)]
     Excite(ExciteArgs),
 }
 
@@ -73,9 +79,6 @@ struct LogArgs {
     /// JointState topic of MCAP logs.
     #[arg(long, default_value = "/joint_states")]
     topic: String,
-    /// Optional JointState topic carrying the actuator command u (its effort field).
-    #[arg(long)]
-    command_topic: Option<String>,
     /// Use MCAP log times instead of header stamps.
     #[arg(long)]
     log_time: bool,
@@ -97,23 +100,29 @@ struct LogArgs {
     /// Motor torque constant (N m/A at the motor) per joint, with --gear-ratio.
     #[arg(long, allow_hyphen_values = true)]
     motor_constant: Option<String>,
+    /// Velocity source: `auto` (the log's velocity on each joint where it agrees with the
+    /// differentiated positions), `log`, or `positions`.
+    #[arg(long, value_enum, default_value = "auto")]
+    velocity: VelocityArg,
+    /// Use only START:END seconds from the log's first sample (`5:` from 5 s on, `:30` the first 30 s).
+    #[arg(long, value_name = "START:END", allow_hyphen_values = true)]
+    window: Option<String>,
+    /// Leave out START:END seconds (from the log's first sample); repeat for several spans.
+    /// The log is cut there like at a gap.
+    #[arg(long, value_name = "START:END", allow_hyphen_values = true)]
+    exclude: Vec<String>,
+}
+
+/// The differentiation filter and decimation of identify, payload and gains (diagnose
+/// chooses its cut-off itself and does not decimate).
+#[derive(Args)]
+struct FilterArgs {
     /// Zero-phase cut-off (Hz) of the differentiation filter (default: 20 Hz, at most 0.2 fs).
     #[arg(long)]
     cutoff: Option<f64>,
     /// Decimation factor after the parallel filter (0: automatic, output rate ~2.5x the cut-off; 1: none).
     #[arg(long, default_value_t = 0)]
     decimate: usize,
-    /// Velocity source: `auto` (the log's velocity on each joint where it agrees with the
-    /// differentiated positions), `log`, or `positions`.
-    #[arg(long, value_enum, default_value = "auto")]
-    velocity: VelocityArg,
-    /// Use only START:END seconds from the log's first sample (`5:` from 5 s on, `:30` the first 30 s).
-    #[arg(long, value_name = "START:END")]
-    window: Option<String>,
-    /// Leave out START:END seconds (from the log's first sample); repeat for several spans.
-    /// The log is cut there like at a gap.
-    #[arg(long, value_name = "START:END")]
-    exclude: Vec<String>,
 }
 
 #[derive(Clone, Copy, PartialEq, ValueEnum)]
@@ -149,6 +158,12 @@ struct IdentifyArgs {
     log: Vec<PathBuf>,
     #[command(flatten)]
     log_args: LogArgs,
+    #[command(flatten)]
+    filter: FilterArgs,
+    /// Optional JointState topic carrying the actuator command u (its effort field): the
+    /// instrument of `--method iv` is then the model driven by u.
+    #[arg(long)]
+    command_topic: Option<String>,
     /// Estimation method.
     #[arg(long, value_enum, default_value = "wls")]
     method: MethodArg,
@@ -230,6 +245,8 @@ struct PayloadArgs {
     before: Option<PathBuf>,
     #[command(flatten)]
     log_args: LogArgs,
+    #[command(flatten)]
+    filter: FilterArgs,
     /// JSON report.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -502,7 +519,7 @@ fn load_robot(a: &RobotArgs) -> R<Robot> {
     Ok(robot)
 }
 
-fn log_source(la: &LogArgs) -> R<LogSource> {
+fn log_source(la: &LogArgs, command_topic: Option<&str>) -> R<LogSource> {
     let per_joint = |option: &str, v: &Option<String>| v.as_deref().map(|t| PerJoint::parse(option, t)).transpose();
     let torque_constants = TorqueConstants {
         torque_constant: per_joint("torque_constant", &la.torque_constant).map_err(msg)?,
@@ -511,7 +528,7 @@ fn log_source(la: &LogArgs) -> R<LogSource> {
     };
     Ok(LogSource {
         topic: la.topic.clone(),
-        command_topic: la.command_topic.clone(),
+        command_topic: command_topic.map(str::to_string),
         log_time: la.log_time,
         current_topic: la.current_topic.clone(),
         effort: match la.effort {
@@ -523,10 +540,10 @@ fn log_source(la: &LogArgs) -> R<LogSource> {
     })
 }
 
-fn condition_opts(la: &LogArgs) -> R<ivdyn::prep::ConditionOptions> {
+fn condition_opts(la: &LogArgs, cutoff: Option<f64>) -> R<ivdyn::prep::ConditionOptions> {
     use ivdyn::prep::VelocitySource;
     let mut c = ivdyn::prep::ConditionOptions::default();
-    if let Some(fc) = la.cutoff {
+    if let Some(fc) = cutoff {
         c.diff = ivdyn::dsp::DiffMethod::Butterworth { order: ivdyn::dsp::DEFAULT_ORDER, cutoff_hz: Some(fc) };
     }
     c.velocity = match la.velocity {
@@ -567,8 +584,8 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
             MethodArg::Iv => Method::Iv,
             MethodArg::IdimIv => Method::IdimIv,
         },
-        condition: condition_opts(&a.log_args)?,
-        decimate: a.log_args.decimate,
+        condition: condition_opts(&a.log_args, a.filter.cutoff)?,
+        decimate: a.filter.decimate,
         validation_fraction: a.holdout,
         drive,
         coulomb: ivdyn::app::identify::CoulombMode::from_name(&a.coulomb).map_err(msg)?,
@@ -580,7 +597,7 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
         log: LogInput::File(a.log[0].clone()),
         also: a.log[1..].iter().cloned().map(LogInput::File).collect(),
         validate: a.validate.clone().map(LogInput::File),
-        source: log_source(&a.log_args)?,
+        source: log_source(&a.log_args, a.command_topic.as_deref())?,
         in_memory: a.in_memory,
         stream: a.stream,
         opts,
@@ -711,10 +728,10 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
     let job = app::PayloadJob {
         log: LogInput::File(a.log.clone()),
         before: a.before.clone().map(LogInput::File),
-        source: log_source(&a.log_args)?,
+        source: log_source(&a.log_args, None)?,
         opts: PayloadOptions {
-            condition: condition_opts(&a.log_args)?,
-            decimate: a.log_args.decimate,
+            condition: condition_opts(&a.log_args, a.filter.cutoff)?,
+            decimate: a.filter.decimate,
             progress: bars.sink(),
             ..Default::default()
         },

@@ -376,7 +376,7 @@ fn identify(
 
 /// `ivdyn payload` -> the `--json` document (a string); writes the outputs asked for.
 #[pyfunction]
-#[pyo3(signature = (robot, log, before=None, topic="/joint_states", command_topic=None, log_time=false, cutoff=None,
+#[pyo3(signature = (robot, log, before=None, topic="/joint_states", log_time=false, cutoff=None,
                     decimate=0, params_json=None, progress=None, json_out=None, write_urdf=None, payload_as="link",
                     velocity="auto", window=None, exclude=None,
                     current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None,
@@ -388,7 +388,6 @@ fn payload(
     log: &Bound<'_, PyAny>,
     before: Option<&Bound<'_, PyAny>>,
     topic: &str,
-    command_topic: Option<&str>,
     log_time: bool,
     cutoff: Option<f64>,
     decimate: usize,
@@ -421,7 +420,7 @@ fn payload(
     let job = app::PayloadJob {
         log: log_input(&r, log, "log")?,
         before: before.map(|b| log_input(&r, b, "before log")).transpose()?,
-        source: effort.apply(log_source(topic, command_topic, log_time))?,
+        source: effort.apply(log_source(topic, None, log_time))?,
         opts: PayloadOptions {
             condition: condition(cutoff, velocity, window, exclude)?,
             decimate,

@@ -9,7 +9,7 @@
 //!
 //! | layer | modules |
 //! |---|---|
-//! | shared types | [`error`], [`report`], [`progress`], [`output`] (atomic writes) |
+//! | shared types | [`error`], [`limits`] (option and size bounds), [`report`], [`progress`], [`output`] (atomic writes) |
 //! | model | [`robot`] (URDF, the one loading path, write-back, physical checks) |
 //! | signals | [`dsp`] (filters and derivatives on slices), then [`log`] (joint logs, readers, writers) |
 //! | conditioning | [`prep`] (the one conditioning policy, and its streaming twin) |
@@ -29,6 +29,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod error;
+pub mod limits;
 pub mod output;
 pub mod progress;
 pub mod report;

@@ -323,7 +323,7 @@ fn cutoff_out_of_range_is_an_error_naming_the_option() {
     assert!(differentiate(&q, 1, 0.002, &m).unwrap_err().to_string().contains("--cutoff"));
 }
 
-/// Issue 16: `simulate` refuses more than `MAX_SIMULATE_SAMPLES` samples before allocating.
+/// Issue 16: `simulate` refuses more than `limits::MAX_SAMPLES` samples before allocating.
 #[test]
 fn simulate_sample_count_bounded() {
     let mut o = ivdyn::app::SimulateOptions { duration_s: 1e12, ..Default::default() };

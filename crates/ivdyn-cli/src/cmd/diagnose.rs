@@ -19,6 +19,10 @@ pub struct DiagnoseArgs {
     log: PathBuf,
     #[command(flatten)]
     log_args: LogArgs,
+    /// Zero-phase cut-off (Hz) of the differentiation filter (default: the one on a grid
+    /// of 10-160 Hz, at most fs/4, that leaves the least residual).
+    #[arg(long)]
+    cutoff: Option<f64>,
     /// Output directory: diagnosis.json, report.html, residuals.mcap.
     #[arg(long)]
     out: PathBuf,
@@ -41,12 +45,12 @@ pub struct DiagnoseArgs {
 
 pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
-    let cond = condition_opts(&a.log_args)?;
+    let cond = condition_opts(&a.log_args, a.cutoff)?;
     let velocity = if a.ignore_log_velocity { ivdyn::prep::VelocitySource::Positions } else { cond.velocity };
     let opts = DiagnoseOptions {
         alpha: a.alpha,
         min_effect: a.min_effect,
-        cutoff_hz: a.log_args.cutoff,
+        cutoff_hz: a.cutoff,
         velocity,
         window: cond.window,
         exclude: cond.exclude.clone(),
@@ -56,7 +60,7 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
     };
     let job = DiagnoseJob {
         log: LogInput::File(a.log.clone()),
-        source: log_source(&a.log_args)?,
+        source: log_source(&a.log_args, None)?,
         opts,
         out: Some(a.out.clone()),
         report: !a.no_report,

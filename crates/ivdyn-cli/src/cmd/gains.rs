@@ -7,7 +7,9 @@ use std::process::ExitCode;
 
 use clap::Args;
 
-use super::{Bars, LogArgs, R, RobotArgs, condition_opts, fmt_list, load_robot, log_source, msg, print_written};
+use super::{
+    Bars, FilterArgs, LogArgs, R, RobotArgs, condition_opts, fmt_list, load_robot, log_source, msg, print_written,
+};
 use ivdyn::app::{GainsJob, GainsOptions, GainsReport, KnownPayload, LogInput, gains_job};
 
 #[derive(Args)]
@@ -22,6 +24,8 @@ pub struct GainsArgs {
     loaded: PathBuf,
     #[command(flatten)]
     log_args: LogArgs,
+    #[command(flatten)]
+    filter: FilterArgs,
     /// The payload's mass (kg): it sets the scale of every gain.
     #[arg(long)]
     payload_mass: f64,
@@ -46,11 +50,11 @@ pub fn run(a: GainsArgs, bars: &Bars) -> R<ExitCode> {
     let job = GainsJob {
         unloaded: LogInput::File(a.unloaded.clone()),
         loaded: LogInput::File(a.loaded.clone()),
-        source: log_source(&a.log_args)?,
+        source: log_source(&a.log_args, None)?,
         payload,
         opts: GainsOptions {
-            condition: condition_opts(&a.log_args)?,
-            decimate: a.log_args.decimate,
+            condition: condition_opts(&a.log_args, a.filter.cutoff)?,
+            decimate: a.filter.decimate,
             max_rel_std: a.max_rel_std,
             progress: bars.sink(),
             ..Default::default()

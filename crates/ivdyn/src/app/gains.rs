@@ -42,27 +42,11 @@ pub struct KnownPayload {
 impl KnownPayload {
     /// From its parts as a user gives them; errors name the option.
     pub fn from_parts(mass: f64, com: Option<&[f64]>, inertia: Option<&[f64]>) -> Result<Self> {
-        if !(mass.is_finite() && mass > 0.0) {
-            return Err(bad("payload_mass", format!("must be positive, got {mass} (it sets the scale of every gain)")));
+        if inertia.is_some() && com.is_none() {
+            return Err(bad("payload_inertia", "needs payload_com (the inertia is about the COM)".into()));
         }
-        let com = match com {
-            Some(c) if c.len() != 3 || c.iter().any(|x| !x.is_finite()) => {
-                return Err(bad("payload_com", "needs 3 finite values x, y, z (m) in the last link's frame".into()));
-            }
-            c => c.map(|c| [c[0], c[1], c[2]]),
-        };
-        let inertia = match inertia {
-            Some(_) if com.is_none() => {
-                return Err(bad("payload_inertia", "needs payload_com (the inertia is about the COM)".into()));
-            }
-            Some(i) if i.len() != 6 || i.iter().any(|x| !x.is_finite()) => {
-                return Err(bad(
-                    "payload_inertia",
-                    "needs 6 finite values Ixx, Ixy, Ixz, Iyy, Iyz, Izz (kg m^2)".into(),
-                ));
-            }
-            i => i.map(|i| [i[0], i[1], i[2], i[3], i[4], i[5]]),
-        };
+        // the mass sets the scale of every gain: checked like any payload's
+        let (mass, com, inertia) = crate::limits::payload_parts(mass, com, inertia)?;
         Ok(KnownPayload { mass, com, inertia })
     }
 

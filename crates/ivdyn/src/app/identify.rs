@@ -141,6 +141,21 @@ pub struct IdentifyOptions {
     pub consistent: bool,
 }
 
+/// Most IDIM-IV iterations (each is a closed-loop simulation of the whole log).
+pub const MAX_IDIM_ITER: usize = 1000;
+
+impl IdentifyOptions {
+    /// Rejects option values the fit cannot use (docs/reliability.md): a held-out share
+    /// outside `[0, 0.9]`, base-parameter states outside `1..=MAX_BASE_SAMPLES`, IDIM-IV
+    /// iterations outside `1..=MAX_IDIM_ITER` or a tolerance outside `(0, 1)`.
+    pub fn check(&self) -> Result<()> {
+        crate::limits::in_range("holdout", self.validation_fraction, 0.0, 0.9)?;
+        crate::limits::count_in("base_samples", self.base_samples, 1, ident::base::MAX_BASE_SAMPLES)?;
+        crate::limits::count_in("idim_max_iter", self.idim_max_iter, 1, MAX_IDIM_ITER)?;
+        crate::limits::positive_up_to("idim_tol", self.idim_tol, 0.5)
+    }
+}
+
 impl Default for IdentifyOptions {
     fn default() -> Self {
         IdentifyOptions {
@@ -252,7 +267,7 @@ pub(crate) fn split_ranges(
     if opts.validation_log.is_some() || opts.validation_fraction <= 0.0 {
         (edge..t - edge, None)
     } else {
-        let cut = ((1.0 - opts.validation_fraction.min(0.9)) * t as f64) as usize;
+        let cut = ((1.0 - opts.validation_fraction) * t as f64) as usize;
         (edge..cut.max(edge), Some(cut.max(edge)..t - edge))
     }
 }
@@ -288,6 +303,7 @@ pub fn identify(robot: &Robot, log: &JointLog, opts: &IdentifyOptions) -> Result
 /// [`identify`] on several logs of the same arm at once: their segments are conditioned
 /// and filtered apart and fitted together; the held-out tail is the last log's.
 pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) -> Result<IdentifyReport> {
+    opts.check()?;
     let robot = &starting_shapes(robot, opts.coulomb)?;
     let n = robot.dof();
     let mut notes = vec![];

@@ -6,6 +6,7 @@ use serde::Serialize;
 
 use crate::dsp;
 use crate::error::{Error, Result};
+use crate::limits;
 use crate::log::JointLog;
 use std::path::{Path, PathBuf};
 
@@ -182,6 +183,7 @@ pub fn fourier_trajectory(robot: &Robot, opts: &SimulateOptions) -> (Vec<f64>, V
 /// A synthetic log: the true model's inverse dynamics (`rnea`, with payload and friction)
 /// along the trajectory, then noise and quantisation of the recorded `q` and `tau`.
 pub fn simulate(robot: &Robot, traj: &Trajectory, opts: &SimulateOptions) -> Result<JointLog> {
+    opts.check()?;
     let n = robot.dof();
     let truth = true_robot(robot, opts)?;
     let (t, q, qd, qdd) = match traj {
@@ -225,7 +227,7 @@ pub fn simulate(robot: &Robot, traj: &Trajectory, opts: &SimulateOptions) -> Res
             *v = (*v / r).round() * r;
         }
     }
-    Ok(JointLog {
+    let log = JointLog {
         joint_names: robot.joint_names.clone(),
         t0_ns: 0,
         t,
@@ -235,7 +237,32 @@ pub fn simulate(robot: &Robot, traj: &Trajectory, opts: &SimulateOptions) -> Res
         u,
         current: None,
         truncated: false,
-    })
+    };
+    check_simulated(&log)?;
+    Ok(log)
+}
+
+/// The simulated values are finite and within [`limits::MAX_MAGNITUDE`]: options that
+/// are each in range can still combine into torques no reader accepts (a 1e4 kg payload
+/// on a long arm, a URDF with huge inertials); that must fail here, not write the log.
+fn check_simulated(log: &JointLog) -> Result<()> {
+    let n = log.dof().max(1);
+    for (field, a) in log.fields() {
+        let Some(a) = a else { continue };
+        if let Some(i) = a.iter().position(|x| !(x.abs() <= limits::MAX_MAGNITUDE)) {
+            return Err(Error::Diverged {
+                what: "simulate".into(),
+                sample: i / n,
+                detail: format!(
+                    ": joint '{}' {field} is {:e}, beyond the {:e} a log may hold (check the payload, friction and noise options, and the URDF's inertials)",
+                    log.joint_names[i % n],
+                    a[i],
+                    limits::MAX_MAGNITUDE
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 fn bad_option(option: &str, msg: String) -> Error {
@@ -253,56 +280,50 @@ impl PayloadSpec {
                 _ => Err(bad_option("payload_com/payload_inertia", "need payload_mass".into())),
             };
         };
-        if !(m.is_finite() && m > 0.0) {
-            return Err(bad_option("payload_mass", format!("must be positive, got {m}")));
-        }
-        if com.is_some_and(|c| c.len() != 3 || c.iter().any(|x| !x.is_finite())) {
-            return Err(bad_option("payload_com", "needs 3 values x, y, z (m), all finite".into()));
-        }
-        if inertia.is_some_and(|i| i.len() != 6 || i.iter().any(|x| !x.is_finite())) {
-            return Err(bad_option(
-                "payload_inertia",
-                "needs 6 values Ixx, Ixy, Ixz, Iyy, Iyz, Izz (kg m^2), all finite".into(),
-            ));
-        }
-        let com = com.map(|c| [c[0], c[1], c[2]]).unwrap_or([0.0; 3]);
-        let inertia = inertia.map(|i| [i[0], i[1], i[2], i[3], i[4], i[5]]).unwrap_or([0.0; 6]);
+        let (m, com, inertia) = crate::limits::payload_parts(m, com, inertia)?;
+        let (com, inertia) = (com.unwrap_or([0.0; 3]), inertia.unwrap_or([0.0; 6]));
         Ok(Some(PayloadSpec { mass: m, com, inertia }))
     }
 }
 
-/// Most samples one `simulate` run produces (`duration * rate`): every array of the log is
-/// allocated at this length up front, so an option must not size it unbounded (`--duration
-/// 1e12` asked for 4 PB). 10 million is 2.8 h at 1 kHz (`make bench-hour` needs 3.6
-/// million), about 3 GB for a 6-joint arm.
-pub const MAX_SIMULATE_SAMPLES: f64 = 1e7;
+/// Most bits of a simulated encoder: beyond 52 the step `2 pi / 2^bits` is below the
+/// spacing of f64 angles near pi, so the rounding would do nothing.
+pub const MAX_ENCODER_BITS: u32 = 52;
 
 impl SimulateOptions {
-    /// Rejects values that cannot give a log: non-finite or non-positive duration and
-    /// rate, more than [`MAX_SIMULATE_SAMPLES`] samples, negative or non-finite noise and
-    /// amplitude.
+    /// Rejects values that cannot give a log (docs/reliability.md): non-finite or
+    /// non-positive duration and rate, more than [`limits::MAX_SAMPLES`] samples, harmonics
+    /// outside `1..=MAX_HARMONICS` or above the Nyquist frequency, noises, amplitude,
+    /// friction and torque resolution outside `[0, MAX_MAGNITUDE]`, encoder bits outside
+    /// `1..=MAX_ENCODER_BITS`.
     pub fn check(&self) -> Result<()> {
-        for (name, x) in [("duration", self.duration_s), ("rate", self.rate_hz)] {
+        for (name, x) in [("duration", self.duration_s), ("rate", self.rate_hz), ("base_freq", self.base_freq_hz)] {
             if !(x > 0.0 && x.is_finite()) {
                 return Err(bad_option(name, format!("must be finite and > 0, got {x}")));
             }
         }
-        let samples = self.duration_s * self.rate_hz;
-        if !(samples <= MAX_SIMULATE_SAMPLES) {
+        limits::samples_bounded(self.duration_s, self.rate_hz)?;
+        limits::count_in("harmonics", self.harmonics, 1, limits::MAX_HARMONICS)?;
+        let top = self.harmonics as f64 * self.base_freq_hz;
+        if !(top < 0.5 * self.rate_hz) {
             return Err(bad_option(
-                "duration",
+                "base_freq",
                 format!(
-                    "{} s at {} Hz is {samples:.3e} samples; at most {MAX_SIMULATE_SAMPLES:.0e} per run (a shorter duration or a lower rate)",
-                    self.duration_s, self.rate_hz
+                    "{} harmonics of {} Hz reach {top} Hz, above the Nyquist frequency {} Hz of the rate",
+                    self.harmonics,
+                    self.base_freq_hz,
+                    0.5 * self.rate_hz
                 ),
             ));
         }
+        let mag = limits::MAX_MAGNITUDE;
         for (name, x) in [("noise", self.noise_tau), ("noise_q", self.noise_q), ("amplitude", self.amplitude)] {
-            if !(x >= 0.0 && x.is_finite()) {
-                return Err(bad_option(name, format!("must be finite and >= 0, got {x}")));
-            }
+            limits::in_range(name, x, 0.0, mag)?;
         }
-        Ok(())
+        limits::in_range("tau_resolution", self.tau_resolution.unwrap_or(0.0), 0.0, mag)?;
+        limits::count_in("encoder_bits", self.encoder_bits.unwrap_or(1) as usize, 1, MAX_ENCODER_BITS as usize)?;
+        limits::all_in_range("fc", self.fc.as_deref().unwrap_or(&[]), 0.0, mag)?;
+        limits::all_in_range("fv", self.fv.as_deref().unwrap_or(&[]), 0.0, mag)
     }
 }
 

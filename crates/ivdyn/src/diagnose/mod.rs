@@ -68,6 +68,19 @@ pub struct DiagnoseOptions {
     pub urdf_name: String,
 }
 
+impl DiagnoseOptions {
+    /// Rejects option values the search cannot use (docs/reliability.md): `alpha` outside
+    /// `(0, 0.5]`, `min_effect` outside `[0, 1e3]` noise standard deviations, `min_share`
+    /// outside `[0, 1]`, block and step counts outside their bounds.
+    pub fn check(&self) -> crate::error::Result<()> {
+        crate::limits::positive_up_to("alpha", self.alpha, 0.5)?;
+        crate::limits::in_range("min_effect", self.min_effect, 0.0, 1e3)?;
+        crate::limits::in_range("min_share", self.min_share, 0.0, 1.0)?;
+        crate::limits::count_in("blocks_per_fold", self.blocks_per_fold, 1, 1000)?;
+        crate::limits::count_in("max_steps", self.max_steps, 0, 100)
+    }
+}
+
 impl Default for DiagnoseOptions {
     fn default() -> Self {
         DiagnoseOptions {

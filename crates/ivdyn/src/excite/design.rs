@@ -9,6 +9,7 @@ use super::{Criterion, ExciteOptions, ExciteReport, RandomComparison, Scores};
 use crate::Robot;
 use crate::error::{Error, Result};
 use crate::ident::{BaseParams, robot_base_params};
+use crate::limits;
 use ivdyn_core::params::{FC, drive_col};
 use ivdyn_core::rng::Rng;
 
@@ -66,18 +67,44 @@ pub fn design(robot: &Robot, opts: &ExciteOptions) -> Result<ExciteReport> {
     })
 }
 
-/// Rejects options the design cannot use: fewer than 2 harmonics, non-positive duration,
-/// f0 or rate, a margin outside `[0, 0.5)`, no start or fewer than 2 samples.
+/// Most random starts, L-BFGS iterations per start, and random trajectories compared: each
+/// is a loop of whole criterion evaluations, so an unbounded count is a hang.
+pub const MAX_STARTS: usize = 1000;
+/// See [`MAX_STARTS`].
+pub const MAX_ITERATIONS: usize = 100_000;
+/// See [`MAX_STARTS`].
+pub const MAX_RANDOM: usize = 10_000;
+/// Most samples of one period the criterion is evaluated on.
+pub const MAX_OPT_SAMPLES: usize = 100_000;
+
+/// Rejects options the design cannot use (docs/reliability.md): harmonics outside
+/// `2..=MAX_HARMONICS` or reaching the Nyquist frequency, non-positive duration, f0 or
+/// rate, more than `MAX_SAMPLES` written samples, a margin outside `[0, 0.5)`, counts
+/// outside their bounds, limits beyond `MAX_MAGNITUDE`.
 fn check_options(opts: &ExciteOptions) -> Result<()> {
     let bad = |option: &str, msg: String| Error::Option { option: option.into(), msg };
     let h = opts.harmonics;
     if h < 2 {
         return Err(bad("harmonics", format!("must be at least 2 (one is used by the rest constraints), got {h}")));
     }
+    limits::count_in("harmonics", h, 2, limits::MAX_HARMONICS)?;
     for (what, v) in [("duration", opts.duration_s), ("f0", opts.f0_hz), ("rate", opts.rate_hz)] {
         if !(v > 0.0 && v.is_finite()) {
             return Err(bad(what, format!("must be positive, got {v}")));
         }
+    }
+    limits::samples_bounded(opts.duration_s, opts.rate_hz)?;
+    // the written samples must resolve the highest harmonic
+    let top = h as f64 * opts.f0_hz;
+    if !(top < 0.5 * opts.rate_hz) {
+        return Err(bad(
+            "f0",
+            format!(
+                "{h} harmonics of {} Hz reach {top} Hz, above the Nyquist frequency {} Hz of --rate",
+                opts.f0_hz,
+                0.5 * opts.rate_hz
+            ),
+        ));
     }
     if !(0.0..0.5).contains(&opts.margin) {
         return Err(bad("margin", format!("must be in [0, 0.5), got {}", opts.margin)));
@@ -85,8 +112,21 @@ fn check_options(opts: &ExciteOptions) -> Result<()> {
     if opts.starts == 0 {
         return Err(bad("starts", "must be at least 1".into()));
     }
+    limits::count_in("starts", opts.starts, 1, MAX_STARTS)?;
+    limits::count_in("iterations", opts.iterations, 0, MAX_ITERATIONS)?;
+    limits::count_in("random", opts.random_draws, 0, MAX_RANDOM)?;
     if opts.opt_samples < 2 {
         return Err(bad("opt_samples", format!("must be at least 2, got {}", opts.opt_samples)));
+    }
+    limits::count_in("opt_samples", opts.opt_samples, 2, MAX_OPT_SAMPLES)?;
+    // non-positive and non-finite limits are refused per joint, by name, in `bounds`
+    for (what, v) in [("acc_limit", &opts.acc_limit[..]), ("vel_limit", opts.vel_limit.as_deref().unwrap_or(&[]))] {
+        if let Some(x) = v.iter().find(|x| x.is_finite() && **x > limits::MAX_MAGNITUDE) {
+            return Err(bad(
+                what,
+                format!("must be at most {}, got {}", limits::num(limits::MAX_MAGNITUDE), limits::num(*x)),
+            ));
+        }
     }
     Ok(())
 }
