@@ -300,7 +300,7 @@ fn check_log(robot: &Robot, after: &JointLog) -> Result<()> {
             robot: robot.joint_names.clone(),
         });
     }
-    Ok(())
+    crate::prep::hygiene::torque_check(after)
 }
 
 /// The conditioned log's torque residual (measured - nominal `rnea`) and payload regressor

@@ -83,7 +83,7 @@ fn check_log(robot: &Robot, log: &JointLog, what: &str) -> Result<()> {
     if log.tau.is_none() {
         return Err(Error::NoTorque { what: what.into(), needed_by: "identification".into() });
     }
-    Ok(())
+    prep::hygiene::torque_check(log)
 }
 
 /// Every log conditioned into segments, on the first log's sample time (a later log with

@@ -197,6 +197,7 @@ impl Block {
 /// Deduplication, sample-time check and conditioning of the raw stream.
 struct Front {
     n: usize,
+    joints: Vec<String>,
     file: PathBuf,
     max_jitter: f64,
     diff: (usize, Option<f64>),
@@ -216,16 +217,25 @@ struct Front {
     samples: usize,
     duplicates: usize,
     emitted: usize,
+    /// Raw samples received (the index the hygiene errors name).
+    received: usize,
+    /// Joints whose torque was nonzero somewhere ([`prep::hygiene::zero_torque_check`]).
+    nonzero: Vec<bool>,
+    /// Re-published samples ([`prep::hygiene::repeated_samples`]), and the row compared.
+    repeat: prep::hygiene::RepeatWatch,
+    row: Vec<f64>,
 }
 
 impl Front {
-    fn new(n: usize, file: &Path, opts: &IdentifyOptions) -> Self {
+    fn new(joints: &[String], file: &Path, opts: &IdentifyOptions) -> Self {
+        let n = joints.len();
         let diff = match opts.condition.diff {
             DiffMethod::Butterworth { order, cutoff_hz } => (order, cutoff_hz),
             _ => (dsp::DEFAULT_ORDER, None),
         };
         Front {
             n,
+            joints: joints.to_vec(),
             file: file.to_path_buf(),
             max_jitter: opts.condition.max_jitter,
             diff,
@@ -243,6 +253,10 @@ impl Front {
             samples: 0,
             duplicates: 0,
             emitted: 0,
+            received: 0,
+            nonzero: vec![false; n],
+            repeat: Default::default(),
+            row: Vec::with_capacity(2 * n),
         }
     }
 
@@ -253,9 +267,18 @@ impl Front {
     /// Takes a raw batch; conditioned rows that are final go to `out`. `Ok(Err(reason))`:
     /// the stamps need resampling.
     fn push(&mut self, b: RawBatch, out: &mut Block) -> Result<std::result::Result<(), String>> {
-        if b.tau.is_none() {
+        let Some(tau) = &b.tau else {
             return Err(Error::NoTorque { what: "log".into(), needed_by: "identification".into() });
+        };
+        // the in-memory path's hygiene rules, on each batch as it comes
+        for (field, a) in [("q", Some(&b.q)), ("qd", b.qd.as_ref()), ("tau", Some(tau))] {
+            if let Some(a) = a {
+                prep::hygiene::magnitude_in(field, a, &self.joints, self.received)
+                    .map_err(|e| self.log_err(e.to_string()))?;
+            }
         }
+        prep::hygiene::nonzero_joints(tau, self.n, &mut self.nonzero);
+        self.received += b.stamps.len();
         self.has_qd = b.qd.is_some();
         if self.dt.is_none() {
             self.probed += b.stamps.len();
@@ -315,6 +338,16 @@ impl Front {
                     )));
                 }
             }
+            // the in-memory path drops re-published samples and resamples the holes
+            self.row.clear();
+            self.row.extend_from_slice(&b.q[k * n..(k + 1) * n]);
+            self.row.extend(b.qd.iter().flat_map(|qd| &qd[k * n..(k + 1) * n]));
+            if let Some(run) = self.repeat.push(&self.row) {
+                return Ok(Err(format!(
+                    "{run} re-published sample(s) (the previous sample repeated under new stamps) before sample {}; the log needs resampling",
+                    self.samples + self.duplicates
+                )));
+            }
             self.last = Some(s);
             self.samples += 1;
             q.extend_from_slice(&b.q[k * n..(k + 1) * n]);
@@ -333,6 +366,8 @@ impl Front {
 
     /// Ends the stream (a log shorter than the probe is conditioned here).
     fn finish(&mut self, out: &mut Block) -> Result<std::result::Result<(), String>> {
+        prep::hygiene::zero_torque_check(&self.nonzero, &self.joints, self.received)
+            .map_err(|e| self.log_err(e.to_string()))?;
         if self.dt.is_none() {
             if self.probed < 2 {
                 return Err(self.log_err(format!("only {} samples", self.probed)));
@@ -391,7 +426,6 @@ fn streamed_summary(robot: &Robot, info: &PassInfo) -> prep::ConditionSummary {
 struct PassInfo {
     dt: f64,
     /// Samples after dropping duplicated stamps.
-    #[allow(dead_code)]
     samples: usize,
     duplicates: usize,
     truncated: bool,
@@ -408,7 +442,7 @@ fn conditioned_pass(
 ) -> Result<Streamed<PassInfo>> {
     let n = read.joint_names.len();
     let (rx, reader) = spawn_reader(path, read);
-    let mut front = Front::new(n, path, opts);
+    let mut front = Front::new(&read.joint_names, path, opts);
     let mut block = Block::default();
     let mut first = 0;
     let mut outcome: Result<std::result::Result<(), String>> = Ok(Ok(()));
@@ -789,10 +823,13 @@ fn accumulate(
     instrument: bool,
     holdout: bool,
     what: &str,
+    samples: Option<usize>,
 ) -> Result<Streamed<Accumulated>> {
     let n = robot.dof();
     let b = base.base_count();
-    let Some(hint) = message_count(path, &read.topic)?.map(|c| c as usize) else {
+    let Some(hint) = samples
+        .map_or_else(|| Ok(message_count(path, &read.topic)?.map(|c| c as usize)), |s| Ok::<_, Error>(Some(s)))?
+    else {
         return Ok(Streamed::Unsupported(format!(
             "{what}: the MCAP file has no summary statistics (message count unknown)"
         )));
@@ -851,6 +888,7 @@ pub fn identify_mcap(
     read: &ReadOptions,
     opts: &IdentifyOptions,
 ) -> Result<Streamed<IdentifyReport>> {
+    opts.check()?;
     if let Some(why) = unsupported(opts, read) {
         return Ok(Streamed::Unsupported(why));
     }
@@ -866,10 +904,21 @@ pub fn identify_mcap(
         let _st = Stage::begin(&opts.progress, "base parameters", 0);
         super::identify::identify_base(robot, opts)?
     };
-    let main = match accumulate(robot, &base, path, read, opts, true, validation.is_none(), "log")? {
+    let holdout = validation.is_none();
+    let mut main = match accumulate(robot, &base, path, read, opts, true, holdout, "log", None)? {
         Streamed::Done(a) => a,
         Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(w)),
     };
+    // duplicated stamps (or a truncated file) make the message count overstate the
+    // samples: the held-out tail is then placed again from the count now known, in a
+    // second pass, so that it is the in-memory path's tail exactly
+    if holdout && main.expected != main.decimated {
+        let samples = Some(main.info.samples);
+        main = match accumulate(robot, &base, path, read, opts, true, holdout, "log (split placed again)", samples)? {
+            Streamed::Done(a) => a,
+            Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(w)),
+        };
+    }
     let mut notes = vec![];
     if opts.coulomb == super::identify::CoulombMode::Auto {
         notes.push("Coulomb friction kept as sign(qd): a streamed log is not held to choose its shape per joint (--in-memory chooses it)".into());
@@ -888,7 +937,7 @@ pub fn identify_mcap(
         ));
     }
     let validation = match validation {
-        Some(v) => match accumulate(robot, &base, v, read, opts, false, false, "validation log")? {
+        Some(v) => match accumulate(robot, &base, v, read, opts, false, false, "validation log", None)? {
             Streamed::Done(a) => Some(("validation log".to_string(), a.fit)),
             Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(format!("validation log: {w}"))),
         },

@@ -19,6 +19,7 @@ use crate::log::JointLog;
 
 /// Diagnoses `log` against the nominal `robot` (module docs for the method).
 pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result<Diagnosis> {
+    opts.check()?;
     let n = robot.dof();
     if log.dof() != n {
         return Err(Error::JointMismatch {
@@ -27,6 +28,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
             robot: robot.joint_names.clone(),
         });
     }
+    crate::prep::hygiene::torque_check(log)?;
     let p = prepare_best(robot, log, opts)?;
     let ctx = Ctx::new(robot, &p, opts)?;
     let t_len = p.s.t.len();

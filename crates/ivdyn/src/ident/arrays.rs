@@ -352,6 +352,8 @@ fn check_spec(spec: &TerminalSpec, n: usize) -> Result<()> {
 pub fn terminal_base(robot: &Robot, spec: &TerminalSpec, samples: usize, seed: u64) -> Result<BaseParams> {
     let n = robot.dof();
     check_spec(spec, n)?;
+    // the sampled rows are allocated at once
+    super::base::check_base_samples(samples)?;
     let names = terminal_names(robot, spec);
     let phi = crate::with_model!(&robot.model, m => terminal_rows_n(&**m, spec, samples, seed));
     Ok(BaseParams::from_rows(&phi, &names))

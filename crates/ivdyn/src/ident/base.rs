@@ -264,6 +264,19 @@ pub fn robot_base_params(robot: &crate::Robot, samples: usize, seed: u64) -> Res
 /// default is 100; the numerical rank settles within a few hundred.
 pub const MAX_BASE_SAMPLES: usize = 20_000;
 
+/// `samples` random states at most [`MAX_BASE_SAMPLES`] (each base-parameter search).
+pub fn check_base_samples(samples: usize) -> Result<()> {
+    if samples > MAX_BASE_SAMPLES {
+        return Err(Error::Option {
+            option: "samples".into(),
+            msg: format!(
+                "must be at most {MAX_BASE_SAMPLES}, got {samples} (random states for the base parameters; a few hundred suffice)"
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// [`robot_base_params`] over the `10 N` inertial columns only (`rigid_only`), as a
 /// rigid-body-only fit (e.g. Pinocchio's regressor) uses them, or over all `14 N`.
 pub fn robot_base_params_with(robot: &crate::Robot, samples: usize, seed: u64, rigid_only: bool) -> Result<BaseParams> {
@@ -285,14 +298,7 @@ pub fn robot_base_params_excluding(
     let p = if rigid_only { ivdyn_core::params::LINK_PARAMS * n } else { p_all };
     // the sampled regressor is `samples * dof x p`, allocated at once: bounded so that an
     // argument cannot ask for terabytes (or overflow `samples * n`)
-    if samples > MAX_BASE_SAMPLES {
-        return Err(Error::Option {
-            option: "samples".into(),
-            msg: format!(
-                "must be at most {MAX_BASE_SAMPLES}, got {samples} (random states for the base parameters; a few hundred suffice)"
-            ),
-        });
-    }
+    check_base_samples(samples)?;
     if samples * n < p {
         return Err(Error::Dimension {
             what: "samples * dof (rows; must be >= parameter count)".into(),

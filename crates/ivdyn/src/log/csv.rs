@@ -16,7 +16,7 @@ use std::fs::File;
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::Path;
 
-use super::{JointLog, name_list};
+use super::{JointLog, first_duplicate, name_list};
 use crate::error::{Error, Result};
 
 /// Column suffixes, in the order of [`JointLog`]'s arrays (`i`: [`JointLog::current`]).
@@ -25,13 +25,18 @@ const FIELDS: [&str; 5] = ["q", "qd", "tau", "u", "i"];
 /// Reads a CSV joint log, returning the joints in the order of `joint_names`.
 pub fn read_csv<S: AsRef<str>>(path: impl AsRef<Path>, joint_names: &[S]) -> Result<JointLog> {
     let path = path.as_ref();
+    let file = File::open(path).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })?;
+    read_csv_from(BufReader::new(file), path, joint_names)
+}
+
+/// [`read_csv`] on any buffered byte source; `path` names it in error messages.
+pub fn read_csv_from<S: AsRef<str>>(rd: impl BufRead, path: &Path, joint_names: &[S]) -> Result<JointLog> {
     let err = |msg: String| log_err(path, msg);
     let io = |e: std::io::Error| Error::Io { file: path.to_path_buf(), source: e };
     let want: Vec<String> = joint_names.iter().map(|s| s.as_ref().to_string()).collect();
     if want.is_empty() {
         return Err(err("no joint names given to match the log against".into()));
     }
-    let rd = BufReader::new(File::open(path).map_err(io)?);
     let mut header: Option<Header> = None;
     let mut log = JointLog { joint_names: want.clone(), ..Default::default() };
     let mut data: [Vec<f64>; 5] = Default::default();
@@ -90,6 +95,9 @@ impl Header {
     fn parse(path: &Path, cells: &[&str], want: &[String], lineno: usize) -> Result<Header> {
         let err = |msg: String| log_err(path, msg);
         let h: Vec<String> = cells.iter().map(|c| c.trim_matches('"').to_string()).collect();
+        if let Some((name, a, b)) = first_duplicate(&h) {
+            return Err(err(format!("line {lineno}: column '{name}' appears twice (columns {} and {})", a + 1, b + 1)));
+        }
         let tcol = h.iter().position(|c| c == "t").ok_or_else(|| {
             err(format!("line {lineno}: no time column 't' in the header; columns are {}", name_list(&h)))
         })?;

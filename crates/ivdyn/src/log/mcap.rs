@@ -18,7 +18,7 @@ use ::mcap::records::Record;
 use ::mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use super::cdr::{JointState, decode_joint_state_into};
-use super::{JointLog, name_list};
+use super::{JointLog, first_duplicate, name_list};
 use crate::error::{Error, Result};
 
 /// The schema names accepted for JointState (ROS 2, and the ROS 1 spelling some
@@ -200,6 +200,9 @@ impl TopicState {
         let k = self.count;
         let topic = &self.topic;
         if m.name != self.cached_names {
+            if let Some((name, a, b)) = first_duplicate(&m.name) {
+                return Err(format!("topic {topic}, sample {k}: joint '{name}' is named twice (entries {a} and {b})"));
+            }
             let mut map = Vec::with_capacity(want.len());
             let mut missing = vec![];
             for w in want {
@@ -312,6 +315,12 @@ where
     stream(source, name, None, opts, f)
 }
 
+/// Largest MCAP record, and largest chunk once decompressed, that is read (bytes): the
+/// reader holds one decompressed chunk at a time, so this bounds its memory whatever the
+/// file claims (a 157 KB file used to decompress to 930 MB). Recorders write chunks of
+/// about 1 MB; 256 MiB leaves room for chunks of camera images beside the joint states.
+pub const MAX_MCAP_RECORD: usize = 256 << 20;
+
 /// The streaming pass behind [`for_each_sample`]: reads `src` through a [`LinearReader`]
 /// and hands each record to a [`Pass`].
 fn stream<R: Read, F>(mut src: R, path: &Path, size: Option<u64>, opts: &ReadOptions, mut f: F) -> Result<StreamSummary>
@@ -320,7 +329,7 @@ where
 {
     let mut pass = Pass::new(path, opts)?;
     let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default().with_validate_chunk_crcs(true).with_record_length_limit(1 << 30),
+        LinearReaderOptions::default().with_validate_chunk_crcs(true).with_record_length_limit(MAX_MCAP_RECORD),
     );
     let size_note = size.map(|s| format!(" of {s}")).unwrap_or_default();
     while let Some(ev) = reader.next_event() {
@@ -424,6 +433,11 @@ impl<'o> Pass<'o> {
             ))),
             McapError::BadMagic => {
                 Err(self.err(format!("not an MCAP file (bad magic bytes at the start or end; {offset} bytes read)")))
+            }
+            McapError::ChunkTooLarge(len) | McapError::RecordTooLarge { len, .. } | McapError::ChunkBufferTooLarge(len) => {
+                Err(self.err(format!(
+                    "a record or decompressed chunk of {len} bytes at or before byte {offset}{size_note}: at most {MAX_MCAP_RECORD} bytes are read (a corrupt length?)"
+                )))
             }
             e => {
                 Err(self

@@ -29,9 +29,10 @@ pub mod read;
 
 use std::path::Path;
 
-pub use self::csv::{read_csv, write_csv};
+pub use self::csv::{read_csv, read_csv_from, write_csv};
 pub use self::mcap::{
-    CommandAlign, CommandField, ReadOptions, Sample, Source, StreamSummary, for_each_sample, read_mcap,
+    CommandAlign, CommandField, ReadOptions, Sample, Source, StreamSummary, for_each_sample, for_each_sample_from,
+    read_mcap,
 };
 pub use self::mcap_out::{
     Compression, MEASURED_TOPIC, McapWriter, PREDICTED_TOPIC, PredictionWriter, RESIDUAL_TOPIC, TopicId, write_mcap,
@@ -173,6 +174,20 @@ impl JointLog {
 }
 
 /// Formats a name list for error messages: `[a, b, c]` (at most 20 names, then "...").
+/// The first name that occurs twice in `names`, with both positions: a JointState or a
+/// CSV header naming a joint twice is refused, since either entry could be the joint's
+/// (the first used to win silently, and a stale duplicate made a joint look motionless).
+/// A hash set, not a pairwise scan: the list's length comes from the file.
+pub(crate) fn first_duplicate<S: AsRef<str>>(names: &[S]) -> Option<(&str, usize, usize)> {
+    let mut seen = std::collections::HashMap::with_capacity(names.len());
+    for (i, n) in names.iter().enumerate() {
+        if let Some(first) = seen.insert(n.as_ref(), i) {
+            return Some((n.as_ref(), first, i));
+        }
+    }
+    None
+}
+
 pub(crate) fn name_list<S: AsRef<str>>(names: &[S]) -> String {
     let mut s: Vec<&str> = names.iter().take(20).map(|x| x.as_ref()).collect();
     if names.len() > 20 {

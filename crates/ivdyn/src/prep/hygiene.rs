@@ -102,28 +102,57 @@ fn same_row(q: &[f64], qd: Option<&[f64]>, n: usize, a: usize, b: usize) -> bool
 
 /// Samples that repeat the previous sample's `q` (and `qd`) exactly under a later stamp,
 /// in runs of at most [`MAX_REPEAT_RUN`] after which the motion goes on (the row after the
-/// run differs from the one before it). Equal stamps are left to `dedup_stamps`.
+/// run differs from the one before it). Equal stamps are left to `dedup_stamps`, and the
+/// "previous sample" is the first of its stamp, the one `dedup_stamps` keeps: a
+/// re-published copy of the next sample under the previous stamp must not make the next
+/// sample itself look repeated (the streamed path keeps it too).
 pub fn repeated_samples(log: &JointLog) -> Vec<usize> {
-    let (t, n) = (log.len(), log.dof());
+    let n = log.dof();
     let qd = log.qd.as_deref();
+    // the rows dedup_stamps keeps, in order
+    let rows: Vec<usize> = (0..log.len()).filter(|&k| k == 0 || log.t[k] != log.t[k - 1]).collect();
+    let same = |a: usize, b: usize| same_row(&log.q, qd, n, rows[a], rows[b]);
     let mut out = vec![];
     let mut k = 1;
-    while k < t {
-        if log.t[k] == log.t[k - 1] || !same_row(&log.q, qd, n, k, k - 1) {
+    while k < rows.len() {
+        if !same(k, k - 1) {
             k += 1;
             continue;
         }
         // a run k..end of rows equal to row k - 1
         let mut end = k + 1;
-        while end < t && same_row(&log.q, qd, n, end, k - 1) {
+        while end < rows.len() && same(end, k - 1) {
             end += 1;
         }
-        if end - k <= MAX_REPEAT_RUN && end < t {
-            out.extend((k..end).filter(|&i| log.t[i] != log.t[i - 1]));
+        if end - k <= MAX_REPEAT_RUN && end < rows.len() {
+            out.extend(rows[k..end].iter().copied());
         }
         k = end;
     }
     out
+}
+
+/// [`repeated_samples`]' rule as the rows come, for the streamed path (which cannot fill
+/// the holes by resampling, so it hands such a log back): `push` returns the length of a
+/// run of repeated rows that just ended within [`MAX_REPEAT_RUN`].
+#[derive(Debug, Clone, Default)]
+pub struct RepeatWatch {
+    prev: Vec<f64>,
+    run: usize,
+}
+
+impl RepeatWatch {
+    /// The next kept row (`q`, then `qd` when the log has it).
+    pub fn push(&mut self, row: &[f64]) -> Option<usize> {
+        if !self.prev.is_empty() && self.prev == row {
+            self.run += 1;
+            return None;
+        }
+        let ended = std::mem::take(&mut self.run);
+        self.prev.clear();
+        self.prev.extend_from_slice(row);
+        (1..=MAX_REPEAT_RUN).contains(&ended).then_some(ended)
+    }
 }
 
 /// Indices of the samples outside every span of `exclude` (seconds from `t0`).
@@ -214,31 +243,71 @@ pub fn clean<'a>(
     Ok((log, h))
 }
 
-/// Largest magnitude accepted for any logged value (position, velocity, effort, command,
-/// current) in SI units. No arm moves 1e6 rad or m, or 1e6 rad/s, or carries 1e6 N m;
-/// such a value is a corrupt sample, and squared in the regressors (1e300 squared is
-/// infinite) it stalls the linear algebra downstream instead of failing.
-pub const MAX_MAGNITUDE: f64 = 1e6;
+pub use crate::limits::MAX_MAGNITUDE;
 
 /// Refuses a finite value beyond [`MAX_MAGNITUDE`], naming the sample, the joint and the
 /// signal. Non-finite values are left to the finiteness checks, which know whether the
 /// signal is used (a NaN log velocity is harmless when velocities come from positions).
 pub fn magnitude_check(log: &JointLog) -> Result<()> {
-    let n = log.dof().max(1);
     for (field, a) in log.fields() {
-        let Some(a) = a else { continue };
-        if let Some(i) = a.iter().position(|x| x.is_finite() && x.abs() > MAX_MAGNITUDE) {
-            let joint = log.joint_names.get(i % n).map_or("?", String::as_str);
-            return Err(Error::Signal {
-                msg: format!(
-                    "sample {}: joint '{joint}' {field} is {:e}, beyond the {MAX_MAGNITUDE:e} accepted in SI units (a corrupt sample?)",
-                    i / n,
-                    a[i]
-                ),
-            });
+        if let Some(a) = a {
+            magnitude_in(field, a, &log.joint_names, 0)?;
         }
     }
     Ok(())
+}
+
+/// [`magnitude_check`] on one `T x N` array (rows from sample `first` on): the in-memory
+/// and the streamed paths apply the same rule with the same words.
+pub fn magnitude_in(field: &str, a: &[f64], joints: &[String], first: usize) -> Result<()> {
+    let n = joints.len().max(1);
+    if let Some(i) = a.iter().position(|x| x.is_finite() && x.abs() > MAX_MAGNITUDE) {
+        let joint = joints.get(i % n).map_or("?", String::as_str);
+        return Err(Error::Signal {
+            msg: format!(
+                "sample {}: joint '{joint}' {field} is {:e}, beyond the {MAX_MAGNITUDE:e} accepted in SI units (a corrupt sample?)",
+                first + i / n,
+                a[i]
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Refuses joints whose torque is exactly 0 in every one of `samples` samples: no arm
+/// measures a torque of exactly zero throughout a motion (gravity, friction and noise
+/// move it), so the log carries no torque for them (a driver that leaves the effort
+/// field at 0); fitted, every parameter came out 0 with std 0. `nonzero[j]`: joint j's
+/// torque was nonzero somewhere.
+pub fn zero_torque_check(nonzero: &[bool], joints: &[String], samples: usize) -> Result<()> {
+    let zero: Vec<&str> = joints.iter().zip(nonzero).filter(|(_, nz)| !**nz).map(|(j, _)| j.as_str()).collect();
+    if zero.is_empty() || samples == 0 {
+        return Ok(());
+    }
+    Err(Error::Signal {
+        msg: format!(
+            "the torque (effort) of joints {zero:?} is exactly 0 in all {samples} samples: the log carries no torque for them (a driver that does not fill the effort field? with motor currents, give --effort current)"
+        ),
+    })
+}
+
+/// [`zero_torque_check`] on a log's torque (if it has one): run by every job that fits
+/// torques (identify, payload, gains, diagnose), not by the conditioning itself, which
+/// also serves logs whose torque is not used.
+pub fn torque_check(log: &JointLog) -> Result<()> {
+    let Some(tau) = &log.tau else { return Ok(()) };
+    let mut nonzero = vec![false; log.dof()];
+    nonzero_joints(tau, log.dof().max(1), &mut nonzero);
+    zero_torque_check(&nonzero, &log.joint_names, log.len())
+}
+
+/// Which joints' torque is nonzero in at least one sample of the `T x N` array `tau`.
+pub fn nonzero_joints(tau: &[f64], n: usize, acc: &mut [bool]) {
+    for row in tau.chunks_exact(n) {
+        for (a, &x) in acc.iter_mut().zip(row) {
+            *a |= x != 0.0;
+        }
+    }
 }
 
 /// Logged positions of a revolute joint that lie far outside its limits (by more than

@@ -219,6 +219,10 @@ fn type_name(t: &JointType) -> &'static str {
     }
 }
 
+/// Largest joint or COM offset accepted in a URDF (m): no arm's link is a kilometre long,
+/// and offsets far beyond make torques beyond every log's range.
+pub const MAX_URDF_OFFSET: f64 = 1e3;
+
 fn pose(p: &urdf_rs::Pose) -> Transform {
     Transform::from_xyz_rpy(*p.xyz, *p.rpy)
 }
@@ -249,8 +253,43 @@ impl<'a> Builder<'a> {
         let mut b = Self { urdf, file, link_index, parent_joint, child_joints, movable_below: vec![] };
         // every walk below (up to the root, down the subtrees) ends only on a tree
         b.check_loops()?;
+        b.check_numbers()?;
         b.movable_below = b.movable_below_all();
         Ok(b)
+    }
+
+    /// Every joint's origin and limits and every link's inertial origin are finite, and
+    /// offsets at most [`MAX_URDF_OFFSET`]: a NaN origin used to simulate NaN torques, and
+    /// identify then blamed the log.
+    fn check_numbers(&self) -> Result<()> {
+        let bad_pose = |p: &urdf_rs::Pose| {
+            p.xyz.iter().chain(p.rpy.iter()).any(|v| !v.is_finite()) || p.xyz.iter().any(|v| v.abs() > MAX_URDF_OFFSET)
+        };
+        for j in &self.urdf.joints {
+            let err = |msg: String| Error::BadJoint { file: self.file.clone(), joint: j.name.clone(), msg };
+            if bad_pose(&j.origin) {
+                return Err(err(format!(
+                    "origin xyz {:?} rpy {:?}: values must be finite, offsets at most {MAX_URDF_OFFSET} m",
+                    *j.origin.xyz, *j.origin.rpy
+                )));
+            }
+            let l = &j.limit;
+            if [l.lower, l.upper, l.velocity, l.effort].iter().any(|v| v.is_nan()) {
+                return Err(err(format!(
+                    "limit lower {} upper {} velocity {} effort {}: NaN is not a limit",
+                    l.lower, l.upper, l.velocity, l.effort
+                )));
+            }
+        }
+        for link in &self.urdf.links {
+            if bad_pose(&link.inertial.origin) {
+                return Err(self.structure(format!(
+                    "link '{}': inertial origin xyz {:?} rpy {:?}: values must be finite, offsets at most {MAX_URDF_OFFSET} m",
+                    link.name, *link.inertial.origin.xyz, *link.inertial.origin.rpy
+                )));
+            }
+        }
+        Ok(())
     }
 
     fn parent_link(&self, l: usize) -> Option<usize> {
