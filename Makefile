@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install
+.PHONY: demo test venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -67,6 +67,18 @@ py-install: venv
 # py-test runs every pytest suite (python/reference, python/tests, python/tests_io).
 py-test: py-install
 	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q python
+
+## fuzz: every reader fuzzed for FUZZ_SECS seconds each, coverage-guided (cargo-fuzz on
+## nightly, installed here; 1 GB memory and 20 s per input at most). `make test` runs the
+## same targets on mutated seeds for a few seconds (crates/ivdyn-fuzz/tests/smoke.rs).
+FUZZ_SECS ?= 600
+FUZZ_TARGETS := mcap csv urdf params
+fuzz:
+	rustup toolchain install nightly --profile minimal
+	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz --version 0.13.2 --locked
+	$(CARGO) run -q -p ivdyn-fuzz --example write_corpus
+	cd crates/ivdyn-fuzz && for t in $(FUZZ_TARGETS); do \
+	    cargo +nightly fuzz run $$t -- -max_total_time=$(FUZZ_SECS) -rss_limit_mb=1024 -timeout=20 || exit 1; done
 
 ## fixtures: regenerate fixtures/ from Pinocchio and the NumPy reference
 fixtures: venv
