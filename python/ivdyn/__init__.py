@@ -41,6 +41,7 @@ from typing import Optional, Sequence, Tuple
 import numpy as np
 
 from . import _ivdyn
+from ._guard import real_array
 
 __all__ = [
     "Robot", "MAX_DOF", "__version__",
@@ -116,9 +117,10 @@ class Robot:
         parameters are zero (set :attr:`params`); joints ``joint1..``, links ``link1..``
         (link ``i``'s frame is joint ``i``'s frame: origin on joint ``i``'s axis, z along it).
         """
-        vec = lambda x: np.asarray(x, dtype=np.float64).ravel().tolist()  # noqa: E731
-        return cls(_ivdyn.Robot.from_dh(vec(a), vec(d), vec(alpha),
-                                        None if offset is None else vec(offset)))
+        def vec(x, name):
+            return real_array(x, name).ravel().tolist()
+        return cls(_ivdyn.Robot.from_dh(vec(a, "a"), vec(d, "d"), vec(alpha, "alpha"),
+                                        None if offset is None else vec(offset, "offset")))
 
     @classmethod
     def paper(cls) -> "Robot":
@@ -206,7 +208,7 @@ class Robot:
 
     @params.setter
     def params(self, theta) -> None:
-        theta = np.ascontiguousarray(theta, dtype=np.float64)
+        theta = real_array(theta, "params")
         if theta.shape != (self.num_params,):
             raise ValueError(f"params must have shape ({self.num_params},), got {theta.shape}")
         self._r.params = theta
@@ -223,7 +225,7 @@ class Robot:
         out = []
         first = None
         for name, x in zip(names, arrays):
-            a = np.asarray(x, dtype=np.float64)
+            a = real_array(x, name)
             if first is None:
                 first = a.shape
                 if first == (n,):
@@ -325,3 +327,11 @@ class Robot:
         if out is not None:
             return out
         return qdd if batched else qdd[0]
+
+
+# every public entry point: a Rust panic becomes RuntimeError, not PanicException (_guard.py)
+from ._guard import guard as _guard  # noqa: E402
+
+_guard(globals(), tuple(__all__))
+_guard(vars(paper), ("setup", "batch_estimates", "recursive_traces"))
+

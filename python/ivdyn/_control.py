@@ -12,6 +12,7 @@ from typing import Any, Dict, Optional, Sequence, Union
 import numpy as np
 
 from . import _ivdyn
+from ._guard import real_array
 from ._ident import BaseParams
 
 _DRIVE = ("fc", "fv", "ia", "tau0")
@@ -27,10 +28,7 @@ def _native(robot, name: str = "robot"):
 def _rows(x, name: str, t: Optional[int], n: int) -> np.ndarray:
     """``x`` as C-contiguous float64 ``(T, n)`` (``T`` = ``t`` when given), or ValueError."""
     want = f"({'T' if t is None else t}, {n})"
-    try:
-        a = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{name} must be a float array of shape {want}: {e}") from None
+    a = real_array(x, name, shape=want)
     if a.ndim != 2 or a.shape[1] != n or (t is not None and a.shape[0] != t):
         raise ValueError(f"{name} must have shape {want}, got {a.shape}")
     return np.ascontiguousarray(a)
@@ -108,7 +106,7 @@ def terminal_link(robot, q, qd, qdd, tau, method: str = "iv", *, qdd_instr=None,
         cols = _ivdyn.terminal_base(native, k_, drive, f_, 200, 42).independent
     else:
         cols = [int(c) for c in columns]
-    w = None if row_weight is None else [float(x) for x in np.asarray(row_weight, dtype=np.float64).ravel()]
+    w = None if row_weight is None else [float(x) for x in real_array(row_weight, "row_weight").ravel()]
     rec = [] if record is None else [int(r) for r in np.asarray(record).ravel()]
     return _ivdyn.terminal_link(native, q, qd, qdd, tau, cols, k_, drive, f_, method == "iv", z, uu, w,
                                 float(p0), float(min_speed), rec)
@@ -160,7 +158,7 @@ def closed_loop(robot, q_des, qd_des, qdd_des, dt: float, controller: str = "com
     def vec(x, name):
         if x is None:
             return None
-        a = np.asarray(x, dtype=np.float64).ravel()
+        a = real_array(x, name).ravel()
         if a.shape != (n,):
             raise ValueError(f"{name} must have shape ({n},), got {np.shape(x)}")
         return a.tolist()

@@ -11,19 +11,14 @@ from typing import List, Optional, Sequence, Union
 import numpy as np
 
 from . import _ivdyn
+from ._guard import real_array
 
 FitReport = _ivdyn.FitReport
 
 
 def _f64(x, name: str, ndim: int, shape: str) -> np.ndarray:
     """``x`` as C-contiguous float64 with ``ndim`` dimensions, or ``ValueError``."""
-    try:
-        a = np.asarray(x, dtype=np.float64)
-    except (TypeError, ValueError) as e:
-        raise ValueError(f"{name} must be a float array of shape {shape}: {e}") from None
-    if a.ndim != ndim:
-        raise ValueError(f"{name} must have shape {shape}, got {a.shape}")
-    return np.ascontiguousarray(a)
+    return real_array(x, name, ndim, shape)
 
 
 def _names(names, p: int) -> Optional[List[str]]:
@@ -127,7 +122,7 @@ class BaseParams:
     def project(self, theta_full) -> np.ndarray:
         """Full parameters ``(..., P)`` -> base parameters ``(..., B)``."""
         p = self.full_cols
-        t = np.asarray(theta_full, dtype=np.float64)
+        t = real_array(theta_full, "theta_full")
         if t.ndim == 0 or t.shape[-1] != p:
             raise ValueError(f"theta_full must have shape ({p},) or (..., {p}), got {t.shape}")
         flat = np.ascontiguousarray(t.reshape(-1, p))
@@ -138,7 +133,7 @@ class BaseParams:
         """Full regressor ``(..., P)`` (e.g. ``robot.regressor`` output ``(T, N, P)``) ->
         base regressor ``(..., B)``: the independent columns."""
         p = self.full_cols
-        y = np.asarray(Y_full, dtype=np.float64)
+        y = real_array(Y_full, "Y_full")
         if y.ndim == 0 or y.shape[-1] != p:
             raise ValueError(f"Y_full must have shape ({p},) or (..., {p}), got {y.shape}")
         out = self._b.select(np.ascontiguousarray(y.reshape(-1, p)))
@@ -184,12 +179,12 @@ def fit_robot(robot, base: BaseParams, q, qd, qdd, tau, joint_weight=None) -> "F
     n = native.dof
     arrs: List[np.ndarray] = []
     for name, x in (("q", q), ("qd", qd), ("qdd", qdd), ("tau", tau)):
-        x = np.ascontiguousarray(x, dtype=np.float64)
+        x = real_array(x, name)
         if x.ndim != 2 or x.shape[1] != n or (arrs and x.shape[0] != arrs[0].shape[0]):
             t = arrs[0].shape[0] if arrs else "T"
             raise ValueError(f"{name} must have shape ({t}, {n}), got {x.shape}")
         arrs.append(x)
-    w = None if joint_weight is None else np.ascontiguousarray(joint_weight, dtype=np.float64).reshape(-1)
+    w = None if joint_weight is None else real_array(joint_weight, "joint_weight").reshape(-1)
     return _ivdyn.fit_robot(native, base._b, arrs[0], arrs[1], arrs[2], arrs[3], w)
 
 
