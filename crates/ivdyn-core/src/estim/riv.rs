@@ -96,6 +96,9 @@ where
         let den = r + s;
         // scale of the terms by Cauchy-Schwarz: |phi^T P z| <= |phi| |P z|
         let s_scale = phi.norm() * self.pz.norm();
+        if !(w * s_scale).is_finite() {
+            return Err(Error::RowOutOfRange { ratio: w * s_scale });
+        }
         if !(lambda > 0.0 && lambda <= 1.0) || !den.is_finite() || den.abs() <= 1e-12 * (r.abs() + s_scale) {
             return Err(Error::DegenerateUpdate);
         }

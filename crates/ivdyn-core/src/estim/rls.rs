@@ -173,12 +173,12 @@ where
         }
         // s = phi^T P phi
         let s = self.f.dot(&self.g);
+        let innovation = y - phi.dot(&self.theta);
+        guard::check_row(w, s, innovation, self.outlier_gate)?;
         let den = lambda / w + s;
         if !(lambda > 0.0 && lambda <= 1.0) || !(den > 0.0) || !den.is_finite() {
             return Err(Error::DegenerateUpdate);
         }
-        let innovation = y - phi.dot(&self.theta);
-        guard::check_row(w, s, innovation, self.outlier_gate)?;
         // R <- R + eps phi phi^T, i.e. Bierman's update with r = 1 / eps
         let eps = guard::directional_weight(lambda, w, s);
         let alpha = self.bierman(1.0 / eps);
