@@ -45,7 +45,7 @@ fn main() {
     let p = rls.covariance();
     let d = rls.d();
     let symmetric = (p - p.transpose()).norm() <= 1e-15 * p.norm();
-    let spd = p.iter().all(|v| v.is_finite()) && p.clone().cholesky().is_some();
+    let spd = p.iter().all(|v| v.is_finite()) && p.cholesky().is_some();
     let err = (0..P - 2).map(|i| (rls.theta[i] - truth[i]).abs()).fold(0.0, f64::max);
     println!("rows {} in {secs:.1} s ({:.1} ns/row)", rls.count, 1e9 * secs / rows as f64);
     println!("d_j in [{:.3e}, {:.3e}], symmetric {symmetric}, Cholesky {spd}", d.min(), d.max());

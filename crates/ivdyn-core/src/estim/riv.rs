@@ -99,7 +99,7 @@ where
         if !(w * s_scale).is_finite() {
             return Err(Error::RowOutOfRange { ratio: w * s_scale });
         }
-        if !(lambda > 0.0 && lambda <= 1.0) || !den.is_finite() || den.abs() <= 1e-12 * (r.abs() + s_scale) {
+        if !(lambda > 0.0 && lambda <= 1.0 && den.is_finite()) || den.abs() <= 1e-12 * (r.abs() + s_scale) {
             return Err(Error::DegenerateUpdate);
         }
         let innovation = y - phi.dot(&self.theta);

@@ -176,7 +176,7 @@ where
         let innovation = y - phi.dot(&self.theta);
         guard::check_row(w, s, innovation, self.outlier_gate)?;
         let den = lambda / w + s;
-        if !(lambda > 0.0 && lambda <= 1.0) || !(den > 0.0) || !den.is_finite() {
+        if !(lambda > 0.0 && lambda <= 1.0 && den > 0.0 && den.is_finite()) {
             return Err(Error::DegenerateUpdate);
         }
         // R <- R + eps phi phi^T, i.e. Bierman's update with r = 1 / eps
