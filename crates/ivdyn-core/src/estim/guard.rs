@@ -57,7 +57,7 @@ pub(crate) fn check_row(w: f64, s: f64, innovation: f64, gate: f64) -> Result<()
     Ok(())
 }
 
-/// Kulhavý's directional forgetting: the information weight `eps` with which this row
+/// Kulhavý and Kárný's directional forgetting: the information weight `eps` with which this row
 /// enters the information matrix, `R <- R + eps phi phi^T`, `eps = w - (1 - lambda) / s`
 /// (forget the fraction `1 - lambda` of the information along `phi`, then add the row's
 /// `w`). `lambda = 1` or `s = 0` (no direction): `eps = w` exactly.

@@ -15,9 +15,9 @@
 //! Forgetting is exponential (the division by `lambda` above), with an anti-windup cap:
 //! after each row with `lambda < 1`, `P <- S P S`, `S = diag(min(1, sqrt(cap / |P_ii|)))`,
 //! so no `|P_ii|` exceeds `max_variance` (default `p0`, the prior) and a direction that is
-//! never excited stays at the prior instead of growing as `lambda^-k` [the covariance
-//! bound of Åström & Wittenmark, *Adaptive Control*, 2nd ed. 1995, sec. 11.2, applied per
-//! coordinate]. The directional forgetting of [`super::Rls`] needs `phi^T P z > 0` and is
+//! never excited stays at the prior instead of growing as `lambda^-k` (a per-coordinate
+//! form of the bounded-covariance remedy for estimator windup in Åström & Wittenmark,
+//! *Adaptive Control*, 2nd ed. 1995). The directional forgetting of [`super::Rls`] needs `phi^T P z > 0` and is
 //! singular as it tends to 0, which an instrument does not guarantee.
 
 use super::guard;

@@ -8,7 +8,7 @@
 //! number of updates, where the textbook `P - K phi^T P` loses symmetry and definiteness in
 //! floating point.
 //!
-//! Forgetting is directional [Kulhavý 1987; Bittanti, Bolzern, Campi 1990]: each row first
+//! Forgetting is directional [Kulhavý & Kárný 1984; Bittanti, Bolzern, Campi 1990]: each row first
 //! removes the fraction `1 - lambda` of the information held along its own `phi`, then adds
 //! its own, `R <- R - (1 - lambda) phi phi^T / s + w phi phi^T` (`R = P^-1`,
 //! `s = phi^T P phi`). The variance of `phi^T theta` grows by `1 / lambda` as with
@@ -34,8 +34,9 @@
 //! numerical range, and (optionally) outliers are errors that leave the state untouched.
 //!
 //! References: G. J. Bierman, *Factorization Methods for Discrete Sequential Estimation*,
-//! Academic Press 1977, ch. V. R. Kulhavý, "Restricted exponential forgetting in real-time
-//! identification", *Automatica* 23(5):589-600, 1987. S. Bittanti, P. Bolzern, M. Campi,
+//! Academic Press 1977, ch. V. R. Kulhavý, M. Kárný, "Tracking of slowly varying
+//! parameters by directional forgetting", 9th IFAC World Congress, Budapest, 1984 (the
+//! weighted form above, with `w`, is ours). S. Bittanti, P. Bolzern, M. Campi,
 //! "Convergence and exponential convergence of identification algorithms with directional
 //! forgetting factor", *Automatica* 26(5):929-932, 1990.
 
