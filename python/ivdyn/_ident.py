@@ -212,10 +212,21 @@ def payload_from_fit(base: BaseParams, fit: "FitReport", cols: Sequence[int],
     return _ivdyn.payload_from_fit(base._b, fit, [int(c) for c in cols], [str(n) for n in full_names])
 
 
+def _opt_float(x: Optional[float]) -> Optional[float]:
+    return None if x is None else float(x)
+
+
 class Rls:
     """Recursive least squares (Bierman UD form) over scalar rows ``y = phi . theta + e``,
     ``var(e) = 1 / w``; starts at ``theta = 0``, covariance ``p0 I``; ``forgetting`` in
-    ``(0, 1]`` (1 = none).
+    ``(0, 1]`` (1 = none), directional: each row forgets only along its own ``phi``, so a
+    direction that is never excited keeps its prior instead of winding up.
+
+    ``max_variance`` (finite, > 0; ``None`` = ``p0``): anti-windup bound on every factor
+    ``d_j`` of ``P = U D U^T`` under forgetting. ``outlier_gate`` (> 0; ``None`` = no gate):
+    rows whose normalised innovation ``|e| / sqrt(1/w + phi^T P phi)`` exceeds it are
+    refused with ``ValueError`` ("outlier row"). Rows with ``w phi^T P phi > 2e31`` (e.g.
+    ``phi = 1e150``) are always refused with ``ValueError`` ("row out of range").
 
     ``update(phi (P,), y, w=1.0)``; ``update_many(Phi (M, P), y (M,), w (M,) or None)``
     (loop in Rust, GIL released). A degenerate or non-finite row raises with the Rust
@@ -225,8 +236,10 @@ class Rls:
 
     __slots__ = ("_e",)
 
-    def __init__(self, p: int, p0: float = 1e4, forgetting: float = 1.0):
-        self._e = _ivdyn.Rls(int(p), float(p0), float(forgetting))
+    def __init__(self, p: int, p0: float = 1e4, forgetting: float = 1.0,
+                 max_variance: Optional[float] = None, outlier_gate: Optional[float] = None):
+        self._e = _ivdyn.Rls(int(p), float(p0), float(forgetting), _opt_float(max_variance),
+                             _opt_float(outlier_gate))
 
     @property
     def p(self) -> int:
@@ -256,6 +269,16 @@ class Rls:
         """Rows processed."""
         return self._e.count
 
+    @property
+    def max_variance(self) -> float:
+        """Anti-windup bound under forgetting."""
+        return self._e.max_variance
+
+    @property
+    def outlier_gate(self) -> float:
+        """Normalised-innovation gate (``inf`` = none)."""
+        return self._e.outlier_gate
+
     def __repr__(self) -> str:
         return repr(self._e)
 
@@ -267,12 +290,19 @@ class Riv:
     ``update(phi (P,), z (P,), y, w=1.0)``; ``update_many(Phi (M, P), Z (M, P), y (M,),
     w=None)`` (loop in Rust, GIL released). Degenerate updates (instrument uncorrelated
     with the regressor) raise ``RuntimeError`` and leave the state untouched.
+
+    ``forgetting`` is exponential; ``max_variance`` (``None`` = ``p0``) bounds every
+    ``|P_ii|`` under forgetting (a diagonal rescaling ``P <- S P S``). ``outlier_gate`` and
+    the out-of-range rule are those of :class:`Rls`, with ``|phi| |P z|`` for
+    ``phi^T P phi``.
     """
 
     __slots__ = ("_e",)
 
-    def __init__(self, p: int, p0: float = 1e4, forgetting: float = 1.0):
-        self._e = _ivdyn.Riv(int(p), float(p0), float(forgetting))
+    def __init__(self, p: int, p0: float = 1e4, forgetting: float = 1.0,
+                 max_variance: Optional[float] = None, outlier_gate: Optional[float] = None):
+        self._e = _ivdyn.Riv(int(p), float(p0), float(forgetting), _opt_float(max_variance),
+                             _opt_float(outlier_gate))
 
     @property
     def p(self) -> int:
@@ -305,6 +335,16 @@ class Riv:
     def count(self) -> int:
         """Rows processed."""
         return self._e.count
+
+    @property
+    def max_variance(self) -> float:
+        """Anti-windup bound under forgetting."""
+        return self._e.max_variance
+
+    @property
+    def outlier_gate(self) -> float:
+        """Normalised-innovation gate (``inf`` = none)."""
+        return self._e.outlier_gate
 
     def __repr__(self) -> str:
         return repr(self._e)

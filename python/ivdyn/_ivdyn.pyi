@@ -169,7 +169,9 @@ def payload_from_fit(base: BaseParams, fit: FitReport, cols: List[int],
 
 @final
 class Rls:
-    def __new__(cls, p: int, p0: float = 1e4, forgetting: float = 1.0) -> Self: ...
+    def __new__(cls, p: int, p0: float = 1e4, forgetting: float = 1.0,
+                max_variance: Optional[float] = None,
+                outlier_gate: Optional[float] = None) -> Self: ...
     def update(self, phi: _F64, y: float, w: float = 1.0) -> None:
         """``phi`` ``(P,)``"""
     def update_many(self, phi: _F64, y: _F64, w: Optional[_F64] = None) -> None:
@@ -186,10 +188,16 @@ class Rls:
     def count(self) -> int: ...
     @property
     def forgetting(self) -> float: ...
+    @property
+    def max_variance(self) -> float: ...
+    @property
+    def outlier_gate(self) -> float: ...
 
 @final
 class Riv:
-    def __new__(cls, p: int, p0: float = 1e4, forgetting: float = 1.0) -> Self: ...
+    def __new__(cls, p: int, p0: float = 1e4, forgetting: float = 1.0,
+                max_variance: Optional[float] = None,
+                outlier_gate: Optional[float] = None) -> Self: ...
     def update(self, phi: _F64, z: _F64, y: float, w: float = 1.0) -> None:
         """``phi``, ``z`` ``(P,)``"""
     def update_many(self, phi: _F64, z: _F64, y: _F64, w: Optional[_F64] = None) -> None:
@@ -206,6 +214,10 @@ class Riv:
     def count(self) -> int: ...
     @property
     def forgetting(self) -> float: ...
+    @property
+    def max_variance(self) -> float: ...
+    @property
+    def outlier_gate(self) -> float: ...
 
 def read_joint_states(path: Union[str, PathLike], joint_names: List[str],
                       topic: str = "/joint_states",

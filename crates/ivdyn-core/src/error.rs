@@ -42,6 +42,22 @@ pub enum Error {
     /// A recursive estimator update is degenerate (non-positive innovation variance,
     /// or a covariance that lost positive definiteness).
     DegenerateUpdate,
+    /// A recursive-estimator row is finite but out of numerical range: its information
+    /// ratio `w phi^T P phi` (the factor by which it would shrink the variance along
+    /// `phi`) exceeds `1 / eps^2 ~ 2e31` or overflows. Accepting it would leave the
+    /// covariance numerically singular along `phi` and the estimate stuck there.
+    RowOutOfRange {
+        /// `w phi^T P phi` (may be infinite).
+        ratio: f64,
+    },
+    /// A recursive-estimator row's normalised innovation `|e| / sqrt(1/w + phi^T P phi)`
+    /// exceeds the estimator's outlier gate; the row was not applied.
+    Outlier {
+        /// The row's normalised innovation.
+        innovation: f64,
+        /// The gate it exceeded.
+        gate: f64,
+    },
     /// A matrix that must be invertible is singular (to working precision).
     Singular,
 }
@@ -61,6 +77,14 @@ impl fmt::Display for Error {
             }
             Error::InvalidAxis { joint } => write!(f, "joint {joint} axis is not a unit vector"),
             Error::DegenerateUpdate => write!(f, "degenerate recursive estimator update"),
+            Error::RowOutOfRange { ratio } => write!(
+                f,
+                "row out of range: w * phi^T P phi = {ratio:e} exceeds 2e31 (an absurd phi or w, or p0 far too large); row not applied"
+            ),
+            Error::Outlier { innovation, gate } => write!(
+                f,
+                "outlier row: normalised innovation {innovation:.3e} exceeds outlier_gate {gate}; row not applied"
+            ),
             Error::Singular => write!(f, "singular matrix"),
         }
     }

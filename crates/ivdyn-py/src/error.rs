@@ -1,7 +1,7 @@
 //! The one place where Rust errors become Python exceptions.
 //!
 //! - `ValueError`: bad input (array lengths, NaN/inf, URDF content, unknown links, too many
-//!   joints, invalid axes);
+//!   joints, invalid axes, estimator rows out of range or above the outlier gate);
 //! - `FileNotFoundError` / `OSError`: the URDF file cannot be read;
 //! - `RuntimeError`: numerical failure (e.g. a mass matrix that is not positive definite).
 //!
@@ -19,6 +19,8 @@ fn core_is_input(e: &CoreError) -> bool {
             | CoreError::Dimension { .. }
             | CoreError::InvalidAxis { .. }
             | CoreError::NonPhysicalInertia { .. }
+            | CoreError::RowOutOfRange { .. }
+            | CoreError::Outlier { .. }
     )
 }
 

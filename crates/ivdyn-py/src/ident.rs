@@ -369,9 +369,14 @@ pub struct PyRls {
 #[pymethods]
 impl PyRls {
     #[new]
-    #[pyo3(signature = (p, p0=1e4, forgetting=1.0))]
-    fn new(p: usize, p0: f64, forgetting: f64) -> PyResult<Self> {
-        crate::error::no_panic(|| Ok(Self { inner: RecursiveLs::new(p, p0, forgetting).map_err(start_err)? }))
+    #[pyo3(signature = (p, p0=1e4, forgetting=1.0, max_variance=None, outlier_gate=None))]
+    fn new(p: usize, p0: f64, forgetting: f64, max_variance: Option<f64>, outlier_gate: Option<f64>) -> PyResult<Self> {
+        crate::error::no_panic(|| {
+            let mut inner = RecursiveLs::new(p, p0, forgetting).map_err(start_err)?;
+            max_variance.map(|v| inner.set_max_variance(v)).transpose().map_err(start_err)?;
+            outlier_gate.map(|g| inner.set_outlier_gate(g)).transpose().map_err(start_err)?;
+            Ok(Self { inner })
+        })
     }
     #[pyo3(signature = (phi, y, w=1.0))]
     fn update(&mut self, phi: PyReadonlyArray1<'_, f64>, y: f64, w: f64) -> PyResult<()> {
@@ -416,8 +421,23 @@ impl PyRls {
     fn forgetting(&self) -> f64 {
         self.inner.forgetting()
     }
+    #[getter]
+    fn max_variance(&self) -> f64 {
+        self.inner.max_variance()
+    }
+    #[getter]
+    fn outlier_gate(&self) -> f64 {
+        self.inner.outlier_gate()
+    }
     fn __repr__(&self) -> String {
-        format!("Rls(p={}, forgetting={}, count={})", self.inner.p(), self.inner.forgetting(), self.inner.count())
+        format!(
+            "Rls(p={}, forgetting={}, max_variance={}, outlier_gate={}, count={})",
+            self.inner.p(),
+            self.inner.forgetting(),
+            self.inner.max_variance(),
+            self.inner.outlier_gate(),
+            self.inner.count()
+        )
     }
 }
 
@@ -430,9 +450,14 @@ pub struct PyRiv {
 #[pymethods]
 impl PyRiv {
     #[new]
-    #[pyo3(signature = (p, p0=1e4, forgetting=1.0))]
-    fn new(p: usize, p0: f64, forgetting: f64) -> PyResult<Self> {
-        Ok(Self { inner: RecursiveIv::new(p, p0, forgetting).map_err(start_err)? })
+    #[pyo3(signature = (p, p0=1e4, forgetting=1.0, max_variance=None, outlier_gate=None))]
+    fn new(p: usize, p0: f64, forgetting: f64, max_variance: Option<f64>, outlier_gate: Option<f64>) -> PyResult<Self> {
+        crate::error::no_panic(|| {
+            let mut inner = RecursiveIv::new(p, p0, forgetting).map_err(start_err)?;
+            max_variance.map(|v| inner.set_max_variance(v)).transpose().map_err(start_err)?;
+            outlier_gate.map(|g| inner.set_outlier_gate(g)).transpose().map_err(start_err)?;
+            Ok(Self { inner })
+        })
     }
     #[pyo3(signature = (phi, z, y, w=1.0))]
     fn update(&mut self, phi: PyReadonlyArray1<'_, f64>, z: PyReadonlyArray1<'_, f64>, y: f64, w: f64) -> PyResult<()> {
@@ -481,8 +506,23 @@ impl PyRiv {
     fn forgetting(&self) -> f64 {
         self.inner.forgetting()
     }
+    #[getter]
+    fn max_variance(&self) -> f64 {
+        self.inner.max_variance()
+    }
+    #[getter]
+    fn outlier_gate(&self) -> f64 {
+        self.inner.outlier_gate()
+    }
     fn __repr__(&self) -> String {
-        format!("Riv(p={}, forgetting={}, count={})", self.inner.p(), self.inner.forgetting(), self.inner.count())
+        format!(
+            "Riv(p={}, forgetting={}, max_variance={}, outlier_gate={}, count={})",
+            self.inner.p(),
+            self.inner.forgetting(),
+            self.inner.max_variance(),
+            self.inner.outlier_gate(),
+            self.inner.count()
+        )
     }
 }
 

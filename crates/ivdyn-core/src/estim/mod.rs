@@ -5,11 +5,13 @@
 //! The estimators are generic over nalgebra dimensions: `Const<P>` on a controller (no
 //! allocator needed), `Dyn` on the desktop when `alloc` is available, one implementation.
 
+pub mod guard;
 pub mod instrument;
 pub mod riv;
 pub mod rls;
 pub mod terminal;
 
+pub use guard::MAX_INFORMATION_RATIO;
 pub use instrument::InstrumentModel;
 pub use riv::Riv;
 pub use rls::Rls;

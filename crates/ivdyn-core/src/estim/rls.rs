@@ -1,19 +1,46 @@
-//! Recursive least squares over scalar rows, in Bierman's UD form.
+//! Recursive least squares over scalar rows, in Bierman's UD form, with directional
+//! forgetting and an anti-windup cap.
 //!
 //! # Math note
 //! The covariance `P = U D U^T` (`U` unit upper triangular, `D` diagonal) is never formed:
 //! Bierman's measurement update keeps `D > 0` by construction (each new `d_j` is the old one
 //! times a ratio of positive numbers), so `P` stays symmetric positive definite over any
 //! number of updates, where the textbook `P - K phi^T P` loses symmetry and definiteness in
-//! floating point. Forgetting divides `D` by `lambda`; an optional cap on `D` bounds the
-//! wind-up of unexcited directions.
+//! floating point.
+//!
+//! Forgetting is directional [Kulhavý & Kárný 1984; Bittanti, Bolzern, Campi 1990]: each row first
+//! removes the fraction `1 - lambda` of the information held along its own `phi`, then adds
+//! its own, `R <- R - (1 - lambda) phi phi^T / s + w phi phi^T` (`R = P^-1`,
+//! `s = phi^T P phi`). The variance of `phi^T theta` grows by `1 / lambda` as with
+//! exponential forgetting and the gain is the same, `K = P phi / (lambda / w + s)`, but
+//! the information about any combination `c^T theta` with `c^T phi = 0` is kept: a
+//! direction that is never excited keeps its covariance (exponential forgetting divides
+//! all of `D` by `lambda` every row, so an unexcited `d_j` grows as `lambda^-k` and
+//! overflows after `ln(f64::MAX / p0) / -ln lambda` rows, 69,707 at `lambda = 0.99`,
+//! `p0 = 1e4`). The combined
+//! change is one rank-one update with weight `eps = w - (1 - lambda) / s`, which is
+//! Bierman's update with `r = 1 / eps` (negative when the row adds less than it forgets:
+//! every `alpha` is then negative and `D` grows, by at most `1 / lambda`).
+//!
+//! Anti-windup: with forgetting, every `d_j` is capped at `max_variance` after each row;
+//! the default is the prior `p0`, so forgetting never makes a factor larger than the
+//! prior did (directional forgetting can still inflate a direction whose rows carry
+//! little information, `w s << 1 - lambda`). Without forgetting `D` only decreases and the
+//! cap is not applied: `lambda = 1` results are those of plain RLS.
 //!
 //! A vector output (one row per joint per sample) is processed as scalar rows: with
-//! independent row noises (row weights `w = 1 / variance`) this is exact.
+//! independent row noises (row weights `w = 1 / variance`) this is exact. Rows are
+//! checked by the shared guard ([`super::guard`]): non-finite input, rows out of
+//! numerical range, and (optionally) outliers are errors that leave the state untouched.
 //!
-//! Reference: G. J. Bierman, *Factorization Methods for Discrete Sequential Estimation*,
-//! Academic Press 1977, ch. V.
+//! References: G. J. Bierman, *Factorization Methods for Discrete Sequential Estimation*,
+//! Academic Press 1977, ch. V. R. Kulhavý, M. Kárný, "Tracking of slowly varying
+//! parameters by directional forgetting", 9th IFAC World Congress, Budapest, 1984 (the
+//! weighted form above, with `w`, is ours). S. Bittanti, P. Bolzern, M. Campi,
+//! "Convergence and exponential convergence of identification algorithms with directional
+//! forgetting factor", *Automatica* 26(5):929-932, 1990.
 
+use super::guard;
 use crate::error::Error;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
@@ -30,10 +57,13 @@ where
     u: OMatrix<f64, D, D>,
     /// Diagonal factor of the covariance.
     d: OVector<f64, D>,
-    /// Forgetting factor `lambda` in (0, 1]; 1 = none.
+    /// Forgetting factor `lambda` in (0, 1]; 1 = none. Directional (module docs).
     pub forgetting: f64,
-    /// Upper bound on each `d_j` (anti-windup with forgetting); infinity = none.
+    /// Upper bound on each `d_j` when `forgetting < 1` (anti-windup); default `p0`.
     pub max_variance: f64,
+    /// Largest normalised innovation `|e| / sqrt(1 / w + phi^T P phi)` accepted;
+    /// infinity (default) = no outlier gate.
+    pub outlier_gate: f64,
     /// Rows processed.
     pub count: u64,
     f: OVector<f64, D>,
@@ -44,7 +74,8 @@ impl<D: Dim> Rls<D>
 where
     DefaultAllocator: Allocator<D, D> + Allocator<D>,
 {
-    /// Starts from `theta0` with covariance `p0 * I` (a large `p0` = little prior knowledge).
+    /// Starts from `theta0` with covariance `p0 * I` (a large `p0` = little prior knowledge);
+    /// no forgetting, `max_variance = p0`, no outlier gate.
     pub fn new(theta0: OVector<f64, D>, p0: f64) -> Self {
         let (dim, _) = theta0.shape_generic();
         Self {
@@ -54,13 +85,15 @@ where
             g: OVector::zeros_generic(dim, nalgebra::Const::<1>),
             theta: theta0,
             forgetting: 1.0,
-            max_variance: f64::INFINITY,
+            max_variance: p0,
+            outlier_gate: f64::INFINITY,
             count: 0,
         }
     }
 
     /// Starts from a batch solution: `info = sum w phi phi^T` (must be positive definite)
     /// and `rhs = sum w phi y`, so that the recursion continues the batch estimate exactly.
+    /// `max_variance` is the largest batch variance (the diagonal of `info^-1`).
     pub fn from_information(info: &OMatrix<f64, D, D>, rhs: &OVector<f64, D>) -> Result<Self, Error> {
         let (dim, _) = rhs.shape_generic();
         let chol = info.clone().cholesky().ok_or(Error::Singular)?;
@@ -68,6 +101,7 @@ where
         let p = chol.inverse();
         let mut s = Self::new(theta, 1.0);
         s.set_covariance(&p)?;
+        s.max_variance = p.diagonal().max();
         let _ = dim;
         Ok(s)
     }
@@ -121,51 +155,66 @@ where
         }
     }
 
+    /// The diagonal factor `D` of `P = U D U^T` (every entry `> 0`).
+    pub fn d(&self) -> &OVector<f64, D> {
+        &self.d
+    }
+
     /// One scalar row: `y = phi . theta + e` with weight `w > 0` (inverse noise variance).
-    /// Rejects non-finite input; leaves the state untouched on error.
+    /// Errors leave the state untouched: non-finite input, a weight outside `(0, inf)`,
+    /// a row out of numerical range ([`Error::RowOutOfRange`]) or above the outlier gate
+    /// ([`Error::Outlier`]).
     pub fn update(&mut self, phi: &OVector<f64, D>, y: f64, w: f64) -> Result<(), Error> {
-        if !(w > 0.0) || !w.is_finite() || !y.is_finite() {
-            return Err(Error::DegenerateUpdate);
-        }
-        if let Some(index) = phi.iter().position(|v| !v.is_finite()) {
-            return Err(Error::NonFinite { what: "phi", index });
-        }
-        let n = self.d.len();
+        guard::check_inputs("phi", phi, y, w)?;
+        let (n, lambda) = (self.d.len(), self.forgetting);
         // f = U^T phi, g = D f
         self.u.tr_mul_to(phi, &mut self.f);
         for j in 0..n {
             self.g[j] = self.d[j] * self.f[j];
         }
-        let r = 1.0 / w;
-        let alpha_end = r + self.f.dot(&self.g);
-        if !(alpha_end > 0.0) || !alpha_end.is_finite() {
+        // s = phi^T P phi
+        let s = self.f.dot(&self.g);
+        let innovation = y - phi.dot(&self.theta);
+        guard::check_row(w, s, innovation, self.outlier_gate)?;
+        let den = lambda / w + s;
+        if !(lambda > 0.0 && lambda <= 1.0 && den > 0.0 && den.is_finite()) {
             return Err(Error::DegenerateUpdate);
         }
-        let innovation = y - phi.dot(&self.theta);
-        // Bierman's measurement update
-        let mut alpha = r;
-        for j in 0..n {
-            let alpha_prev = alpha;
-            alpha += self.f[j] * self.g[j];
-            let lambda = -self.f[j] / alpha_prev;
-            self.d[j] *= alpha_prev / alpha;
-            let gj = self.g[j];
-            for i in 0..j {
-                let beta = self.u[(i, j)];
-                self.u[(i, j)] = beta + self.g[i] * lambda;
-                self.g[i] += gj * beta;
-            }
-        }
-        // gain K = g / alpha
-        let step = innovation / alpha;
+        // R <- R + eps phi phi^T, i.e. Bierman's update with r = 1 / eps
+        let eps = guard::directional_weight(lambda, w, s);
+        let alpha = self.bierman(1.0 / eps);
+        // gain K = P phi / (lambda / w + s); with lambda = 1, eps = w and that is alpha
+        let step = innovation / if lambda < 1.0 { den } else { alpha };
         self.theta.axpy(step, &self.g, 1.0);
-        if self.forgetting < 1.0 {
-            let inv = 1.0 / self.forgetting;
+        if lambda < 1.0 {
+            // anti-windup: d_j <= max_variance
             for j in 0..n {
-                self.d[j] = (self.d[j] * inv).min(self.max_variance);
+                self.d[j] = self.d[j].min(self.max_variance);
             }
         }
         self.count += 1;
         Ok(())
+    }
+
+    /// Bierman's measurement update `P <- P - P phi phi^T P / (r + s)` on the factors,
+    /// from `f = U^T phi` and `g = D f`; leaves `g = P phi` (old `P`) and returns `r + s`.
+    /// `r` infinite (`eps = 0`): `P` unchanged.
+    fn bierman(&mut self, r: f64) -> f64 {
+        let mut alpha = r;
+        for j in 0..self.d.len() {
+            let alpha_prev = alpha;
+            alpha += self.f[j] * self.g[j];
+            let mu = -self.f[j] / alpha_prev;
+            if r.is_finite() {
+                self.d[j] *= alpha_prev / alpha;
+            }
+            let gj = self.g[j];
+            for i in 0..j {
+                let beta = self.u[(i, j)];
+                self.u[(i, j)] = beta + self.g[i] * mu;
+                self.g[i] += gj * beta;
+            }
+        }
+        alpha
     }
 }

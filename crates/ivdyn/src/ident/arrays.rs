@@ -110,6 +110,32 @@ fn check_start(p: usize, p0: f64, forgetting: f64) -> Result<()> {
     Ok(())
 }
 
+/// `max_variance` of a recursive estimator: finite and `> 0`.
+fn check_max_variance(v: f64) -> Result<()> {
+    if v > 0.0 && v.is_finite() {
+        return Ok(());
+    }
+    Err(Error::Option {
+        option: "max_variance".into(),
+        msg: format!(
+            "must be finite and > 0, got {v} (anti-windup bound on the covariance under forgetting; default p0)"
+        ),
+    })
+}
+
+/// `outlier_gate` of a recursive estimator: `> 0`, infinity = no gate.
+fn check_outlier_gate(g: f64) -> Result<()> {
+    if g > 0.0 {
+        return Ok(());
+    }
+    Err(Error::Option {
+        option: "outlier_gate".into(),
+        msg: format!(
+            "must be > 0 (inf or None = no gate), got {g} (largest normalised innovation |e| / sqrt(1/w + phi^T P phi) accepted)"
+        ),
+    })
+}
+
 /// Row `i` of the optional weights (1 when absent).
 fn weight(w: Option<&[f64]>, i: usize) -> f64 {
     w.map_or(1.0, |w| w[i])
@@ -178,6 +204,30 @@ impl RecursiveLs {
     /// Forgetting factor.
     pub fn forgetting(&self) -> f64 {
         self.inner.forgetting
+    }
+
+    /// Anti-windup bound on each `d_j` of `P = U D Uᵀ` under forgetting (default `p0`).
+    pub fn max_variance(&self) -> f64 {
+        self.inner.max_variance
+    }
+
+    /// Sets [`Self::max_variance`] (finite, `> 0`).
+    pub fn set_max_variance(&mut self, v: f64) -> Result<()> {
+        check_max_variance(v)?;
+        self.inner.max_variance = v;
+        Ok(())
+    }
+
+    /// Largest normalised innovation accepted (infinity = no gate, the default).
+    pub fn outlier_gate(&self) -> f64 {
+        self.inner.outlier_gate
+    }
+
+    /// Sets [`Self::outlier_gate`] (`> 0`; infinity = no gate).
+    pub fn set_outlier_gate(&mut self, g: f64) -> Result<()> {
+        check_outlier_gate(g)?;
+        self.inner.outlier_gate = g;
+        Ok(())
     }
 }
 
@@ -252,6 +302,30 @@ impl RecursiveIv {
     /// Forgetting factor.
     pub fn forgetting(&self) -> f64 {
         self.inner.forgetting
+    }
+
+    /// Anti-windup bound on each `|P_ii|` under forgetting (default `p0`).
+    pub fn max_variance(&self) -> f64 {
+        self.inner.max_variance
+    }
+
+    /// Sets [`Self::max_variance`] (finite, `> 0`).
+    pub fn set_max_variance(&mut self, v: f64) -> Result<()> {
+        check_max_variance(v)?;
+        self.inner.max_variance = v;
+        Ok(())
+    }
+
+    /// Largest normalised innovation accepted (infinity = no gate, the default).
+    pub fn outlier_gate(&self) -> f64 {
+        self.inner.outlier_gate
+    }
+
+    /// Sets [`Self::outlier_gate`] (`> 0`; infinity = no gate).
+    pub fn set_outlier_gate(&mut self, g: f64) -> Result<()> {
+        check_outlier_gate(g)?;
+        self.inner.outlier_gate = g;
+        Ok(())
     }
 }
 
@@ -519,6 +593,30 @@ mod tests {
         let e = r.update_many(&[1.0, f64::NAN], &[1.0], None).unwrap_err();
         assert!(e.to_string().starts_with("sample 0:"), "{e}");
         assert!(RecursiveIv::new(0, 1.0, 1.0).is_err());
+    }
+
+    /// The options name themselves; the defaults are the prior and no gate; an absurd row
+    /// in a batch is an error naming the sample, with the rows before it applied.
+    #[test]
+    fn recursive_options_are_checked_and_absurd_rows_named() {
+        let mut r = RecursiveLs::new(2, 1e3, 0.99).unwrap();
+        assert_eq!((r.max_variance(), r.outlier_gate()), (1e3, f64::INFINITY));
+        for v in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let e = r.set_max_variance(v).unwrap_err().to_string();
+            assert!(e.contains("max_variance") && e.contains("finite and > 0"), "{e}");
+        }
+        for g in [0.0, -3.0, f64::NAN] {
+            let e = r.set_outlier_gate(g).unwrap_err().to_string();
+            assert!(e.contains("outlier_gate"), "{e}");
+        }
+        r.set_outlier_gate(f64::INFINITY).unwrap();
+        let mut v = RecursiveIv::new(2, 1e3, 0.99).unwrap();
+        assert!(v.set_max_variance(-1.0).is_err() && v.set_outlier_gate(f64::NAN).is_err());
+        v.set_max_variance(10.0).unwrap();
+        assert_eq!(v.max_variance(), 10.0);
+        let e = r.update_many(&[1.0, 0.0, 1e150, 1e150], &[1.0, 1.0], Some(&[1.0, 1e300])).unwrap_err();
+        assert!(e.to_string().starts_with("sample 1: row out of range"), "{e}");
+        assert_eq!(r.count(), 1);
     }
 
     /// Exact data of the paper's arm with 0.5 kg added to its last link: least squares on
