@@ -17,6 +17,7 @@ use ivdyn::app::{
 use ivdyn::progress::Progress;
 use ivdyn::report::PayloadSpec;
 
+mod signals;
 mod stdout;
 use stdout::say;
 
@@ -381,6 +382,7 @@ type R<T> = Result<T, String>;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    signals::install();
     let bars = Bars::new(cli.quiet);
     let r = match cli.cmd {
         Cmd::Identify(a) => identify(a, &bars),
