@@ -163,25 +163,26 @@ impl OutputSet {
         std::fs::create_dir_all(&abs).map_err(io)
     }
 
-    /// Puts every staged file in place: renames first (holding the registry lock, so a
-    /// signal handler waits for them), then the in-place copies into special files and
-    /// symlinks, then removes the staging directories. A rename can only fail here if
-    /// the filesystem changed under the command; the files renamed before it stay.
+    /// Puts every staged file in place: first the copies into special files and symlinks
+    /// (they can block, as a FIFO without a reader does, or fail, as `/dev/full` does:
+    /// nothing is renamed then), then the renames, holding the registry lock so that a
+    /// signal handler waits for them; then the staging directories are removed. A rename
+    /// can only fail if the filesystem changed under the command; those before it stay.
     pub fn commit(mut self) -> Result<()> {
-        {
-            let _lock = registry();
-            for s in self.files.iter().filter(|s| s.place == Place::Rename) {
-                std::fs::rename(&s.staged, &s.target).map_err(|source| Error::Io { file: s.target.clone(), source })?;
-            }
-            self.committed = true;
-        }
         for s in &self.files {
             if let Place::InPlace { truncate } = s.place {
                 copy_in_place(&s.staged, &s.target, truncate)
                     .map_err(|source| Error::Io { file: s.target.clone(), source })?;
             }
         }
-        Ok(())
+        let lock = registry();
+        let renamed = self.files.iter().filter(|s| s.place == Place::Rename).try_for_each(|s| {
+            std::fs::rename(&s.staged, &s.target).map_err(|source| Error::Io { file: s.target.clone(), source })
+        });
+        self.committed = renamed.is_ok();
+        // released before `self` is dropped: Drop takes the lock too
+        drop(lock);
+        renamed
     }
 
     /// The staging directory for targets in `dir` (`None`: in-place targets), created
