@@ -392,6 +392,12 @@ fn main() -> ExitCode {
         Cmd::Diagnose(a) => diagnose_cmd::run(a, &bars),
         Cmd::Excite(a) => excite(a, &bars),
     };
+    if signals::stopping() {
+        // the handler removes the staged files and exits with 130/143
+        loop {
+            std::thread::park();
+        }
+    }
     // the job has written its files by now; a closed or full stdout only changes the code
     let out_failed = stdout::finish();
     match r {
