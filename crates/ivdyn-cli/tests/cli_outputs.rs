@@ -146,3 +146,26 @@ fn json_into_a_fifo_and_dev_null_written_in_place() {
     ok(&run(a));
     assert!(std::fs::symlink_metadata("/dev/null").unwrap().file_type().is_char_device(), "/dev/null was replaced");
 }
+
+#[test]
+fn json_to_dev_stdout_redirected_to_a_file() {
+    // `> out.txt`: the JSON goes to the process's stdout at its offset, between the notes
+    // printed before and the summary printed after, and /dev/stdout is not replaced
+    let d = tmpdir("stdout");
+    let out = d.join("out.txt");
+    let a = ur5_cmd("simulate", &["--duration", "2", "--out", &s(&d.join("x.csv")), "--json", "/dev/stdout"]);
+    let status = Command::new(env!("CARGO_BIN_EXE_ivdyn"))
+        .args(&a)
+        .arg("--quiet")
+        .stdout(std::fs::File::create(&out).unwrap())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let text = std::fs::read_to_string(&out).unwrap();
+    let (start, end) = (text.find("\n{\n").unwrap() + 1, text.rfind("\n}\n").unwrap() + 2);
+    let v: serde_json::Value = serde_json::from_str(&text[start..end]).unwrap();
+    assert_eq!(v["samples"], 1000);
+    assert!(text[end..].contains("wrote 1000 samples"), "the summary follows the JSON: {:?}", &text[end..]);
+    assert!(!std::fs::symlink_metadata("/dev/stdout").unwrap().is_file(), "/dev/stdout was replaced");
+    assert_eq!(files_in(&d), ["out.txt", "x.csv"]);
+}

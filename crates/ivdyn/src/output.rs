@@ -9,9 +9,10 @@
 //!   `mkdir` that fails rather than reuse an existing name; its files are created with
 //!   `O_EXCL`. Nothing there can be predicted or planted by another user, and no
 //!   temporary file follows a symlink.
-//! * A target that exists and is not a regular file (`/dev/null`, `/dev/stdout`, a FIFO,
-//!   a socket) is written in place at commit, never replaced. A target that is a
-//!   symlink is written through the link in place (the link stays a link).
+//! * A target that exists and is not a regular file (`/dev/null`, a FIFO, a socket) is
+//!   written in place at commit, never replaced; `/dev/stdout` and `/dev/stderr` are the
+//!   process's own handles. A target that is a symlink is written through the link in
+//!   place (the link stays a link).
 //! * Live staging directories are listed in a process-wide registry, so a signal
 //!   handler (the command line installs one; the library installs none) can remove them
 //!   with [`remove_staged`] before the process exits.
@@ -60,6 +61,11 @@ enum Place {
     /// Copied into the target opened for writing (a special file, or a symlink);
     /// truncated first when it is (or resolves to) a regular file.
     InPlace { truncate: bool },
+    /// The process's own stdout (1) or stderr (2), named as `/dev/stdout`, `/dev/fd/1`,
+    /// `/proc/self/fd/1` (or 2): written to the handle, at its current offset, as the
+    /// shell does for these names (reopening a redirected file would write at offset 0,
+    /// under the summary printed later).
+    Stream(u8),
     /// The target is itself inside a live staging directory (a writer called by
     /// another set's writer): written there directly, the outer set commits it.
     Direct,
@@ -170,10 +176,12 @@ impl OutputSet {
     /// can only fail if the filesystem changed under the command; those before it stay.
     pub fn commit(mut self) -> Result<()> {
         for s in &self.files {
-            if let Place::InPlace { truncate } = s.place {
-                copy_in_place(&s.staged, &s.target, truncate)
-                    .map_err(|source| Error::Io { file: s.target.clone(), source })?;
-            }
+            let copied = match s.place {
+                Place::InPlace { truncate } => copy_in_place(&s.staged, &s.target, truncate),
+                Place::Stream(fd) => copy_to_stream(&s.staged, fd),
+                Place::Rename | Place::Direct => Ok(()),
+            };
+            copied.map_err(|source| Error::Io { file: s.target.clone(), source })?;
         }
         let lock = registry();
         let renamed = self.files.iter().filter(|s| s.place == Place::Rename).try_for_each(|s| {
@@ -253,6 +261,9 @@ fn parent(target: &Path) -> &Path {
 /// How `target` is to be written, from what is at the path now.
 fn placement(target: &Path) -> std::io::Result<Place> {
     let is_dir_err = || std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a directory");
+    if let Some(fd) = std_stream(target) {
+        return Ok(Place::Stream(fd));
+    }
     let abs_parent = std::path::absolute(parent(target))?;
     if registry().dirs.iter().any(|(d, staging)| *staging && *d == abs_parent) {
         return Ok(Place::Direct);
@@ -283,6 +294,27 @@ fn copy_in_place(staged: &Path, target: &Path, truncate: bool) -> std::io::Resul
     let mut to = OpenOptions::new().write(true).create(truncate).truncate(truncate).open(target)?;
     std::io::copy(&mut from, &mut to)?;
     to.flush()
+}
+
+/// 1 or 2 when `target` names this process's stdout or stderr.
+fn std_stream(target: &Path) -> Option<u8> {
+    let t = target.to_str()?;
+    ["/dev/stdout", "/dev/fd/1", "/proc/self/fd/1"]
+        .contains(&t)
+        .then_some(1)
+        .or_else(|| ["/dev/stderr", "/dev/fd/2", "/proc/self/fd/2"].contains(&t).then_some(2))
+}
+
+/// Copies `staged` to stdout (`fd` 1) or stderr (2).
+fn copy_to_stream(staged: &Path, fd: u8) -> std::io::Result<()> {
+    let mut from = File::open(staged)?;
+    if fd == 1 {
+        let mut to = std::io::stdout().lock();
+        std::io::copy(&mut from, &mut to)?;
+        to.flush()
+    } else {
+        std::io::copy(&mut from, &mut std::io::stderr().lock()).map(|_| ())
+    }
 }
 
 /// `e` with the staged path replaced by the target in the file it names.
