@@ -55,7 +55,7 @@ pub fn remove_staged() {
 
 /// How a staged file reaches its target at commit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Place {
+enum Route {
     /// Renamed over the target (absent or a regular file).
     Rename,
     /// Copied into the target opened for writing (a special file, or a symlink);
@@ -75,7 +75,7 @@ enum Place {
 struct Staged {
     target: PathBuf,
     staged: PathBuf,
-    place: Place,
+    route: Route,
 }
 
 /// The outputs of one command, written all or nothing: [`stage`](Self::stage) (or
@@ -104,25 +104,25 @@ impl OutputSet {
     /// is refused here, before anything is written.
     pub fn stage(&mut self, target: &Path) -> Result<PathBuf> {
         let io = |source| Error::Io { file: target.to_path_buf(), source };
-        let place = placement(target).map_err(io)?;
-        if place == Place::Direct {
+        let route = route_of(target).map_err(io)?;
+        if route == Route::Direct {
             return Ok(target.to_path_buf());
         }
-        let dir = match place {
-            Place::Rename => Some(std::path::absolute(parent(target)).map_err(io)?),
+        let dir = match route {
+            Route::Rename => Some(std::path::absolute(parent(target)).map_err(io)?),
             _ => None,
         };
         let staging = self.staging_dir(dir).map_err(io)?;
         let name = target.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
         let staged = staging.join(format!("{}-{name}", self.files.len()));
         let f = OpenOptions::new().write(true).create_new(true).open(&staged).map_err(io)?;
-        if place == Place::Rename
+        if route == Route::Rename
             && let Ok(m) = std::fs::metadata(target)
         {
             // replacing a file keeps its permissions (a 0600 parameter file stays private)
             f.set_permissions(m.permissions()).map_err(io)?;
         }
-        self.files.push(Staged { target: target.to_path_buf(), staged: staged.clone(), place });
+        self.files.push(Staged { target: target.to_path_buf(), staged: staged.clone(), route });
         Ok(staged)
     }
 
@@ -176,15 +176,15 @@ impl OutputSet {
     /// can only fail if the filesystem changed under the command; those before it stay.
     pub fn commit(mut self) -> Result<()> {
         for s in &self.files {
-            let copied = match s.place {
-                Place::InPlace { truncate } => copy_in_place(&s.staged, &s.target, truncate),
-                Place::Stream(fd) => copy_to_stream(&s.staged, fd),
-                Place::Rename | Place::Direct => Ok(()),
+            let copied = match s.route {
+                Route::InPlace { truncate } => copy_in_place(&s.staged, &s.target, truncate),
+                Route::Stream(fd) => copy_to_stream(&s.staged, fd),
+                Route::Rename | Route::Direct => Ok(()),
             };
             copied.map_err(|source| Error::Io { file: s.target.clone(), source })?;
         }
         let lock = registry();
-        let renamed = self.files.iter().filter(|s| s.place == Place::Rename).try_for_each(|s| {
+        let renamed = self.files.iter().filter(|s| s.route == Route::Rename).try_for_each(|s| {
             std::fs::rename(&s.staged, &s.target).map_err(|source| Error::Io { file: s.target.clone(), source })
         });
         self.committed = renamed.is_ok();
@@ -259,31 +259,31 @@ fn parent(target: &Path) -> &Path {
 }
 
 /// How `target` is to be written, from what is at the path now.
-fn placement(target: &Path) -> std::io::Result<Place> {
+fn route_of(target: &Path) -> std::io::Result<Route> {
     let is_dir_err = || std::io::Error::new(std::io::ErrorKind::IsADirectory, "is a directory");
     if let Some(fd) = std_stream(target) {
-        return Ok(Place::Stream(fd));
+        return Ok(Route::Stream(fd));
     }
     let abs_parent = std::path::absolute(parent(target))?;
     if registry().dirs.iter().any(|(d, staging)| *staging && *d == abs_parent) {
-        return Ok(Place::Direct);
+        return Ok(Route::Direct);
     }
     let link = match std::fs::symlink_metadata(target) {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Place::Rename),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Route::Rename),
         Err(e) => return Err(e),
         Ok(m) if m.is_dir() => return Err(is_dir_err()),
-        Ok(m) if m.is_file() => return Ok(Place::Rename),
+        Ok(m) if m.is_file() => return Ok(Route::Rename),
         Ok(m) => m,
     };
     if !link.file_type().is_symlink() {
-        return Ok(Place::InPlace { truncate: false });
+        return Ok(Route::InPlace { truncate: false });
     }
     // a symlink: written through, never replaced; a dangling one is created as the shell does
     match std::fs::metadata(target) {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Place::InPlace { truncate: true }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Route::InPlace { truncate: true }),
         Err(e) => Err(e),
         Ok(m) if m.is_dir() => Err(is_dir_err()),
-        Ok(m) => Ok(Place::InPlace { truncate: m.is_file() }),
+        Ok(m) => Ok(Route::InPlace { truncate: m.is_file() }),
     }
 }
 
