@@ -76,6 +76,24 @@ fn excite_later_output_fails_leaves_none() {
     fails_leaving("excite", ur5_cmd("excite", &r), &d, &[]);
 }
 
+#[test]
+fn payload_later_output_fails_leaves_none() {
+    let input = tmpdir("all_payload_in");
+    let after = s(&input.join("after.mcap"));
+    let sim = ["--seed", "21", "--payload-mass", "2", "--payload-com", "0.01,-0.02,0.05", "--out", &after];
+    ok(&run(ur5_cmd("simulate", &sim)));
+    let d = tmpdir("all_payload");
+    // the URDF's side file cannot be written (a folder is there): not the URDF, not the report
+    std::fs::create_dir(d.join("u.urdf.json")).unwrap();
+    let (j, u) = (s(&d.join("p.json")), s(&d.join("u.urdf")));
+    fails_leaving(
+        "payload",
+        ur5_cmd("payload", &["--log", &after, "--json", &j, "--write-urdf", &u]),
+        &d,
+        &["u.urdf.json"],
+    );
+}
+
 /// `mkfifo p`.
 fn mkfifo(p: &Path) {
     assert!(Command::new("mkfifo").arg(p).status().unwrap().success());

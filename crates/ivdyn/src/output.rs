@@ -130,7 +130,7 @@ impl OutputSet {
     /// staged path are made to name `target`.
     pub fn write(&mut self, target: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
         let staged = self.stage(target)?;
-        write(&staged).map_err(|e| rename_file(e, &staged, target))
+        write(&staged).map_err(|e| target_named(e, &staged, target))
     }
 
     /// `v` as pretty JSON (and a newline) for `target`.
@@ -318,7 +318,7 @@ fn copy_to_stream(staged: &Path, fd: u8) -> std::io::Result<()> {
 }
 
 /// `e` with the staged path replaced by the target in the file it names.
-fn rename_file(e: Error, staged: &Path, target: &Path) -> Error {
+fn target_named(e: Error, staged: &Path, target: &Path) -> Error {
     let fix = |f: PathBuf| if f == staged { target.to_path_buf() } else { f };
     match e {
         Error::Io { file, source } => Error::Io { file: fix(file), source },
