@@ -1,5 +1,5 @@
 //! What the jobs read and write: the robot and log sources of a command, and outputs
-//! written whole or not at all (a temporary file beside the target, renamed over it).
+//! written whole or not at all (staged in an [`crate::output::OutputSet`]).
 
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};

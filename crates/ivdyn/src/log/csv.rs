@@ -163,8 +163,8 @@ impl Header {
 }
 
 /// Writes a joint log as CSV (columns `t`, then `<joint>.q` for every joint, then `.qd`,
-/// `.tau`, `.u`, `.i` when present), with a `# t0_ns: ...` comment line first. Written to a
-/// temporary file and renamed on success.
+/// `.tau`, `.u`, `.i` when present), with a `# t0_ns: ...` comment line first, all or
+/// nothing ([`crate::output`]).
 pub fn write_csv(path: impl AsRef<Path>, log: &JointLog) -> Result<()> {
     log.check_shapes()?;
     let arrays: Vec<(&str, &[f64])> = FIELDS

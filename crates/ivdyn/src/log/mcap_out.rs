@@ -226,7 +226,7 @@ pub const MEASURED_TOPIC: &str = "/joint_states";
 /// ([`PREDICTED_TOPIC`]: the smoothed position and velocity the model was evaluated at,
 /// effort = predicted torque) and the residual ([`RESIDUAL_TOPIC`]: effort = measured -
 /// predicted, computed here so that it is exactly the difference of the two written
-/// values). Temporary file + rename as [`McapWriter`].
+/// values). Staged and put in place at `finish` as [`McapWriter`].
 #[derive(Debug)]
 pub struct PredictionWriter {
     w: McapWriter,
