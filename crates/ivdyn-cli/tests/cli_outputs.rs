@@ -187,3 +187,15 @@ fn json_to_dev_stdout_redirected_to_a_file() {
     assert!(!std::fs::symlink_metadata("/dev/stdout").unwrap().is_file(), "/dev/stdout was replaced");
     assert_eq!(files_in(&d), ["out.txt", "x.csv"]);
 }
+
+#[test]
+fn json_to_dev_full_fails_before_any_rename() {
+    // the in-place copies come first: when one fails, no other output is put in place
+    if !Path::new("/dev/full").exists() {
+        return;
+    }
+    let d = tmpdir("full");
+    let a = ur5_cmd("simulate", &["--duration", "2", "--out", &s(&d.join("x.mcap")), "--json", "/dev/full"]);
+    fails_leaving("/dev/full", a, &d, &[]);
+    assert!(std::fs::symlink_metadata("/dev/full").unwrap().file_type().is_char_device());
+}
