@@ -17,6 +17,7 @@ use ivdyn::app::{
 use ivdyn::progress::Progress;
 use ivdyn::report::PayloadSpec;
 
+mod signals;
 mod stdout;
 use stdout::say;
 
@@ -398,6 +399,7 @@ type R<T> = Result<T, String>;
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    signals::install();
     let bars = Bars::new(cli.quiet);
     let r = match cli.cmd {
         Cmd::Identify(a) => identify(a, &bars),
@@ -407,6 +409,12 @@ fn main() -> ExitCode {
         Cmd::Diagnose(a) => diagnose_cmd::run(a, &bars),
         Cmd::Excite(a) => excite(a, &bars),
     };
+    if signals::stopping() {
+        // the handler removes the staged files and exits with 130/143
+        loop {
+            std::thread::park();
+        }
+    }
     // the job has written its files by now; a closed or full stdout only changes the code
     let out_failed = stdout::finish();
     match r {

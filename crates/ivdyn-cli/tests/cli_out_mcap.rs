@@ -74,7 +74,7 @@ fn identify_out_mcap_measured_predicted_residual() {
             pred_m.to_str().unwrap(),
         ],
     )));
-    // only the finished files, no temporary ones
+    // only the finished files, no staging folder
     assert_eq!(files_in(&d), ["log.mcap", "params.json", "pred_memory.mcap", "pred_stream.mcap", "rep.json"]);
 
     let robot0 = ivdyn::Robot::from_urdf(fixture("ur5.urdf"), Some("base_link"), Some("tool0")).unwrap();

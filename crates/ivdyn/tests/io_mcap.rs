@@ -355,8 +355,11 @@ fn write_mcap_with_predicted_and_residual() {
 
 #[test]
 fn unfinished_writer_leaves_no_file() {
-    let p = tmp("unfinished.mcap");
-    let _ = std::fs::remove_file(&p);
+    // a folder of its own: nothing else is written there
+    let dir = tmp("unfinished");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("unfinished.mcap");
     {
         let mut w = McapWriter::create(&p).unwrap();
         let id = w.add_joint_state_topic("/joint_states").unwrap();
@@ -365,13 +368,8 @@ fn unfinished_writer_leaves_no_file() {
         // dropped without finish()
     }
     assert!(!p.exists());
-    let dir = p.parent().unwrap();
-    let leftovers: Vec<_> = std::fs::read_dir(dir)
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .filter(|e| e.file_name().to_string_lossy().contains("unfinished"))
-        .collect();
-    assert!(leftovers.is_empty(), "temporary file left: {leftovers:?}");
+    let leftovers: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert!(leftovers.is_empty(), "staged file or folder left: {leftovers:?}");
     let mut w = McapWriter::create(&p).unwrap();
     let id = w.add_joint_state_topic("/joint_states").unwrap();
     w.write(id, -5, &["a"], &[1.0], &[], &[]).unwrap(); // negative stamps are allowed

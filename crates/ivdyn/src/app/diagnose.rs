@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use super::Outcome;
 use super::io::{LogInput, LogSource};
 use crate::Robot;
-use crate::diagnose::{self, DiagnoseOptions, Diagnosis};
-use crate::error::{Error, Result};
-use crate::output::write_json;
+use crate::diagnose::{self, DiagnoseOptions, Diagnosis, report};
+use crate::error::Result;
+use crate::output::OutputSet;
 use crate::progress::{ProgressSink, Stage};
 
 /// One `diagnose` run.
@@ -28,7 +28,7 @@ pub struct DiagnoseJob {
     pub json: Option<PathBuf>,
 }
 
-/// Runs `job` on `robot`, then writes its files.
+/// Runs `job` on `robot`, then writes its files (all or none).
 pub fn diagnose_job(robot: &Robot, job: &DiagnoseJob, progress: &ProgressSink) -> Result<Outcome<Diagnosis>> {
     let log = {
         let _st = job.log.path().map(|p| Stage::begin(progress, &format!("reading {}", p.display()), 0));
@@ -42,17 +42,22 @@ pub fn diagnose_job(robot: &Robot, job: &DiagnoseJob, progress: &ProgressSink) -
         let _st = Stage::begin(progress, "diagnosing", 0);
         diagnose::diagnose(robot, &log, &opts).map_err(|e| job.log.context(e))?
     };
+    // all of the command's files or none of them
+    let mut set = OutputSet::new();
     if let Some(dir) = &job.out {
-        std::fs::create_dir_all(dir).map_err(|e| Error::Io { file: dir.clone(), source: e })?;
+        set.create_dir_all(dir)?;
         if job.report {
             let _st = Stage::begin(progress, "writing report.html", 0);
-            diagnose::report::write_html(&d, dir)?;
+            let page = report::html_page(&d, dir)?;
+            set.write_bytes(&dir.join(report::HTML_FILE), page.as_bytes())?;
         }
-        diagnose::report::write_mcap_stamped(&d, &robot.joint_names, log.t0_ns, dir)?;
-        write_json(&dir.join("diagnosis.json"), &d.json)?;
+        let mcap = dir.join(report::MCAP_FILE);
+        set.write(&mcap, |p| report::write_residuals(&d, &robot.joint_names, log.t0_ns, p))?;
+        set.write_json(&dir.join("diagnosis.json"), &d.json)?;
     }
     if let Some(j) = &job.json {
-        write_json(j, &d.json)?;
+        set.write_json(j, &d.json)?;
     }
+    set.commit()?;
     Ok(Outcome { report: d, written: vec![] })
 }

@@ -7,7 +7,7 @@ use super::Outcome;
 use crate::Robot;
 use crate::error::Result;
 use crate::excite::{self, ExciteOptions, ExciteReport};
-use crate::output::write_json;
+use crate::output::OutputSet;
 
 /// One `excite` run.
 #[derive(Clone)]
@@ -22,24 +22,27 @@ pub struct ExciteJob {
     pub json: Option<PathBuf>,
 }
 
-/// Designs the trajectory, then writes the files of `job`; `written` lists the
+/// Designs the trajectory, then writes the files of `job` (all or none); `written` lists the
 /// trajectory files, then the report.
 pub fn excite_job(robot: &Robot, job: &ExciteJob) -> Result<Outcome<ExciteReport>> {
     let rep = excite::design(robot, &job.opts)?;
     let mut written = vec![];
+    // all of the command's files or none of them
+    let mut set = OutputSet::new();
     if let Some(p) = &job.csv {
-        excite::write_csv(p, &rep.joints, &rep.trajectory)?;
+        set.write(p, |p| excite::write_csv(p, &rep.joints, &rep.trajectory))?;
     }
     if let Some(p) = &job.mcap {
-        excite::write_mcap(p, &rep.joints, &rep.trajectory)?;
+        set.write(p, |p| excite::write_mcap(p, &rep.joints, &rep.trajectory))?;
     }
     let files: Vec<String> = job.csv.iter().chain(&job.mcap).map(|p| p.display().to_string()).collect();
     if !files.is_empty() {
         written.push(format!("trajectory written to {}", files.join(" and ")));
     }
     if let Some(p) = &job.json {
-        write_json(p, &rep)?;
+        set.write_json(p, &rep)?;
         written.push(format!("report written to {}", p.display()));
     }
+    set.commit()?;
     Ok(Outcome { report: rep, written })
 }

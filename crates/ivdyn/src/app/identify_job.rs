@@ -1,5 +1,5 @@
 //! `identify` as a command: the stream-or-memory choice, then the outputs (parameter file,
-//! URDF write-back, JSON report, prediction MCAP), each written whole or not at all.
+//! URDF write-back, JSON report, prediction MCAP), written all or none ([`OutputSet`]).
 
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -11,7 +11,7 @@ use super::stream::{Streamed, identify_mcap, write_prediction_mcap};
 use crate::Robot;
 use crate::error::{Error, Result};
 use crate::log::JointLog;
-use crate::output::{write_atomic, write_json};
+use crate::output::OutputSet;
 use crate::progress::Stage;
 use crate::robot::{load::side_path, write as urdf_write};
 
@@ -121,9 +121,11 @@ fn write_outputs(
 ) -> Result<Vec<String>> {
     let out = &job.outputs;
     let mut written = vec![];
+    // all of the command's files or none of them
+    let mut set = OutputSet::new();
     let params = rep.consistent.as_ref().map(|c| &c.params).unwrap_or(&rep.params);
     if let Some(p) = &out.params {
-        write_json(p, params)?;
+        set.write_json(p, params)?;
         written.push(format!("parameters written to {}", p.display()));
     }
     if let Some((input, path)) = &out.urdf {
@@ -136,7 +138,7 @@ fn write_outputs(
         let mut shaped = robot.clone();
         crate::robot::load::load_params(&mut shaped, params)?;
         let wb = urdf_write::write_back(&text, input, &shaped, Some(&params.theta), None, vec![source.to_string()])?;
-        urdf_write::write_files(path, &wb)?;
+        urdf_write::stage_files(&mut set, path, &wb)?;
         written.push(format!(
             "URDF written to {} (armature and offsets in {})",
             path.display(),
@@ -144,26 +146,35 @@ fn write_outputs(
         ));
     }
     if let Some(p) = &out.json {
-        write_json(p, rep)?;
+        set.write_json(p, rep)?;
         written.push(format!("report written to {}", p.display()));
     }
     if let Some(p) = &out.mcap {
         let mut model = robot.clone();
         crate::robot::load::load_params(&mut model, &rep.params)?;
-        let k = prediction(robot, &model, job, mem, p)?;
+        let k = prediction(&mut set, robot, &model, job, mem, p)?;
         written.push(format!("measured, predicted and residual torques ({k} samples) written to {} (topics /joint_states, /ivdyn/predicted, /ivdyn/residual)", p.display()));
     }
+    set.commit()?;
     Ok(written)
 }
 
-/// The prediction MCAP: streamed from the log file when the fit was, else from memory.
-fn prediction(robot: &Robot, model: &Robot, job: &IdentifyJob, mem: Option<&JointLog>, out: &Path) -> Result<usize> {
+/// The prediction MCAP, staged in `set`: streamed from the log file when the fit was,
+/// else from memory.
+fn prediction(
+    set: &mut OutputSet,
+    robot: &Robot,
+    model: &Robot,
+    job: &IdentifyJob,
+    mem: Option<&JointLog>,
+    out: &Path,
+) -> Result<usize> {
     let in_file = |e: Error| match e {
         e @ (Error::Log { .. } | Error::Io { .. } | Error::InFile { .. }) => e,
         e => Error::InFile { file: out.to_path_buf(), source: Box::new(e) },
     };
     let mut k = 0;
-    write_atomic(out, |tmp| {
+    set.write(out, |tmp| {
         if let (None, Some(path)) = (mem, job.log.mcap_path())
             && let Streamed::Done(n) =
                 write_prediction_mcap(tmp, model, path, &job.source.read_options(robot), &job.opts).map_err(in_file)?

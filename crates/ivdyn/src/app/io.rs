@@ -1,5 +1,5 @@
 //! What the jobs read and write: the robot and log sources of a command, and outputs
-//! written whole or not at all (a temporary file beside the target, renamed over it).
+//! written whole or not at all (staged in an [`crate::output::OutputSet`]).
 
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -8,7 +8,7 @@ use super::effort::{self, Effort, TorqueConstants};
 use crate::Robot;
 use crate::error::{Error, Result};
 use crate::log::{JointLog, ReadOptions, read_pipeline_log};
-use crate::output::write_atomic;
+use crate::output::OutputSet;
 use crate::robot::load;
 use crate::robot::urdf::UrdfOptions;
 
@@ -164,6 +164,13 @@ impl LogInput {
 
 /// A log written as `.mcap` or `.csv` (by the extension), whole or not at all.
 pub fn write_log(path: &Path, log: &JointLog) -> Result<()> {
+    let mut set = OutputSet::new();
+    stage_log(&mut set, path, log)?;
+    set.commit()
+}
+
+/// [`write_log`] into `set` (put in place when `set` is committed).
+pub fn stage_log(set: &mut OutputSet, path: &Path, log: &JointLog) -> Result<()> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     if ext != "csv" && ext != "mcap" {
         return Err(Error::Log {
@@ -171,7 +178,7 @@ pub fn write_log(path: &Path, log: &JointLog) -> Result<()> {
             msg: format!("unknown output format '.{ext}' (use .mcap or .csv)"),
         });
     }
-    write_atomic(path, |tmp| {
+    set.write(path, |tmp| {
         if ext == "csv" { crate::log::write_csv(tmp, log) } else { crate::log::write_mcap(tmp, log, &[]).map(|_| ()) }
     })
 }

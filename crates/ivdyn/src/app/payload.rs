@@ -22,7 +22,7 @@ use crate::ident::payload_consistent::{Violation, violation};
 use crate::ident::wls::{per_joint_weights, row_weights};
 use crate::ident::{self, BaseParams, FitReport, LsAccumulator, PhysicalFit, fit_ls};
 use crate::log::JointLog;
-use crate::output::write_json;
+use crate::output::OutputSet;
 use crate::prep::{self, ConditionOptions, parallel_filter};
 use crate::progress::{ProgressSink, Stage};
 use crate::report::PayloadSpec;
@@ -496,14 +496,17 @@ pub fn payload_job(robot: &Robot, job: &PayloadJob) -> Result<Outcome<PayloadRep
     opts.before.decimate = opts.decimate;
     let rep = payload(robot, &after, before.as_deref(), &opts).map_err(|e| job.log.context(e))?;
     let mut written = vec![];
+    // all of the command's files or none of them
+    let mut set = OutputSet::new();
     if let Some(p) = &job.json {
-        write_json(p, &rep)?;
+        set.write_json(p, &rep)?;
         written.push(format!("report written to {}", p.display()));
     }
     if let (Some((input, out, mode)), true) = (&job.urdf, rep.identifiable) {
-        write_urdf(robot, &rep, input, out, *mode)?;
+        stage_urdf(&mut set, robot, &rep, input, out, *mode)?;
         written.push(format!("URDF with the payload written to {}", out.display()));
     }
+    set.commit()?;
     Ok(Outcome { report: rep, written })
 }
 
@@ -534,9 +537,16 @@ fn with_torque_constant_prior(
     Ok((LogSource { effort, torque_constants, ..src.clone() }, Some(rel_cov)))
 }
 
-/// Writes a copy of the URDF `input` with the payload of `rep` to `out` (and its side
+/// Stages a copy of the URDF `input` with the payload of `rep` for `out` (and its side
 /// file), after [`check_writable`]: nothing is written for a payload that is no body.
-fn write_urdf(robot: &Robot, rep: &PayloadReport, input: &Path, out: &Path, mode: PayloadMode) -> Result<()> {
+fn stage_urdf(
+    set: &mut OutputSet,
+    robot: &Robot,
+    rep: &PayloadReport,
+    input: &Path,
+    out: &Path,
+    mode: PayloadMode,
+) -> Result<()> {
     let spec = PayloadSpec {
         mass: rep.mass.unwrap_or(f64::NAN),
         com: rep.com.unwrap_or([f64::NAN; 3]),
@@ -553,7 +563,7 @@ fn write_urdf(robot: &Robot, rep: &PayloadReport, input: &Path, out: &Path, mode
         Some((&spec, mode)),
         vec![note.into()],
     )?;
-    crate::robot::write::write_files(out, &wb)
+    crate::robot::write::stage_files(set, out, &wb)
 }
 
 /// Refuses (before anything is written to `out`) a payload that is not a rigid body with a

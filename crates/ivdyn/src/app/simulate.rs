@@ -11,9 +11,9 @@ use crate::log::JointLog;
 use std::path::{Path, PathBuf};
 
 use super::Outcome;
-use super::io::write_log;
+use super::io::stage_log;
 use crate::Robot;
-use crate::output::write_json;
+use crate::output::OutputSet;
 use crate::progress::{ProgressSink, Stage};
 use crate::report::{ParamsFile, PayloadSpec};
 use ivdyn_core::LinkInertia;
@@ -364,8 +364,8 @@ impl Trajectory {
     }
 }
 
-/// Runs `job` on `robot`: the log, written to `job.out` (whole or not at all), then the
-/// summary.
+/// Runs `job` on `robot`: the log, written to `job.out`, and the summary (both files or
+/// neither).
 pub fn simulate_job(
     robot: &Robot,
     job: &SimulateJob,
@@ -378,8 +378,10 @@ pub fn simulate_job(
     };
     let truth = true_robot(robot, &job.opts)?;
     let mut written = vec![];
+    // all of the command's files or none of them
+    let mut set = OutputSet::new();
     if let Some(p) = &job.out {
-        write_log(p, &log)?;
+        stage_log(&mut set, p, &log)?;
         let secs = log.t.last().copied().unwrap_or(0.0);
         written.push(format!("wrote {} samples of {} joints ({secs:.2} s) to {}", log.len(), log.dof(), p.display()));
     }
@@ -398,7 +400,8 @@ pub fn simulate_job(
         true_params,
     };
     if let Some(p) = &job.json {
-        write_json(p, &summary)?;
+        set.write_json(p, &summary)?;
     }
+    set.commit()?;
     Ok(Outcome { report: (log, summary), written })
 }

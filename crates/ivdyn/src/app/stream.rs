@@ -990,7 +990,7 @@ pub fn write_prediction_mcap(
             w.finish()?;
             Ok(Streamed::Done(k))
         }
-        // dropping the writer removes its temporary file
+        // dropping the writer removes its staged file
         Streamed::Unsupported(why) => Ok(Streamed::Unsupported(why)),
     }
 }

@@ -17,6 +17,7 @@ pub use html::{fmt_num, fmt_p, fmt_pct};
 use super::Diagnosis;
 use crate::error::{Error, Result};
 use crate::log::McapWriter;
+use crate::output::OutputSet;
 use plots::{StateAxis, Trace};
 
 /// File name of the page written by [`write_html`].
@@ -199,22 +200,21 @@ fn figures(d: &Diagnosis, n: usize, dir: &Path) -> Result<html::Figures> {
 
 /// Writes `report.html` into `dir` (created if missing): one self-contained page with
 /// the verdict, the RMS table, each step's evidence, parameters and candidate scores, the
-/// regimes table and the plots. The page is written to a temporary name and renamed, so
-/// an error leaves no partial file.
+/// regimes table and the plots. The page is staged and put in place when complete
+/// ([`crate::output`]), so an error leaves no partial file.
 pub fn write_html(d: &Diagnosis, dir: &Path) -> Result<()> {
-    let (_, n) = check_shapes(d)?;
-    let figs = figures(d, n, dir)?;
-    let page = html::document(d, &figs);
-    write_atomic(&dir.join(HTML_FILE), page.as_bytes())
+    let page = html_page(d, dir)?;
+    let mut set = OutputSet::new();
+    set.create_dir_all(dir)?;
+    set.write_bytes(&dir.join(HTML_FILE), page.as_bytes())?;
+    set.commit()
 }
 
-/// Writes `bytes` to `path` (its folder created if missing), whole or not at all.
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path.parent().unwrap_or(Path::new("."));
-    std::fs::create_dir_all(dir).map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?;
-    crate::output::write_atomic(path, |tmp| {
-        std::fs::write(tmp, bytes).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })
-    })
+/// The text of [`write_html`]'s page (`dir`, where it is to go, names it in errors).
+pub fn html_page(d: &Diagnosis, dir: &Path) -> Result<String> {
+    let (_, n) = check_shapes(d)?;
+    let figs = figures(d, n, dir)?;
+    Ok(html::document(d, &figs))
 }
 
 /// Topic of the prediction after step `i` (1-based) that added `effect`:
@@ -242,14 +242,21 @@ pub fn write_mcap(d: &Diagnosis, joints: &[String], dir: &Path) -> Result<()> {
 /// With no step, `final` equals `nominal`. `joints` names the joints in the order of
 /// every per-joint list. An error leaves no file (see [`McapWriter`]).
 pub fn write_mcap_stamped(d: &Diagnosis, joints: &[String], t0_ns: i64, dir: &Path) -> Result<()> {
+    let mut set = OutputSet::new();
+    set.create_dir_all(dir)?;
+    set.write(&dir.join(MCAP_FILE), |p| write_residuals(d, joints, t0_ns, p))?;
+    set.commit()
+}
+
+/// The MCAP file of [`write_mcap_stamped`] at `path`.
+pub fn write_residuals(d: &Diagnosis, joints: &[String], t0_ns: i64, path: &Path) -> Result<()> {
     let (t, n) = check_shapes(d)?;
     if joints.len() != n {
         return Err(Error::Dimension { what: "joint names for residuals.mcap".into(), expected: n, got: joints.len() });
     }
-    std::fs::create_dir_all(dir).map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?;
     let tr = &d.traces;
     let k = d.steps.len();
-    let mut w = McapWriter::create(dir.join(MCAP_FILE))?;
+    let mut w = McapWriter::create(path)?;
     let meas = w.add_joint_state_topic("/joint_states")?;
     let pred_nom = w.add_joint_state_topic("/ivdyn/predicted/nominal")?;
     let pred_fin = w.add_joint_state_topic("/ivdyn/predicted/final")?;

@@ -8,7 +8,7 @@ use crate::log::JointLog;
 
 /// Writes the trajectory as CSV: `t`, `<joint>.q`, `<joint>.qd`, `<joint>.qdd` (the
 /// `docs/logs.md` naming; `io::read_csv` reads `t`, `q`, `qd` and ignores `qdd`), shortest
-/// round-trip decimals, via a temporary file renamed on success.
+/// round-trip decimals, all or nothing ([`crate::output`]).
 pub fn write_csv(path: &Path, joints: &[String], s: &Samples) -> Result<()> {
     crate::log::csv::write_columns(path, 0, joints, &s.t, &[("q", &s.q), ("qd", &s.qd), ("qdd", &s.qdd)])
 }

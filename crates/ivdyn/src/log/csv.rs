@@ -171,8 +171,8 @@ impl Header {
 }
 
 /// Writes a joint log as CSV (columns `t`, then `<joint>.q` for every joint, then `.qd`,
-/// `.tau`, `.u`, `.i` when present), with a `# t0_ns: ...` comment line first. Written to a
-/// temporary file and renamed on success.
+/// `.tau`, `.u`, `.i` when present), with a `# t0_ns: ...` comment line first, all or
+/// nothing ([`crate::output`]).
 pub fn write_csv(path: impl AsRef<Path>, log: &JointLog) -> Result<()> {
     log.check_shapes()?;
     let arrays: Vec<(&str, &[f64])> = FIELDS
@@ -185,7 +185,7 @@ pub fn write_csv(path: impl AsRef<Path>, log: &JointLog) -> Result<()> {
 
 /// Writes CSV columns `t`, then `<joint>.<field>` for every joint of every `(field, T x N
 /// array)` in order, shortest round-trip decimals, after a `# t0_ns: ...` comment line;
-/// via a temporary file renamed on success (no partial file on error).
+/// all or nothing ([`crate::output::write_atomic`]).
 pub fn write_columns(path: &Path, t0_ns: i64, joints: &[String], t: &[f64], arrays: &[(&str, &[f64])]) -> Result<()> {
     let n = joints.len();
     for (f, a) in arrays {
@@ -197,11 +197,9 @@ pub fn write_columns(path: &Path, t0_ns: i64, joints: &[String], t: &[f64], arra
             });
         }
     }
-    let fname = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{fname}.{}.tmp", std::process::id()));
-    let io = |e: std::io::Error| Error::Io { file: tmp.clone(), source: e };
-    let res = (|| -> Result<()> {
-        let mut w = BufWriter::new(File::create(&tmp).map_err(io)?);
+    crate::output::write_atomic(path, |tmp| {
+        let io = |e: std::io::Error| Error::Io { file: tmp.to_path_buf(), source: e };
+        let mut w = BufWriter::new(File::create(tmp).map_err(io)?);
         writeln!(w, "# t0_ns: {t0_ns}").map_err(io)?;
         let mut head = vec!["t".to_string()];
         for (f, _) in arrays {
@@ -220,11 +218,6 @@ pub fn write_columns(path: &Path, t0_ns: i64, joints: &[String], t: &[f64], arra
             }
             writeln!(w, "{line}").map_err(io)?;
         }
-        w.into_inner().map_err(|e| io(e.into_error()))?.sync_all().map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })
-    })();
-    if res.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    res
+        w.into_inner().map_err(|e| io(e.into_error()))?.sync_all().map_err(io)
+    })
 }

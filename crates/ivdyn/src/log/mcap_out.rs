@@ -2,9 +2,9 @@
 //! encoded `ros2msg`, messages `cdr`), readable by `ros2 bag`, Foxglove and Python's
 //! `mcap_ros2`.
 //!
-//! The file is written to a hidden temporary file next to the target and renamed on
-//! [`McapWriter::finish`]; if anything fails (or the writer is dropped unfinished) the
-//! temporary file is removed, so no partial file that looks valid is ever left.
+//! The file is written into a private staging directory ([`crate::output::OutputSet`])
+//! and put in place by [`McapWriter::finish`]; if anything fails (or the writer is dropped
+//! unfinished) the staged file is removed, so no partial file that looks valid is ever left.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -14,6 +14,7 @@ use std::path::{Path, PathBuf};
 use super::JointLog;
 use super::cdr::encode_parts;
 use crate::error::{Error, Result};
+use crate::output::OutputSet;
 
 /// The `ros2msg` text of `sensor_msgs/msg/JointState` with its dependencies, as
 /// `ros2 bag` stores it.
@@ -49,10 +50,10 @@ pub enum Compression {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TopicId(u16);
 
-/// Writes JointState topics to an MCAP file (temporary file + rename on success).
+/// Writes JointState topics to an MCAP file (staged, put in place on success).
 pub struct McapWriter {
     path: PathBuf,
-    tmp: PathBuf,
+    set: OutputSet,
     w: Option<::mcap::Writer<BufWriter<File>>>,
     schema: u16,
     topics: Vec<(u16, String, u32)>,
@@ -61,12 +62,12 @@ pub struct McapWriter {
 
 impl std::fmt::Debug for McapWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("McapWriter").field("path", &self.path).field("tmp", &self.tmp).finish()
+        f.debug_struct("McapWriter").field("path", &self.path).finish()
     }
 }
 
 impl McapWriter {
-    /// Starts a zstd-compressed file at `path` (written to a temporary name until
+    /// Starts a zstd-compressed file at `path` (written to a staged file until
     /// [`finish`](Self::finish)).
     pub fn create(path: impl AsRef<Path>) -> Result<Self> {
         Self::create_with(path, Compression::Zstd)
@@ -75,15 +76,15 @@ impl McapWriter {
     /// As [`create`](Self::create) with a chosen chunk compression.
     pub fn create_with(path: impl AsRef<Path>, compression: Compression) -> Result<Self> {
         let path = path.as_ref().to_path_buf();
-        let fname = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "out.mcap".into());
-        let tmp = path.with_file_name(format!(".{fname}.{}.tmp", std::process::id()));
-        let file = File::create(&tmp).map_err(|e| Error::Io { file: tmp.clone(), source: e })?;
+        let mut set = OutputSet::new();
+        let tmp = set.stage(&path)?;
+        let file = File::create(&tmp).map_err(|e| Error::Io { file: path.clone(), source: e })?;
         let comp = match compression {
             Compression::None => None,
             Compression::Zstd => Some(::mcap::Compression::Zstd),
             Compression::Lz4 => Some(::mcap::Compression::Lz4),
         };
-        let mut me = McapWriter { path, tmp, w: None, schema: 0, topics: vec![], frame_id: String::new() };
+        let mut me = McapWriter { path, set, w: None, schema: 0, topics: vec![], frame_id: String::new() };
         let mut w = ::mcap::WriteOptions::new()
             .profile("ros2")
             .library(concat!("ivdyn ", env!("CARGO_PKG_VERSION")))
@@ -155,25 +156,24 @@ impl McapWriter {
         r.map_err(|e| self.fail(e))
     }
 
-    /// Writes the summary, flushes and renames the temporary file to the target path.
+    /// Writes the summary, flushes and puts the staged file in place at the target path.
     pub fn finish(mut self) -> Result<PathBuf> {
         let mut w = self.w.take().expect("writer is open until finish");
         w.finish().map_err(|e| self.fail(e))?;
         let buf = w.into_inner();
-        let file = buf.into_inner().map_err(|e| Error::Io { file: self.tmp.clone(), source: e.into_error() })?;
-        file.sync_all().map_err(|e| Error::Io { file: self.tmp.clone(), source: e })?;
+        let file = buf.into_inner().map_err(|e| Error::Io { file: self.path.clone(), source: e.into_error() })?;
+        file.sync_all().map_err(|e| Error::Io { file: self.path.clone(), source: e })?;
         drop(file);
-        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::Io { file: self.path.clone(), source: e })?;
+        std::mem::take(&mut self.set).commit()?;
         Ok(self.path.clone())
     }
 }
 
 impl Drop for McapWriter {
     fn drop(&mut self) {
-        // Unfinished (error or early return): remove the temporary file. After a
-        // successful finish() the rename already moved it and this is a no-op.
+        // Close the file before the set (dropped after this) removes what it staged:
+        // everything when unfinished (error or early return), nothing after finish().
         self.w.take();
-        let _ = std::fs::remove_file(&self.tmp);
     }
 }
 
@@ -226,7 +226,7 @@ pub const MEASURED_TOPIC: &str = "/joint_states";
 /// ([`PREDICTED_TOPIC`]: the smoothed position and velocity the model was evaluated at,
 /// effort = predicted torque) and the residual ([`RESIDUAL_TOPIC`]: effort = measured -
 /// predicted, computed here so that it is exactly the difference of the two written
-/// values). Temporary file + rename as [`McapWriter`].
+/// values). Staged and put in place at `finish` as [`McapWriter`].
 #[derive(Debug)]
 pub struct PredictionWriter {
     w: McapWriter,

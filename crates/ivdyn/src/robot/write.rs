@@ -454,15 +454,16 @@ fn side_file(robot: &Robot, theta: &[f64], payload: Option<PayloadSpec>, notes: 
     }
 }
 
-/// Writes `wb` to `path` (URDF) and [`side_path`]`(path)` (JSON), each through a temporary
-/// file renamed on success.
+/// Writes `wb` to `path` (URDF) and [`side_path`]`(path)` (JSON), both or neither.
 pub fn write_files(path: &Path, wb: &WriteBack) -> Result<()> {
-    let put = |p: &Path, text: &str| -> Result<()> {
-        crate::output::write_atomic(p, |tmp| {
-            std::fs::write(tmp, text).map_err(|e| Error::Io { file: p.to_path_buf(), source: e })
-        })
-    };
+    let mut set = crate::output::OutputSet::new();
+    stage_files(&mut set, path, wb)?;
+    set.commit()
+}
+
+/// [`write_files`] into `set` (put in place when `set` is committed).
+pub fn stage_files(set: &mut crate::output::OutputSet, path: &Path, wb: &WriteBack) -> Result<()> {
     let side = serde_json::to_string_pretty(&wb.side).map_err(|e| Error::Estimation { msg: e.to_string() })? + "\n";
-    put(path, &wb.urdf)?;
-    put(&side_path(path), &side)
+    set.write_bytes(path, wb.urdf.as_bytes())?;
+    set.write_bytes(&side_path(path), side.as_bytes())
 }
