@@ -102,34 +102,10 @@ pub fn unsupported(opts: &IdentifyOptions, read: &ReadOptions) -> Option<String>
     None
 }
 
-/// Measured messages on `topic` according to the MCAP summary (`None` when the file has
-/// no summary statistics, e.g. an interrupted recording).
+/// Measured messages on `topic` in the log at `path` (an MCAP file or a ROS 2 bag):
+/// [`crate::log::message_count`] (`None` when unknown, e.g. an interrupted recording).
 pub fn message_count(path: &Path, topic: &str) -> Result<Option<u64>> {
-    use ::mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
-    use std::io::{Read, Seek};
-    let io = |e: std::io::Error| Error::Io { file: path.to_path_buf(), source: e };
-    let mut file = std::fs::File::open(path).map_err(io)?;
-    let mut reader = SummaryReader::new();
-    while let Some(ev) = reader.next_event() {
-        let Ok(ev) = ev else { return Ok(None) };
-        match ev {
-            SummaryReadEvent::ReadRequest(need) => {
-                let got = file.read(reader.insert(need)).map_err(io)?;
-                reader.notify_read(got);
-            }
-            SummaryReadEvent::SeekRequest(to) => {
-                let pos = file.seek(to).map_err(io)?;
-                reader.notify_seeked(pos);
-            }
-        }
-    }
-    let Some(summary) = reader.finish() else { return Ok(None) };
-    let Some(stats) = summary.stats else { return Ok(None) };
-    let ids: Vec<u16> = summary.channels.iter().filter(|(_, c)| c.topic == topic).map(|(id, _)| *id).collect();
-    if ids.is_empty() {
-        return Ok(None);
-    }
-    Ok(Some(ids.iter().map(|id| stats.channel_message_counts.get(id).copied().unwrap_or(0)).sum()))
+    crate::log::message_count(path, topic)
 }
 
 // ---------------------------------------------------------------------------------------

@@ -159,8 +159,11 @@ pub struct StreamSummary {
     pub topics: Vec<(String, String)>,
     /// The file ended mid-record and `allow_truncated` accepted it.
     pub truncated: bool,
-    /// Bytes read.
+    /// Bytes read (of every file of a bag).
     pub bytes: u64,
+    /// How the log's files were found, when the user should know (e.g. a bag directory
+    /// without `metadata.yaml`).
+    pub notes: Vec<String>,
 }
 
 /// Per-topic decoding state: name mapping cache, stamp order, field presence.
@@ -293,17 +296,29 @@ fn fmt_stamp(ns: i64) -> String {
     format!("{}.{:09}", ns.div_euclid(1_000_000_000), ns.rem_euclid(1_000_000_000))
 }
 
-/// Streams every message of the measured (and command) topic to `f`, in file order, in
+/// Streams every message of the measured (and command) topic to `f`, in log order, in
 /// one pass with bounded memory. Returns what was seen. Errors from `f` stop the pass
 /// and are returned as they are.
+///
+/// `path` is an MCAP file, a rosbag2 sqlite3 file (`.db3`), either compressed as a whole
+/// (`.mcap.zstd`, `.db3.zstd`), or a rosbag2 directory (split files read in order as one
+/// log): see [`super::bag`].
 pub fn for_each_sample<F>(path: impl AsRef<Path>, opts: &ReadOptions, f: F) -> Result<StreamSummary>
 where
     F: FnMut(&Sample<'_>) -> Result<()>,
 {
-    let path = path.as_ref();
+    super::bag::for_each_sample_in(path.as_ref(), opts, f)
+}
+
+/// Streams one MCAP file into `pass` (which keeps its topics' state from earlier files).
+pub(super) fn stream_mcap_file<F>(pass: &mut Pass<'_>, path: &Path, f: &mut F) -> Result<()>
+where
+    F: FnMut(&Sample<'_>) -> Result<()>,
+{
     let file = File::open(path).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })?;
     let size = file.metadata().map(|m| m.len()).ok();
-    stream(BufReader::with_capacity(256 * 1024, file), path, size, opts, f)
+    pass.begin_file(path);
+    stream_into(pass, BufReader::with_capacity(256 * 1024, file), size, f)
 }
 
 /// [`for_each_sample`] on any byte source (a pipe, a socket, a decompressor); `name` is
@@ -312,7 +327,11 @@ pub fn for_each_sample_from<R: Read, F>(source: R, name: &Path, opts: &ReadOptio
 where
     F: FnMut(&Sample<'_>) -> Result<()>,
 {
-    stream(source, name, None, opts, f)
+    let mut f = f;
+    let mut pass = Pass::new(name, opts)?;
+    pass.begin_file(name);
+    stream_into(&mut pass, source, None, &mut f)?;
+    pass.finish()
 }
 
 /// Largest MCAP record, and largest chunk once decompressed, that is read (bytes): the
@@ -321,13 +340,13 @@ where
 /// about 1 MB; 256 MiB leaves room for chunks of camera images beside the joint states.
 pub const MAX_MCAP_RECORD: usize = 256 << 20;
 
-/// The streaming pass behind [`for_each_sample`]: reads `src` through a [`LinearReader`]
-/// and hands each record to a [`Pass`].
-fn stream<R: Read, F>(mut src: R, path: &Path, size: Option<u64>, opts: &ReadOptions, mut f: F) -> Result<StreamSummary>
+/// The streaming pass behind [`for_each_sample`]: reads the MCAP bytes `src` (of `size`
+/// bytes if known) through a [`LinearReader`] and hands each record to `pass`.
+pub(super) fn stream_into<R: Read, F>(pass: &mut Pass<'_>, mut src: R, size: Option<u64>, f: &mut F) -> Result<()>
 where
     F: FnMut(&Sample<'_>) -> Result<()>,
 {
-    let mut pass = Pass::new(path, opts)?;
+    let path = pass.path.clone();
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default().with_validate_chunk_crcs(true).with_record_length_limit(MAX_MCAP_RECORD),
     );
@@ -344,14 +363,14 @@ where
         match ev {
             LinearReadEvent::ReadRequest(need) => {
                 let buf = reader.insert(need);
-                let got = read_some(&mut src, buf).map_err(|e| Error::Io { file: path.to_path_buf(), source: e })?;
+                let got = read_some(&mut src, buf).map_err(|e| Error::Io { file: path.clone(), source: e })?;
                 reader.notify_read(got);
                 pass.offset += got as u64;
             }
-            LinearReadEvent::Record { opcode, data } => pass.record(opcode, data, &mut f)?,
+            LinearReadEvent::Record { opcode, data } => pass.record(opcode, data, f)?,
         }
     }
-    pass.finish()
+    Ok(())
 }
 
 /// A log error naming the file `path`.
@@ -360,14 +379,17 @@ fn log_err(path: &Path, msg: String) -> Error {
 }
 
 /// What a streaming pass keeps between records: schemas, channels, per-topic decoding
-/// state and the position in the file.
-struct Pass<'o> {
+/// state and the position in the file. One pass reads the files of a split bag one after
+/// the other: the topic state (counts, stamp order) carries over, the ids do not.
+pub(super) struct Pass<'o> {
     opts: &'o ReadOptions,
-    path: &'o Path,
-    /// schema id -> (name, encoding)
+    /// The file being read (named in errors).
+    path: PathBuf,
+    /// schema id -> (name, encoding), of the current file
     schemas: HashMap<u16, (String, String)>,
-    /// channel id -> index into `states` (or None: a channel we ignore)
-    channels: HashMap<u16, Option<usize>>,
+    /// channel (MCAP) or topic (sqlite3) id of the current file -> index into `states`
+    /// (or None: a topic we ignore)
+    channels: HashMap<i64, Option<usize>>,
     /// The measured topic, then the command and current topics if any.
     states: Vec<TopicState>,
     summary: StreamSummary,
@@ -377,11 +399,14 @@ struct Pass<'o> {
     offset: u64,
     /// Records parsed so far.
     records: u64,
+    /// Each message's data is zstd-compressed (rosbag2 `compression_mode: message`): the
+    /// buffer it is decompressed into.
+    unzstd: Option<Vec<u8>>,
 }
 
 impl<'o> Pass<'o> {
     /// Checks the options (joint names given, command topic distinct) and sets up the topics.
-    fn new(path: &'o Path, opts: &'o ReadOptions) -> Result<Self> {
+    pub(super) fn new(path: &Path, opts: &'o ReadOptions) -> Result<Self> {
         if opts.joint_names.is_empty() {
             return Err(log_err(path, "no joint names given to match the log against".into()));
         }
@@ -401,7 +426,7 @@ impl<'o> Pass<'o> {
         }
         Ok(Pass {
             opts,
-            path,
+            path: path.to_path_buf(),
             schemas: HashMap::new(),
             channels: HashMap::new(),
             states,
@@ -409,12 +434,33 @@ impl<'o> Pass<'o> {
             msg: JointState::default(),
             offset: 0,
             records: 0,
+            unzstd: None,
         })
     }
 
+    /// Starts reading `path`, the next file of the log: its ids are its own.
+    pub(super) fn begin_file(&mut self, path: &Path) {
+        self.path = path.to_path_buf();
+        self.summary.bytes += self.offset;
+        self.schemas.clear();
+        self.channels.clear();
+        self.offset = 0;
+        self.records = 0;
+    }
+
+    /// Messages are zstd-compressed one by one (rosbag2 `compression_mode: message`).
+    pub(super) fn set_message_zstd(&mut self, yes: bool) {
+        self.unzstd = yes.then(Vec::new);
+    }
+
+    /// The id (of the current file) is bound to one of our topics.
+    pub(super) fn is_wanted(&self, id: i64) -> bool {
+        matches!(self.channels.get(&id), Some(Some(_)))
+    }
+
     /// A log error naming this pass's file.
-    fn err(&self, msg: String) -> Error {
-        log_err(self.path, msg)
+    pub(super) fn err(&self, msg: String) -> Error {
+        log_err(&self.path, msg)
     }
 
     /// A reader error as the error to report; `Ok` (and `summary.truncated`) when the file
@@ -462,7 +508,9 @@ impl<'o> Pass<'o> {
                 self.schemas.insert(header.id, (header.name, header.encoding));
             }
             Record::Channel(c) => self.channel(&c)?,
-            Record::Message { header, data } => self.message(&header, &data, f)?,
+            Record::Message { header, data } => {
+                self.message(i64::from(header.channel_id), header.log_time, &data, f)?
+            }
             _ => {}
         }
         Ok(())
@@ -471,45 +519,76 @@ impl<'o> Pass<'o> {
     /// Notes a channel's topic in the summary and maps it to one of our topics (whose
     /// schema must be JointState in CDR) or to none.
     fn channel(&mut self, c: &::mcap::records::Channel) -> Result<()> {
-        if self.channels.contains_key(&c.id) {
+        let schema = self.schemas.get(&c.schema_id).cloned();
+        self.bind(i64::from(c.id), &c.topic, schema, &c.message_encoding)
+    }
+
+    /// Maps the id of a topic of the current file (an MCAP channel, a sqlite3 `topics`
+    /// row) to one of our topics, whose schema must be JointState in CDR, or to none;
+    /// notes the topic in the summary. `schema`: (name, schema encoding).
+    pub(super) fn bind(
+        &mut self,
+        id: i64,
+        topic: &str,
+        schema: Option<(String, String)>,
+        encoding: &str,
+    ) -> Result<()> {
+        if self.channels.contains_key(&id) {
             return Ok(()); // repeated in the summary section
         }
-        let schema = self.schemas.get(&c.schema_id).cloned();
         let schema_name = schema.as_ref().map(|s| s.0.clone()).unwrap_or_else(|| "(no schema)".into());
-        if !self.summary.topics.iter().any(|(t, _)| *t == c.topic) {
-            self.summary.topics.push((c.topic.clone(), schema_name.clone()));
+        if !self.summary.topics.iter().any(|(t, _)| *t == topic) {
+            self.summary.topics.push((topic.to_string(), schema_name.clone()));
         }
-        let which = self.states.iter().position(|s| s.topic == c.topic);
+        let which = self.states.iter().position(|s| s.topic == topic);
         if which.is_some() {
             let ok = schema.as_ref().is_some_and(|(name, enc)| {
                 JOINT_STATE_SCHEMAS.contains(&name.as_str()) && (enc == "ros2msg" || enc == "ros2idl")
-            }) && c.message_encoding == "cdr";
+            }) && encoding == "cdr";
             if !ok {
                 let enc = schema.as_ref().map(|s| s.1.as_str()).unwrap_or("");
                 return Err(self.err(format!(
-                    "topic {} has schema '{schema_name}' (schema encoding '{enc}', message encoding '{}'); \
-                     expected sensor_msgs/msg/JointState (ros2msg, cdr)",
-                    c.topic, c.message_encoding
+                    "topic {topic} has schema '{schema_name}' (schema encoding '{enc}', message encoding '{encoding}'); \
+                     expected sensor_msgs/msg/JointState (ros2msg, cdr)"
                 )));
             }
         }
-        self.channels.insert(c.id, which);
+        self.channels.insert(id, which);
         Ok(())
     }
 
-    /// Decodes a message of one of our topics into its [`TopicState`] and calls `f` on it.
-    fn message<F>(&mut self, header: &::mcap::records::MessageHeader, data: &[u8], f: &mut F) -> Result<()>
+    /// Decodes a message of the topic `id` (as bound by [`Pass::bind`]), received at
+    /// `log_time` (ns), into its [`TopicState`] and calls `f` on it; other topics are skipped.
+    pub(super) fn message<F>(&mut self, id: i64, log_time: u64, data: &[u8], f: &mut F) -> Result<()>
     where
         F: FnMut(&Sample<'_>) -> Result<()>,
     {
-        let Some(&Some(w)) = self.channels.get(&header.channel_id) else { return Ok(()) };
-        let path = self.path;
+        let Some(&Some(w)) = self.channels.get(&id) else { return Ok(()) };
+        let mut buf = self.unzstd.take();
+        let r = self.decode(w, log_time, data, buf.as_mut(), f);
+        self.unzstd = buf;
+        r
+    }
+
+    /// [`Pass::message`] for the topic state `w`; `unzstd`: the buffer to decompress
+    /// `data` into first (message-compressed bags).
+    fn decode<F>(&mut self, w: usize, log_time: u64, data: &[u8], unzstd: Option<&mut Vec<u8>>, f: &mut F) -> Result<()>
+    where
+        F: FnMut(&Sample<'_>) -> Result<()>,
+    {
+        let path = &self.path;
         let st = &mut self.states[w];
-        decode_joint_state_into(data, &mut self.msg)
-            .map_err(|e| log_err(path, format!("topic {}, sample {}: bad message: {e}", st.topic, st.count)))?;
+        let at = |e: String| log_err(path, format!("topic {}, sample {}: {e}", st.topic, st.count));
+        let data = match unzstd {
+            Some(buf) => {
+                unzstd_bounded(data, buf).map_err(|e| at(format!("bad zstd-compressed message: {e}")))?;
+                &buf[..]
+            }
+            None => data,
+        };
+        decode_joint_state_into(data, &mut self.msg).map_err(|e| at(format!("bad message: {e}")))?;
         let m = &self.msg;
-        let stamp =
-            if self.opts.use_log_time { i64::try_from(header.log_time).unwrap_or(i64::MAX) } else { m.stamp_ns() };
+        let stamp = if self.opts.use_log_time { i64::try_from(log_time).unwrap_or(i64::MAX) } else { m.stamp_ns() };
         st.load(m, stamp, &self.opts.joint_names).map_err(|msg| log_err(path, msg))?;
         f(&st.sample(stamp, m))?;
         st.count += 1;
@@ -518,8 +597,8 @@ impl<'o> Pass<'o> {
 
     /// The summary of the pass; an error naming the topic when one of ours had no message
     /// (not in the file, or empty).
-    fn finish(mut self) -> Result<StreamSummary> {
-        self.summary.bytes = self.offset;
+    pub(super) fn finish(mut self) -> Result<StreamSummary> {
+        self.summary.bytes += self.offset;
         self.summary.measured = self.states[0].count;
         self.summary.commands = self.states.iter().find(|s| s.source == Source::Command).map_or(0, |s| s.count);
         let summary = &self.summary;
@@ -546,6 +625,47 @@ impl<'o> Pass<'o> {
         }
         Ok(self.summary)
     }
+}
+
+/// Decompresses one zstd frame `data` into `out`, at most [`MAX_MCAP_RECORD`] bytes.
+fn unzstd_bounded(data: &[u8], out: &mut Vec<u8>) -> std::io::Result<()> {
+    out.clear();
+    let dec = ::zstd::Decoder::new(data)?;
+    dec.take(MAX_MCAP_RECORD as u64 + 1).read_to_end(out)?;
+    if out.len() > MAX_MCAP_RECORD {
+        return Err(std::io::Error::other(format!("decompresses to more than {MAX_MCAP_RECORD} bytes")));
+    }
+    Ok(())
+}
+
+/// Measured messages on `topic` according to the MCAP summary of the file `path` (`None`
+/// when the file has no summary statistics, e.g. an interrupted recording).
+pub(super) fn summary_count(path: &Path, topic: &str) -> Result<Option<u64>> {
+    use ::mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
+    use std::io::Seek;
+    let io = |e: std::io::Error| Error::Io { file: path.to_path_buf(), source: e };
+    let mut file = File::open(path).map_err(io)?;
+    let mut reader = SummaryReader::new();
+    while let Some(ev) = reader.next_event() {
+        let Ok(ev) = ev else { return Ok(None) };
+        match ev {
+            SummaryReadEvent::ReadRequest(need) => {
+                let got = file.read(reader.insert(need)).map_err(io)?;
+                reader.notify_read(got);
+            }
+            SummaryReadEvent::SeekRequest(to) => {
+                let pos = file.seek(to).map_err(io)?;
+                reader.notify_seeked(pos);
+            }
+        }
+    }
+    let Some(summary) = reader.finish() else { return Ok(None) };
+    let Some(stats) = summary.stats else { return Ok(None) };
+    let ids: Vec<u16> = summary.channels.iter().filter(|(_, c)| c.topic == topic).map(|(id, _)| *id).collect();
+    if ids.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(ids.iter().map(|id| stats.channel_message_counts.get(id).copied().unwrap_or(0)).sum()))
 }
 
 /// Reads until `buf` is full or EOF (a short read from a pipe is not EOF).

@@ -21,14 +21,17 @@
 //! println!("{} samples of {} joints, effort: {}", log.len(), log.dof(), log.tau.is_some());
 //! ```
 
+pub mod bag;
 pub mod cdr;
 pub mod csv;
+pub mod db3;
 pub mod mcap;
 pub mod mcap_out;
 pub mod read;
 
 use std::path::Path;
 
+pub use self::bag::{LogFile, LogFiles, Storage, log_files, message_count};
 pub use self::csv::{read_csv, read_csv_from, write_csv};
 pub use self::mcap::{
     CommandAlign, CommandField, ReadOptions, Sample, Source, StreamSummary, for_each_sample, for_each_sample_from,

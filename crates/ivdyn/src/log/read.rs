@@ -6,9 +6,10 @@ use std::path::Path;
 use super::{JointLog, ReadOptions, read_csv, read_mcap};
 use crate::error::{Error, Result};
 
-/// Reads a joint log by extension: `.mcap` with [`read_mcap`] (measured `topic`, optional
-/// `command_topic` for `u`), `.csv` with [`read_csv`] (the topics are not used). Joints
-/// come out in the order of `joint_names`.
+/// Reads a joint log by extension: `.csv` with [`read_csv`] (the topics are not used); a
+/// ROS 2 recording with [`read_mcap`] (measured `topic`, optional `command_topic` for `u`):
+/// a `.mcap` or `.db3` file, either one `.zstd`-compressed, or a rosbag2 directory
+/// ([`super::bag`]). Joints come out in the order of `joint_names`.
 pub fn read_joint_log(
     path: impl AsRef<Path>,
     joint_names: &[String],
@@ -17,21 +18,31 @@ pub fn read_joint_log(
 ) -> Result<JointLog> {
     let path = path.as_ref();
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
-    match ext.as_deref() {
-        Some("mcap") => read_mcap(path, &ReadOptions::new(joint_names).topic(topic).command_topic_opt(command_topic)),
-        Some("csv") => read_csv(path, joint_names),
-        _ => Err(Error::Log {
-            file: path.to_path_buf(),
-            msg: "unknown log format: expected a .mcap or .csv file".into(),
-        }),
+    if ext.as_deref() == Some("csv") {
+        return read_csv(path, joint_names);
     }
+    if path.is_dir() || is_bag_file(path) {
+        return read_mcap(path, &ReadOptions::new(joint_names).topic(topic).command_topic_opt(command_topic));
+    }
+    Err(Error::Log {
+        file: path.to_path_buf(),
+        msg: "unknown log format: expected a .mcap, .db3 or .csv file or a ROS 2 bag directory".into(),
+    })
+}
+
+/// A file name a ROS 2 recording has (`.mcap`, `.db3`, maybe `.zstd`).
+fn is_bag_file(path: &Path) -> bool {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_ascii_lowercase();
+    let name = name.strip_suffix(".zstd").unwrap_or(&name);
+    name.ends_with(".mcap") || name.ends_with(".db3")
 }
 
 // ------------------------------------------------------------------ logs for the pipelines
 
 /// Reads a log as the `ivdyn` command line does for `--log`: `.csv` with [`read_csv`],
-/// anything else as MCAP ([`read_mcap`] with `opts`: the measured topic, the command and
-/// current topics, the stamps), then [`check_pipeline_log`].
+/// anything else as a ROS 2 recording (an MCAP or sqlite3 file or a rosbag2 directory:
+/// [`read_mcap`] with `opts`: the measured topic, the command and current topics, the
+/// stamps), then [`check_pipeline_log`].
 pub fn read_pipeline_log(path: &Path, opts: &ReadOptions) -> Result<JointLog> {
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
     let log = if ext.as_deref() == Some("csv") { read_csv(path, &opts.joint_names)? } else { read_mcap(path, opts)? };
@@ -64,6 +75,6 @@ mod tests {
     #[test]
     fn read_joint_log_rejects_unknown_extension() {
         let e = read_joint_log("x.bag", &["a".into()], "/joint_states", None).unwrap_err();
-        assert!(e.to_string().contains(".mcap or .csv"), "{e}");
+        assert!(e.to_string().contains(".mcap, .db3 or .csv"), "{e}");
     }
 }
