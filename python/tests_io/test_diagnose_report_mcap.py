@@ -23,7 +23,7 @@ LOG = os.path.join(ROOT, "fixtures", "diagnose", "viscous_payload.mcap")
 UR5 = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
 VOCABULARY = {"coulomb_friction", "viscous_friction", "stribeck_friction", "armature", "payload",
               "torque_offset", "joint_spring"}
-FIXED = ["/joint_states", "/ivdyn/predicted/nominal", "/ivdyn/predicted/final",
+FIXED = ["/ivdyn/measured", "/ivdyn/predicted/nominal", "/ivdyn/predicted/final",
          "/ivdyn/residual/nominal", "/ivdyn/residual/final"]
 
 
@@ -62,16 +62,16 @@ def test_topics(decoded):
 
 def test_stamps_and_fields(decoded):
     _, msgs = decoded
-    n = len(msgs["/joint_states"])
+    n = len(msgs["/ivdyn/measured"])
     # the diagnosis drops the filters' edge samples at both ends; what is left keeps the
     # log's own stamps, 1 ms apart
     assert 1500 < n < 2000
-    first = msgs["/joint_states"][0][0]
+    first = msgs["/ivdyn/measured"][0][0]
     assert (first - T0) % 1_000_000 == 0 and 0 < first - T0 < 250_000_000
     want = [first + k * 1_000_000 for k in range(n)]
     for topic, rows in msgs.items():
         assert [r[0] for r in rows] == want, topic
-        if topic == "/joint_states":
+        if topic == "/ivdyn/measured":
             assert all(len(r[1]) == 6 and len(r[2]) == 6 and len(r[3]) == 6 for r in rows)
         else:
             assert all(len(r[1]) == 0 and len(r[2]) == 0 and len(r[3]) == 6 for r in rows), topic
@@ -80,7 +80,7 @@ def test_stamps_and_fields(decoded):
 def test_residual_is_measured_minus_predicted(decoded):
     _, msgs = decoded
     effort = {t: np.array([r[3] for r in rows]) for t, rows in msgs.items()}
-    tau = effort["/joint_states"]
+    tau = effort["/ivdyn/measured"]
     for which in ["nominal", "final"]:
         res = tau - effort[f"/ivdyn/predicted/{which}"]
         np.testing.assert_allclose(effort[f"/ivdyn/residual/{which}"], res, rtol=0, atol=1e-12)
@@ -89,7 +89,7 @@ def test_residual_is_measured_minus_predicted(decoded):
     last = effort[steps[-1]] if steps else effort["/ivdyn/predicted/nominal"]
     np.testing.assert_array_equal(effort["/ivdyn/predicted/final"], last)
     # the measured effort is the log's own (read independently with mcap_ros2)
-    k0 = (msgs["/joint_states"][0][0] - T0) // 1_000_000
+    k0 = (msgs["/ivdyn/measured"][0][0] - T0) // 1_000_000
     with open(LOG, "rb") as f:
         reader = mcap_reader.make_reader(f, decoder_factories=[mcap_ros2_decoder.DecoderFactory()])
         logged = np.array([list(ros.effort) for _, _, _, ros in reader.iter_decoded_messages(topics=["/joint_states"])])

@@ -54,9 +54,9 @@ def test_out_mcap_read_by_python(tmp_path, ivdyn_bin):
                     str(params), "--out-mcap", str(pred), "--quiet"], check=True, capture_output=True)
 
     schemas, topics = read_topics(pred)
-    assert schemas == {t: "sensor_msgs/msg/JointState" for t in ["/joint_states", "/ivdyn/predicted", "/ivdyn/residual"]}
+    assert schemas == {t: "sensor_msgs/msg/JointState" for t in ["/ivdyn/measured", "/ivdyn/predicted", "/ivdyn/residual"]}
     _, source = read_topics(log)
-    meas, prd, res = topics["/joint_states"], topics["/ivdyn/predicted"], topics["/ivdyn/residual"]
+    meas, prd, res = topics["/ivdyn/measured"], topics["/ivdyn/predicted"], topics["/ivdyn/residual"]
     model = from_urdf(UR5, "base_link", "tool0")
     assert len(meas) == len(prd) == len(res) == len(source["/joint_states"]) == 3000
     for m, p, r, s in zip(meas, prd, res, source["/joint_states"]):

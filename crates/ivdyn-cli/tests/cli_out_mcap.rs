@@ -10,12 +10,12 @@ use util::*;
 struct Out {
     measured: ivdyn::log::JointLog,
     predicted: ivdyn::log::JointLog,
-    /// residual, aligned to the measured stamps (read as the "command" of /joint_states)
+    /// residual, aligned to the measured stamps (read as the "command" of /ivdyn/measured)
     residual: Vec<f64>,
 }
 
 fn read_out(path: &std::path::Path, names: &[String]) -> Out {
-    let o = ReadOptions::new(names).command_topic("/ivdyn/residual");
+    let o = ReadOptions::new(names).topic("/ivdyn/measured").command_topic("/ivdyn/residual");
     let measured = read_mcap(path, &o).unwrap();
     let predicted = read_mcap(path, &ReadOptions::new(names).topic("/ivdyn/predicted")).unwrap();
     let residual = measured.u.clone().unwrap();

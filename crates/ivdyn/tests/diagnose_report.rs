@@ -332,7 +332,7 @@ fn mcap_reads_back_on_every_topic() {
     let path = dir.join("residuals.mcap");
     let topics = list_topics(&path).unwrap();
     let expected = [
-        "/joint_states",
+        "/ivdyn/measured",
         "/ivdyn/predicted/nominal",
         "/ivdyn/predicted/final",
         "/ivdyn/residual/nominal",
@@ -351,12 +351,12 @@ fn mcap_reads_back_on_every_topic() {
     let stamp = |k: usize| t0 + (tr.t[k] * 1e9).round() as i64;
     let residual = |p: &[f64]| -> Vec<f64> { tr.tau.iter().zip(p).map(|(a, b)| a - b).collect() };
     // measured: q, qd, tau
-    let log = ivdyn::log::read_mcap(&path, &ReadOptions::new(&d.json.joints)).unwrap();
+    let log = ivdyn::log::read_mcap(&path, &ReadOptions::new(&d.json.joints).topic("/ivdyn/measured")).unwrap();
     assert_eq!(log.t0_ns, t0);
     assert_eq!(log.q, tr.q);
     assert_eq!(log.qd.as_deref(), Some(&tr.qd[..]));
     assert_eq!(log.tau.as_deref(), Some(&tr.tau[..]));
-    // effort-only topics, read as the command topic next to /joint_states
+    // effort-only topics, read as the command topic next to /ivdyn/measured
     for (topic, want) in [
         ("/ivdyn/predicted/nominal", tr.predicted[0].clone()),
         ("/ivdyn/predicted/final", tr.predicted[1].clone()),
@@ -366,7 +366,7 @@ fn mcap_reads_back_on_every_topic() {
     ] {
         let mut got = vec![];
         let mut stamps = vec![];
-        for_each_sample(&path, &ReadOptions::new(&d.json.joints).command_topic(topic), |s| {
+        for_each_sample(&path, &ReadOptions::new(&d.json.joints).topic("/ivdyn/measured").command_topic(topic), |s| {
             if s.source == Source::Command {
                 assert!(s.q.is_none() && s.qd.is_none(), "{topic}: effort only");
                 stamps.push(s.stamp_ns);

@@ -233,7 +233,7 @@ pub fn write_mcap(d: &Diagnosis, joints: &[String], dir: &Path) -> Result<()> {
 /// `t0_ns + t` (pass the log's `JointLog::t0_ns` to line them up with the input log) on
 /// the topics
 ///
-/// * `/joint_states`: measured `q` (position), `qd` (velocity), `tau` (effort);
+/// * `/ivdyn/measured` ([`crate::log::MEASURED_TOPIC`]): measured `q` (position), `qd` (velocity), `tau` (effort);
 /// * `/ivdyn/predicted/nominal`, `/ivdyn/predicted/final`: predicted torque (effort);
 /// * `/ivdyn/residual/nominal`, `/ivdyn/residual/final`: measured - predicted (effort);
 /// * `/ivdyn/predicted/step<i>_<effect>` for each step `i` (1-based), e.g.
@@ -257,7 +257,7 @@ pub fn write_residuals(d: &Diagnosis, joints: &[String], t0_ns: i64, path: &Path
     let tr = &d.traces;
     let k = d.steps.len();
     let mut w = McapWriter::create(path)?;
-    let meas = w.add_joint_state_topic("/joint_states")?;
+    let meas = w.add_joint_state_topic(crate::log::MEASURED_TOPIC)?;
     let pred_nom = w.add_joint_state_topic("/ivdyn/predicted/nominal")?;
     let pred_fin = w.add_joint_state_topic("/ivdyn/predicted/final")?;
     let res_nom = w.add_joint_state_topic("/ivdyn/residual/nominal")?;

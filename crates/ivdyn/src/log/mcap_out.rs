@@ -218,8 +218,10 @@ pub fn write_mcap(path: impl AsRef<Path>, log: &JointLog, extra: &[(&str, &[f64]
 pub const PREDICTED_TOPIC: &str = "/ivdyn/predicted";
 /// Topic of the residuals (measured - predicted) written by `identify --out-mcap`.
 pub const RESIDUAL_TOPIC: &str = "/ivdyn/residual";
-/// Topic of the measured copy written by `identify --out-mcap`.
-pub const MEASURED_TOPIC: &str = "/joint_states";
+/// Topic of the measured copy written by `identify --out-mcap` and `diagnose`: under
+/// `/ivdyn/` like every output topic, so that the output opened next to the original bag
+/// (in Foxglove) does not add a second `/joint_states`.
+pub const MEASURED_TOPIC: &str = "/ivdyn/measured";
 
 /// Writes, sample by sample on the same stamps, the measured JointState
 /// ([`MEASURED_TOPIC`]: position, velocity if measured, effort), the model's prediction
