@@ -807,7 +807,7 @@ fn accumulate(
         .map_or_else(|| Ok(message_count(path, &read.topic)?.map(|c| c as usize)), |s| Ok::<_, Error>(Some(s)))?
     else {
         return Ok(Streamed::Unsupported(format!(
-            "{what}: the MCAP file has no summary statistics (message count unknown)"
+            "{what}: message count unknown (an MCAP file without summary statistics, a bag without metadata.yaml)"
         )));
     };
     let st = Stage::begin(&opts.progress, &format!("{what}: streaming"), hint as u64);
