@@ -41,4 +41,12 @@ fn identify_reads_a_bag_directory_as_its_file() {
         assert_eq!(json(&b)["streamed"], serde_json::json!(tag == "stream"), "{tag}");
         assert_eq!(json(&a)["streamed"], json(&b)["streamed"], "{tag}");
     }
+    // without metadata.yaml: the same fit, and the report says how the files were found
+    std::fs::remove_file(bag.join("metadata.yaml")).unwrap();
+    let (a, c) = (d.join("file_alone.json"), d.join("bag_nometa.json"));
+    ok(&run(ur5_cmd("identify", &["--log", log.to_str().unwrap(), "--json", a.to_str().unwrap()])));
+    ok(&run(ur5_cmd("identify", &["--log", bag.to_str().unwrap(), "--json", c.to_str().unwrap()])));
+    assert_eq!(base(&c), base(&a));
+    let notes = json(&c)["notes"].to_string();
+    assert!(notes.contains("metadata.yaml") && notes.contains("rec_0.mcap"), "{notes}");
 }

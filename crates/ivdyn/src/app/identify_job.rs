@@ -62,7 +62,9 @@ pub const STREAM_ABOVE: u64 = 1_000_000;
 /// `job.stream`) are streamed (bounded memory) unless the options or the log need
 /// memory, then the outputs are written.
 pub fn identify_job(robot: &Robot, job: &IdentifyJob) -> Result<Outcome<IdentifyReport>> {
-    let (report, mem) = fit(robot, job)?;
+    let (mut report, mem) = fit(robot, job)?;
+    let inputs = std::iter::once(&job.log).chain(&job.also).chain(&job.validate);
+    report.notes.extend(inputs.flat_map(LogInput::notes));
     let written = write_outputs(robot, job, &report, mem.as_deref())?;
     Ok(Outcome { report, written })
 }

@@ -117,6 +117,15 @@ impl LogInput {
         }
     }
 
+    /// What the user should know about how a ROS 2 bag directory was read (its files
+    /// found without `metadata.yaml`: [`crate::log::LogFiles::notes`]); none otherwise.
+    pub fn notes(&self) -> Vec<String> {
+        match self.path() {
+            Some(p) if p.is_dir() => crate::log::log_files(p).map(|l| l.notes).unwrap_or_default(),
+            _ => vec![],
+        }
+    }
+
     /// An MCAP file (what the streaming reader takes; CSV and arrays are read whole).
     pub fn mcap_path(&self) -> Option<&Path> {
         self.path().filter(|p| !p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")))
