@@ -352,8 +352,11 @@ class Riv:
 
 def read_joint_states(path: Union[str, os.PathLike], joint_names, topic: str = "/joint_states",
                       command_topic: Optional[str] = None) -> dict:
-    """Reads a joint log, ``.mcap`` (ROS 2 ``sensor_msgs/msg/JointState``, streamed) or
-    ``.csv`` (columns ``t``, ``<joint>.q``, ``.qd``, ``.tau``, ``.u``, ``.i``), by extension.
+    """Reads a joint log: ``.csv`` (columns ``t``, ``<joint>.q``, ``.qd``, ``.tau``, ``.u``,
+    ``.i``), or a ROS 2 recording of ``sensor_msgs/msg/JointState`` (streamed): a bag
+    directory as ``ros2 bag record`` writes it (``metadata.yaml`` and its split ``.mcap``
+    or ``.db3`` files read in order as one log, zstd-compressed or not), or one ``.mcap``,
+    ``.db3``, ``.mcap.zstd`` or ``.db3.zstd`` file (docs/logs.md, "ROS 2 bags").
 
     ``joint_names``: the joints wanted, in order (a list, or an :class:`ivdyn.Robot`
     for its ``joint_names``); other joints in the log are ignored. ``topic``: measured

@@ -193,7 +193,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     (path or dict, e.g. a previous ``["params"]``) replacing the nominal values; ``log``
     may be a list of logs of the same arm, identified together (each conditioned and
     filtered on its own, the held-out tail the last one's); ``log`` /
-    ``validate``: a ``.mcap`` / ``.csv`` path (read as the
+    ``validate``: a ``.mcap`` / ``.db3`` / ``.csv`` path or a ROS 2 bag directory (read as the
     command line reads ``--log``: ``topic``, ``command_topic``, ``log_time``) or a dict of
     arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd", "u" optional}`` (e.g.
     from :func:`read_joint_states` or :func:`simulate`); ``method``: ``"ols"``, ``"wls"``,
