@@ -29,10 +29,10 @@ pub mod read;
 
 use std::path::Path;
 
-pub use self::csv::{read_csv, read_csv_from, write_csv};
+pub use self::csv::{MAX_CSV_LINE, read_csv, read_csv_from, write_csv};
 pub use self::mcap::{
-    CommandAlign, CommandField, ReadOptions, Sample, Source, StreamSummary, for_each_sample, for_each_sample_from,
-    read_mcap,
+    CommandAlign, CommandField, MAX_MCAP_RECORD, ReadOptions, Sample, Source, StreamSummary, for_each_sample,
+    for_each_sample_from, read_mcap,
 };
 pub use self::mcap_out::{
     Compression, MEASURED_TOPIC, McapWriter, PREDICTED_TOPIC, PredictionWriter, RESIDUAL_TOPIC, TopicId, write_mcap,
