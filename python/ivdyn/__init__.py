@@ -330,8 +330,8 @@ class Robot:
 
 
 # every public entry point: a Rust panic becomes RuntimeError, not PanicException (_guard.py)
-from ._guard import guard as _guard  # noqa: E402
+from ._guard import guard as _guard_api  # noqa: E402
 
-_guard(globals(), tuple(__all__))
-_guard(vars(paper), ("setup", "batch_estimates", "recursive_traces"))
+_guard_api(globals(), tuple(__all__))
+_guard_api(vars(paper), ("setup", "batch_estimates", "recursive_traces"))
 

@@ -34,7 +34,8 @@ def real_array(x: Any, name: str, ndim: Optional[int] = None, shape: str = "") -
         raise ValueError(f"{name} must be an array of real numbers (int or float), got dtype {a.dtype}")
     if ndim is not None and a.ndim != ndim:
         raise ValueError(f"{name} must have shape {shape or ndim}, got {a.shape}")
-    return np.ascontiguousarray(a, dtype=np.float64)
+    # astype keeps a 0-d array 0-d (ascontiguousarray would make it 1-d)
+    return a.astype(np.float64, order="C", copy=False)
 
 
 def _no_panic(fn: Callable) -> Callable:
@@ -55,8 +56,8 @@ def _guard_class(cls: type) -> type:
         if key.startswith("__") and key not in ("__init__", "__call__", "__repr__"):
             continue
         if isinstance(attr, property):
-            setattr(cls, key, property(*(None if f is None else _no_panic(f) for f in (attr.fget, attr.fset, attr.fdel)),
-                                       doc=attr.__doc__))
+            fget, fset, fdel = (None if f is None else _no_panic(f) for f in (attr.fget, attr.fset, attr.fdel))
+            setattr(cls, key, property(fget, fset, fdel, attr.__doc__))
         elif isinstance(attr, (staticmethod, classmethod)):
             setattr(cls, key, type(attr)(_no_panic(attr.__func__)))
         elif inspect.isfunction(attr):

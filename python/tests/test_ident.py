@@ -150,7 +150,7 @@ def test_fit_errors():
         ivdyn.fit_ls(Phi, y, names=["a"])
     with pytest.raises(ValueError, match="Z must have the shape of Phi"):
         ivdyn.fit_iv(Phi, Phi[:, :3], y)
-    with pytest.raises(ValueError, match="float array"):
+    with pytest.raises(ValueError, match=r"Phi must be an array of real numbers \(int or float\), got dtype <U1"):
         ivdyn.fit_ls([["a", "b"]], [1.0])
     bad = Phi.copy()
     bad[10, 3] = np.nan

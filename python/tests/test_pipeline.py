@@ -207,7 +207,7 @@ def test_pipeline_errors(ur5, logs, tmp_path):
         ivdyn.payload(ur5, log, params={"robot": "x"})
     with pytest.raises(ValueError, match="payload_mass must be positive"):
         ivdyn.simulate(ur5, payload_mass=-1.0)
-    with pytest.raises(ValueError, match="payload_com needs 3 values"):
+    with pytest.raises(ValueError, match="payload_com needs 3 finite values"):
         ivdyn.simulate(ur5, payload_mass=1.0, payload_com=[0.0, 0.1])
     with pytest.raises(ValueError, match="need payload_mass"):
         ivdyn.simulate(ur5, payload_com=[0.0, 0.1, 0.0])

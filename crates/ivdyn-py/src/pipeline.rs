@@ -328,9 +328,7 @@ fn identify(
         "idim-iv" | "idim_iv" => Method::IdimIv,
         m => return Err(PyValueError::new_err(format!("method must be 'ols', 'wls', 'iv' or 'idim-iv', got {m:?}"))),
     };
-    if !(0.0..1.0).contains(&holdout) {
-        return Err(PyValueError::new_err(format!("holdout must be in [0, 1), got {holdout}")));
-    }
+    // holdout: checked with the other options by the app layer (IdentifyOptions::check)
     let friction = friction.unwrap_or_else(|| vec!["coulomb".into(), "viscous".into()]);
     let names: Vec<&str> = friction.iter().map(String::as_str).collect();
     let drive = ivdyn::ident::DriveTerms::from_names(&names, armature, offset).map_err(to_py)?;

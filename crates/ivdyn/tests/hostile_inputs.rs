@@ -268,3 +268,38 @@ fn duplicated_stamps_give_the_same_fit_streamed_and_in_memory() {
         assert!((a.value - b.value).abs() <= 1e-6 * b.std, "{}: {} vs {}", a.name, a.value, b.value);
     }
 }
+
+/// A file of kilobytes whose one zstd chunk holds a message of more than 256 MiB (zeros,
+/// on another topic): the reader decompressed it whole (a 28 KB file of this kind took
+/// 887 MB); now a record or decompressed chunk above `MAX_MCAP_RECORD` is refused by its
+/// length, before it is read.
+#[test]
+fn an_mcap_record_decompressing_beyond_the_bound_is_refused() {
+    let path = tmp("amplified.mcap");
+    {
+        let f = std::io::BufWriter::new(std::fs::File::create(&path).unwrap());
+        let mut w = mcap::WriteOptions::new()
+            .chunk_size(Some(1 << 40))
+            .compression(Some(mcap::Compression::Zstd))
+            .create(f)
+            .unwrap();
+        let s = w.add_schema("raw", "none", b"").unwrap();
+        let c = w.add_channel(s, "/camera", "raw", &Default::default()).unwrap();
+        let blob = vec![0u8; ivdyn::log::MAX_MCAP_RECORD + (1 << 20)];
+        let h = mcap::records::MessageHeader { channel_id: c, sequence: 0, log_time: 0, publish_time: 0 };
+        w.write_to_known_channel(&h, &blob).unwrap();
+        w.finish().unwrap();
+    }
+    assert!(std::fs::metadata(&path).unwrap().len() < 1 << 20, "the file is small");
+    let e = err(ivdyn::log::read_mcap(&path, &ReadOptions::new(&ur5().joint_names)));
+    assert!(e.contains("at most 268435456 bytes are read"), "{e}");
+}
+
+/// A "CSV" without newlines is not read whole into one line.
+#[test]
+fn a_csv_line_longer_than_the_bound_is_refused() {
+    let mut text = b"t,".to_vec();
+    text.extend(std::iter::repeat_n(b'1', ivdyn::log::MAX_CSV_LINE + 10));
+    let e = err(ivdyn::log::read_csv_from(&text[..], Path::new("long.csv"), &ur5().joint_names));
+    assert!(e.contains("long.csv: line 1 is longer than 1048576 bytes"), "{e}");
+}

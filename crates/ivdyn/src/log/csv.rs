@@ -40,10 +40,15 @@ pub fn read_csv_from<S: AsRef<str>>(rd: impl BufRead, path: &Path, joint_names: 
     let mut header: Option<Header> = None;
     let mut log = JointLog { joint_names: want.clone(), ..Default::default() };
     let mut data: [Vec<f64>; 5] = Default::default();
-    for (ln, line) in rd.lines().enumerate() {
-        let line = line.map_err(io)?;
-        let lineno = ln + 1;
-        let s = line.trim();
+    let (mut rd, mut buf, mut lineno) = (rd, Vec::new(), 0);
+    while next_line(&mut rd, &mut buf).map_err(io)? {
+        lineno += 1;
+        if buf.len() > MAX_CSV_LINE {
+            return Err(err(format!(
+                "line {lineno} is longer than {MAX_CSV_LINE} bytes: not a joint log (a binary file?)"
+            )));
+        }
+        let s = std::str::from_utf8(&buf).map_err(|e| err(format!("line {lineno} is not UTF-8 text: {e}")))?.trim();
         if s.is_empty() {
             continue;
         }
@@ -70,6 +75,22 @@ pub fn read_csv_from<S: AsRef<str>>(rd: impl BufRead, path: &Path, joint_names: 
     log.u = cols[3].is_some().then_some(u);
     log.current = cols[4].is_some().then_some(current);
     Ok(log)
+}
+
+/// Longest CSV line read (bytes): a log's row is some tens of bytes per joint and field; a
+/// longer "line" is not a joint log (a binary file, a file without newlines), and reading
+/// it whole would allocate its length.
+pub const MAX_CSV_LINE: usize = 1 << 20;
+
+/// The next line of `rd` into `buf` (newline stripped), reading at most one byte more than
+/// [`MAX_CSV_LINE`]; `false` at the end of the input.
+fn next_line(rd: &mut impl BufRead, buf: &mut Vec<u8>) -> std::io::Result<bool> {
+    buf.clear();
+    let n = std::io::Read::take(&mut *rd, MAX_CSV_LINE as u64 + 1).read_until(b'\n', buf)?;
+    while buf.last().is_some_and(|c| *c == b'\n' || *c == b'\r') {
+        buf.pop();
+    }
+    Ok(n > 0)
 }
 
 /// A log error naming the file `path`.

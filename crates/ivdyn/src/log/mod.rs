@@ -1,10 +1,11 @@
-//! Log input and output: ROS 2 MCAP (`sensor_msgs/msg/JointState`) and CSV.
+//! Log input and output: ROS 2 recordings (`sensor_msgs/msg/JointState` in MCAP or sqlite3 bags) and CSV.
 //!
 //! Every reader returns (or streams) joint data in **the URDF joint order** the caller
 //! asks for, matched by name, whatever order and extra joints the log has. Arrays are
 //! row-major `T x N` (sample-major: `q[k * n + j]` is joint `j` at sample `k`).
 //!
-//! * [`read_mcap`] / [`for_each_sample`]: a ROS 2 bag (`ros2 bag record -s mcap`), read
+//! * [`read_mcap`] / [`for_each_sample`]: a ROS 2 recording (`ros2 bag record`: an MCAP or
+//!   sqlite3 file, or the bag directory, [`bag`]), read
 //!   in one pass with bounded memory (the file is streamed, never loaded whole).
 //! * [`read_csv`] / [`write_csv`]: one row per sample, columns `t`, `<joint>.q`,
 //!   `<joint>.qd`, `<joint>.tau`, `<joint>.u`, `<joint>.i` (see `docs/logs.md`).
@@ -32,10 +33,10 @@ pub mod read;
 use std::path::Path;
 
 pub use self::bag::{LogFile, LogFiles, Storage, log_files, message_count};
-pub use self::csv::{read_csv, read_csv_from, write_csv};
+pub use self::csv::{MAX_CSV_LINE, read_csv, read_csv_from, write_csv};
 pub use self::mcap::{
-    CommandAlign, CommandField, ReadOptions, Sample, Source, StreamSummary, for_each_sample, for_each_sample_from,
-    read_mcap,
+    CommandAlign, CommandField, MAX_MCAP_RECORD, ReadOptions, Sample, Source, StreamSummary, for_each_sample,
+    for_each_sample_from, read_mcap,
 };
 pub use self::mcap_out::{
     Compression, MEASURED_TOPIC, McapWriter, PREDICTED_TOPIC, PredictionWriter, RESIDUAL_TOPIC, TopicId, write_mcap,
