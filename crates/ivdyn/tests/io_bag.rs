@@ -109,6 +109,13 @@ fn without_metadata_the_files_are_read_by_split_index() {
     std::fs::write(d.join("metadata.yaml"), "rosbag2_bagfile_information: [not, a, map]").unwrap();
     assert_eq!(read_mcap(&d, &opts()).unwrap(), want);
     assert!(log::log_files(&d).unwrap().notes[0].contains("not rosbag2 metadata"));
+    // a folder of unrelated logs is not one recording: refused, not concatenated
+    write_mcap(d.join("other.mcap"), &log_rows(0, 10), &[]).unwrap();
+    let e = read_mcap(&d, &opts()).unwrap_err().to_string();
+    assert!(e.contains("not the split files") && e.contains("other.mcap"), "{e}");
+    let lone = dir("lone");
+    write_mcap(lone.join("anything.mcap"), &log_rows(0, 90), &[]).unwrap();
+    assert_eq!(read_mcap(&lone, &opts()).unwrap(), want);
 }
 
 #[test]

@@ -191,32 +191,47 @@ fn from_metadata(dir: &Path, meta: &Path, info: BagInfo) -> Result<LogFiles> {
 }
 
 /// The bag files of a directory without usable metadata, in the order of their `_N`
-/// index (then name); one storage only.
+/// index. Several files must be one split recording, `<name>_0`, `<name>_1`, ... of one
+/// storage: a folder of unrelated logs is refused rather than read as one.
 fn from_listing(dir: &Path, why: String) -> Result<LogFiles> {
     let entries = std::fs::read_dir(dir).map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?;
-    let mut found: Vec<(u64, String, LogFile)> = vec![];
+    let mut found: Vec<(Option<(String, u64)>, String, LogFile)> = vec![];
     for e in entries {
         let p = e.map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?.path();
         let Some((storage, zstd)) = file_kind(&p).filter(|_| p.is_file()) else { continue };
         let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
-        found.push((split_index(&name), name, LogFile { path: p, storage, zstd }));
+        found.push((split_name(&name), name, LogFile { path: p, storage, zstd }));
     }
     if found.is_empty() {
         return Err(log_err(dir, format!("not a ROS 2 bag: {why}, and no .mcap or .db3 file in the directory")));
     }
-    if found.iter().any(|f| f.2.storage != found[0].2.storage) {
-        return Err(log_err(dir, format!("{why}, and the directory has both .mcap and .db3 files: which is the log?")));
+    let names =
+        |f: &[(Option<(String, u64)>, String, LogFile)]| f.iter().map(|x| x.1.as_str()).collect::<Vec<_>>().join(", ");
+    let one_recording = found.len() == 1
+        || found.iter().all(|f| {
+            f.2.storage == found[0].2.storage
+                && f.0.as_ref().map(|s| &s.0) == found[0].0.as_ref().map(|s| &s.0)
+                && f.0.is_some()
+        });
+    if !one_recording {
+        return Err(log_err(
+            dir,
+            format!(
+                "{why}, and the files {} are not the split files <name>_0, <name>_1, ... of one recording: \
+                 give one file as the log, or restore metadata.yaml",
+                names(&found)
+            ),
+        ));
     }
-    found.sort_by(|a, b| (a.0, &a.1).cmp(&(b.0, &b.1)));
-    let names: Vec<&str> = found.iter().map(|f| f.1.as_str()).collect();
-    let note = format!("{}: {why}; read the bag files {} in this order", dir.display(), names.join(", "));
+    found.sort_by_key(|f| f.0.as_ref().map_or(0, |s| s.1));
+    let note = format!("{}: {why}; read the bag files {} in this order", dir.display(), names(&found));
     Ok(LogFiles { files: found.into_iter().map(|f| f.2).collect(), notes: vec![note], ..LogFiles::default() })
 }
 
-/// The split index `N` of `<name>_N.mcap` (`u64::MAX` when the name has none).
-fn split_index(file_name: &str) -> u64 {
+/// The recording name and split index `N` of `<name>_N.mcap` (`None` without an index).
+fn split_name(file_name: &str) -> Option<(String, u64)> {
     let stem = file_name.split('.').next().unwrap_or_default();
-    stem.rsplit_once('_').and_then(|(_, n)| n.parse().ok()).unwrap_or(u64::MAX)
+    stem.rsplit_once('_').and_then(|(name, n)| Some((name.to_string(), n.parse().ok()?)))
 }
 
 /// [`super::for_each_sample`] on any log path: every file of the log in order, through one
@@ -282,10 +297,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn split_index_orders_numerically() {
-        assert_eq!(split_index("run_0.mcap"), 0);
-        assert_eq!(split_index("run_12.db3.zstd"), 12);
-        assert_eq!(split_index("run.mcap"), u64::MAX);
+    fn split_names() {
+        assert_eq!(split_name("run_0.mcap"), Some(("run".into(), 0)));
+        assert_eq!(split_name("my_run_12.db3.zstd"), Some(("my_run".into(), 12)));
+        assert_eq!(split_name("run.mcap"), None);
+        assert_eq!(split_name("run_x.mcap"), None);
         assert_eq!(file_kind(Path::new("a/run_1.DB3.zstd")), Some((Storage::Sqlite3, true)));
         assert_eq!(file_kind(Path::new("a/run.csv")), None);
     }
