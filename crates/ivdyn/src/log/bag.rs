@@ -194,25 +194,30 @@ fn from_metadata(dir: &Path, meta: &Path, info: BagInfo) -> Result<LogFiles> {
 /// index. Several files must be one split recording, `<name>_0`, `<name>_1`, ... of one
 /// storage: a folder of unrelated logs is refused rather than read as one.
 fn from_listing(dir: &Path, why: String) -> Result<LogFiles> {
+    /// A bag file found in the directory.
+    struct Found {
+        /// recording name and split index (`<name>_<N>`), if the file name has them
+        split: Option<(String, u64)>,
+        name: String,
+        file: LogFile,
+    }
     let entries = std::fs::read_dir(dir).map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?;
-    let mut found: Vec<(Option<(String, u64)>, String, LogFile)> = vec![];
+    let mut found: Vec<Found> = vec![];
     for e in entries {
-        let p = e.map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?.path();
-        let Some((storage, zstd)) = file_kind(&p).filter(|_| p.is_file()) else { continue };
-        let name = p.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
-        found.push((split_name(&name), name, LogFile { path: p, storage, zstd }));
+        let path = e.map_err(|e| Error::Io { file: dir.to_path_buf(), source: e })?.path();
+        let Some((storage, zstd)) = file_kind(&path).filter(|_| path.is_file()) else { continue };
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or_default().to_string();
+        found.push(Found { split: split_name(&name), name, file: LogFile { path, storage, zstd } });
     }
     if found.is_empty() {
         return Err(log_err(dir, format!("not a ROS 2 bag: {why}, and no .mcap or .db3 file in the directory")));
     }
-    let names =
-        |f: &[(Option<(String, u64)>, String, LogFile)]| f.iter().map(|x| x.1.as_str()).collect::<Vec<_>>().join(", ");
-    let one_recording = found.len() == 1
-        || found.iter().all(|f| {
-            f.2.storage == found[0].2.storage
-                && f.0.as_ref().map(|s| &s.0) == found[0].0.as_ref().map(|s| &s.0)
-                && f.0.is_some()
-        });
+    fn recording(f: &Found) -> Option<(&str, Storage)> {
+        f.split.as_ref().map(|s| (s.0.as_str(), f.file.storage))
+    }
+    let one_recording =
+        found.len() == 1 || found.iter().all(|f| f.split.is_some() && recording(f) == recording(&found[0]));
+    let names = |f: &[Found]| f.iter().map(|x| x.name.as_str()).collect::<Vec<_>>().join(", ");
     if !one_recording {
         return Err(log_err(
             dir,
@@ -223,9 +228,9 @@ fn from_listing(dir: &Path, why: String) -> Result<LogFiles> {
             ),
         ));
     }
-    found.sort_by_key(|f| f.0.as_ref().map_or(0, |s| s.1));
+    found.sort_by_key(|f| f.split.as_ref().map_or(0, |s| s.1));
     let note = format!("{}: {why}; read the bag files {} in this order", dir.display(), names(&found));
-    Ok(LogFiles { files: found.into_iter().map(|f| f.2).collect(), notes: vec![note], ..LogFiles::default() })
+    Ok(LogFiles { files: found.into_iter().map(|f| f.file).collect(), notes: vec![note], ..LogFiles::default() })
 }
 
 /// The recording name and split index `N` of `<name>_N.mcap` (`None` without an index).
