@@ -359,7 +359,7 @@ def test_read_errors(ur5):
         ivdyn.read_joint_states(os.path.join(LOGS, "missing.mcap"), ur5.joint_names)
     with pytest.raises(ValueError, match="no_such_joint"):
         ivdyn.read_joint_states(os.path.join(LOGS, "ur5_500hz.mcap"), ["no_such_joint"])
-    with pytest.raises(ValueError, match=r"\.mcap or \.csv"):
+    with pytest.raises(ValueError, match=r"unknown log format: expected a \.mcap, \.db3 or \.csv file or a ROS 2 bag directory"):
         ivdyn.read_joint_states(UR5_URDF, ur5.joint_names)
     with pytest.raises(ValueError, match="/nope"):
         ivdyn.read_joint_states(os.path.join(LOGS, "ur5_500hz.mcap"), ur5.joint_names, topic="/nope")

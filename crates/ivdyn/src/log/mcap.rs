@@ -13,8 +13,8 @@ use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 
+use super::mcap_rec::Rec;
 use ::mcap::McapError;
-use ::mcap::records::Record;
 use ::mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use super::cdr::{JointState, decode_joint_state_into};
@@ -500,27 +500,21 @@ impl<'o> Pass<'o> {
     {
         self.records += 1;
         let (offset, records) = (self.offset, self.records);
-        let rec = ::mcap::parse_record(opcode, data).map_err(|e| {
+        let rec = super::mcap_rec::parse(opcode, data).map_err(|e| {
             self.err(format!("corrupt MCAP record #{records} (opcode {opcode:#04x}) at or before byte {offset}: {e}"))
         })?;
         match rec {
-            Record::Schema { header, .. } => {
-                self.schemas.insert(header.id, (header.name, header.encoding));
+            Rec::Schema { id, name, encoding } => {
+                self.schemas.insert(id, (name, encoding));
             }
-            Record::Channel(c) => self.channel(&c)?,
-            Record::Message { header, data } => {
-                self.message(i64::from(header.channel_id), header.log_time, &data, f)?
+            Rec::Channel { id, schema_id, topic, message_encoding } => {
+                let schema = self.schemas.get(&schema_id).cloned();
+                self.bind(i64::from(id), &topic, schema, &message_encoding)?
             }
-            _ => {}
+            Rec::Message { channel_id, log_time, data } => self.message(i64::from(channel_id), log_time, data, f)?,
+            Rec::Other => {}
         }
         Ok(())
-    }
-
-    /// Notes a channel's topic in the summary and maps it to one of our topics (whose
-    /// schema must be JointState in CDR) or to none.
-    fn channel(&mut self, c: &::mcap::records::Channel) -> Result<()> {
-        let schema = self.schemas.get(&c.schema_id).cloned();
-        self.bind(i64::from(c.id), &c.topic, schema, &c.message_encoding)
     }
 
     /// Maps the id of a topic of the current file (an MCAP channel, a sqlite3 `topics`
@@ -791,7 +785,8 @@ pub fn list_topics(path: impl AsRef<Path>) -> Result<Vec<(String, String, usize)
     let path: PathBuf = path.as_ref().to_path_buf();
     let file = File::open(&path).map_err(|e| Error::Io { file: path.clone(), source: e })?;
     let mut src = BufReader::with_capacity(256 * 1024, file);
-    let mut reader = LinearReader::new();
+    let mut reader =
+        LinearReader::new_with_options(LinearReaderOptions::default().with_record_length_limit(MAX_MCAP_RECORD));
     let mut schemas: HashMap<u16, String> = HashMap::new();
     let mut chan: HashMap<u16, usize> = HashMap::new();
     let mut out: Vec<(String, String, usize)> = vec![];
@@ -808,29 +803,29 @@ pub fn list_topics(path: impl AsRef<Path>) -> Result<Vec<(String, String, usize)
                 offset += got as u64;
             }
             LinearReadEvent::Record { opcode, data } => {
-                match ::mcap::parse_record(opcode, data).map_err(|e| Error::Log {
+                match super::mcap_rec::parse(opcode, data).map_err(|e| Error::Log {
                     file: path.clone(),
                     msg: format!("corrupt MCAP record near byte {offset}: {e}"),
                 })? {
-                    Record::Schema { header, .. } => {
-                        schemas.insert(header.id, header.name);
+                    Rec::Schema { id, name, .. } => {
+                        schemas.insert(id, name);
                     }
-                    Record::Channel(c) => {
-                        if let std::collections::hash_map::Entry::Vacant(e) = chan.entry(c.id) {
-                            let s = schemas.get(&c.schema_id).cloned().unwrap_or_default();
-                            let i = out.iter().position(|(t, _, _)| *t == c.topic).unwrap_or_else(|| {
-                                out.push((c.topic.clone(), s, 0));
+                    Rec::Channel { id, schema_id, topic, .. } => {
+                        if let std::collections::hash_map::Entry::Vacant(e) = chan.entry(id) {
+                            let s = schemas.get(&schema_id).cloned().unwrap_or_default();
+                            let i = out.iter().position(|(t, _, _)| *t == topic).unwrap_or_else(|| {
+                                out.push((topic.clone(), s, 0));
                                 out.len() - 1
                             });
                             e.insert(i);
                         }
                     }
-                    Record::Message { header, .. } => {
-                        if let Some(&i) = chan.get(&header.channel_id) {
+                    Rec::Message { channel_id, .. } => {
+                        if let Some(&i) = chan.get(&channel_id) {
                             out[i].2 += 1;
                         }
                     }
-                    _ => {}
+                    Rec::Other => {}
                 }
             }
         }

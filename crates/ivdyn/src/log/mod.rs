@@ -28,6 +28,7 @@ pub mod csv;
 pub mod db3;
 pub mod mcap;
 pub mod mcap_out;
+mod mcap_rec;
 pub mod read;
 
 use std::path::Path;
