@@ -303,3 +303,33 @@ fn a_csv_line_longer_than_the_bound_is_refused() {
     let e = err(ivdyn::log::read_csv_from(&text[..], Path::new("long.csv"), &ur5().joint_names));
     assert!(e.contains("long.csv: line 1 is longer than 1048576 bytes"), "{e}");
 }
+
+/// A record that claims more bytes than its uncompressed chunk holds: mcap 0.26's reader
+/// subtracts the claimed length from what is left of the chunk unchecked (found by the
+/// `mcap` fuzz target): a panic where overflow checks are on (this test's profile). It
+/// must be an error naming the file.
+#[test]
+fn a_record_overrunning_its_chunk_is_an_error_not_a_panic() {
+    let path = tmp("overrun.mcap");
+    let mut bytes = vec![];
+    {
+        let mut w = mcap::WriteOptions::new()
+            .compression(None)
+            .chunk_size(Some(1 << 20))
+            .create(std::io::Cursor::new(&mut bytes))
+            .unwrap();
+        let s = w.add_schema("raw", "none", b"").unwrap();
+        let c = w.add_channel(s, "/camera", "raw", &Default::default()).unwrap();
+        let h = mcap::records::MessageHeader { channel_id: c, sequence: 0, log_time: 0, publish_time: 0 };
+        w.write_to_known_channel(&h, &[7u8; 16]).unwrap();
+        w.finish().unwrap();
+    }
+    // the message record inside the chunk: opcode 0x05, then its length 2 + 4 + 8 + 8 + 16
+    let rec = [&[0x05u8][..], &38u64.to_le_bytes()].concat();
+    let at = bytes.windows(rec.len()).position(|w| w == rec).expect("the message record");
+    // 100 bytes: within the file, beyond the chunk (which ends after the 47-byte record)
+    bytes[at + 1..at + 9].copy_from_slice(&100u64.to_le_bytes());
+    std::fs::write(&path, &bytes).unwrap();
+    let e = err(ivdyn::log::read_mcap(&path, &ReadOptions::new(&ur5().joint_names)));
+    assert!(e.contains("overrun.mcap") && e.contains("a record overruns its chunk"), "{e}");
+}

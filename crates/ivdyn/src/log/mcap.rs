@@ -351,13 +351,19 @@ where
         LinearReaderOptions::default().with_validate_chunk_crcs(true).with_record_length_limit(MAX_MCAP_RECORD),
     );
     let size_note = size.map(|s| format!(" of {s}")).unwrap_or_default();
-    while let Some(ev) = reader.next_event() {
+    while let Some(ev) = next_event(&mut reader) {
         let ev = match ev {
             Ok(ev) => ev,
-            Err(e) => {
+            Err(Some(e)) => {
                 // returns only when a truncated file is accepted
                 pass.read_error(e, &size_note)?;
                 break;
+            }
+            Err(None) => {
+                let at = pass.offset;
+                return Err(pass.err(format!(
+                    "corrupt MCAP at or before byte {at}{size_note}: a record overruns its chunk (the MCAP reader failed)"
+                )));
             }
         };
         match ev {
@@ -371,6 +377,22 @@ where
         }
     }
     Ok(())
+}
+
+/// `reader.next_event()` with a panic inside the mcap crate caught (`Err(None)`): fuzzing
+/// found one (mcap 0.26's linear reader subtracts a record's claimed length from what is
+/// left of its uncompressed chunk without a check: a panic with overflow checks on, a
+/// wrapped count without). The reader is not used again after it.
+fn next_event(reader: &mut LinearReader) -> Option<std::result::Result<LinearReadEvent<'_>, Option<McapError>>> {
+    // `reader` moved out of the closure's capture: the closure is FnOnce and the event
+    // may borrow the reader for the caller's lifetime
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
+        let r = reader;
+        r.next_event()
+    })) {
+        Ok(ev) => ev.map(|r| r.map_err(Some)),
+        Err(_) => Some(Err(None)),
+    }
 }
 
 /// A log error naming the file `path`.
@@ -791,10 +813,13 @@ pub fn list_topics(path: impl AsRef<Path>) -> Result<Vec<(String, String, usize)
     let mut chan: HashMap<u16, usize> = HashMap::new();
     let mut out: Vec<(String, String, usize)> = vec![];
     let mut offset = 0u64;
-    while let Some(ev) = reader.next_event() {
+    while let Some(ev) = next_event(&mut reader) {
         match ev.map_err(|e| Error::Log {
             file: path.clone(),
-            msg: format!("corrupt MCAP at or before byte {offset}: {e}"),
+            msg: match e {
+                Some(e) => format!("corrupt MCAP at or before byte {offset}: {e}"),
+                None => format!("corrupt MCAP at or before byte {offset}: a record overruns its chunk"),
+            },
         })? {
             LinearReadEvent::ReadRequest(need) => {
                 let got = read_some(&mut src, reader.insert(need))
