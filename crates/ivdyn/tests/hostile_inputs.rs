@@ -304,10 +304,10 @@ fn a_csv_line_longer_than_the_bound_is_refused() {
     assert!(e.contains("long.csv: line 1 is longer than 1048576 bytes"), "{e}");
 }
 
-/// A record that claims more bytes than its uncompressed chunk holds: mcap 0.26's reader
-/// subtracts the claimed length from what is left of the chunk unchecked (found by the
-/// `mcap` fuzz target): a panic where overflow checks are on (this test's profile). It
-/// must be an error naming the file.
+/// A record that claims more bytes than its uncompressed chunk holds (the chunk's CRC made
+/// to match): mcap 0.26's reader subtracts the claimed length from what is left of the
+/// chunk unchecked (found by the `mcap` fuzz target): a panic where overflow checks are on
+/// (this test's profile). ivdyn walks chunks itself; it must be an error naming the file.
 #[test]
 fn a_record_overrunning_its_chunk_is_an_error_not_a_panic() {
     let path = tmp("overrun.mcap");
@@ -327,9 +327,21 @@ fn a_record_overrunning_its_chunk_is_an_error_not_a_panic() {
     // the message record inside the chunk: opcode 0x05, then its length 2 + 4 + 8 + 8 + 16
     let rec = [&[0x05u8][..], &38u64.to_le_bytes()].concat();
     let at = bytes.windows(rec.len()).position(|w| w == rec).expect("the message record");
-    // 100 bytes: within the file, beyond the chunk (which ends after the 47-byte record)
+    // the chunk's records end with this 47-byte record and start where the u64 before them
+    // says so; before that length: compression "" (4 bytes) and the records' CRC
+    let end = at + 47;
+    let start = (16..at)
+        .find(|&i| {
+            u64::from_le_bytes(bytes[i - 8..i].try_into().unwrap()) == (end - i) as u64
+                && bytes[i - 12..i - 8] == [0; 4]
+        })
+        .unwrap();
+    assert_eq!(&bytes[start - 16..start - 12], &crc32fast::hash(&bytes[start..end]).to_le_bytes(), "the chunk CRC");
+    // 100 bytes: within the file, beyond the chunk; the CRC made to match
     bytes[at + 1..at + 9].copy_from_slice(&100u64.to_le_bytes());
+    let crc = crc32fast::hash(&bytes[start..end]).to_le_bytes();
+    bytes[start - 16..start - 12].copy_from_slice(&crc);
     std::fs::write(&path, &bytes).unwrap();
     let e = err(ivdyn::log::read_mcap(&path, &ReadOptions::new(&ur5().joint_names)));
-    assert!(e.contains("overrun.mcap") && e.contains("a record overruns its chunk"), "{e}");
+    assert!(e.contains("overrun.mcap") && e.contains("of 100 bytes with 38 bytes left in its chunk"), "{e}");
 }

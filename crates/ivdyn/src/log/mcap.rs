@@ -13,7 +13,7 @@ use std::fs::File;
 use std::io::{BufReader, Read};
 use std::path::{Path, PathBuf};
 
-use super::mcap_rec::Rec;
+use super::mcap_rec::{Rec, bounded, each_record};
 use ::mcap::McapError;
 use ::mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
@@ -347,23 +347,15 @@ where
     F: FnMut(&Sample<'_>) -> Result<()>,
 {
     let path = pass.path.clone();
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default().with_validate_chunk_crcs(true).with_record_length_limit(MAX_MCAP_RECORD),
-    );
+    let mut reader = top_level_reader();
     let size_note = size.map(|s| format!(" of {s}")).unwrap_or_default();
-    while let Some(ev) = next_event(&mut reader) {
+    while let Some(ev) = reader.next_event() {
         let ev = match ev {
             Ok(ev) => ev,
-            Err(Some(e)) => {
+            Err(e) => {
                 // returns only when a truncated file is accepted
                 pass.read_error(e, &size_note)?;
                 break;
-            }
-            Err(None) => {
-                let at = pass.offset;
-                return Err(pass.err(format!(
-                    "corrupt MCAP at or before byte {at}{size_note}: a record overruns its chunk (the MCAP reader failed)"
-                )));
             }
         };
         match ev {
@@ -373,26 +365,27 @@ where
                 reader.notify_read(got);
                 pass.offset += got as u64;
             }
-            LinearReadEvent::Record { opcode, data } => pass.record(opcode, data, f)?,
+            LinearReadEvent::Record { opcode, data } => {
+                let mut buf = std::mem::take(&mut pass.chunk);
+                let at = pass.offset;
+                let bad = |e| log_err(&path, format!("corrupt MCAP chunk at or before byte {at}{size_note}: {e}"));
+                let walked = each_record(opcode, data, &mut buf, MAX_MCAP_RECORD, |o, d| pass.record(o, d, f), bad);
+                pass.chunk = buf;
+                walked?
+            }
         }
     }
     Ok(())
 }
 
-/// `reader.next_event()` with a panic inside the mcap crate caught (`Err(None)`): fuzzing
-/// found one (mcap 0.26's linear reader subtracts a record's claimed length from what is
-/// left of its uncompressed chunk without a check: a panic with overflow checks on, a
-/// wrapped count without). The reader is not used again after it.
-fn next_event(reader: &mut LinearReader) -> Option<std::result::Result<LinearReadEvent<'_>, Option<McapError>>> {
-    // `reader` moved out of the closure's capture: the closure is FnOnce and the event
-    // may borrow the reader for the caller's lifetime
-    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
-        let r = reader;
-        r.next_event()
-    })) {
-        Ok(ev) => ev.map(|r| r.map_err(Some)),
-        Err(_) => Some(Err(None)),
-    }
+/// A reader of the file's top-level records: chunks are handed over whole (at most
+/// [`MAX_MCAP_RECORD`] bytes) and opened by ivdyn (`mcap_rec`): mcap 0.26's own walk
+/// through an uncompressed chunk subtracts a record's claimed length from what is left
+/// unchecked (a panic, found by the `mcap` fuzz target).
+fn top_level_reader() -> LinearReader {
+    LinearReader::new_with_options(
+        LinearReaderOptions::default().with_emit_chunks(true).with_record_length_limit(MAX_MCAP_RECORD),
+    )
 }
 
 /// A log error naming the file `path`.
@@ -424,6 +417,8 @@ pub(super) struct Pass<'o> {
     /// Each message's data is zstd-compressed (rosbag2 `compression_mode: message`): the
     /// buffer it is decompressed into.
     unzstd: Option<Vec<u8>>,
+    /// The chunk being walked, decompressed (reused from chunk to chunk).
+    chunk: Vec<u8>,
 }
 
 impl<'o> Pass<'o> {
@@ -457,6 +452,7 @@ impl<'o> Pass<'o> {
             offset: 0,
             records: 0,
             unzstd: None,
+            chunk: Vec::new(),
         })
     }
 
@@ -534,7 +530,7 @@ impl<'o> Pass<'o> {
                 self.bind(i64::from(id), &topic, schema, &message_encoding)?
             }
             Rec::Message { channel_id, log_time, data } => self.message(i64::from(channel_id), log_time, data, f)?,
-            Rec::Other => {}
+            Rec::Chunk { .. } | Rec::Other => {}
         }
         Ok(())
     }
@@ -597,8 +593,8 @@ impl<'o> Pass<'o> {
         let at = |e: String| log_err(path, format!("topic {}, sample {}: {e}", st.topic, st.count));
         let data = match unzstd {
             Some(buf) => {
-                unzstd_bounded(data, buf).map_err(|e| at(format!("bad zstd-compressed message: {e}")))?;
-                &buf[..]
+                let bad = |e| at(format!("bad zstd-compressed message: {e}"));
+                bounded(::zstd::Decoder::new(data).map_err(bad)?, buf, MAX_MCAP_RECORD).map_err(bad)?
             }
             None => data,
         };
@@ -641,17 +637,6 @@ impl<'o> Pass<'o> {
         }
         Ok(self.summary)
     }
-}
-
-/// Decompresses one zstd frame `data` into `out`, at most [`MAX_MCAP_RECORD`] bytes.
-fn unzstd_bounded(data: &[u8], out: &mut Vec<u8>) -> std::io::Result<()> {
-    out.clear();
-    let dec = ::zstd::Decoder::new(data)?;
-    dec.take(MAX_MCAP_RECORD as u64 + 1).read_to_end(out)?;
-    if out.len() > MAX_MCAP_RECORD {
-        return Err(std::io::Error::other(format!("decompresses to more than {MAX_MCAP_RECORD} bytes")));
-    }
-    Ok(())
 }
 
 /// Measured messages on `topic` according to the MCAP summary of the file `path` (`None`
@@ -807,20 +792,17 @@ pub fn list_topics(path: impl AsRef<Path>) -> Result<Vec<(String, String, usize)
     let path: PathBuf = path.as_ref().to_path_buf();
     let file = File::open(&path).map_err(|e| Error::Io { file: path.clone(), source: e })?;
     let mut src = BufReader::with_capacity(256 * 1024, file);
-    let mut reader =
-        LinearReader::new_with_options(LinearReaderOptions::default().with_record_length_limit(MAX_MCAP_RECORD));
+    let mut reader = top_level_reader();
     let mut schemas: HashMap<u16, String> = HashMap::new();
     let mut chan: HashMap<u16, usize> = HashMap::new();
     let mut out: Vec<(String, String, usize)> = vec![];
-    let mut offset = 0u64;
-    while let Some(ev) = next_event(&mut reader) {
-        match ev.map_err(|e| Error::Log {
-            file: path.clone(),
-            msg: match e {
-                Some(e) => format!("corrupt MCAP at or before byte {offset}: {e}"),
-                None => format!("corrupt MCAP at or before byte {offset}: a record overruns its chunk"),
-            },
-        })? {
+    let (mut offset, mut buf) = (0u64, vec![]);
+    let bad = |offset: u64, e: String| Error::Log {
+        file: path.clone(),
+        msg: format!("corrupt MCAP at or before byte {offset}: {e}"),
+    };
+    while let Some(ev) = reader.next_event() {
+        match ev.map_err(|e| bad(offset, e.to_string()))? {
             LinearReadEvent::ReadRequest(need) => {
                 let got = read_some(&mut src, reader.insert(need))
                     .map_err(|e| Error::Io { file: path.clone(), source: e })?;
@@ -828,30 +810,31 @@ pub fn list_topics(path: impl AsRef<Path>) -> Result<Vec<(String, String, usize)
                 offset += got as u64;
             }
             LinearReadEvent::Record { opcode, data } => {
-                match super::mcap_rec::parse(opcode, data).map_err(|e| Error::Log {
-                    file: path.clone(),
-                    msg: format!("corrupt MCAP record near byte {offset}: {e}"),
-                })? {
-                    Rec::Schema { id, name, .. } => {
-                        schemas.insert(id, name);
-                    }
-                    Rec::Channel { id, schema_id, topic, .. } => {
-                        if let std::collections::hash_map::Entry::Vacant(e) = chan.entry(id) {
-                            let s = schemas.get(&schema_id).cloned().unwrap_or_default();
-                            let i = out.iter().position(|(t, _, _)| *t == topic).unwrap_or_else(|| {
-                                out.push((topic.clone(), s, 0));
-                                out.len() - 1
-                            });
-                            e.insert(i);
+                let mut count = |opcode: u8, data: &[u8]| {
+                    match super::mcap_rec::parse(opcode, data).map_err(|e| bad(offset, e))? {
+                        Rec::Schema { id, name, .. } => {
+                            schemas.insert(id, name);
                         }
-                    }
-                    Rec::Message { channel_id, .. } => {
-                        if let Some(&i) = chan.get(&channel_id) {
-                            out[i].2 += 1;
+                        Rec::Channel { id, schema_id, topic, .. } => {
+                            if let std::collections::hash_map::Entry::Vacant(e) = chan.entry(id) {
+                                let s = schemas.get(&schema_id).cloned().unwrap_or_default();
+                                let i = out.iter().position(|(t, _, _)| *t == topic).unwrap_or_else(|| {
+                                    out.push((topic.clone(), s, 0));
+                                    out.len() - 1
+                                });
+                                e.insert(i);
+                            }
                         }
+                        Rec::Message { channel_id, .. } => {
+                            if let Some(&i) = chan.get(&channel_id) {
+                                out[i].2 += 1;
+                            }
+                        }
+                        Rec::Chunk { .. } | Rec::Other => {}
                     }
-                    Rec::Other => {}
-                }
+                    Ok(())
+                };
+                each_record(opcode, data, &mut buf, MAX_MCAP_RECORD, &mut count, |e| bad(offset, e))?;
             }
         }
     }

@@ -1,16 +1,25 @@
-//! The three MCAP records ivdyn reads (Schema, Channel, Message), parsed with every length
-//! prefix checked against the bytes left in the record before anything is allocated.
+//! The four MCAP records ivdyn reads (Schema, Channel, Message, Chunk), parsed with every
+//! length prefix checked against the bytes left in the record before anything is
+//! allocated, and the records inside a chunk walked the same way.
 //!
 //! Why not `mcap::parse_record`: its string fields reserve the length the file claims
 //! before reading (binrw's `count`), so a 45 KB file with a corrupt schema-name length
-//! asked for a 1.8 GB allocation (found by the `mcap` fuzz target). Records of other
-//! kinds are not parsed at all: ivdyn does not use them.
+//! asked for a 1.8 GB allocation (found by the `mcap` fuzz target). Why not the mcap
+//! crate's chunk walk: mcap 0.26's linear reader subtracts a record's claimed length from
+//! what is left of an uncompressed chunk unchecked (an overflow panic, or a wrapped count
+//! in release; found by the same target). Records of other kinds are not parsed at all:
+//! ivdyn does not use them.
 //!
 //! Layouts (MCAP specification, little-endian): Schema `id u16, name string, encoding
 //! string, data bytes`; Channel `id u16, schema_id u16, topic string, message_encoding
 //! string, metadata map`; Message `channel_id u16, sequence u32, log_time u64,
 //! publish_time u64, data` (the rest). A string or bytes field is a `u32` length and
-//! that many bytes.
+//! that many bytes. Chunk `message_start_time u64, message_end_time u64,
+//! uncompressed_size u64, uncompressed_crc u32, compression string, records` (a `u64`
+//! length and that many bytes: records one after the other, each `opcode u8, length u64`
+//! and its body).
+
+use std::io::Read;
 
 /// A record as ivdyn uses it.
 #[derive(Debug, PartialEq)]
@@ -21,6 +30,8 @@ pub(super) enum Rec<'a> {
     Channel { id: u16, schema_id: u16, topic: String, message_encoding: String },
     /// A message: its channel, log time and data.
     Message { channel_id: u16, log_time: u64, data: &'a [u8] },
+    /// A chunk: its records, as stored (see [`chunk_records`]).
+    Chunk { size: u64, crc: u32, compression: &'a str, records: &'a [u8] },
     /// Any other record (skipped).
     Other,
 }
@@ -29,6 +40,7 @@ pub(super) enum Rec<'a> {
 const SCHEMA: u8 = 0x03;
 const CHANNEL: u8 = 0x04;
 const MESSAGE: u8 = 0x05;
+const CHUNK: u8 = 0x06;
 
 /// Reads fields off the front of a record, each bounded by what is left.
 struct Cursor<'a> {
@@ -69,9 +81,13 @@ impl<'a> Cursor<'a> {
         self.take(n)
     }
 
-    fn string(&mut self) -> Result<String, String> {
+    fn str(&mut self) -> Result<&'a str, String> {
         let b = self.bytes()?;
-        std::str::from_utf8(b).map(str::to_string).map_err(|_| "a string field is not UTF-8".to_string())
+        std::str::from_utf8(b).map_err(|_| "a string field is not UTF-8".to_string())
+    }
+
+    fn string(&mut self) -> Result<String, String> {
+        self.str().map(str::to_string)
     }
 }
 
@@ -88,8 +104,120 @@ pub(super) fn parse(opcode: u8, data: &[u8]) -> Result<Rec<'_>, String> {
             let (channel_id, _sequence, log_time, _publish_time) = (c.u16()?, c.u32()?, c.u64()?, c.u64()?);
             Rec::Message { channel_id, log_time, data: c.rest }
         }
+        CHUNK => {
+            let (_start, _end, size, crc) = (c.u64()?, c.u64()?, c.u64()?, c.u32()?);
+            let compression = c.str()?;
+            let n = c.u64()?;
+            let records = c.take(usize::try_from(n).unwrap_or(usize::MAX))?;
+            Rec::Chunk { size, crc, compression, records }
+        }
         _ => Rec::Other,
     })
+}
+
+/// The records of a chunk (`size` bytes uncompressed, CRC-32 `crc`, 0 for none), from
+/// `records` as stored: decompressed into `buf` when `compression` is zstd or lz4, and
+/// never more than `limit` bytes, whatever the chunk claims.
+pub(super) fn chunk_records<'b>(
+    size: u64,
+    crc: u32,
+    compression: &str,
+    records: &'b [u8],
+    buf: &'b mut Vec<u8>,
+    limit: usize,
+) -> Result<&'b [u8], String> {
+    if size > limit as u64 {
+        return Err(format!(
+            "a chunk of {size} bytes uncompressed: at most {limit} bytes are read (a corrupt length?)"
+        ));
+    }
+    let out: &[u8] = match compression {
+        "" => records,
+        "zstd" => {
+            let dec = zstd::Decoder::new(records).map_err(|e| format!("zstd chunk: {e}"))?;
+            bounded(dec, buf, limit).map_err(|e| format!("zstd chunk: {e}"))?
+        }
+        "lz4" => {
+            let dec = lz4::Decoder::new(records).map_err(|e| format!("lz4 chunk: {e}"))?;
+            bounded(dec, buf, limit).map_err(|e| format!("lz4 chunk: {e}"))?
+        }
+        other => return Err(format!("chunk compression '{other}' (zstd, lz4 or none are read)")),
+    };
+    if out.len() as u64 != size {
+        return Err(format!("a chunk that claims {size} bytes uncompressed holds {}", out.len()));
+    }
+    let got = crc32fast::hash(out);
+    if crc != 0 && got != crc {
+        return Err(format!("chunk CRC mismatch: saved {crc:#010x}, calculated {got:#010x}"));
+    }
+    Ok(out)
+}
+
+/// Calls `f` on the record `(opcode, data)` of the file's top level or, when it is a
+/// chunk, on each record inside it (decompressed into `buf`, at most `limit` bytes);
+/// `bad` makes the error of a corrupt chunk.
+pub(super) fn each_record<E>(
+    opcode: u8,
+    data: &[u8],
+    buf: &mut Vec<u8>,
+    limit: usize,
+    mut f: impl FnMut(u8, &[u8]) -> Result<(), E>,
+    bad: impl Fn(String) -> E,
+) -> Result<(), E> {
+    if opcode != CHUNK {
+        return f(opcode, data);
+    }
+    let Rec::Chunk { size, crc, compression, records } = parse(opcode, data).map_err(&bad)? else {
+        unreachable!("a chunk opcode parses as a chunk or fails")
+    };
+    let inner = chunk_records(size, crc, compression, records, buf, limit).map_err(&bad)?;
+    for rec in (Records { rest: inner }) {
+        let (opcode, data) = rec.map_err(&bad)?;
+        if opcode == CHUNK {
+            return Err(bad("a chunk inside a chunk".into()));
+        }
+        f(opcode, data)?;
+    }
+    Ok(())
+}
+
+/// Reads `src` to its end into `out`, at most `limit` bytes.
+pub(super) fn bounded<R: Read>(src: R, out: &mut Vec<u8>, limit: usize) -> std::io::Result<&[u8]> {
+    out.clear();
+    src.take(limit as u64 + 1).read_to_end(out)?;
+    if out.len() > limit {
+        return Err(std::io::Error::other(format!("decompresses to more than {limit} bytes")));
+    }
+    Ok(out)
+}
+
+/// The records laid one after the other in `rest` (a chunk's content): `(opcode, body)`,
+/// each length checked against what is left.
+pub(super) struct Records<'b> {
+    pub(super) rest: &'b [u8],
+}
+
+impl<'b> Iterator for Records<'b> {
+    type Item = Result<(u8, &'b [u8]), String>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        if self.rest.is_empty() {
+            return None;
+        }
+        let mut c = Cursor { rest: self.rest };
+        let item = (|| {
+            let opcode = c.array::<1>()?[0];
+            let n = c.u64()?;
+            let left = c.rest.len();
+            let body = c.take(usize::try_from(n).unwrap_or(usize::MAX)).map_err(|_| {
+                format!("a record (opcode {opcode:#04x}) of {n} bytes with {left} bytes left in its chunk")
+            })?;
+            Ok((opcode, body))
+        })();
+        // after an error the walk stops
+        self.rest = if item.is_ok() { c.rest } else { &[] };
+        Some(item)
+    }
 }
 
 #[cfg(test)]
@@ -132,5 +260,42 @@ mod tests {
         assert!(e.contains("1811939350 bytes with 14 bytes left"), "{e}");
         assert!(parse(MESSAGE, &[0; 10]).unwrap_err().contains("left in the record"));
         assert_eq!(parse(0x08, &[0xff; 3]), Ok(Rec::Other));
+    }
+
+    fn chunk(size: u64, compression: &str, records: &[u8]) -> Vec<u8> {
+        let mut c = [1u64.to_le_bytes(), 2u64.to_le_bytes(), size.to_le_bytes()].concat();
+        c.extend(crc32fast::hash(records).to_le_bytes());
+        c.extend(string(compression));
+        c.extend((records.len() as u64).to_le_bytes());
+        c.extend(records);
+        c
+    }
+
+    #[test]
+    fn a_chunk_walked_record_by_record() {
+        // two records: opcode 0x05 with 3 bytes, opcode 0x08 with none
+        let recs = [&[0x05][..], &3u64.to_le_bytes(), &[7, 8, 9], &[0x08], &0u64.to_le_bytes()].concat();
+        let raw = chunk(recs.len() as u64, "", &recs);
+        let Ok(Rec::Chunk { size, crc, compression, records }) = parse(CHUNK, &raw) else { panic!("not a chunk") };
+        let mut buf = vec![];
+        let inner = chunk_records(size, crc, compression, records, &mut buf, 1 << 20).unwrap();
+        let got: Vec<_> = Records { rest: inner }.collect();
+        assert_eq!(got, vec![Ok((0x05, &[7u8, 8, 9][..])), Ok((0x08, &[][..]))]);
+    }
+
+    #[test]
+    fn a_record_overrunning_its_chunk_is_an_error() {
+        // the fuzz finding: a record claiming more bytes than its (uncompressed) chunk holds
+        let recs = [&[0x05][..], &100u64.to_le_bytes(), &[1, 2]].concat();
+        let mut it = Records { rest: &recs };
+        let e = it.next().unwrap().unwrap_err();
+        assert!(e.contains("opcode 0x05) of 100 bytes with 2 bytes left in its chunk"), "{e}");
+        assert!(it.next().is_none());
+        let e = chunk_records(1 << 40, 0, "", &recs, &mut vec![], 1 << 20).unwrap_err();
+        assert!(e.contains("1099511627776 bytes uncompressed: at most 1048576"), "{e}");
+        let e = chunk_records(recs.len() as u64, 1, "", &recs, &mut vec![], 1 << 20).unwrap_err();
+        assert!(e.contains("CRC mismatch"), "{e}");
+        let e = chunk_records(3, 0, "brotli", &recs, &mut vec![], 1 << 20).unwrap_err();
+        assert!(e.contains("'brotli'"), "{e}");
     }
 }
