@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz
+.PHONY: demo test venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -31,8 +31,9 @@ demo:
 	    --log fixtures/diagnose/viscous_payload.mcap --out $(DEMO)/diagnose
 	@echo "diagnosis of a MuJoCo log (truth: 1.2 kg payload, viscous friction on shoulder_lift and wrist_1): $(DEMO)/diagnose/report.html"
 
-## test: formatting and lints, every Rust test, the no_std/no-alloc proof, and the Python suites
-test: lint rust-test nostd py-test
+## test: formatting and lints, the published crates' packaging, every Rust test, the
+## no_std/no-alloc proof, the Python suites, and the wheel in a fresh venv
+test: lint package rust-test nostd py-test wheel-smoke
 
 ## lint: rustfmt (rustfmt.toml) and clippy with warnings as errors, on every target
 lint:
@@ -57,12 +58,36 @@ nostd:
 	$(CARGO) build -p ivdyn-core --target thumbv7em-none-eabihf
 	$(CARGO) build --release --target thumbv7em-none-eabihf --manifest-path tools/nostd-check/Cargo.toml
 
-# Builds and installs the `ivdyn` package (crates/ivdyn-py via maturin, release, in-tree
-# target/) into the venv.
-# --no-build-isolation: maturin comes from the venv (no download per run); it must be on PATH.
-py-install: venv
+## package: the published crates (ivdyn-core, ivdyn, ivdyn-cli) pack: manifests, versions
+## beside paths, files inside each crate (`make publish-check` also builds the packed crates)
+PUBLISHED := -p ivdyn-core -p ivdyn -p ivdyn-cli
+package:
+	$(CARGO) package $(PUBLISHED) --no-verify --allow-dirty -q
+
+## publish-check: `cargo publish --dry-run` of the published crates (packs and builds them
+## from the packed sources against crates.io, as a publish would)
+publish-check:
+	$(CARGO) publish --dry-run $(PUBLISHED) --allow-dirty
+
+# wheel: the abi3 wheel (crates/ivdyn-py via maturin, release, in-tree target/) in
+# target/wheels; py-install installs that same wheel into the venv.
+WHEELS := target/wheels
+wheel: venv
 	@test -x $(VENV)/bin/maturin || $(VENV)/bin/pip install -q maturin==1.16.0
-	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/pip install -q --no-build-isolation .
+	rm -f $(WHEELS)/ivdyn-*.whl
+	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/maturin build --release --out $(WHEELS) --quiet
+
+py-install: wheel
+	$(VENV)/bin/pip install -q --force-reinstall --no-deps $(WHEELS)/ivdyn-*.whl
+
+## wheel-smoke: the wheel installed into a fresh venv (NumPy from the package index, nothing
+## from this tree on the path) runs python/tools/wheel_smoke.py
+SMOKE_VENV := target/wheel-smoke-venv
+wheel-smoke: wheel
+	rm -rf $(SMOKE_VENV)
+	python3 -m venv $(SMOKE_VENV)
+	$(SMOKE_VENV)/bin/pip install -q $(WHEELS)/ivdyn-*.whl
+	cd $(SMOKE_VENV) && ./bin/python $(abspath python/tools/wheel_smoke.py) $(abspath fixtures)
 
 # py-test runs every pytest suite (python/reference, python/tests, python/tests_io).
 py-test: py-install

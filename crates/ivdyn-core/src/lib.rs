@@ -103,3 +103,8 @@ pub type Mat3 = nalgebra::Matrix3<f64>;
 pub type VecN<const N: usize> = nalgebra::SVector<f64, N>;
 /// Joint-space matrix of a chain with `N` joints.
 pub type MatN<const N: usize> = nalgebra::SMatrix<f64, N, N>;
+
+/// The crate README's examples, compiled and run as doctests (they cannot rot).
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -55,3 +55,8 @@ pub mod app;
 pub use error::Error;
 pub use ivdyn_core as core;
 pub use robot::{DynModel, MAX_DOF, Robot};
+
+/// The crate README's examples, compiled and run as doctests (they cannot rot).
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
