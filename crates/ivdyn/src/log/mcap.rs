@@ -640,33 +640,31 @@ impl<'o> Pass<'o> {
 }
 
 /// Measured messages on `topic` according to the MCAP summary of the file `path` (`None`
-/// when the file has no summary statistics, e.g. an interrupted recording).
+/// when the file has no summary statistics, e.g. an interrupted recording, or a summary
+/// that does not parse: the summary is an index, the caller then counts in a pass over the
+/// data, which is checked record by record). Read by `mcap_rec` (every length checked) from
+/// the footer and the summary section, at most [`MAX_MCAP_RECORD`] bytes of it.
 pub(super) fn summary_count(path: &Path, topic: &str) -> Result<Option<u64>> {
-    use ::mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader};
-    use std::io::Seek;
+    use super::mcap_rec::{FOOTER_LEN, summary_start, summary_topic_count};
+    use std::io::{Seek, SeekFrom};
     let io = |e: std::io::Error| Error::Io { file: path.to_path_buf(), source: e };
     let mut file = File::open(path).map_err(io)?;
-    let mut reader = SummaryReader::new();
-    while let Some(ev) = reader.next_event() {
-        let Ok(ev) = ev else { return Ok(None) };
-        match ev {
-            SummaryReadEvent::ReadRequest(need) => {
-                let got = file.read(reader.insert(need)).map_err(io)?;
-                reader.notify_read(got);
-            }
-            SummaryReadEvent::SeekRequest(to) => {
-                let pos = file.seek(to).map_err(io)?;
-                reader.notify_seeked(pos);
-            }
-        }
-    }
-    let Some(summary) = reader.finish() else { return Ok(None) };
-    let Some(stats) = summary.stats else { return Ok(None) };
-    let ids: Vec<u16> = summary.channels.iter().filter(|(_, c)| c.topic == topic).map(|(id, _)| *id).collect();
-    if ids.is_empty() {
+    let size = file.metadata().map_err(io)?.len();
+    if size < (8 + FOOTER_LEN) as u64 {
         return Ok(None);
     }
-    Ok(Some(ids.iter().map(|id| stats.channel_message_counts.get(id).copied().unwrap_or(0)).sum()))
+    let mut tail = [0u8; FOOTER_LEN];
+    file.seek(SeekFrom::Start(size - FOOTER_LEN as u64)).map_err(io)?;
+    file.read_exact(&mut tail).map_err(io)?;
+    let Ok(Some(start)) = summary_start(&tail) else { return Ok(None) };
+    let end = size - FOOTER_LEN as u64;
+    if start < 8 || start > end || end - start > MAX_MCAP_RECORD as u64 {
+        return Ok(None);
+    }
+    let mut summary = vec![0u8; (end - start) as usize];
+    file.seek(SeekFrom::Start(start)).map_err(io)?;
+    file.read_exact(&mut summary).map_err(io)?;
+    Ok(summary_topic_count(&summary, topic).unwrap_or(None))
 }
 
 /// Reads until `buf` is full or EOF (a short read from a pipe is not EOF).

@@ -41,6 +41,12 @@ const SCHEMA: u8 = 0x03;
 const CHANNEL: u8 = 0x04;
 const MESSAGE: u8 = 0x05;
 const CHUNK: u8 = 0x06;
+const FOOTER: u8 = 0x02;
+const STATISTICS: u8 = 0x0B;
+
+/// The file's last bytes: the footer record (`opcode, length 20, summary_start u64,
+/// summary_offset_start u64, summary_crc u32`) and the 8 magic bytes.
+pub(super) const FOOTER_LEN: usize = 1 + 8 + 20 + 8;
 
 /// Reads fields off the front of a record, each bounded by what is left.
 struct Cursor<'a> {
@@ -181,6 +187,50 @@ pub(super) fn each_record<E>(
     Ok(())
 }
 
+/// Where the summary section starts (`None`: the file has none), from the file's last
+/// [`FOOTER_LEN`] bytes `tail`.
+pub(super) fn summary_start(tail: &[u8]) -> Result<Option<u64>, String> {
+    let mut c = Cursor { rest: tail };
+    let (opcode, len) = (c.array::<1>()?[0], c.u64()?);
+    if opcode != FOOTER || len != 20 {
+        return Err(format!("no footer record before the end magic (opcode {opcode:#04x}, length {len})"));
+    }
+    let start = c.u64()?;
+    Ok((start != 0).then_some(start))
+}
+
+/// Messages per channel of `topic` according to the summary section `summary` (its
+/// Channel and Statistics records): `None` when it has no statistics or no such channel.
+pub(super) fn summary_topic_count(summary: &[u8], topic: &str) -> Result<Option<u64>, String> {
+    let (mut ids, mut counts) = (vec![], None);
+    for rec in (Records { rest: summary }) {
+        let (opcode, data) = rec?;
+        match opcode {
+            CHANNEL => {
+                if let Rec::Channel { id, topic: t, .. } = parse(opcode, data)?
+                    && t == topic
+                {
+                    ids.push(id);
+                }
+            }
+            STATISTICS => {
+                // message, schema, channel, attachment, metadata, chunk counts; start, end
+                let mut c = Cursor { rest: data };
+                c.take(8 + 2 + 4 * 4 + 8 + 8)?;
+                let mut map = Cursor { rest: c.bytes()? };
+                let mut per_channel = vec![];
+                while !map.rest.is_empty() {
+                    per_channel.push((map.u16()?, map.u64()?));
+                }
+                counts = Some(per_channel);
+            }
+            _ => {}
+        }
+    }
+    let Some(counts) = counts.filter(|_| !ids.is_empty()) else { return Ok(None) };
+    Ok(Some(counts.iter().filter(|(id, _)| ids.contains(id)).map(|(_, n)| n).sum()))
+}
+
 /// Reads `src` to its end into `out`, at most `limit` bytes.
 pub(super) fn bounded<R: Read>(src: R, out: &mut Vec<u8>, limit: usize) -> std::io::Result<&[u8]> {
     out.clear();
@@ -297,5 +347,30 @@ mod tests {
         assert!(e.contains("CRC mismatch"), "{e}");
         let e = chunk_records(3, 0, "brotli", &recs, &mut vec![], 1 << 20).unwrap_err();
         assert!(e.contains("'brotli'"), "{e}");
+    }
+
+    #[test]
+    fn the_summary_counts_of_a_file_the_mcap_crate_wrote() {
+        let mut bytes = vec![];
+        {
+            let mut w = mcap::WriteOptions::new().create(std::io::Cursor::new(&mut bytes)).unwrap();
+            let s = w.add_schema("raw", "none", b"").unwrap();
+            let a = w.add_channel(s, "/joint_states", "raw", &Default::default()).unwrap();
+            let b = w.add_channel(s, "/other", "raw", &Default::default()).unwrap();
+            for (i, c) in [a, b, a, a, b, a].into_iter().enumerate() {
+                let h =
+                    mcap::records::MessageHeader { channel_id: c, sequence: 0, log_time: i as u64, publish_time: 0 };
+                w.write_to_known_channel(&h, &[1, 2]).unwrap();
+            }
+            w.finish().unwrap();
+        }
+        let start = summary_start(&bytes[bytes.len() - FOOTER_LEN..]).unwrap().expect("a summary");
+        let summary = &bytes[start as usize..bytes.len() - FOOTER_LEN];
+        assert_eq!(summary_topic_count(summary, "/joint_states"), Ok(Some(4)));
+        assert_eq!(summary_topic_count(summary, "/other"), Ok(Some(2)));
+        assert_eq!(summary_topic_count(summary, "/none"), Ok(None));
+        // a tail without a footer record
+        let e = summary_start(&[0u8; FOOTER_LEN]).unwrap_err();
+        assert!(e.contains("no footer record"), "{e}");
     }
 }
