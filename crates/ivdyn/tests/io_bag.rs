@@ -140,12 +140,26 @@ fn bad_metadata_is_named() {
         (metadata("rosbag_v2", &["run_0.mcap"], 30, ""), "storage_identifier 'rosbag_v2'"),
         (metadata("mcap", &["run_0.mcap"], 30, "lz4"), "compression_format 'lz4'"),
         (metadata("mcap", &[], 30, ""), "relative_file_paths lists no file"),
+        // a path out of the bag is looked up by its file name inside it only
+        (
+            metadata("mcap", &["../outside/run_5.mcap"], 30, ""),
+            "../outside/run_5.mcap listed in relative_file_paths is missing",
+        ),
     ];
     for (yaml, want) in cases {
         std::fs::write(d.join("metadata.yaml"), yaml).unwrap();
         let e = read_mcap(&d, &opts()).unwrap_err().to_string();
         assert!(e.contains(want) && e.contains("metadata.yaml"), "{e}");
     }
+    // ../outside/run_5.mcap exists beside the bag: it is not read
+    let outside = d.parent().unwrap().join("outside");
+    std::fs::create_dir_all(&outside).unwrap();
+    std::fs::copy(d.join("run_0.mcap"), outside.join("run_5.mcap")).unwrap();
+    std::fs::write(d.join("metadata.yaml"), metadata("mcap", &["../outside/run_5.mcap"], 30, "")).unwrap();
+    let e = read_mcap(&d, &opts()).unwrap_err().to_string();
+    assert!(e.contains("run_5.mcap listed in relative_file_paths is missing"), "{e}");
+    std::fs::write(d.join("metadata.yaml"), metadata("mcap", &["../outside/run_0.mcap"], 30, "")).unwrap();
+    assert_eq!(read_mcap(&d, &opts()).unwrap().t.len(), 30, "by its file name, inside the bag");
     let empty = dir("empty");
     let e = read_mcap(&empty, &opts()).unwrap_err().to_string();
     assert!(e.contains("no .mcap or .db3 file"), "{e}");

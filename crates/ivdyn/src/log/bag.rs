@@ -178,9 +178,15 @@ fn from_metadata(dir: &Path, meta: &Path, info: BagInfo) -> Result<LogFiles> {
     }
     let mut files = Vec::with_capacity(info.relative_file_paths.len());
     for rel in &info.relative_file_paths {
-        // rosbag2 before Foxy wrote paths with the bag directory in front
-        let p = [dir.join(rel), dir.join(Path::new(rel).file_name().unwrap_or_default())]
+        // rosbag2 before Foxy wrote paths with the bag directory in front; a path that is
+        // absolute or climbs out (`..`) is only looked up by its file name in the bag:
+        // metadata.yaml never makes ivdyn read a file outside the bag directory
+        let rel_path = Path::new(rel);
+        let inside = rel_path.components().all(|c| matches!(c, std::path::Component::Normal(_)));
+        let by_name = dir.join(rel_path.file_name().unwrap_or_default());
+        let p = [inside.then(|| dir.join(rel_path)), Some(by_name)]
             .into_iter()
+            .flatten()
             .find(|p| p.is_file())
             .ok_or_else(|| log_err(meta, format!("the bag file {rel} listed in relative_file_paths is missing")))?;
         let zstd = p.extension().is_some_and(|e| e.eq_ignore_ascii_case("zstd"));
