@@ -97,7 +97,7 @@ py-test: py-install
 ## nightly, installed here; 1 GB memory and 20 s per input at most). `make test` runs the
 ## same targets on mutated seeds for a few seconds (crates/ivdyn-fuzz/tests/smoke.rs).
 FUZZ_SECS ?= 600
-FUZZ_TARGETS := mcap csv urdf params
+FUZZ_TARGETS := mcap csv urdf params db3 bag
 fuzz:
 	rustup toolchain install nightly --profile minimal
 	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz --version 0.13.2 --locked

@@ -22,6 +22,11 @@ Files (joint names are those of fixtures/ur5.urdf, in a shuffled order, plus an 
 * ur5_nan.mcap        50 samples; sample 17 has a NaN position on elbow_joint.
 * ur5_backwards.mcap  50 samples; sample 23 is stamped 5 ms before sample 22.
 * ur5_short.csv       20 rows: t, <joint>.q, <joint>.tau for the six UR5 joints.
+* ur5_db3_bag/        a rosbag2 directory in Humble's default sqlite3 storage, split in two
+                      files (ur5_db3_bag_0.db3, ur5_db3_bag_1.db3) + metadata.yaml, 60
+                      samples at 100 Hz (position, velocity, effort of the six UR5 joints),
+                      written by the `rosbags` package (python/tests_io/rosbag_writer.py);
+                      the seed of the `db3` and `bag` fuzz targets.
 
 The signals: q_j(t) = a_j sin(2 pi f_j t + p_j) + c_j, tau_j = 3 cos(2 pi f_j t) + j
 (f_j = 0.5 + 0.25 j Hz), and gripper_joint = 0.01. The Rust tests recompute them.
@@ -170,6 +175,25 @@ def write(path, samples, rate_hz, compression=CompressionType.ZSTD, chunk_size=6
     return os.path.getsize(path)
 
 
+def write_db3_bag(path):
+    """ur5_db3_bag/ (see the module doc); returns its size in bytes."""
+    import shutil
+
+    import numpy as np
+
+    sys.path.insert(0, os.path.join(ROOT, "python", "tests_io"))
+    from rosbag_writer import write_bag
+
+    t = np.arange(60) / 100.0
+    log = {"t": t, "joint_names": UR5,
+           "q": np.array([[q_of(j, x) for j in range(6)] for x in t]),
+           "qd": np.array([[qd_of(j, x) for j in range(6)] for x in t]),
+           "tau": np.array([[tau_of(j, x) for j in range(6)] for x in t])}
+    shutil.rmtree(path, ignore_errors=True)
+    write_bag(path, log, storage="sqlite3", split=2)
+    return sum(os.path.getsize(os.path.join(path, f)) for f in os.listdir(path))
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     p = lambda name: os.path.join(OUT, name)
@@ -211,6 +235,8 @@ def main():
             row = [t] + [q_of(j, t) for j in range(6)] + [tau_of(j, t) for j in range(6)] + [0.01]
             f.write(",".join(repr(float(v)) for v in row) + "\n")
     sizes["ur5_short.csv"] = os.path.getsize(p("ur5_short.csv"))
+
+    sizes["ur5_db3_bag/"] = write_db3_bag(p("ur5_db3_bag"))
 
     for k, v in sizes.items():
         print(f"{k:22s} {v:8d} bytes")

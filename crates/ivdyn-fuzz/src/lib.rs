@@ -10,7 +10,10 @@
 //! The readers are fed what a user hands ivdyn: an MCAP file (`mcap`: the MCAP and CDR
 //! decoders), a CSV log (`csv`: the reader, then the conditioning the log goes through),
 //! a URDF (`urdf`: the loader, then inverse dynamics on the model), a parameter file
-//! (`params`: applied to the UR5).
+//! (`params`: applied to the UR5), a rosbag2 SQLite file (`db3`: SQLite, the rosbag2
+//! tables, then the CDR decoder) and a rosbag2 `metadata.yaml` in front of a valid split
+//! bag (`bag`: the YAML, the file list, the split reading). The last two go through a file
+//! in a scratch directory of the process (SQLite and the bag reader read paths).
 
 use std::path::Path;
 use std::sync::OnceLock;
@@ -20,7 +23,7 @@ use ivdyn::log::ReadOptions;
 use ivdyn_core::rng::Rng;
 
 /// The targets, by name.
-pub const TARGETS: [&str; 4] = ["mcap", "csv", "urdf", "params"];
+pub const TARGETS: [&str; 6] = ["mcap", "csv", "urdf", "params", "db3", "bag"];
 
 const UR5_URDF: &str = include_str!("../../../fixtures/ur5.urdf");
 
@@ -39,6 +42,8 @@ pub fn run(name: &str, data: &[u8]) {
         "csv" => csv(data),
         "urdf" => urdf(data),
         "params" => params(data),
+        "db3" => db3(data),
+        "bag" => bag(data),
         _ => panic!("no fuzz target '{name}' (targets: {TARGETS:?})"),
     }
 }
@@ -84,6 +89,52 @@ pub fn params(data: &[u8]) {
     }
 }
 
+/// The fixture bag the `db3` and `bag` targets start from (fixtures/logs/ur5_db3_bag).
+fn fixture_bag() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/logs/ur5_db3_bag")
+}
+
+/// A scratch directory of this process (created once): `bag/` holds the fixture bag's
+/// files, where the `bag` target writes its metadata.yaml.
+fn scratch() -> &'static Path {
+    static D: OnceLock<std::path::PathBuf> = OnceLock::new();
+    D.get_or_init(|| {
+        let d = std::env::temp_dir().join(format!("ivdyn-fuzz-{}", std::process::id()));
+        std::fs::create_dir_all(d.join("bag")).unwrap();
+        for f in ["ur5_db3_bag_0.db3", "ur5_db3_bag_1.db3"] {
+            std::fs::copy(fixture_bag().join(f), d.join("bag").join(f)).unwrap();
+        }
+        d
+    })
+}
+
+/// Streams the log at `path` as `identify --stream` reads it.
+fn stream(path: &Path) {
+    let mut sum = 0.0;
+    let _ = ivdyn::log::for_each_sample(path, &ReadOptions::new(&ur5().joint_names), |s| {
+        sum += s.q.unwrap_or(&[]).iter().chain(s.tau.unwrap_or(&[])).sum::<f64>();
+        Ok(())
+    });
+    std::hint::black_box(sum);
+}
+
+/// A rosbag2 SQLite file, read as `--log run.db3`.
+pub fn db3(data: &[u8]) {
+    let path = scratch().join("fuzz.db3");
+    if std::fs::write(&path, data).is_ok() {
+        stream(&path);
+    }
+}
+
+/// A rosbag2 `metadata.yaml` in front of the fixture's two `.db3` files, read as
+/// `--log bag/`.
+pub fn bag(data: &[u8]) {
+    let dir = scratch().join("bag");
+    if std::fs::write(dir.join("metadata.yaml"), data).is_ok() {
+        stream(&dir);
+    }
+}
+
 /// Seeds of target `name`: valid inputs (written here, or the committed fixtures).
 pub fn seeds(name: &str) -> Vec<Vec<u8>> {
     let fixture =
@@ -93,6 +144,8 @@ pub fn seeds(name: &str) -> Vec<Vec<u8>> {
         "csv" => vec![csv_seed()],
         "urdf" => ["ur5.urdf", "panda.urdf", "test_arm.urdf"].map(fixture).to_vec(),
         "params" => vec![params_seed()],
+        "db3" => ["ur5_db3_bag_0.db3", "ur5_db3_bag_1.db3"].map(|f| fixture(&format!("logs/ur5_db3_bag/{f}"))).to_vec(),
+        "bag" => vec![fixture("logs/ur5_db3_bag/metadata.yaml")],
         _ => panic!("no fuzz target '{name}'"),
     }
 }
