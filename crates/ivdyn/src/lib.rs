@@ -60,3 +60,17 @@ pub use robot::{DynModel, MAX_DOF, Robot};
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
+
+/// The Rust examples of the repository's README and guides, run as doctests. Doctests
+/// run in this crate's directory: `crates/ivdyn/fixtures` links the repository's
+/// `fixtures/`, so the examples use the paths a reader in a clone types.
+/// `python/tests/test_doc_snippets.py` checks every page with a Rust block is listed here.
+#[cfg(doctest)]
+pub mod doc_pages {
+    #[doc = include_str!("../../../README.md")]
+    pub struct Readme;
+    #[doc = include_str!("../../../docs/logs.md")]
+    pub struct Logs;
+    #[doc = include_str!("../../../docs/control.md")]
+    pub struct Control;
+}
