@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
+.PHONY: demo test rust-checks venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -32,8 +32,14 @@ demo:
 	@echo "diagnosis of a MuJoCo log (truth: 1.2 kg payload, viscous friction on shoulder_lift and wrist_1): $(DEMO)/diagnose/report.html"
 
 ## test: formatting and lints, the published crates' packaging, every Rust test, the
-## no_std/no-alloc proof, the Python suites, and the wheel in a fresh venv
-test: lint package rust-test nostd py-test wheel-smoke
+## no_std/no-alloc proof, the Python suites, and the wheel in a fresh venv. The venv's
+## packages download and install while the Rust side builds (two jobs), then the Python side.
+test:
+	$(MAKE) -j2 venv rust-checks
+	$(MAKE) py-test wheel-smoke
+
+rust-checks:
+	$(MAKE) -j1 lint package rust-test nostd
 
 ## lint: rustfmt (rustfmt.toml) and clippy with warnings as errors, on every target
 lint:
@@ -90,9 +96,10 @@ wheel-smoke: wheel
 	$(SMOKE_VENV)/bin/pip install -q $(WHEELS)/ivdyn-*.whl
 	cd $(SMOKE_VENV) && ./bin/python $(abspath python/tools/wheel_smoke.py) $(abspath fixtures)
 
-# py-test runs every pytest suite (python/reference, python/tests, python/tests_io).
+# py-test runs every pytest suite (python/reference, python/tests, python/tests_io), on
+# two workers (pytest-xdist).
 py-test: py-install
-	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q python
+	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q -n 2 python
 
 ## fuzz: every reader fuzzed for FUZZ_SECS seconds each, coverage-guided (cargo-fuzz on
 ## nightly, installed here; 1 GB memory and 20 s per input at most). `make test` runs the
