@@ -1,0 +1,38 @@
+//! ivdyn's integration tests in one binary: one build and one link instead of one per
+//! file (`make test` time), the files' tests run together on the harness's threads. Each
+//! module was a test binary of its own; they share nothing (temporary paths are named per
+//! module). `tests/fixtures.rs` and `tests/urdf_errors.rs` at the repository root belong here too.
+
+mod batch_recovery;
+mod consistent;
+mod coulomb_shape;
+mod diagnose_cases;
+mod diagnose_report;
+mod drive_gains;
+mod dwh_level;
+mod effort_current;
+mod excite;
+mod hostile_inputs;
+mod hostile_limits;
+mod ident_accum;
+mod ident_base;
+mod ident_fit;
+mod ident_stats;
+mod idim_iv;
+mod io_bag;
+mod io_csv;
+mod io_mcap;
+mod io_stream;
+mod log_hygiene;
+mod output;
+mod payload;
+mod payload_physical;
+mod signal_conditioning;
+mod stream_identify;
+mod transmission;
+mod urdf_tip;
+mod urdf_write;
+#[path = "../../../../tests/fixtures.rs"]
+mod fixtures;
+#[path = "../../../../tests/urdf_errors.rs"]
+mod urdf_errors;
