@@ -71,7 +71,8 @@ pub struct BaseParams {
     pub k: DMatrix<f64>,
     /// Columns that are identically zero (parameters with no effect on the data).
     pub zero_columns: Vec<usize>,
-    /// Readable name of each base parameter, e.g. `"link3.Ixx - link3.Iyy + 0.225*link4.m"`.
+    /// Readable name of each base parameter, e.g. `"link3.Ixx - link3.Iyy - 0.00784996*link4.m - ..."`
+    /// (the paper's robot: `XXR_3`, with `a_3^2 M_4` from link 4's mass at joint 4).
     pub names: Vec<String>,
 }
 
