@@ -139,7 +139,12 @@ fn textbook_regrouping_on_ur5_and_paper_robot() {
                 let ap = axes[j - 1];
                 for k in [(ap + 1) % 3, (ap + 2) % 3] {
                     let got = coef(&base, link_col(j - 1, MC + k), link_col(j, M));
-                    assert!((got - origins[j][k]).abs() < 1e-9, "{label}: {} vs {}", names[link_col(j - 1, MC + k)], origins[j][k]);
+                    assert!(
+                        (got - origins[j][k]).abs() < 1e-9,
+                        "{label}: {} vs {}",
+                        names[link_col(j - 1, MC + k)],
+                        origins[j][k]
+                    );
                 }
             }
         }
@@ -211,12 +216,19 @@ fn textbook_choice_is_well_conditioned() {
             let sv = a.singular_values();
             sv.max() / sv.min()
         };
-        let t = std::time::Instant::now();
-        let ordered = BaseParams::from_rows_ordered(&phi, &names, &textbook_order(&robot, p)).unwrap();
-        let t_ordered = t.elapsed();
-        let t = std::time::Instant::now();
-        let pivoted = BaseParams::from_rows_pivoted(&phi, &names);
-        let t_pivoted = t.elapsed();
+        // best of 10 (the machine is shared)
+        let best_of = |f: &dyn Fn() -> BaseParams| {
+            let mut best = std::time::Duration::MAX;
+            for _ in 0..10 {
+                let t = std::time::Instant::now();
+                std::hint::black_box(f());
+                best = best.min(t.elapsed());
+            }
+            (f(), best)
+        };
+        let order = textbook_order(&robot, p);
+        let (ordered, t_ordered) = best_of(&|| BaseParams::from_rows_ordered(&phi, &names, &order).unwrap());
+        let (pivoted, t_pivoted) = best_of(&|| BaseParams::from_rows_pivoted(&phi, &names));
         let (c_ord, c_piv) = (cond(&ordered), cond(&pivoted));
         println!(
             "{label}: {} base parameters; cond textbook {c_ord:.3e} ({t_ordered:?}), pivoted {c_piv:.3e} ({t_pivoted:?}); 200 states sampled in {t_rows:?}",

@@ -108,7 +108,11 @@ impl BaseParams {
             }
         }
         if preference.len() != p {
-            return Err(Error::Dimension { what: "preference (a permutation of the columns)".into(), expected: p, got: preference.len() });
+            return Err(Error::Dimension {
+                what: "preference (a permutation of the columns)".into(),
+                expected: p,
+                got: preference.len(),
+            });
         }
         Ok(Self::split(phi, names, Choice::Preference(preference)))
     }
