@@ -408,7 +408,8 @@ fn round_ties_away(a: f64, decimals: i32) -> f64 {
 /// uniform within the joint limits where both are finite (else in `[-π, π]`), `qd`
 /// uniform in `±1` (`±min(1, velocity limit)` if a finite positive limit exists) and
 /// `qdd` uniform in `±2`; the full regressors (`dof x 14 dof` each) are stacked and
-/// passed to [`BaseParams::from_rows`] with [`crate::Robot::param_names`].
+/// passed to [`BaseParams::from_rows_ordered`] with [`crate::Robot::param_names`] and
+/// [`textbook_order`] (so the names do not depend on `samples` or `seed`).
 /// Needs `samples * dof >= 14 dof` rows; use a few times more for a robust rank.
 pub fn robot_base_params(robot: &crate::Robot, samples: usize, seed: u64) -> Result<BaseParams> {
     robot_base_params_with(robot, samples, seed, false)
