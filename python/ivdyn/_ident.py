@@ -78,7 +78,8 @@ class BaseParams:
     theta[dependent]`` and ``Y_full @ theta == select(Y_full) @ project(theta)``.
 
     Attributes: ``names`` (``B`` readable combinations such as
-    ``"link3.Ixx + link3.Iyy - 0.225*link4.m"``), ``independent`` / ``dependent``
+    ``"link3.Ixx - link3.Iyy - 0.00784996*link4.m - ..."``; the same for any
+    ``samples`` and ``seed``), ``independent`` / ``dependent``
     (column indices into the ``P`` full parameters), ``K`` (``(B, P - B)``),
     ``zero_columns`` (parameters with no effect at all), ``full_cols`` (``P``),
     ``base_count`` (``B``).

@@ -43,6 +43,10 @@ fn cli_roundtrip_simulate_identify_reload() {
     let tb = bp.project(&truth.theta).unwrap();
     let base = r["base"].as_array().unwrap();
     assert_eq!(base.len(), tb.len());
+    // the names do not depend on the random states (issue 17): those of another seed and
+    // sample count than identify's
+    let names: Vec<&str> = base.iter().map(|b| b["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ivdyn::ident::robot_base_params(&robot0, 60, 5).unwrap().names);
     let mut outside = 0;
     let mut worst: f64 = 0.0;
     for (i, b) in base.iter().enumerate() {

@@ -774,7 +774,9 @@ fn arm_base_params<const N: usize>(prior: &Model<N>, data: &mut Data<N>) -> Base
             }
         }
     }
-    BaseParams::from_rows(&phi_r, &names)
+    // pivoted, as when docs/control.md's runs were made (the choice of columns decides
+    // which full parameters a fit moves)
+    BaseParams::from_rows_pivoted(&phi_r, &names)
 }
 
 /// Batch-IV rows of the unloaded arm in the base columns of `base`: the regressor of

@@ -8,7 +8,7 @@
 //! are scaled to unit norm and factored by QR with column pivoting (tolerance
 //! [`RANK_TOL`](super::base::RANK_TOL) `= 1e-9` relative to the largest pivot, zero
 //! columns below `1e-12` of the largest column norm; exactly as in
-//! [`BaseParams::from_rows`]). Parameters outside the selected set are listed in
+//! [`BaseParams::from_rows_pivoted`]). Parameters outside the selected set are listed in
 //! [`FitReport::unexcited`], get `NaN` estimates, standard deviations and covariance
 //! rows, and the fit proceeds on the others (as if the unexcited ones were zero).
 
@@ -145,7 +145,7 @@ fn ls_core(acc: &LsAccumulator) -> LsCore {
     let p = acc.p();
     let r_aug = acc.r_aug();
     let r = r_aug.view((0, 0), (p, p)).into_owned();
-    let split = BaseParams::from_rows(&r, &[]);
+    let split = BaseParams::from_rows_pivoted(&r, &[]);
     let sel = split.independent;
     let mut a = DMatrix::zeros(p + 1, sel.len() + 1);
     for (c, &j) in sel.iter().enumerate() {
