@@ -257,8 +257,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
                               coulomb=str(coulomb),
                               **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
         res = IdentifyResult(json.loads(out))
-        if prediction:
-            res.prediction = read_prediction(_path(out_mcap), native.joint_names)
+        if prediction and out_mcap is not None:  # always set with prediction (above)
+            res.prediction = read_prediction(out_mcap, native.joint_names)
     finally:
         close()
         if tmp is not None:

@@ -837,9 +837,12 @@ fn print_payload(rep: &app::PayloadReport) {
 
 fn simulate(a: SimulateArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
-    let payload =
-        PayloadSpec::from_parts(a.payload_mass, a.payload_com.as_deref(), payload_inertia_arg(a.payload_inertia.as_deref()).as_deref())
-            .map_err(msg)?;
+    let payload = PayloadSpec::from_parts(
+        a.payload_mass,
+        a.payload_com.as_deref(),
+        payload_inertia_arg(a.payload_inertia.as_deref()).as_deref(),
+    )
+    .map_err(msg)?;
     let opts = SimulateOptions {
         rate_hz: a.rate,
         duration_s: a.duration,

@@ -126,7 +126,12 @@ impl PayloadSpec {
     /// The payload's 10 standard parameters about the last link's origin.
     pub fn link_inertia(&self) -> ivdyn_core::LinkInertia {
         let i_c = ivdyn_core::inertia_matrix(&self.inertia);
-        ivdyn_core::LinkInertia::from_mass_com_inertia(self.mass, &self.com.into(), &nalgebra::Matrix3::identity(), &i_c)
+        ivdyn_core::LinkInertia::from_mass_com_inertia(
+            self.mass,
+            &self.com.into(),
+            &nalgebra::Matrix3::identity(),
+            &i_c,
+        )
     }
 }
 

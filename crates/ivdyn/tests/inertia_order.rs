@@ -4,7 +4,9 @@
 //! swapped order anywhere fails.
 
 use ivdyn::Robot;
-use ivdyn::core::{INERTIA_ORDER, INERTIA_URDF_ORDER, inertia_from_urdf, inertia_matrix, inertia_to_urdf, inertia_vector};
+use ivdyn::core::{
+    INERTIA_ORDER, INERTIA_URDF_ORDER, inertia_from_urdf, inertia_matrix, inertia_to_urdf, inertia_vector,
+};
 use ivdyn::report::PayloadSpec;
 
 /// URDF attribute values ixx, ixy, ixz, iyy, iyz, izz of a body (positive definite).

@@ -8,8 +8,8 @@ use std::process::ExitCode;
 use clap::Args;
 
 use super::{
-    Bars, FilterArgs, LogArgs, R, RobotArgs, condition_opts, fmt_list, load_robot, log_source, msg, payload_inertia_arg,
-    print_written,
+    Bars, FilterArgs, LogArgs, R, RobotArgs, condition_opts, fmt_list, load_robot, log_source, msg,
+    payload_inertia_arg, print_written,
 };
 use ivdyn::app::{GainsJob, GainsOptions, GainsReport, KnownPayload, LogInput, gains_job};
 
@@ -47,7 +47,8 @@ pub struct GainsArgs {
 pub fn run(a: GainsArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
     let inertia = payload_inertia_arg(a.payload_inertia.as_deref());
-    let payload = KnownPayload::from_parts(a.payload_mass, a.payload_com.as_deref(), inertia.as_deref()).map_err(msg)?;
+    let payload =
+        KnownPayload::from_parts(a.payload_mass, a.payload_com.as_deref(), inertia.as_deref()).map_err(msg)?;
     let job = GainsJob {
         unloaded: LogInput::File(a.unloaded.clone()),
         loaded: LogInput::File(a.loaded.clone()),

@@ -27,7 +27,6 @@ use crate::prep::{self, ConditionOptions, parallel_filter};
 use crate::progress::{ProgressSink, Stage};
 use crate::report::PayloadSpec;
 use crate::report::quality;
-use ivdyn_core::LinkInertia;
 use ivdyn_core::estim::TerminalSpec;
 use ivdyn_core::params::LINK_PARAMS;
 

@@ -1,7 +1,6 @@
 //! `simulate`: a synthetic log, the true model's inverse dynamics (`rnea`, exact torques,
 //! no integration) along a trajectory, then noise and quantisation of the recorded signals.
 
-use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
 use crate::dsp;
@@ -16,7 +15,6 @@ use crate::Robot;
 use crate::output::OutputSet;
 use crate::progress::{ProgressSink, Stage};
 use crate::report::{ParamsFile, PayloadSpec};
-use ivdyn_core::LinkInertia;
 use ivdyn_core::params::LINK_PARAMS;
 use ivdyn_core::rng::Rng;
 
