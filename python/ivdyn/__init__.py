@@ -22,6 +22,11 @@ Conventions (SI units throughout: m, kg, s, rad, N, N m):
   frame origin in link coordinates, Pinocchio's order) for links 1..N, then per joint
   ``[fc, fv, ia, tau0]`` (Coulomb N m, viscous N m s/rad, armature kg m^2, offset N m)
   for joints 1..N. ``robot.param_names`` names them.
+* Inertia 6-vectors everywhere in this API (``payload_inertia=``, :func:`payload_from_fit`)
+  are in that order, ``[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`` (:data:`INERTIA_ORDER`); URDF files
+  and the JSON reports that follow them (``payload(...)["inertia"]``, ``diagnosis.json``)
+  keep URDF attribute order ``[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]``: :func:`inertia_to_urdf`,
+  :func:`inertia_from_urdf` convert.
 * ``regressor(q, qd, qdd) @ robot.params == rnea(q, qd, qdd)``.
 
 Example::
@@ -55,10 +60,14 @@ __all__ = [
     # identification (python/ivdyn/_ident.py)
     "fit_ls", "fit_iv", "fit_robot", "FitReport", "base_params", "BaseParams", "payload_from_fit",
     "Rls", "Riv", "read_joint_states",
+    # inertia 6-vector orders (ivdyn's; URDF's in files)
+    "INERTIA_ORDER", "INERTIA_URDF_ORDER", "inertia_to_urdf", "inertia_from_urdf",
     # terminal link, closed-loop simulation, control experiments (python/ivdyn/_control.py)
     "terminal_base", "terminal_link", "closed_loop", "control_experiment",
     # the command line's pipelines (python/ivdyn/_pipeline.py)
     "identify", "payload", "drive_gains", "simulate", "diagnose", "excite", "tqdm_progress",
+    # readable results (python/ivdyn/_results.py)
+    "IdentifyResult", "PayloadResult", "read_prediction",
     # submodules
     "paper", "plot",
 ]
@@ -68,9 +77,10 @@ __version__: str = _ivdyn.__version__
 MAX_DOF: int = _ivdyn.MAX_DOF
 
 from ._ident import (  # noqa: E402
-    BaseParams, FitReport, Riv, Rls, base_params, fit_iv, fit_ls, fit_robot, payload_from_fit,
-    read_joint_states,
+    INERTIA_ORDER, INERTIA_URDF_ORDER, BaseParams, FitReport, Riv, Rls, base_params, fit_iv, fit_ls,
+    fit_robot, inertia_from_urdf, inertia_to_urdf, payload_from_fit, read_joint_states,
 )
+from ._results import IdentifyResult, PayloadResult, read_prediction  # noqa: E402
 from ._control import closed_loop, control_experiment, terminal_base, terminal_link  # noqa: E402
 from ._pipeline import diagnose, drive_gains, excite, identify, payload, simulate, tqdm_progress  # noqa: E402
 from . import paper, plot  # noqa: E402

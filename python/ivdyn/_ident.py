@@ -15,6 +15,35 @@ from ._guard import real_array
 
 FitReport = _ivdyn.FitReport
 
+#: Names of an inertia 6-vector's entries in ivdyn's order (that of ``robot.params``, Pinocchio's),
+#: used by every inertia 6-vector of the Python and Rust APIs.
+INERTIA_ORDER: List[str] = list(_ivdyn.INERTIA_ORDER)
+#: URDF ``<inertia>`` attribute order, kept by URDF files and the JSON files that follow them
+#: (``payload(...)["inertia"]``, ``diagnosis.json``).
+INERTIA_URDF_ORDER: List[str] = list(_ivdyn.INERTIA_URDF_ORDER)
+# the permutation, from the Rust conversion (its one implementation) applied to indices
+_TO_URDF = np.array(_ivdyn.inertia_to_urdf([0.0, 1.0, 2.0, 3.0, 4.0, 5.0]), dtype=np.intp)
+_FROM_URDF = np.array(_ivdyn.inertia_from_urdf([0.0, 1.0, 2.0, 3.0, 4.0, 5.0]), dtype=np.intp)
+
+
+def _inertia6(x, name: str) -> np.ndarray:
+    a = real_array(x, name)
+    if a.ndim == 0 or a.shape[-1] != 6:
+        raise ValueError(f"{name} must have shape (6,) or (..., 6), got {a.shape}")
+    return a
+
+
+def inertia_to_urdf(inertia) -> np.ndarray:
+    """Inertia 6-vectors ``(..., 6)`` from ivdyn's order ``[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]``
+    to URDF attribute order ``[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`` (a new array)."""
+    return _inertia6(inertia, "inertia")[..., _TO_URDF]
+
+
+def inertia_from_urdf(inertia) -> np.ndarray:
+    """Inertia 6-vectors ``(..., 6)`` from URDF attribute order ``[Ixx, Ixy, Ixz, Iyy, Iyz,
+    Izz]`` (e.g. ``payload(...)["inertia"]``) to ivdyn's ``[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]``."""
+    return _inertia6(inertia, "inertia")[..., _FROM_URDF]
+
 
 def _f64(x, name: str, ndim: int, shape: str) -> np.ndarray:
     """``x`` as C-contiguous float64 with ``ndim`` dimensions, or ``ValueError``."""
@@ -150,6 +179,10 @@ class BaseParams:
     def __repr__(self) -> str:
         return f"BaseParams({self.base_count} of {self.full_cols} parameters identifiable)"
 
+    def _repr_html_(self) -> str:
+        from ._results import base_params_html
+        return base_params_html(self)
+
 
 def base_params(robot, samples: int = 100, seed: int = 1, rigid_only: bool = False) -> BaseParams:
     """Base parameters of ``robot`` (an :class:`ivdyn.Robot`), found numerically from the
@@ -200,9 +233,10 @@ def payload_from_fit(base: BaseParams, fit: "FitReport", cols: Sequence[int],
     ``fit`` is a fit over ``base`` (its ``B`` columns); ``cols`` the 10 full-parameter
     indices of the link's ``[m, m*cx, m*cy, m*cz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]``;
     ``full_names`` the ``P`` full names. Returns ``{"mass": kg, "com": (3,) m,
-    "inertia": (6,) [Ixx, Ixy, Ixz, Iyy, Iyz, Izz] kg m^2 about the com, "mass_std",
-    "com_std", "inertia_std", "params": (10,) about the link origin, "physical": dict}``
-    (``physical`` as in :func:`payload`'s report).
+    "inertia": (6,) [Ixx, Ixy, Iyy, Ixz, Iyz, Izz] (ivdyn's order) kg m^2 about the com,
+    "mass_std", "com_std", "inertia_std", "params": (10,) about the link origin,
+    "physical": dict}`` (``physical`` as in :func:`payload`'s JSON report, whose
+    ``ls_inertia`` keeps the file's URDF attribute order).
     Raises ``ValueError`` naming the parameters that are not identifiable by themselves
     and the base combination each one went into.
     """

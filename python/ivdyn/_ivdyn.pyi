@@ -16,7 +16,8 @@ __all__ = [
     "fit_robot", "payload_from_fit", "read_joint_states", "paper_estimators", "terminal_base",
     "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "gains", "simulate", "diagnose",
     "excite",
-    "batch_threads", "__version__", "MAX_DOF",
+    "batch_threads", "__version__", "MAX_DOF", "inertia_to_urdf", "inertia_from_urdf", "INERTIA_ORDER",
+    "INERTIA_URDF_ORDER",
 ]
 
 __version__: str
@@ -26,6 +27,15 @@ _F64 = npt.NDArray[np.float64]
 
 def batch_threads(t: int) -> int:
     """Number of threads the batch functions use for ``t`` samples."""
+
+INERTIA_ORDER: List[str]
+INERTIA_URDF_ORDER: List[str]
+
+def inertia_to_urdf(i: Sequence[float]) -> List[float]:
+    """``[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`` (ivdyn) -> ``[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`` (URDF)."""
+
+def inertia_from_urdf(u: Sequence[float]) -> List[float]:
+    """``[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`` (URDF) -> ``[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`` (ivdyn)."""
 
 @final
 class Robot:
@@ -123,6 +133,8 @@ class FitReport:
     def theta_ls(self) -> Optional[_F64]:
         """IV only: the LS estimate ``(P,)`` on the same data."""
     def to_dict(self) -> Dict[str, Any]: ...
+    def _repr_html_(self) -> str:
+        """An HTML table for notebooks (drawn by ``ivdyn._results.fit_report_html``)."""
 
 def fit_ls(phi: _F64, y: _F64, w: Optional[_F64] = None,
            names: Optional[List[str]] = None) -> FitReport:

@@ -13,12 +13,15 @@ from __future__ import annotations
 
 import json
 import os
+import tempfile
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _ivdyn
+from ._frames import frame_log, is_frame
 from ._guard import real_array
+from ._results import IdentifyResult, PayloadResult, read_prediction
 
 PathLike = Union[str, "os.PathLike[str]"]
 Progress = Union[None, bool, Callable[[int, int], Any]]
@@ -103,13 +106,18 @@ def _path(p: Optional[PathLike]) -> Optional[str]:
     return None if p is None else os.fspath(p)
 
 
-def _log(log, n: int, what: str):
-    """A log path, or a dict of arrays (``t``, ``q``, optional ``qd``, ``tau``, ``u``,
-    ``current``, ``joint_names``) converted to float64."""
+def _log(log, native, what: str):
+    """A log path, a dict of arrays (``t``, ``q``, optional ``qd``, ``tau``, ``u``,
+    ``current``, ``joint_names``) converted to float64, or a pandas DataFrame in the CSV
+    layout (``t``, ``<joint>.q``, ``.qd``, ``.tau``, ``.u``, ``.i``; ``_frames.py``) for the
+    joints of ``native``."""
     if isinstance(log, (str, os.PathLike)):
         return os.fspath(log)
+    if is_frame(log):
+        log = frame_log(log, native.joint_names, what)
     if not isinstance(log, dict):
-        raise TypeError(f"{what} must be a path or a dict of arrays, got {type(log).__name__}")
+        raise TypeError(f"{what} must be a path, a dict of arrays or a pandas DataFrame, got {type(log).__name__}")
+    n = native.dof
     out: Dict[str, Any] = {}
     for key, shape in (("t", 1), ("q", 2), ("qd", 2), ("tau", 2), ("u", 2), ("current", 2)):
         x = log.get(key)
@@ -180,8 +188,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
              velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
              exclude: Optional[Sequence[Tuple[float, float]]] = None, stream: bool = False,
              current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
-             gear_ratio=None, motor_constant=None, coulomb: str = "auto",
-             progress: Progress = None) -> Dict[str, Any]:
+             gear_ratio=None, motor_constant=None, coulomb: str = "auto", prediction: bool = False,
+             progress: Progress = None) -> IdentifyResult:
     """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
     torques; returns the ``--json`` report as a dict (``docs/cli.md``: ``method``,
     ``base`` [{name, value, std, rel_std_pct, nominal}], ``fit``, ``validation``, ``dwh``,
@@ -196,7 +204,9 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     ``validate``: a ``.mcap`` / ``.db3`` / ``.csv`` path or a ROS 2 bag directory (read as the
     command line reads ``--log``: ``topic``, ``command_topic``, ``log_time``) or a dict of
     arrays ``{"t": (T,) s, "q": (T, N) rad, "tau": (T, N) N m, "qd", "u" optional}`` (e.g.
-    from :func:`read_joint_states` or :func:`simulate`); ``method``: ``"ols"``, ``"wls"``,
+    from :func:`read_joint_states` or :func:`simulate`), or a pandas DataFrame in the CSV
+    layout (columns ``t``, ``<joint>.q``, optional ``.qd``, ``.tau``, ``.u``, ``.i``; every
+    function taking a log takes one); ``method``: ``"ols"``, ``"wls"``,
     ``"iv"``, ``"idim-iv"``; ``holdout``: tail fraction kept for validation when no
     ``validate`` log; ``cutoff`` (Hz) and ``decimate`` as ``--cutoff``, ``--decimate``.
 
@@ -214,6 +224,12 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     files: ``out_json`` (the report), ``out_params`` (the parameter file), ``write_urdf``
     (a copy of the robot's URDF with the identified parameters and its side file; the robot
     must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
+    ``prediction=True`` also reads those torques back (from ``out_mcap``, or a temporary
+    file) into the result's ``prediction`` attribute (:func:`ivdyn.read_prediction`), which
+    :mod:`ivdyn.plot` draws.
+
+    The result is an :class:`IdentifyResult`: a dict equal to the JSON report, with a short
+    ``repr`` and an HTML table in notebooks.
 
     Effort as motor current (``docs/logs.md``): ``effort`` is ``"auto"`` (the log's torque
     when it has one, else its motor current), ``"torque"`` or ``"current"``. Currents come
@@ -225,10 +241,13 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
+    tmp = tempfile.TemporaryDirectory(prefix="ivdyn_prediction_") if prediction and out_mcap is None else None
+    if tmp is not None:
+        out_mcap = os.path.join(tmp.name, "prediction.mcap")
     try:
-        logs = [_log(x, native.dof, f"log[{i}]") for i, x in enumerate(log)] if isinstance(log, list) else None
-        out = _ivdyn.identify(native, logs if logs is not None else _log(log, native.dof, "log"), str(method),
-                              None if validate is None else _log(validate, native.dof, "validate"),
+        logs = [_log(x, native, f"log[{i}]") for i, x in enumerate(log)] if isinstance(log, list) else None
+        out = _ivdyn.identify(native, logs if logs is not None else _log(log, native, "log"), str(method),
+                              None if validate is None else _log(validate, native, "validate"),
                               float(holdout), str(topic), command_topic, bool(log_time),
                               None if cutoff is None else float(cutoff), int(decimate), _params(params), cb,
                               friction=[str(f) for f in friction], armature=bool(armature), offset=bool(offset),
@@ -237,9 +256,14 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
                               velocity=str(velocity), window=_window(window), exclude=_spans(exclude), stream=bool(stream),
                               coulomb=str(coulomb),
                               **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
+        res = IdentifyResult(json.loads(out))
+        if prediction and out_mcap is not None:  # always set with prediction (above)
+            res.prediction = read_prediction(out_mcap, native.joint_names)
     finally:
         close()
-    return json.loads(out)
+        if tmp is not None:
+            tmp.cleanup()
+    return res
 
 
 def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optional[str] = None,
@@ -252,12 +276,13 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
             current_topic: Optional[str] = None, effort: str = "auto",
             torque_constant=None, gear_ratio=None, motor_constant=None,
             torque_constant_std=None, gains=None,
-            progress: Progress = None) -> Dict[str, Any]:
+            progress: Progress = None) -> PayloadResult:
     """``ivdyn payload`` from Python: the payload on the last link from a log after the
     grasp (and optionally ``before``, a log of the unloaded arm, identified first and used
     as the nominal model); returns the ``--json`` report as a dict: ``link``,
     ``identifiable``, ``mass`` (kg), ``com`` (m, link frame), ``inertia`` ([Ixx, Ixy, Ixz,
-    Iyy, Iyz, Izz] kg m^2 about the COM), their ``*_std``, ``params``,
+    Iyy, Iyz, Izz] kg m^2 about the COM: the JSON file's URDF attribute order,
+    :func:`ivdyn.inertia_from_urdf` gives ivdyn's), their ``*_std``, ``params``,
     ``not_identifiable`` [{parameter, combined_in}], ``rms_before``/``rms_after`` (N m),
     ``physical`` (the least-squares payload, what it violated, the Mahalanobis distance to
     the nearest rigid body and its p-value), ``before_check`` (with ``before``: whether it
@@ -279,8 +304,8 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
     try:
-        out = _ivdyn.payload(native, _log(log, native.dof, "log"),
-                             None if before is None else _log(before, native.dof, "before"), str(topic),
+        out = _ivdyn.payload(native, _log(log, native, "log"),
+                             None if before is None else _log(before, native, "before"), str(topic),
                              bool(log_time), None if cutoff is None else float(cutoff),
                              int(decimate), _params(params), cb, json_out=_path(out_json),
                              write_urdf=_path(write_urdf), payload_as=str(payload_as), velocity=str(velocity),
@@ -290,7 +315,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
                              gains=_gains_text(gains))
     finally:
         close()
-    return json.loads(out)
+    return PayloadResult(json.loads(out))
 
 
 def _gains_text(gains) -> Optional[str]:
@@ -322,8 +347,8 @@ def drive_gains(robot, unloaded, loaded, payload_mass: float, *, payload_com: Op
     s, "q": (T, N) rad, "current": (T, N) A, "qd": optional}``. ``effort``: ``"auto"`` (the
     motor current when the log has one, else the effort field ``"tau"``), ``"current"``,
     ``"torque"`` (the effort field holds the current); ``current_topic``: the MCAP topic of
-    the currents. ``payload_com`` (x, y, z) m and ``payload_inertia`` (Ixx, Ixy, Ixz, Iyy,
-    Iyz, Izz) kg m^2 about the COM, when known (else estimated). ``max_rel_std``: a gain
+    the currents. ``payload_com`` (x, y, z) m and ``payload_inertia`` (Ixx, Ixy, Iyy, Ixz,
+    Iyz, Izz: ivdyn's order, as in ``robot.params``) kg m^2 about the COM, when known (else estimated). ``max_rel_std``: a gain
     whose relative std is larger is reported as not identifiable. The other arguments as
     in :func:`identify`.
     """
@@ -334,7 +359,7 @@ def drive_gains(robot, unloaded, loaded, payload_mass: float, *, payload_com: Op
 
     cb, close = _callback(progress)
     try:
-        text = _ivdyn.gains(native, _log(unloaded, native.dof, "unloaded"), _log(loaded, native.dof, "loaded"),
+        text = _ivdyn.gains(native, _log(unloaded, native, "unloaded"), _log(loaded, native, "loaded"),
                             float(payload_mass), seq(payload_com, "payload_com"), seq(payload_inertia, "payload_inertia"), str(topic), bool(log_time),
                             None if cutoff is None else float(cutoff), int(decimate), _params(params), cb,
                             json_out=_path(out_json), velocity=str(velocity), window=_window(window),
@@ -360,7 +385,8 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
     ``{"t": (T,) s uniformly spaced, "q": (T, N) rad}`` or a CSV path (columns ``t``,
     ``<joint>.q``), else the built-in random Fourier excitation (``duration`` s at ``rate``
     Hz, ``seed``, peak ``amplitude`` rad). Payload: ``payload_mass`` kg, ``payload_com``
-    (x, y, z) m and ``payload_inertia`` (Ixx, Ixy, Ixz, Iyy, Iyz, Izz) kg m^2 about the COM
+    (x, y, z) m and ``payload_inertia`` (Ixx, Ixy, Iyy, Ixz, Iyz, Izz: ivdyn's order,
+    as in ``robot.params``) kg m^2 about the COM
     in the last link's frame. ``command``: also record the noise-free torque as the
     command ``u``; ``velocity=False``: no velocities in the log.
 
@@ -376,9 +402,11 @@ def simulate(robot, out: Optional[PathLike] = None, *, base: Optional[str] = Non
     if traj is not None:
         if isinstance(traj, (str, os.PathLike)):
             traj = _ivdyn.read_joint_states(os.fspath(traj), native.joint_names)
+        elif is_frame(traj):
+            traj = frame_log(traj, native.joint_names, "traj")
         if not isinstance(traj, dict) or "t" not in traj or "q" not in traj:
             raise ValueError("traj must be a dict {'t': (T,), 'q': (T, N)} or a CSV path")
-        lg = _log({"t": traj["t"], "q": traj["q"]}, n, "traj")
+        lg = _log({"t": traj["t"], "q": traj["q"]}, native, "traj")
         tt, tq = lg["t"], lg["q"]
 
     def seq(x, name):
@@ -424,7 +452,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
     try:
-        text = _ivdyn.diagnose(native, _log(log, native.dof, "log"), _path(out), str(topic), bool(log_time),
+        text = _ivdyn.diagnose(native, _log(log, native, "log"), _path(out), str(topic), bool(log_time),
                                None if cutoff is None else float(cutoff), float(alpha), float(min_effect),
                                bool(ignore_log_velocity), bool(report), _params(params),
                                json_out=_path(out_json), progress=cb, velocity=str(velocity),

@@ -16,7 +16,7 @@ UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")
 
 GAINS = np.array([12.0, 12.5, 11.0, 8.0, 8.5, 7.5])  # N m/A at the joints
 FRICTION = dict(fc=[2, 2, 1.5, 0.6, 0.6, 0.4], fv=[0.8, 0.8, 0.5, 0.2, 0.2, 0.1])
-PAYLOAD = dict(payload_mass=2.0, payload_com=[0.01, -0.02, 0.05], payload_inertia=[0.004, 0, 0, 0.004, 0, 0.003])
+PAYLOAD = dict(payload_mass=2.0, payload_com=[0.01, -0.02, 0.05], payload_inertia=[0.004, 0, 0.004, 0, 0, 0.003])
 
 
 @pytest.fixture(scope="module")

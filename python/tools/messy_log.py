@@ -126,7 +126,7 @@ def compare(robot, rate, seed):
 
 PAYLOAD_MASS = 2.0
 PAYLOAD_COM = [0.02, -0.03, 0.05]  # m, in tool0's frame
-PAYLOAD_INERTIA = [0.006, 0.0, 0.0, 0.005, 0.0, 0.004]  # about the COM: a rigid body (I1 + I2 > I3)
+PAYLOAD_INERTIA = [0.006, 0.0, 0.005, 0.0, 0.0, 0.004]  # Ixx, Ixy, Iyy, Ixz, Iyz, Izz about the COM: a rigid body (I1 + I2 > I3)
 PAYLOAD = dict(payload_mass=PAYLOAD_MASS, payload_com=PAYLOAD_COM, payload_inertia=PAYLOAD_INERTIA)
 KT_STD = 0.1  # the user's relative std of the believed constants (they are 10 % off)
 PAIR_SEED = 21

@@ -302,7 +302,7 @@ struct SimulateArgs {
     /// Payload COM x,y,z (m) in the last link's frame.
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     payload_com: Option<Vec<f64>>,
-    /// Payload inertia about its COM Ixx,Ixy,Ixz,Iyy,Iyz,Izz (kg m^2).
+    /// Payload inertia about its COM Ixx,Ixy,Ixz,Iyy,Iyz,Izz (kg m^2, URDF attribute order).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     payload_inertia: Option<Vec<f64>>,
     /// Coulomb friction per joint (comma separated).
@@ -569,6 +569,13 @@ fn condition_opts(la: &LogArgs, cutoff: Option<f64>) -> R<ivdyn::prep::Condition
     Ok(c)
 }
 
+/// `--payload-inertia` is given in URDF attribute order (Ixx,Ixy,Ixz,Iyy,Iyz,Izz, as the JSON
+/// reports write it); the library takes ivdyn's order. A list that is not 6 long is passed on
+/// unchanged for the library to refuse with its message.
+fn payload_inertia_arg(urdf: Option<&[f64]>) -> Option<Vec<f64>> {
+    urdf.map(|v| <[f64; 6]>::try_from(v).map_or_else(|_| v.to_vec(), |u| ivdyn::core::inertia_from_urdf(u).to_vec()))
+}
+
 fn fmt_list(v: &[f64], prec: usize) -> String {
     v.iter().map(|x| format!("{x:.prec$}")).collect::<Vec<_>>().join(", ")
 }
@@ -779,7 +786,9 @@ fn print_payload(rep: &app::PayloadReport) {
     if rep.identifiable {
         let (m, ms) = (rep.mass.unwrap_or(f64::NAN), rep.mass_std.unwrap_or(f64::NAN));
         let (c, cs) = (rep.com.unwrap_or([f64::NAN; 3]), rep.com_std.unwrap_or([f64::NAN; 3]));
-        let (i, is) = (rep.inertia.unwrap_or([f64::NAN; 6]), rep.inertia_std.unwrap_or([f64::NAN; 6]));
+        // printed in URDF order, as the JSON report has it
+        let urdf = |x: Option<[f64; 6]>| ivdyn::core::inertia_to_urdf(x.unwrap_or([f64::NAN; 6]));
+        let (i, is) = (urdf(rep.inertia), urdf(rep.inertia_std));
         say!("  mass     {m:.4} kg  (std {ms:.2e})");
         say!(
             "  com      [{}] m  (std [{}])",
@@ -828,8 +837,12 @@ fn print_payload(rep: &app::PayloadReport) {
 
 fn simulate(a: SimulateArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
-    let payload =
-        PayloadSpec::from_parts(a.payload_mass, a.payload_com.as_deref(), a.payload_inertia.as_deref()).map_err(msg)?;
+    let payload = PayloadSpec::from_parts(
+        a.payload_mass,
+        a.payload_com.as_deref(),
+        payload_inertia_arg(a.payload_inertia.as_deref()).as_deref(),
+    )
+    .map_err(msg)?;
     let opts = SimulateOptions {
         rate_hz: a.rate,
         duration_s: a.duration,

@@ -4,6 +4,39 @@ use crate::error::Error;
 use crate::spatial::{Transform, skew};
 use crate::{Mat3, Vec3};
 
+/// Names of an inertia 6-vector's entries in ivdyn's order (the order of the 10-vector's
+/// last six, Pinocchio's): every inertia 6-vector of the Rust and Python APIs uses it.
+pub const INERTIA_ORDER: [&str; 6] = ["Ixx", "Ixy", "Iyy", "Ixz", "Iyz", "Izz"];
+
+/// Names in URDF `<inertia>` attribute order, which URDF files and the JSON files that
+/// follow them (`payload --json`, `diagnosis.json`, the URDF side file) keep.
+pub const INERTIA_URDF_ORDER: [&str; 6] = ["Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz"];
+
+/// `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]` (ivdyn) -> `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]` (URDF).
+#[inline]
+pub fn inertia_to_urdf(i: [f64; 6]) -> [f64; 6] {
+    // the two orders differ by swapping Iyy and Ixz: the permutation is its own inverse
+    [i[0], i[1], i[3], i[2], i[4], i[5]]
+}
+
+/// `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]` (URDF) -> `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]` (ivdyn).
+#[inline]
+pub fn inertia_from_urdf(u: [f64; 6]) -> [f64; 6] {
+    inertia_to_urdf(u)
+}
+
+/// The symmetric 3x3 tensor of a 6-vector in ivdyn's order `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`.
+#[inline]
+pub fn inertia_matrix(i: &[f64; 6]) -> Mat3 {
+    Mat3::new(i[0], i[1], i[3], i[1], i[2], i[4], i[3], i[4], i[5])
+}
+
+/// The 6-vector `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]` of a (symmetric) 3x3 tensor.
+#[inline]
+pub fn inertia_vector(m: &Mat3) -> [f64; 6] {
+    [m[(0, 0)], m[(0, 1)], m[(1, 1)], m[(0, 2)], m[(1, 2)], m[(2, 2)]]
+}
+
 /// The 10 standard inertial parameters of a rigid body about a frame origin, in that
 /// frame's coordinates: `[m, m*cx, m*cy, m*cz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`
 /// (Pinocchio's order; the inertia is about the frame ORIGIN, not the centre of mass).
@@ -30,7 +63,7 @@ impl LinkInertia {
     #[inline]
     pub fn inertia_origin(&self) -> Mat3 {
         let p = &self.0;
-        Mat3::new(p[4], p[5], p[7], p[5], p[6], p[8], p[7], p[8], p[9])
+        inertia_matrix(&[p[4], p[5], p[6], p[7], p[8], p[9]])
     }
 
     /// From mass, first moment and inertia about the origin (symmetrised).

@@ -74,7 +74,9 @@ pub use crba::mass_matrix;
 pub use data::Data;
 pub use error::Error;
 pub use fd::forward_dynamics;
-pub use inertia::LinkInertia;
+pub use inertia::{
+    INERTIA_ORDER, INERTIA_URDF_ORDER, LinkInertia, inertia_from_urdf, inertia_matrix, inertia_to_urdf, inertia_vector,
+};
 pub use model::{Joint, JointKind, JointLimits, Model};
 pub use params::{CoulombShape, DRIVE_PARAMS, DriveParams, LINK_PARAMS};
 pub use regressor::{Regressor, gravity_regressor, regressor};

@@ -156,6 +156,11 @@ impl PyFitReport {
     fn __repr__(&self) -> String {
         self.inner.to_string()
     }
+    /// A table for notebooks, drawn by the Python package (`ivdyn._results`), where the
+    /// HTML of every result lives.
+    fn _repr_html_(slf: &Bound<'_, Self>) -> PyResult<String> {
+        slf.py().import("ivdyn._results")?.getattr("fit_report_html")?.call1((slf,))?.extract()
+    }
 }
 
 /// Weighted least squares; `phi` `(M, P)`, `y` `(M,)`, `w` `(M,)` or None.

@@ -314,6 +314,19 @@ fn batch_threads(t: usize) -> usize {
     batch::threads_for(t)
 }
 
+/// An inertia 6-vector `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]` (ivdyn) in URDF attribute order
+/// `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]` (the Python package applies it to index arrays).
+#[pyfunction]
+fn inertia_to_urdf(i: [f64; 6]) -> [f64; 6] {
+    ivdyn::core::inertia_to_urdf(i)
+}
+
+/// The inverse of [`inertia_to_urdf`].
+#[pyfunction]
+fn inertia_from_urdf(u: [f64; 6]) -> [f64; 6] {
+    ivdyn::core::inertia_from_urdf(u)
+}
+
 #[pymodule]
 fn _ivdyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyRobot>()?;
@@ -322,6 +335,10 @@ fn _ivdyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     control::register(m)?;
     pipeline::register(m)?;
     m.add_function(wrap_pyfunction!(batch_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(inertia_to_urdf, m)?)?;
+    m.add_function(wrap_pyfunction!(inertia_from_urdf, m)?)?;
+    m.add("INERTIA_ORDER", ivdyn::core::INERTIA_ORDER.to_vec())?;
+    m.add("INERTIA_URDF_ORDER", ivdyn::core::INERTIA_URDF_ORDER.to_vec())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("MAX_DOF", ivdyn::MAX_DOF)?;
     Ok(())

@@ -77,12 +77,12 @@ pub fn samples_bounded(duration_s: f64, rate_hz: f64) -> Result<()> {
     })
 }
 
-/// A checked payload: mass (kg), COM `x, y, z` (m), inertia about the COM `Ixx, Ixy, Ixz,
-/// Iyy, Iyz, Izz` (kg m^2).
+/// A checked payload: mass (kg), COM `x, y, z` (m), inertia about the COM `Ixx, Ixy, Iyy,
+/// Ixz, Iyz, Izz` (kg m^2, ivdyn's order).
 pub type PayloadParts = (f64, Option<[f64; 3]>, Option<[f64; 6]>);
 
 /// A payload as a user gives it, checked: mass in (0, [`MAX_PAYLOAD_MASS`]] kg; COM `x, y, z`
-/// within [`MAX_PAYLOAD_COM`] m; inertia `Ixx, Ixy, Ixz, Iyy, Iyz, Izz` about the COM
+/// within [`MAX_PAYLOAD_COM`] m; inertia `Ixx, Ixy, Iyy, Ixz, Iyz, Izz` about the COM
 /// physical (positive semi-definite, principal moments obeying the triangle inequalities;
 /// zero is a point mass). Errors name the option (`payload_mass`, `payload_com`,
 /// `payload_inertia`).
@@ -107,7 +107,7 @@ pub fn payload_parts(mass: f64, com: Option<&[f64]>, inertia: Option<&[f64]>) ->
     };
     let inertia = match inertia {
         Some(i) if i.len() != 6 || i.iter().any(|x| !x.is_finite()) => {
-            return Err(bad("payload_inertia", "needs 6 finite values Ixx, Ixy, Ixz, Iyy, Iyz, Izz (kg m^2)".into()));
+            return Err(bad("payload_inertia", "needs 6 finite values (kg m^2) about the COM".into()));
         }
         // no body within the mass and COM bounds has a moment above m r^2 = 1e6 kg m^2
         Some(i) if i.iter().any(|x| !(x.abs() <= MAX_PAYLOAD_MASS * MAX_PAYLOAD_COM * MAX_PAYLOAD_COM)) => {
@@ -128,8 +128,7 @@ pub fn payload_parts(mass: f64, com: Option<&[f64]>, inertia: Option<&[f64]>) ->
 /// `i_c` (about the COM) if its principal moments are >= 0 and obey `I1 + I2 >= I3`
 /// (the mass distribution's second moments are non-negative), to rounding.
 fn physical_inertia(i_c: [f64; 6]) -> Result<[f64; 6]> {
-    let [xx, xy, xz, yy, yz, zz] = i_c;
-    let m = nalgebra::Matrix3::new(xx, xy, xz, xy, yy, yz, xz, yz, zz);
+    let m = ivdyn_core::inertia_matrix(&i_c);
     let mut e: Vec<f64> = m.symmetric_eigenvalues().iter().copied().collect();
     e.sort_by(f64::total_cmp);
     let tol = 1e-12 * e[2].abs().max(f64::MIN_POSITIVE);

@@ -116,8 +116,46 @@ pub struct PayloadSpec {
     pub mass: f64,
     /// COM in the last link's frame (m).
     pub com: [f64; 3],
-    /// Inertia about the COM `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`.
+    /// Inertia about the COM `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]` (ivdyn's order; the side file
+    /// keeps URDF attribute order).
+    #[serde(with = "urdf_inertia")]
     pub inertia: [f64; 6],
+}
+
+impl PayloadSpec {
+    /// The payload's 10 standard parameters about the last link's origin.
+    pub fn link_inertia(&self) -> ivdyn_core::LinkInertia {
+        let i_c = ivdyn_core::inertia_matrix(&self.inertia);
+        ivdyn_core::LinkInertia::from_mass_com_inertia(
+            self.mass,
+            &self.com.into(),
+            &nalgebra::Matrix3::identity(),
+            &i_c,
+        )
+    }
+}
+
+/// Inertia 6-vectors held in ivdyn's order `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]` and written to (read
+/// from) JSON files in URDF attribute order `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`, the files' convention
+/// (`#[serde(with = "urdf_inertia")]`).
+pub mod urdf_inertia {
+    use ivdyn_core::{inertia_from_urdf, inertia_to_urdf};
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// Writes `i` in URDF order.
+    pub fn serialize<S: Serializer>(i: &[f64; 6], s: S) -> Result<S::Ok, S::Error> {
+        inertia_to_urdf(*i).serialize(s)
+    }
+
+    /// Reads a URDF-order 6-vector into ivdyn's order.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<[f64; 6], D::Error> {
+        <[f64; 6]>::deserialize(d).map(inertia_from_urdf)
+    }
+
+    /// [`serialize`] for an optional vector (`null` when absent).
+    pub fn serialize_opt<S: Serializer>(i: &Option<[f64; 6]>, s: S) -> Result<S::Ok, S::Error> {
+        i.map(inertia_to_urdf).serialize(s)
+    }
 }
 
 /// Per-joint quality of `predicted` against `measured` (`T x n` each, row-major): RMS of

@@ -8,7 +8,8 @@ use std::process::ExitCode;
 use clap::Args;
 
 use super::{
-    Bars, FilterArgs, LogArgs, R, RobotArgs, condition_opts, fmt_list, load_robot, log_source, msg, print_written,
+    Bars, FilterArgs, LogArgs, R, RobotArgs, condition_opts, fmt_list, load_robot, log_source, msg,
+    payload_inertia_arg, print_written,
 };
 use ivdyn::app::{GainsJob, GainsOptions, GainsReport, KnownPayload, LogInput, gains_job};
 
@@ -32,7 +33,7 @@ pub struct GainsArgs {
     /// The payload's COM x,y,z (m) in the last link's frame, if known (else estimated).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     payload_com: Option<Vec<f64>>,
-    /// The payload's inertia about its COM Ixx,Ixy,Ixz,Iyy,Iyz,Izz (kg m^2), if known (needs --payload-com).
+    /// The payload's inertia about its COM Ixx,Ixy,Ixz,Iyy,Iyz,Izz (kg m^2, URDF attribute order), if known (needs --payload-com).
     #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     payload_inertia: Option<Vec<f64>>,
     /// Largest relative std of a gain reported as identifiable.
@@ -45,8 +46,9 @@ pub struct GainsArgs {
 
 pub fn run(a: GainsArgs, bars: &Bars) -> R<ExitCode> {
     let robot = load_robot(&a.robot)?;
-    let payload = KnownPayload::from_parts(a.payload_mass, a.payload_com.as_deref(), a.payload_inertia.as_deref())
-        .map_err(msg)?;
+    let inertia = payload_inertia_arg(a.payload_inertia.as_deref());
+    let payload =
+        KnownPayload::from_parts(a.payload_mass, a.payload_com.as_deref(), inertia.as_deref()).map_err(msg)?;
     let job = GainsJob {
         unloaded: LogInput::File(a.unloaded.clone()),
         loaded: LogInput::File(a.loaded.clone()),

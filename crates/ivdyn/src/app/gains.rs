@@ -35,7 +35,7 @@ pub struct KnownPayload {
     pub mass: f64,
     /// COM in the last link's frame (m).
     pub com: Option<[f64; 3]>,
-    /// Inertia about the COM `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]` (kg m^2); needs `com`.
+    /// Inertia about the COM `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]` (kg m^2, ivdyn's order); needs `com`.
     pub inertia: Option<[f64; 6]>,
 }
 
@@ -56,8 +56,7 @@ impl KnownPayload {
         let mut k = [None; LINK_PARAMS];
         k[0] = Some(self.mass);
         if let Some(c) = self.com {
-            let ic = self.inertia.unwrap_or([0.0; 6]);
-            let i_c = Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
+            let i_c = ivdyn_core::inertia_matrix(&self.inertia.unwrap_or([0.0; 6]));
             let li = LinkInertia::from_mass_com_inertia(self.mass, &Vector3::from(c), &Matrix3::identity(), &i_c);
             let given = if self.inertia.is_some() { LINK_PARAMS } else { 4 };
             for (kk, v) in k.iter_mut().zip(li.0).take(given) {

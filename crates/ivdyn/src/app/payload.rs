@@ -27,7 +27,6 @@ use crate::prep::{self, ConditionOptions, parallel_filter};
 use crate::progress::{ProgressSink, Stage};
 use crate::report::PayloadSpec;
 use crate::report::quality;
-use ivdyn_core::LinkInertia;
 use ivdyn_core::estim::TerminalSpec;
 use ivdyn_core::params::LINK_PARAMS;
 
@@ -91,13 +90,16 @@ pub struct PayloadReport {
     pub mass: Option<f64>,
     /// Centre of mass in the link frame (m).
     pub com: Option<[f64; 3]>,
-    /// Inertia about the COM, `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]` (kg m^2).
+    /// Inertia about the COM, `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]` (kg m^2, ivdyn's order; the
+    /// JSON report keeps URDF attribute order `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`).
+    #[serde(serialize_with = "crate::report::urdf_inertia::serialize_opt")]
     pub inertia: Option<[f64; 6]>,
     /// Standard deviation of the mass.
     pub mass_std: Option<f64>,
     /// Standard deviations of the COM.
     pub com_std: Option<[f64; 3]>,
-    /// Standard deviations of the inertia entries.
+    /// Standard deviations of the inertia entries (same orders as `inertia`).
+    #[serde(serialize_with = "crate::report::urdf_inertia::serialize_opt")]
     pub inertia_std: Option<[f64; 6]>,
     /// The 10 standard parameters about the link origin `[m, mcx, mcy, mcz, Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`
     /// of the reported (physically possible) payload; the least-squares ones are in `physical`.
@@ -571,9 +573,7 @@ fn stage_urdf(
 /// simulators refuse it (MuJoCo: "inertia must have positive eigenvalues"), and it describes
 /// no object. The estimate is consistent by construction; this guards the file.
 pub fn check_writable(spec: &PayloadSpec, out: &Path) -> Result<()> {
-    let ic = &spec.inertia;
-    let i_c = nalgebra::Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
-    let p = LinkInertia::from_mass_com_inertia(spec.mass, &spec.com.into(), &nalgebra::Matrix3::identity(), &i_c).0;
+    let p = spec.link_inertia().0;
     let v = violation(&p);
     let fine = |x: Option<f64>| x.is_some_and(|x| x > 0.0);
     if p.iter().all(|x| x.is_finite()) && v.mass > 0.0 && fine(v.min_principal_moment) && fine(v.triangle_margin) {

@@ -1,7 +1,6 @@
 //! `simulate`: a synthetic log, the true model's inverse dynamics (`rnea`, exact torques,
 //! no integration) along a trajectory, then noise and quantisation of the recorded signals.
 
-use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
 use crate::dsp;
@@ -16,7 +15,6 @@ use crate::Robot;
 use crate::output::OutputSet;
 use crate::progress::{ProgressSink, Stage};
 use crate::report::{ParamsFile, PayloadSpec};
-use ivdyn_core::LinkInertia;
 use ivdyn_core::params::LINK_PARAMS;
 use ivdyn_core::rng::Rng;
 
@@ -104,14 +102,7 @@ pub fn true_robot(robot: &Robot, opts: &SimulateOptions) -> Result<Robot> {
     let mut r = robot.clone();
     let mut theta = r.params();
     if let Some(p) = &opts.payload {
-        let ic = &p.inertia;
-        let i_c = Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
-        let li = LinkInertia::from_mass_com_inertia(
-            p.mass,
-            &Vector3::new(p.com[0], p.com[1], p.com[2]),
-            &Matrix3::identity(),
-            &i_c,
-        );
+        let li = p.link_inertia();
         let off = (n - 1) * LINK_PARAMS;
         for k in 0..LINK_PARAMS {
             theta[off + k] += li.0[k];
@@ -271,7 +262,7 @@ fn bad_option(option: &str, msg: String) -> Error {
 
 impl PayloadSpec {
     /// A payload from its parts as a user gives them (`mass` in kg, `com` x, y, z in m,
-    /// `inertia` Ixx, Ixy, Ixz, Iyy, Iyz, Izz in kg m^2 about the COM; the last two
+    /// `inertia` Ixx, Ixy, Iyy, Ixz, Iyz, Izz (ivdyn's order) in kg m^2 about the COM; the last two
     /// default to zero); `None` when nothing is given.
     pub fn from_parts(mass: Option<f64>, com: Option<&[f64]>, inertia: Option<&[f64]>) -> Result<Option<PayloadSpec>> {
         let Some(m) = mass else {

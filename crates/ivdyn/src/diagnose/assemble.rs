@@ -197,10 +197,9 @@ fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
         Ok((mass, c, ic)) => {
             params.insert("mass".into(), mass.into());
             params.insert("com".into(), list(vec![c.x, c.y, c.z]));
-            params.insert(
-                "inertia".into(),
-                list(vec![ic[(0, 0)], ic[(0, 1)], ic[(0, 2)], ic[(1, 1)], ic[(1, 2)], ic[(2, 2)]]),
-            );
+            // diagnosis.json keeps URDF attribute order (docs/diagnose.md)
+            let urdf = ivdyn_core::inertia_to_urdf(ivdyn_core::inertia_vector(&ic));
+            params.insert("inertia".into(), list(urdf.to_vec()));
         }
         Err(_) => {
             params.insert("mass".into(), p10[0].into());

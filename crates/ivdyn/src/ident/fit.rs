@@ -379,7 +379,36 @@ pub fn dwh_sandwich(acc: &IvAccumulator, mid: &IvAccumulator) -> Result<DwhTest>
     Ok(t)
 }
 
+/// Widest line of [`FitReport`]'s text (Python's `repr`, notebooks, terminals).
+pub const REPORT_WIDTH: usize = 100;
+
+/// `text` in lines of at most `width` characters, broken at spaces (a base-parameter name
+/// is a sum of many terms); a single word longer than `width` is cut.
+pub fn wrap_words(text: &str, width: usize) -> Vec<String> {
+    let mut lines = vec![String::new()];
+    for word in text.split(' ').filter(|w| !w.is_empty()) {
+        let cur = lines.last_mut().expect("never empty");
+        if !cur.is_empty() && cur.chars().count() + 1 + word.chars().count() > width {
+            lines.push(String::new());
+        }
+        let cur = lines.last_mut().expect("never empty");
+        if !cur.is_empty() {
+            cur.push(' ');
+        }
+        cur.push_str(word);
+    }
+    lines
+        .into_iter()
+        .flat_map(|l| {
+            let c: Vec<char> = l.chars().collect();
+            c.chunks(width.max(1)).map(|k| k.iter().collect::<String>()).collect::<Vec<_>>()
+        })
+        .collect()
+}
+
 impl fmt::Display for FitReport {
+    /// One line per parameter, no line wider than [`REPORT_WIDTH`]: a name too long for its
+    /// column (a base combination of many terms) gets lines of its own above its numbers.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
@@ -391,23 +420,36 @@ impl fmt::Display for FitReport {
             self.sigma2,
             self.condition_number
         )?;
-        let w = self.names.iter().map(|n| n.len()).max().unwrap_or(4).max(9);
         let with_ls = self.theta_ls.is_some();
+        let numbers = 2 + 14 + 2 + 12 + 2 + 9 + if with_ls { 2 + 14 } else { 0 };
+        let longest = self.names.iter().map(|n| n.chars().count()).max().unwrap_or(4).max(9);
+        let w = longest.min(REPORT_WIDTH - numbers);
         write!(f, "{:<w$}  {:>14}  {:>12}  {:>9}", "parameter", "theta", "std", "rel %")?;
         if with_ls {
             write!(f, "  {:>14}", "theta_LS")?;
         }
         writeln!(f)?;
         for i in 0..self.theta.len() {
+            let name = if self.names[i].chars().count() <= w {
+                self.names[i].clone()
+            } else {
+                for line in wrap_words(&self.names[i], REPORT_WIDTH) {
+                    writeln!(f, "{line}")?;
+                }
+                String::new()
+            };
             let (t, s) = (format_sig(self.theta[i], 6), format_sig(self.std[i], 3));
-            write!(f, "{:<w$}  {t:>14}  {s:>12}  {:>9.2}", self.names[i], self.rel_std_pct[i])?;
+            write!(f, "{name:<w$}  {t:>14}  {s:>12}  {:>9.2}", self.rel_std_pct[i])?;
             if let Some(ls) = &self.theta_ls {
                 write!(f, "  {:>14}", format_sig(ls[i], 6))?;
             }
             writeln!(f)?;
         }
         if !self.unexcited.is_empty() {
-            writeln!(f, "not excited by this data (not estimated): {}", self.unexcited.join(", "))?;
+            let text = format!("not excited by this data (not estimated): {}", self.unexcited.join(", "));
+            for line in wrap_words(&text, REPORT_WIDTH) {
+                writeln!(f, "{line}")?;
+            }
         }
         if let Some(t) = &self.dwh {
             writeln!(

@@ -26,15 +26,16 @@ use crate::ident::{BaseParams, FitReport};
 use ivdyn_core::LinkInertia;
 use nalgebra::{DMatrix, SMatrix, SVector};
 
-/// Mass, centre of mass and inertia about the centre of mass (URDF attribute order
-/// `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`), with standard deviations.
+/// Mass, centre of mass and inertia about the centre of mass (ivdyn's order
+/// `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`, [`ivdyn_core::inertia_to_urdf`] for URDF's), with
+/// standard deviations.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PayloadEstimate {
     /// Mass (kg).
     pub mass: f64,
     /// Centre of mass in the link frame (m).
     pub com: [f64; 3],
-    /// Inertia about the centre of mass, `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]` (kg m^2).
+    /// Inertia about the centre of mass, `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]` (kg m^2).
     pub inertia: [f64; 6],
     /// Standard deviation of the mass.
     pub mass_std: f64,
@@ -60,8 +61,9 @@ pub struct PhysicalFit {
     pub ls_params: [f64; 10],
     /// Least-squares centre of mass (m); `None` when its mass is not positive.
     pub ls_com: Option<[f64; 3]>,
-    /// Least-squares inertia about its centre of mass `[Ixx, Ixy, Ixz, Iyy, Iyz, Izz]`
-    /// (kg m^2); `None` when its mass is not positive.
+    /// Least-squares inertia about its centre of mass `[Ixx, Ixy, Iyy, Ixz, Iyz, Izz]`
+    /// (kg m^2; the JSON reports keep URDF attribute order); `None` when its mass is not positive.
+    #[serde(serialize_with = "crate::report::urdf_inertia::serialize_opt")]
     pub ls_inertia: Option<[f64; 6]>,
     /// Squared Mahalanobis distance `(theta - theta_ls)^T Sigma^-1 (theta - theta_ls)` from the
     /// least-squares payload to the nearest rigid body (0 when it is one).
@@ -88,22 +90,12 @@ pub struct NotIdentifiable {
     pub combined_in: Vec<String>,
 }
 
-/// `(m, c, I_c in URDF order)` from the 10 standard parameters.
+/// `(m, c, I_c)` from the 10 standard parameters (`I_c` in ivdyn's 6-vector order).
 fn to_physical(p: &SVector<f64, 10>) -> Option<SVector<f64, 10>> {
     let li = LinkInertia([p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9]]);
     let (m, c, ic) = li.to_mass_com_inertia(0).ok()?;
-    Some(SVector::<f64, 10>::from_column_slice(&[
-        m,
-        c.x,
-        c.y,
-        c.z,
-        ic[(0, 0)],
-        ic[(0, 1)],
-        ic[(0, 2)],
-        ic[(1, 1)],
-        ic[(1, 2)],
-        ic[(2, 2)],
-    ]))
+    let i = ivdyn_core::inertia_vector(&ic);
+    Some(SVector::<f64, 10>::from_column_slice(&[m, c.x, c.y, c.z, i[0], i[1], i[2], i[3], i[4], i[5]]))
 }
 
 /// Reads the payload from a fit over `base`. `cols` are the full-parameter indices of the

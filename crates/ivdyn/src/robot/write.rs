@@ -295,14 +295,7 @@ fn add_payload(
     notes: &mut Vec<String>,
 ) -> Result<String> {
     let last = &robot.link_names[robot.dof() - 1];
-    let ic = &p.inertia;
-    let i_c = Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
-    let li = LinkInertia::from_mass_com_inertia(
-        p.mass,
-        &Vector3::new(p.com[0], p.com[1], p.com[2]),
-        &Matrix3::identity(),
-        &i_c,
-    );
+    let li = p.link_inertia();
     match mode {
         PayloadMode::Merge => {
             for (o, v) in own_last.iter_mut().zip(li.0) {

@@ -52,7 +52,9 @@ fn com_error(rep: &PayloadReport) -> f64 {
 #[test]
 fn payload_with_inertia_is_recovered_as_fitted() {
     let robot = ur5();
-    let inertia = [0.004, 0.0002, -0.0001, 0.005, 0.0003, 0.003];
+    // ivdyn's order [Ixx, Ixy, Iyy, Ixz, Iyz, Izz]: Iyy and Ixz differ in sign and size, so a
+    // swapped order anywhere between the simulation and the report fails the 4-std check
+    let inertia = [0.004, 0.0002, 0.005, -0.0001, 0.0003, 0.003];
     let spec = PayloadSpec { mass: 2.0, com: COM, inertia };
     let rep = app::payload(&robot, &log(&robot, 3, 0.01, Some(spec), None), None, &PayloadOptions::default()).unwrap();
     let (m, ph) = (rep.mass.unwrap(), rep.physical.as_ref().unwrap());
@@ -166,10 +168,10 @@ fn before_log_of_another_arm_is_flagged() {
 #[test]
 fn an_impossible_payload_is_never_written() {
     let out = tmp("impossible.urdf");
-    let bad = PayloadSpec { mass: 2.0, com: COM, inertia: [-0.002, 0.0002, 0.0015, -0.003, 0.002, -0.0003] };
+    let bad = PayloadSpec { mass: 2.0, com: COM, inertia: [-0.002, 0.0002, -0.003, 0.0015, 0.002, -0.0003] };
     let e = check_writable(&bad, &out).unwrap_err().to_string();
     assert!(e.contains("refusing to write") && e.contains("impossible.urdf") && e.contains("principal moment"), "{e}");
-    let flat = PayloadSpec { mass: 2.0, com: COM, inertia: [0.001, 0.0, 0.0, 0.001, 0.0, 0.003] };
+    let flat = PayloadSpec { mass: 2.0, com: COM, inertia: [0.001, 0.0, 0.001, 0.0, 0.0, 0.003] };
     let e = check_writable(&flat, &out).unwrap_err().to_string();
     assert!(e.contains("triangle inequality"), "{e}");
     assert!(check_writable(&PayloadSpec { mass: 0.0, ..flat }, &out).is_err());
@@ -199,7 +201,7 @@ fn an_impossible_payload_is_never_written() {
 #[test]
 fn torque_constant_covariance_reaches_the_payload() {
     let robot = ur5();
-    let spec = PayloadSpec { mass: 2.0, com: COM, inertia: [0.004, 0.0, 0.0, 0.005, 0.0, 0.003] };
+    let spec = PayloadSpec { mass: 2.0, com: COM, inertia: [0.004, 0.0, 0.005, 0.0, 0.0, 0.003] };
     let before = log(&robot, 5, 0.05, None, Some((1.0, 1.0)));
     let after = log(&robot, 6, 0.05, Some(spec), Some((1.0, 1.0)));
     let run = |cov: Option<Vec<f64>>| {
