@@ -61,12 +61,17 @@ def test_python_blocks_run(page, tmp_path, monkeypatch):
     import matplotlib
 
     matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     ns = {"__name__": "__snippet__"}
-    for line, code in runnable(page, "python"):
-        try:
-            exec(compile(code, f"{page}:{line}", "exec"), ns)
-        except Exception as e:
-            raise AssertionError(f"{page}, the python block at line {line} failed: {e!r}") from e
+    try:
+        for line, code in runnable(page, "python"):
+            try:
+                exec(compile(code, f"{page}:{line}", "exec"), ns)
+            except Exception as e:
+                raise AssertionError(f"{page}, the python block at line {line} failed: {e!r}") from e
+    finally:
+        plt.close("all")
 
 
 @pytest.mark.parametrize("page", [p for p in PAGES if runnable(p, "sh")])

@@ -3,6 +3,7 @@
 //! module was a test binary of its own; they share nothing (temporary paths are named per
 //! module). `tests/fixtures.rs` and `tests/urdf_errors.rs` at the repository root belong here too.
 
+mod base_names;
 mod batch_recovery;
 mod consistent;
 mod coulomb_shape;
@@ -12,6 +13,8 @@ mod drive_gains;
 mod dwh_level;
 mod effort_current;
 mod excite;
+#[path = "../../../../tests/fixtures.rs"]
+mod fixtures;
 mod hostile_inputs;
 mod hostile_limits;
 mod ident_accum;
@@ -19,6 +22,7 @@ mod ident_base;
 mod ident_fit;
 mod ident_stats;
 mod idim_iv;
+mod inertia_order;
 mod io_bag;
 mod io_csv;
 mod io_mcap;
@@ -30,9 +34,7 @@ mod payload_physical;
 mod signal_conditioning;
 mod stream_identify;
 mod transmission;
-mod urdf_tip;
-mod urdf_write;
-#[path = "../../../../tests/fixtures.rs"]
-mod fixtures;
 #[path = "../../../../tests/urdf_errors.rs"]
 mod urdf_errors;
+mod urdf_tip;
+mod urdf_write;
