@@ -19,8 +19,10 @@ exact sign Coulomb shape, write the MJCF, load it in MuJoCo, and compute MuJoCo'
   attribute equals fc exactly, the force never exceeds fc, where MuJoCo says the constraint
   slides (efc_state LINEARNEG / LINEARPOS) the force is exactly -/+ fc, and on the logged
   states where MuJoCo's friction slides in the direction of qd it equals ivdyn's
-  fc sign(qd); that is most of the log (the fraction is asserted, measured ~NN %).
+  fc sign(qd); that is most of the log: at least 85 % of each joint's states (measured
+  91.5 % on wrist_3, 97.7-99.4 % on the others), so the check covers the log, not a few states.
 """
+import json
 import os
 import re
 import xml.etree.ElementTree as ET
@@ -80,8 +82,11 @@ def inverse(model, q, qd, qdd):
 
 
 def test_doc_example_runs_and_reproduces_the_torques(example):
-    # the page's own check: MuJoCo + tau0 equals ivdyn on the median logged state
+    # the page's own numbers: MuJoCo + tau0 equals ivdyn on the median logged state, and
+    # elsewhere differs by the friction force alone, at most 2 fc (pointing the other way)
     assert example["worst_median"] < 1e-9, example["worst_median"]
+    fc = drive(example["robot"], example["theta"])[:, 0]
+    assert np.all(example["diff"] <= 2 * fc + 1e-9)
 
 
 def test_rigid_part_and_armature_to_rounding(example):
@@ -117,6 +122,10 @@ def test_damping_is_fv_qd(example):
     assert err.max() < 1e-9, err.max()
 
 
+# fraction of each joint's logged states on which MuJoCo's friction slides with the velocity
+MIN_SLIDING = 0.85
+
+
 def test_frictionloss_by_its_definition(example):
     robot, theta, q, qd, qdd = (example[k] for k in ("robot", "theta", "q", "qd", "qdd"))
     model = mujoco.MjModel.from_xml_path(str(example["dir"] / "ur5_identified.xml"))
@@ -140,23 +149,15 @@ def test_frictionloss_by_its_definition(example):
     assert np.all(frac > MIN_SLIDING), frac
 
 
-MIN_SLIDING = 0.9
-
-
 def test_written_file_names_and_side_file(example):
     robot = example["robot"]
     path = example["dir"] / "ur5_identified.xml"
     root = ET.parse(path).getroot()
     assert [j.get("name") for j in root.iter("joint")] == robot.joint_names
-    side = ivdyn_side(str(path) + ".json")
+    with open(str(path) + ".json") as f:
+        side = json.load(f)
     assert side["joints"] == robot.joint_names
     assert side["tau0"] == list(drive(robot, example["theta"])[:, 3])
-
-
-def ivdyn_side(path):
-    import json
-    with open(path) as f:
-        return json.load(f)
 
 
 def test_inconsistent_parameters_are_refused_and_nothing_written(tmp_path):
