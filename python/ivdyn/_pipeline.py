@@ -189,6 +189,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
              exclude: Optional[Sequence[Tuple[float, float]]] = None, stream: bool = False,
              current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
              gear_ratio=None, motor_constant=None, coulomb: str = "auto", prediction: bool = False,
+             write_mjcf: Optional[PathLike] = None,
              progress: Progress = None) -> IdentifyResult:
     """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
     torques; returns the ``--json`` report as a dict (``docs/cli.md``: ``method``,
@@ -223,7 +224,11 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     ``"sign"``: the paper's ``sign(qd)``; ``"model"``: the shapes ``params`` brought); and the
     files: ``out_json`` (the report), ``out_params`` (the parameter file), ``write_urdf``
     (a copy of the robot's URDF with the identified parameters and its side file; the robot
-    must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
+    must come from a URDF), ``out_mcap`` (measured, predicted and residual torques),
+    ``write_mjcf`` (a MuJoCo model of the chain with the identified inertials, ``armature``,
+    ``damping`` = fv and ``frictionloss`` = fc, and its side file; refused with
+    ``RuntimeError`` and nothing written when the parameters are not physically consistent:
+    use ``consistent=True``; ``docs/mjcf.md``).
     ``prediction=True`` also reads those torques back (from ``out_mcap``, or a temporary
     file) into the result's ``prediction`` attribute (:func:`ivdyn.read_prediction`), which
     :mod:`ivdyn.plot` draws.
@@ -254,7 +259,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
                               consistent=bool(consistent), in_memory=bool(in_memory), json_out=_path(out_json),
                               out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap),
                               velocity=str(velocity), window=_window(window), exclude=_spans(exclude), stream=bool(stream),
-                              coulomb=str(coulomb),
+                              coulomb=str(coulomb), write_mjcf=_path(write_mjcf),
                               **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
         res = IdentifyResult(json.loads(out))
         if prediction and out_mcap is not None:  # always set with prediction (above)
@@ -275,7 +280,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
             exclude: Optional[Sequence[Tuple[float, float]]] = None,
             current_topic: Optional[str] = None, effort: str = "auto",
             torque_constant=None, gear_ratio=None, motor_constant=None,
-            torque_constant_std=None, gains=None,
+            torque_constant_std=None, gains=None, write_mjcf: Optional[PathLike] = None,
             progress: Progress = None) -> PayloadResult:
     """``ivdyn payload`` from Python: the payload on the last link from a log after the
     grasp (and optionally ``before``, a log of the unloaded arm, identified first and used
@@ -292,7 +297,9 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     Arguments as in :func:`identify` (the effort options too); ``out_json``: the report
     file; ``write_urdf``: a copy of the URDF with the payload, as a fixed child link of the tip (``payload_as="link"``)
     or merged into it (``"merge"``), written only when the payload is identifiable (and
-    never with an inertia that is not a rigid body's: ``RuntimeError``, nothing written).
+    never with an inertia that is not a rigid body's: ``RuntimeError``, nothing written);
+    ``write_mjcf``: a MuJoCo model of the arm as loaded with the payload as a body welded to
+    the last link (same conditions; ``docs/mjcf.md``).
 
     When the effort is a current and the torque constants are themselves estimates, their
     uncertainty goes into the payload's std (``uncertainty_sources`` lists what the std
@@ -312,7 +319,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
                              window=_window(window), exclude=_spans(exclude),
                              **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant),
                              torque_constant_std=_per_joint(torque_constant_std, "torque_constant_std"),
-                             gains=_gains_text(gains))
+                             gains=_gains_text(gains), write_mjcf=_path(write_mjcf))
     finally:
         close()
     return PayloadResult(json.loads(out))

@@ -180,12 +180,17 @@ struct IdentifyArgs {
     /// Identified full parameters (JSON, reloadable with --params).
     #[arg(long)]
     out_params: Option<PathBuf>,
-    /// Also fit physically consistent parameters (log-Cholesky); --out-params and --write-urdf then use them.
+    /// Also fit physically consistent parameters (log-Cholesky); --out-params, --write-urdf and --write-mjcf then use them.
     #[arg(long)]
     consistent: bool,
     /// Write a copy of the URDF with the identified inertials and friction (+ OUT.json side file).
     #[arg(long)]
     write_urdf: Option<PathBuf>,
+    /// Write an MJCF (MuJoCo) model of the chain with the identified inertials, armature,
+    /// damping and frictionloss (+ OUT.json side file with the torque offsets); refused for
+    /// physically impossible parameters (use --consistent).
+    #[arg(long)]
+    write_mjcf: Option<PathBuf>,
     /// Friction terms to identify: `none`, or a comma list of `coulomb`, `viscous`
     /// (terms left out keep their nominal values).
     #[arg(long, value_delimiter = ',', default_value = "coulomb,viscous")]
@@ -254,6 +259,10 @@ struct PayloadArgs {
     /// Write a copy of the URDF with the payload (+ OUT.json side file).
     #[arg(long)]
     write_urdf: Option<PathBuf>,
+    /// Write an MJCF (MuJoCo) model of the arm as loaded with the payload welded to the last
+    /// link (+ OUT.json side file).
+    #[arg(long)]
+    write_mjcf: Option<PathBuf>,
     /// How the payload goes into the URDF: a fixed child link of the tip, or merged into it.
     #[arg(long, value_enum, default_value = "link")]
     payload_as: PayloadAsArg,
@@ -621,6 +630,7 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
             params: a.out_params.clone(),
             urdf: a.write_urdf.clone().map(|o| (a.robot.urdf.clone(), o)),
             mcap: a.out_mcap.clone(),
+            mjcf: a.write_mjcf.clone(),
         },
     };
     let out = app::identify_job(&robot, &job).map_err(msg)?;
@@ -752,6 +762,7 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
         },
         json: a.json.clone(),
         urdf: a.write_urdf.clone().map(|o| (a.robot.urdf.clone(), o, mode)),
+        mjcf: a.write_mjcf.clone(),
         torque_constant_prior: torque_constant_prior(&a)?,
     };
     let out = app::payload_job(&robot, &job).map_err(msg)?;

@@ -1,5 +1,5 @@
 //! `identify` as a command: the stream-or-memory choice, then the outputs (parameter file,
-//! URDF write-back, JSON report, prediction MCAP), written all or none ([`OutputSet`]).
+//! URDF write-back, MJCF, JSON report, prediction MCAP), written all or none ([`OutputSet`]).
 
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
@@ -13,7 +13,7 @@ use crate::error::{Error, Result};
 use crate::log::JointLog;
 use crate::output::OutputSet;
 use crate::progress::Stage;
-use crate::robot::{load::side_path, write as urdf_write};
+use crate::robot::{load::side_path, mjcf, write as urdf_write};
 
 /// What `identify` writes (each optional).
 #[derive(Debug, Clone, Default)]
@@ -27,6 +27,9 @@ pub struct IdentifyOutputs {
     pub urdf: Option<(PathBuf, PathBuf)>,
     /// Measured, predicted and residual torques as JointState topics.
     pub mcap: Option<PathBuf>,
+    /// An MJCF (MuJoCo) model of the chain with the identified parameters (with its side
+    /// file), [`crate::robot::mjcf`].
+    pub mjcf: Option<PathBuf>,
 }
 
 /// One `identify` run.
@@ -130,22 +133,31 @@ fn write_outputs(
         set.write_json(p, params)?;
         written.push(format!("parameters written to {}", p.display()));
     }
+    let source = if rep.consistent.is_some() {
+        "ivdyn identify --consistent: physically consistent full parameters"
+    } else {
+        "ivdyn identify: nominal parameters corrected in the identifiable directions (BaseParams::apply)"
+    };
+    // the robot with the written parameters and Coulomb shapes
+    let shaped = || -> Result<Robot> {
+        let mut r = robot.clone();
+        crate::robot::load::load_params(&mut r, params)?;
+        Ok(r)
+    };
     if let Some((input, path)) = &out.urdf {
-        let source = if rep.consistent.is_some() {
-            "ivdyn identify --consistent: physically consistent full parameters"
-        } else {
-            "ivdyn identify: nominal parameters corrected in the identifiable directions (BaseParams::apply)"
-        };
         let text = std::fs::read_to_string(input).map_err(|e| Error::Io { file: input.clone(), source: e })?;
-        let mut shaped = robot.clone();
-        crate::robot::load::load_params(&mut shaped, params)?;
-        let wb = urdf_write::write_back(&text, input, &shaped, Some(&params.theta), None, vec![source.to_string()])?;
+        let wb = urdf_write::write_back(&text, input, &shaped()?, Some(&params.theta), None, vec![source.to_string()])?;
         urdf_write::stage_files(&mut set, path, &wb)?;
         written.push(format!(
             "URDF written to {} (armature and offsets in {})",
             path.display(),
             side_path(path).display()
         ));
+    }
+    if let Some(path) = &out.mjcf {
+        let mj = mjcf::to_mjcf(&shaped()?, None, vec![source.to_string()]).map_err(|e| in_output(e, path))?;
+        mjcf::stage_files(&mut set, path, &mj)?;
+        written.push(format!("MJCF written to {} (torque offsets in {})", path.display(), side_path(path).display()));
     }
     if let Some(p) = &out.json {
         set.write_json(p, rep)?;
@@ -159,6 +171,11 @@ fn write_outputs(
     }
     set.commit()?;
     Ok(written)
+}
+
+/// `e` as an error of the output file `path` (nothing was written).
+fn in_output(e: Error, path: &Path) -> Error {
+    Error::InFile { file: path.to_path_buf(), source: Box::new(e) }
 }
 
 /// The prediction MCAP, staged in `set`: streamed from the log file when the fit was,

@@ -482,6 +482,9 @@ pub struct PayloadJob {
     pub json: Option<PathBuf>,
     /// A copy of the URDF `.0` with the payload, written to `.1` (when identifiable).
     pub urdf: Option<(PathBuf, PathBuf, PayloadMode)>,
+    /// An MJCF of the arm as loaded with the payload welded to the last link (when
+    /// identifiable), [`crate::robot::mjcf`].
+    pub mjcf: Option<PathBuf>,
     /// The torque constants' uncertainty (their std, or an `ivdyn gains` report), added to
     /// the payload's ([`super::payload_gains`]).
     pub torque_constant_prior: TorqueConstantPrior,
@@ -507,6 +510,14 @@ pub fn payload_job(robot: &Robot, job: &PayloadJob) -> Result<Outcome<PayloadRep
     if let (Some((input, out, mode)), true) = (&job.urdf, rep.identifiable) {
         stage_urdf(&mut set, robot, &rep, input, out, *mode)?;
         written.push(format!("URDF with the payload written to {}", out.display()));
+    }
+    if let (Some(out), true) = (&job.mjcf, rep.identifiable) {
+        let spec = written_spec(&rep);
+        check_writable(&spec, out)?;
+        let mj = crate::robot::mjcf::to_mjcf(robot, Some(&spec), vec![WRITTEN_NOTE.into()])
+            .map_err(|e| Error::InFile { file: out.clone(), source: Box::new(e) })?;
+        crate::robot::mjcf::stage_files(&mut set, out, &mj)?;
+        written.push(format!("MJCF with the payload written to {}", out.display()));
     }
     set.commit()?;
     Ok(Outcome { report: rep, written })
@@ -539,6 +550,19 @@ fn with_torque_constant_prior(
     Ok((LogSource { effort, torque_constants, ..src.clone() }, Some(rel_cov)))
 }
 
+/// Note in the written files: where the arm's parameters come from.
+const WRITTEN_NOTE: &str = "ivdyn payload: the arm as loaded (URDF, --params or side file) plus the identified payload";
+
+/// The payload of `rep` as written (NaN where the report has no number, refused by
+/// [`check_writable`]).
+fn written_spec(rep: &PayloadReport) -> PayloadSpec {
+    PayloadSpec {
+        mass: rep.mass.unwrap_or(f64::NAN),
+        com: rep.com.unwrap_or([f64::NAN; 3]),
+        inertia: rep.inertia.unwrap_or([f64::NAN; 6]),
+    }
+}
+
 /// Stages a copy of the URDF `input` with the payload of `rep` for `out` (and its side
 /// file), after [`check_writable`]: nothing is written for a payload that is no body.
 fn stage_urdf(
@@ -549,21 +573,16 @@ fn stage_urdf(
     out: &Path,
     mode: PayloadMode,
 ) -> Result<()> {
-    let spec = PayloadSpec {
-        mass: rep.mass.unwrap_or(f64::NAN),
-        com: rep.com.unwrap_or([f64::NAN; 3]),
-        inertia: rep.inertia.unwrap_or([f64::NAN; 6]),
-    };
+    let spec = written_spec(rep);
     check_writable(&spec, out)?;
     let text = std::fs::read_to_string(input).map_err(|e| Error::Io { file: input.to_path_buf(), source: e })?;
-    let note = "ivdyn payload: the arm as loaded (URDF, --params or side file) plus the identified payload";
     let wb = crate::robot::write::write_back(
         &text,
         input,
         robot,
         Some(&robot.params()),
         Some((&spec, mode)),
-        vec![note.into()],
+        vec![WRITTEN_NOTE.into()],
     )?;
     crate::robot::write::stage_files(set, out, &wb)
 }

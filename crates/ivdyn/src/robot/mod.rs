@@ -3,6 +3,7 @@
 //! pattern), so a URDF read at run time still runs the fixed-size, allocation-free core.
 
 pub mod load;
+pub mod mjcf;
 pub mod physical;
 pub mod urdf;
 pub mod write;

@@ -425,8 +425,8 @@ fn apply_edits(input: &str, mut edits: Vec<Edit>) -> String {
 }
 
 /// The side file: what URDF cannot hold (armature, torque offset), the drive friction
-/// again, the payload and the notes.
-fn side_file(robot: &Robot, theta: &[f64], payload: Option<PayloadSpec>, notes: Vec<String>) -> SideFile {
+/// again, the payload and the notes (also written next to an MJCF, [`super::mjcf`]).
+pub(crate) fn side_file(robot: &Robot, theta: &[f64], payload: Option<PayloadSpec>, notes: Vec<String>) -> SideFile {
     let n = robot.dof();
     let col = |k: usize| (0..n).map(|j| theta[drive_col(n, j, k)]).collect::<Vec<f64>>();
     SideFile {
@@ -456,7 +456,12 @@ pub fn write_files(path: &Path, wb: &WriteBack) -> Result<()> {
 
 /// [`write_files`] into `set` (put in place when `set` is committed).
 pub fn stage_files(set: &mut crate::output::OutputSet, path: &Path, wb: &WriteBack) -> Result<()> {
-    let side = serde_json::to_string_pretty(&wb.side).map_err(|e| Error::Estimation { msg: e.to_string() })? + "\n";
     set.write_bytes(path, wb.urdf.as_bytes())?;
-    set.write_bytes(&side_path(path), side.as_bytes())
+    stage_side(set, &side_path(path), &wb.side)
+}
+
+/// Stages the side file `side` as JSON at `path` in `set`.
+pub(crate) fn stage_side(set: &mut crate::output::OutputSet, path: &Path, side: &SideFile) -> Result<()> {
+    let text = serde_json::to_string_pretty(side).map_err(|e| Error::Estimation { msg: e.to_string() })? + "\n";
+    set.write_bytes(path, text.as_bytes())
 }

@@ -185,6 +185,7 @@ fn errors_name_the_option_and_the_joint() {
         opts: Default::default(),
         json: None,
         urdf: None,
+        mjcf: None,
         torque_constant_prior: Default::default(),
     };
     let e = app::payload_job(&robot, &payload).unwrap_err().to_string();

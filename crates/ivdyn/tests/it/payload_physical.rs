@@ -186,6 +186,7 @@ fn an_impossible_payload_is_never_written() {
         opts: PayloadOptions::default(),
         json: None,
         urdf: Some((PathBuf::from(UR5), written.clone(), PayloadMode::Link)),
+        mjcf: None,
         torque_constant_prior: Default::default(),
     };
     let out = app::payload_job(&robot, &job).unwrap();
