@@ -181,7 +181,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
              exclude: Optional[Sequence[Tuple[float, float]]] = None, stream: bool = False,
              current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
              gear_ratio=None, motor_constant=None, coulomb: str = "auto",
-             progress: Progress = None) -> Dict[str, Any]:
+             report: Optional[PathLike] = None, progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
     torques; returns the ``--json`` report as a dict (``docs/cli.md``: ``method``,
     ``base`` [{name, value, std, rel_std_pct, nominal}], ``fit``, ``validation``, ``dwh``,
@@ -213,7 +213,9 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     ``"sign"``: the paper's ``sign(qd)``; ``"model"``: the shapes ``params`` brought); and the
     files: ``out_json`` (the report), ``out_params`` (the parameter file), ``write_urdf``
     (a copy of the robot's URDF with the identified parameters and its side file; the robot
-    must come from a URDF), ``out_mcap`` (measured, predicted and residual torques).
+    must come from a URDF), ``out_mcap`` (measured, predicted and residual torques),
+    ``report`` (an HTML page: fit quality per joint, base parameters, physical consistency,
+    torque and residual plots; as ``--report``).
 
     Effort as motor current (``docs/logs.md``): ``effort`` is ``"auto"`` (the log's torque
     when it has one, else its motor current), ``"torque"`` or ``"current"``. Currents come
@@ -235,7 +237,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
                               consistent=bool(consistent), in_memory=bool(in_memory), json_out=_path(out_json),
                               out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap),
                               velocity=str(velocity), window=_window(window), exclude=_spans(exclude), stream=bool(stream),
-                              coulomb=str(coulomb),
+                              coulomb=str(coulomb), report=_path(report),
                               **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()
@@ -251,7 +253,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
             exclude: Optional[Sequence[Tuple[float, float]]] = None,
             current_topic: Optional[str] = None, effort: str = "auto",
             torque_constant=None, gear_ratio=None, motor_constant=None,
-            torque_constant_std=None, gains=None,
+            torque_constant_std=None, gains=None, report: Optional[PathLike] = None,
             progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn payload`` from Python: the payload on the last link from a log after the
     grasp (and optionally ``before``, a log of the unloaded arm, identified first and used
@@ -265,7 +267,8 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     nearest to the least-squares one. When the payload is not identifiable from the log,
     ``identifiable`` is False and the numbers are None (the command line exits with 2).
     Arguments as in :func:`identify` (the effort options too); ``out_json``: the report
-    file; ``write_urdf``: a copy of the URDF with the payload, as a fixed child link of the tip (``payload_as="link"``)
+    file; ``report``: an HTML page (the estimate with std and 95 % intervals, physical
+    validity, fit quality per joint, residual plots; as ``--report``); ``write_urdf``: a copy of the URDF with the payload, as a fixed child link of the tip (``payload_as="link"``)
     or merged into it (``"merge"``), written only when the payload is identifiable (and
     never with an inertia that is not a rigid body's: ``RuntimeError``, nothing written).
 
@@ -287,7 +290,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
                              window=_window(window), exclude=_spans(exclude),
                              **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant),
                              torque_constant_std=_per_joint(torque_constant_std, "torque_constant_std"),
-                             gains=_gains_text(gains))
+                             gains=_gains_text(gains), report=_path(report))
     finally:
         close()
     return json.loads(out)
