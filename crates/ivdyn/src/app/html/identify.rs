@@ -196,7 +196,7 @@ fn physical_section(o: &mut String, p: &IdentifyPage<'_>) {
     for (name, found) in rows {
         let problems = found.iter().find(|v| &v.name == name).map(|v| v.problems.join("; "));
         let cell = match problems {
-            Some(p) => format!("<td class=\"sig\" style=\"color: var(--warn)\">{}</td>", esc(&p)),
+            Some(text) => format!("<td class=\"sig\" style=\"color: var(--warn)\">{}</td>", esc(&text)),
             None => "<td>consistent</td>".into(),
         };
         let _ = writeln!(o, "<tr><td>{}</td>{cell}</tr>", esc(name));
