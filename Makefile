@@ -23,10 +23,12 @@ demo:
 	    --fc 2,2,1.5,0.6,0.6,0.4 --fv 0.8,0.8,0.5,0.2,0.2,0.1 --noise 0.1 --seed 2 \
 	    --payload-mass 2 --payload-com 0.01,-0.02,0.05 --out $(DEMO)/ur5_payload.mcap --quiet
 	./target/release/ivdyn identify --urdf fixtures/ur5.urdf --base base_link --tip tool0 \
-	    --log $(DEMO)/ur5_unloaded.mcap --method wls --json $(DEMO)/identify.json --out-params $(DEMO)/ur5_params.json
+	    --log $(DEMO)/ur5_unloaded.mcap --method wls --json $(DEMO)/identify.json --out-params $(DEMO)/ur5_params.json \
+	    --report $(DEMO)/identify.html
 	./target/release/ivdyn payload --urdf fixtures/ur5.urdf --base base_link --tip tool0 \
-	    --log $(DEMO)/ur5_payload.mcap --before $(DEMO)/ur5_unloaded.mcap --json $(DEMO)/payload.json
-	@echo "demo outputs in $(DEMO)/ (JSON reports, logs); truth: 2 kg at (0.01, -0.02, 0.05) m"
+	    --log $(DEMO)/ur5_payload.mcap --before $(DEMO)/ur5_unloaded.mcap --json $(DEMO)/payload.json \
+	    --report $(DEMO)/payload.html
+	@echo "demo outputs in $(DEMO)/ (JSON and HTML reports identify.html, payload.html; logs); truth: 2 kg at (0.01, -0.02, 0.05) m"
 	./target/release/ivdyn diagnose --urdf fixtures/ur5.urdf --base base_link --tip tool0 \
 	    --log fixtures/diagnose/viscous_payload.mcap --out $(DEMO)/diagnose
 	@echo "diagnosis of a MuJoCo log (truth: 1.2 kg payload, viscous friction on shoulder_lift and wrist_1): $(DEMO)/diagnose/report.html"

@@ -318,7 +318,7 @@ def identify(robot: Robot, log: Union[_Log, List[_Log]], method: str = "wls", va
              current_topic: Optional[str] = None, effort: str = "auto",
              torque_constant: _PerJoint = None, gear_ratio: _PerJoint = None,
              motor_constant: _PerJoint = None, coulomb: str = "auto",
-             write_mjcf: Optional[str] = None) -> str:
+             write_mjcf: Optional[str] = None, report: Optional[str] = None) -> str:
     """``ivdyn identify`` -> its ``--json`` document."""
 def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/joint_states",
              log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3,
@@ -338,7 +338,7 @@ def payload(robot: Robot, log: _Log, before: Optional[_Log] = None, topic: str =
             exclude: Optional[List[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto", torque_constant: _PerJoint = None,
             gear_ratio: _PerJoint = None, motor_constant: _PerJoint = None,
             torque_constant_std: _PerJoint = None, gains: Optional[str] = None,
-            write_mjcf: Optional[str] = None) -> str:
+            write_mjcf: Optional[str] = None, report: Optional[str] = None) -> str:
     """``ivdyn payload`` -> its ``--json`` document."""
 def gains(robot: Robot, unloaded: _Log, loaded: _Log, payload_mass: float,
           payload_com: Optional[List[float]] = None, payload_inertia: Optional[List[float]] = None,

@@ -189,7 +189,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
              exclude: Optional[Sequence[Tuple[float, float]]] = None, stream: bool = False,
              current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
              gear_ratio=None, motor_constant=None, coulomb: str = "auto", prediction: bool = False,
-             write_mjcf: Optional[PathLike] = None,
+             write_mjcf: Optional[PathLike] = None, report: Optional[PathLike] = None,
              progress: Progress = None) -> IdentifyResult:
     """``ivdyn identify`` from Python: base parameters of ``robot`` from a log with measured
     torques; returns the ``--json`` report as a dict (``docs/cli.md``: ``method``,
@@ -229,6 +229,8 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
     ``damping`` = fv and ``frictionloss`` = fc, and its side file; refused with
     ``RuntimeError`` and nothing written when the parameters are not physically consistent:
     use ``consistent=True``; ``docs/mjcf.md``).
+    ``report`` (an HTML page: fit quality per joint, base parameters, physical consistency,
+    torque and residual plots; as ``--report``).
     ``prediction=True`` also reads those torques back (from ``out_mcap``, or a temporary
     file) into the result's ``prediction`` attribute (:func:`ivdyn.read_prediction`), which
     :mod:`ivdyn.plot` draws.
@@ -259,7 +261,7 @@ def identify(robot, log, method: str = "wls", *, base: Optional[str] = None, tip
                               consistent=bool(consistent), in_memory=bool(in_memory), json_out=_path(out_json),
                               out_params=_path(out_params), write_urdf=_path(write_urdf), out_mcap=_path(out_mcap),
                               velocity=str(velocity), window=_window(window), exclude=_spans(exclude), stream=bool(stream),
-                              coulomb=str(coulomb), write_mjcf=_path(write_mjcf),
+                              coulomb=str(coulomb), write_mjcf=_path(write_mjcf), report=_path(report),
                               **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
         res = IdentifyResult(json.loads(out))
         if prediction and out_mcap is not None:  # always set with prediction (above)
@@ -281,7 +283,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
             current_topic: Optional[str] = None, effort: str = "auto",
             torque_constant=None, gear_ratio=None, motor_constant=None,
             torque_constant_std=None, gains=None, write_mjcf: Optional[PathLike] = None,
-            progress: Progress = None) -> PayloadResult:
+            report: Optional[PathLike] = None, progress: Progress = None) -> PayloadResult:
     """``ivdyn payload`` from Python: the payload on the last link from a log after the
     grasp (and optionally ``before``, a log of the unloaded arm, identified first and used
     as the nominal model); returns the ``--json`` report as a dict: ``link``,
@@ -295,7 +297,8 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
     nearest to the least-squares one. When the payload is not identifiable from the log,
     ``identifiable`` is False and the numbers are None (the command line exits with 2).
     Arguments as in :func:`identify` (the effort options too); ``out_json``: the report
-    file; ``write_urdf``: a copy of the URDF with the payload, as a fixed child link of the tip (``payload_as="link"``)
+    file; ``report``: an HTML page (the estimate with std and 95 % intervals, physical
+    validity, fit quality per joint, residual plots; as ``--report``); ``write_urdf``: a copy of the URDF with the payload, as a fixed child link of the tip (``payload_as="link"``)
     or merged into it (``"merge"``), written only when the payload is identifiable (and
     never with an inertia that is not a rigid body's: ``RuntimeError``, nothing written);
     ``write_mjcf``: a MuJoCo model of the arm as loaded with the payload as a body welded to
@@ -319,7 +322,7 @@ def payload(robot, log, before=None, *, base: Optional[str] = None, tip: Optiona
                              window=_window(window), exclude=_spans(exclude),
                              **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant),
                              torque_constant_std=_per_joint(torque_constant_std, "torque_constant_std"),
-                             gains=_gains_text(gains), write_mjcf=_path(write_mjcf))
+                             gains=_gains_text(gains), write_mjcf=_path(write_mjcf), report=_path(report))
     finally:
         close()
     return PayloadResult(json.loads(out))

@@ -177,6 +177,10 @@ struct IdentifyArgs {
     /// JSON report.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// HTML report: one self-contained page (fit quality per joint, base parameters with
+    /// their std, physical consistency, measured vs predicted torque and residual plots).
+    #[arg(long, value_name = "FILE.html")]
+    report: Option<PathBuf>,
     /// Identified full parameters (JSON, reloadable with --params).
     #[arg(long)]
     out_params: Option<PathBuf>,
@@ -256,6 +260,10 @@ struct PayloadArgs {
     /// JSON report.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// HTML report: one self-contained page (the estimate with std and 95 % intervals,
+    /// physical validity, fit quality per joint, residual plots).
+    #[arg(long, value_name = "FILE.html")]
+    report: Option<PathBuf>,
     /// Write a copy of the URDF with the payload (+ OUT.json side file).
     #[arg(long)]
     write_urdf: Option<PathBuf>,
@@ -631,6 +639,7 @@ fn identify(a: IdentifyArgs, bars: &Bars) -> R<ExitCode> {
             urdf: a.write_urdf.clone().map(|o| (a.robot.urdf.clone(), o)),
             mcap: a.out_mcap.clone(),
             mjcf: a.write_mjcf.clone(),
+            report: a.report.clone(),
         },
     };
     let out = app::identify_job(&robot, &job).map_err(msg)?;
@@ -761,6 +770,7 @@ fn payload(a: PayloadArgs, bars: &Bars) -> R<ExitCode> {
             ..Default::default()
         },
         json: a.json.clone(),
+        report: a.report.clone(),
         urdf: a.write_urdf.clone().map(|o| (a.robot.urdf.clone(), o, mode)),
         mjcf: a.write_mjcf.clone(),
         torque_constant_prior: torque_constant_prior(&a)?,

@@ -283,7 +283,7 @@ fn urdf_of(robot: &PyRobot, what: &str) -> PyResult<PathBuf> {
                     armature=true, offset=true, consistent=false, in_memory=false, json_out=None, out_params=None,
                     write_urdf=None, out_mcap=None, velocity="auto", window=None, exclude=None, stream=false,
                     current_topic=None, effort="auto", torque_constant=None,
-                    gear_ratio=None, motor_constant=None, coulomb="auto", write_mjcf=None))]
+                    gear_ratio=None, motor_constant=None, coulomb="auto", write_mjcf=None, report=None))]
 #[allow(clippy::too_many_arguments)]
 fn identify(
     py: Python<'_>,
@@ -319,6 +319,7 @@ fn identify(
     motor_constant: Option<&Bound<'_, PyAny>>,
     coulomb: &str,
     write_mjcf: Option<PathBuf>,
+    report: Option<PathBuf>,
 ) -> PyResult<String> {
     let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
     let coulomb = app::identify::CoulombMode::from_name(coulomb).map_err(to_py)?;
@@ -362,7 +363,14 @@ fn identify(
             consistent,
             ..Default::default()
         },
-        outputs: app::IdentifyOutputs { json: json_out, params: out_params, urdf, mcap: out_mcap, mjcf: write_mjcf },
+        outputs: app::IdentifyOutputs {
+            json: json_out,
+            params: out_params,
+            urdf,
+            mcap: out_mcap,
+            mjcf: write_mjcf,
+            report,
+        },
     };
     let out = run(py, progress, |p| {
         app::identify_job(
@@ -379,7 +387,7 @@ fn identify(
                     decimate=0, params_json=None, progress=None, json_out=None, write_urdf=None, payload_as="link",
                     velocity="auto", window=None, exclude=None,
                     current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None,
-                    torque_constant_std=None, gains=None, write_mjcf=None))]
+                    torque_constant_std=None, gains=None, write_mjcf=None, report=None))]
 #[allow(clippy::too_many_arguments)]
 fn payload(
     py: Python<'_>,
@@ -406,6 +414,7 @@ fn payload(
     torque_constant_std: Option<&Bound<'_, PyAny>>,
     gains: Option<String>,
     write_mjcf: Option<PathBuf>,
+    report: Option<PathBuf>,
 ) -> PyResult<String> {
     let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
     let prior =
@@ -427,6 +436,7 @@ fn payload(
             ..Default::default()
         },
         json: json_out,
+        report,
         urdf,
         mjcf: write_mjcf,
         torque_constant_prior: prior,

@@ -861,7 +861,7 @@ fn instrument_text(method: Method, instrument: &Option<String>) -> Option<String
 }
 
 /// Full parameters `theta` of `robot` as a reloadable params file.
-fn params_file(robot: &Robot, theta: Vec<f64>) -> ParamsFile {
+pub(crate) fn params_file(robot: &Robot, theta: Vec<f64>) -> ParamsFile {
     ParamsFile::new(&robot.name, robot.joint_names.clone(), robot.param_names(), theta, &robot.coulomb_shapes())
 }
 

@@ -5,6 +5,7 @@ use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use super::Outcome;
+use super::html::{IdentifyPage, Series, identify_page};
 use super::identify::{IdentifyOptions, IdentifyReport, identify_logs, write_prediction};
 use super::io::{LogInput, LogSource};
 use super::stream::{Streamed, identify_mcap, write_prediction_mcap};
@@ -13,6 +14,7 @@ use crate::error::{Error, Result};
 use crate::log::JointLog;
 use crate::output::OutputSet;
 use crate::progress::Stage;
+use crate::robot::physical::refuse_inconsistent;
 use crate::robot::{load::side_path, mjcf, write as urdf_write};
 
 /// What `identify` writes (each optional).
@@ -30,6 +32,8 @@ pub struct IdentifyOutputs {
     /// An MJCF (MuJoCo) model of the chain with the identified parameters (with its side
     /// file), [`crate::robot::mjcf`].
     pub mjcf: Option<PathBuf>,
+    /// The HTML report (one self-contained page, [`super::html`]).
+    pub report: Option<PathBuf>,
 }
 
 /// One `identify` run.
@@ -68,12 +72,22 @@ pub fn identify_job(robot: &Robot, job: &IdentifyJob) -> Result<Outcome<Identify
     let (mut report, mem) = fit(robot, job)?;
     let inputs = std::iter::once(&job.log).chain(&job.also).chain(&job.validate);
     report.notes.extend(inputs.flat_map(LogInput::notes));
-    let written = write_outputs(robot, job, &report, mem.as_deref())?;
+    let written = write_outputs(robot, job, &report, mem.as_ref())?;
     Ok(Outcome { report, written })
 }
 
-/// The fit, and the log if it was read into memory.
-fn fit<'a>(robot: &Robot, job: &'a IdentifyJob) -> Result<(IdentifyReport, Option<Cow<'a, JointLog>>)> {
+/// The logs of a fit that read them into memory (the outputs use them again).
+struct InMemory<'a> {
+    /// The first log.
+    log: Cow<'a, JointLog>,
+    /// The last of the other logs (`also`), if any.
+    last: Option<JointLog>,
+    /// The validation log, if any.
+    validation: Option<JointLog>,
+}
+
+/// The fit, and the logs if they were read into memory.
+fn fit<'a>(robot: &Robot, job: &'a IdentifyJob) -> Result<(IdentifyReport, Option<InMemory<'a>>)> {
     let mut why_not = job.log.mcap_path().and(job.source.in_memory_reason());
     let streamable = !job.in_memory
         && why_not.is_none()
@@ -103,14 +117,15 @@ fn fit<'a>(robot: &Robot, job: &'a IdentifyJob) -> Result<(IdentifyReport, Optio
     let mut opts = job.opts.clone();
     opts.validation_log =
         job.validate.as_ref().map(|v| read(robot, v, &job.source, &opts).map(Cow::into_owned)).transpose()?;
-    let also = job.also.iter().map(|l| read(robot, l, &job.source, &opts)).collect::<Result<Vec<_>>>()?;
+    let mut also = job.also.iter().map(|l| read(robot, l, &job.source, &opts)).collect::<Result<Vec<_>>>()?;
     let mut logs: Vec<&JointLog> = vec![&log];
     logs.extend(also.iter().map(|l| l.as_ref()));
     let mut r = identify_logs(robot, &logs, &opts).map_err(|e| job.log.context(e))?;
     if let Some(w) = why_not {
         r.notes.push(format!("read into memory (not streamed): {w}"));
     }
-    Ok((r, Some(log)))
+    let last = also.pop().map(Cow::into_owned);
+    Ok((r, Some(InMemory { log, last, validation: opts.validation_log.take() })))
 }
 
 fn read<'a>(robot: &Robot, input: &'a LogInput, src: &LogSource, opts: &IdentifyOptions) -> Result<Cow<'a, JointLog>> {
@@ -122,7 +137,7 @@ fn write_outputs(
     robot: &Robot,
     job: &IdentifyJob,
     rep: &IdentifyReport,
-    mem: Option<&JointLog>,
+    mem: Option<&InMemory<'_>>,
 ) -> Result<Vec<String>> {
     let out = &job.outputs;
     let mut written = vec![];
@@ -146,7 +161,9 @@ fn write_outputs(
     };
     if let Some((input, path)) = &out.urdf {
         let text = std::fs::read_to_string(input).map_err(|e| Error::Io { file: input.clone(), source: e })?;
-        let wb = urdf_write::write_back(&text, input, &shaped()?, Some(&params.theta), None, vec![source.to_string()])?;
+        let arm = shaped()?;
+        refuse_inconsistent(&arm, &params.theta, "URDF").map_err(|e| in_output(e, path))?;
+        let wb = urdf_write::write_back(&text, input, &arm, Some(&params.theta), None, vec![source.to_string()])?;
         urdf_write::stage_files(&mut set, path, &wb)?;
         written.push(format!(
             "URDF written to {} (armature and offsets in {})",
@@ -166,8 +183,13 @@ fn write_outputs(
     if let Some(p) = &out.mcap {
         let mut model = robot.clone();
         crate::robot::load::load_params(&mut model, &rep.params)?;
-        let k = prediction(&mut set, robot, &model, job, mem, p)?;
+        let k = prediction(&mut set, robot, &model, job, mem.map(|m| m.log.as_ref()), p)?;
         written.push(format!("measured, predicted and residual torques ({k} samples) written to {} (topics /joint_states, /ivdyn/predicted, /ivdyn/residual)", p.display()));
+    }
+    if let Some(p) = &out.report {
+        let page = report_page(robot, job, rep, mem, p)?;
+        set.write_bytes(p, page.as_bytes())?;
+        written.push(format!("HTML report written to {}", p.display()));
     }
     set.commit()?;
     Ok(written)
@@ -176,6 +198,43 @@ fn write_outputs(
 /// `e` as an error of the output file `path` (nothing was written).
 fn in_output(e: Error, path: &Path) -> Error {
     Error::InFile { file: path.to_path_buf(), source: Box::new(e) }
+}
+
+/// The HTML report's text: the last log (its held-out tail) and the validation log,
+/// predicted by the identified model; a streamed log is read whole here (only its joint
+/// states: the regressor, which made it too large, is not built).
+fn report_page(
+    robot: &Robot,
+    job: &IdentifyJob,
+    rep: &IdentifyReport,
+    mem: Option<&InMemory<'_>>,
+    file: &Path,
+) -> Result<String> {
+    let _st = Stage::begin(&job.opts.progress, "HTML report", 0);
+    let mut model = robot.clone();
+    crate::robot::load::load_params(&mut model, &rep.params)?;
+    let cond = &job.opts.condition;
+    let in_log = |input: &LogInput, log: &JointLog| Series::of(&[&model], log, cond).map_err(|e| input.context(e));
+    let last_input = job.also.last().unwrap_or(&job.log);
+    let log = match mem {
+        Some(m) => in_log(last_input, m.last.as_ref().unwrap_or(&m.log))?,
+        None => in_log(&job.log, &*job.log.load(robot, &job.source)?)?,
+    };
+    let validation = match (mem, &job.validate) {
+        (Some(InMemory { validation: Some(v), .. }), Some(input)) => Some(in_log(input, v)?),
+        (_, Some(input)) => Some(in_log(input, &*input.load(robot, &job.source)?)?),
+        (_, None) => None,
+    };
+    let f = job.opts.validation_fraction;
+    let held_out_from = (validation.is_none() && f > 0.0).then(|| ((1.0 - f) * log.len() as f64) as usize);
+    let logs = std::iter::once(&job.log).chain(&job.also).map(input_name).collect();
+    let page = IdentifyPage { robot, report: rep, logs, log: &log, held_out_from, validation: validation.as_ref() };
+    identify_page(&page, file)
+}
+
+/// A log input as the report names it: its file, or "(arrays)".
+pub(crate) fn input_name(input: &LogInput) -> String {
+    input.path().map(|p| p.display().to_string()).unwrap_or_else(|| "(arrays)".into())
 }
 
 /// The prediction MCAP, staged in `set`: streamed from the log file when the fit was,

@@ -12,6 +12,7 @@ pub mod diagnose;
 pub mod effort;
 pub mod excite;
 pub mod gains;
+pub mod html;
 pub mod identify;
 pub mod identify_job;
 pub mod io;

@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 
 use super::Outcome;
 use super::effort::{Effort, PerJoint, TorqueConstants};
-use super::identify::{IdentifyOptions, Method, identify, identify_base};
+use super::html::{PayloadPage, Series, payload_page};
+use super::identify::{IdentifyOptions, Method, identify, identify_base, params_file};
+use super::identify_job::input_name;
 use super::io::{LogInput, LogSource};
 pub use super::payload_before::{BEFORE_CHECK_CONFIDENCE, BeforeCheck};
 use super::payload_before::{BeforeModel, add_before_uncertainty, before_check, before_note};
@@ -25,8 +27,8 @@ use crate::log::JointLog;
 use crate::output::OutputSet;
 use crate::prep::{self, ConditionOptions, parallel_filter};
 use crate::progress::{ProgressSink, Stage};
-use crate::report::PayloadSpec;
 use crate::report::quality;
+use crate::report::{ParamsFile, PayloadSpec};
 use ivdyn_core::estim::TerminalSpec;
 use ivdyn_core::params::LINK_PARAMS;
 
@@ -127,6 +129,10 @@ pub struct PayloadReport {
     pub uncertainty_sources: Vec<String>,
     /// Remarks.
     pub notes: Vec<String>,
+    /// The full parameters of the model the residual is taken against (`nominal`), for
+    /// the HTML report's plots.
+    #[serde(skip)]
+    pub nominal_params: Option<ParamsFile>,
 }
 
 /// [`PayloadReport::uncertainty_sources`]: the log's own noise (the WLS covariance).
@@ -217,6 +223,7 @@ pub fn payload(
         before_check,
         uncertainty_sources: sources,
         notes,
+        nominal_params: Some(params_file(&nom.robot, nom.robot.params())),
     };
     Ok(with_estimate(rep, est))
 }
@@ -480,6 +487,8 @@ pub struct PayloadJob {
     pub opts: PayloadOptions,
     /// The JSON report.
     pub json: Option<PathBuf>,
+    /// The HTML report (one self-contained page, [`super::html`]).
+    pub report: Option<PathBuf>,
     /// A copy of the URDF `.0` with the payload, written to `.1` (when identifiable).
     pub urdf: Option<(PathBuf, PathBuf, PayloadMode)>,
     /// An MJCF of the arm as loaded with the payload welded to the last link (when
@@ -519,8 +528,36 @@ pub fn payload_job(robot: &Robot, job: &PayloadJob) -> Result<Outcome<PayloadRep
         crate::robot::mjcf::stage_files(&mut set, out, &mj)?;
         written.push(format!("MJCF with the payload written to {}", out.display()));
     }
+    if let Some(p) = &job.report {
+        let _st = Stage::begin(&opts.progress, "HTML report", 0);
+        let log = report_series(robot, &rep, &after, &opts.condition).map_err(|e| job.log.context(e))?;
+        let logs = std::iter::once(&job.log).chain(&job.before).map(input_name).collect();
+        let page = payload_page(&PayloadPage { report: &rep, logs, log: &log }, p)?;
+        set.write_bytes(p, page.as_bytes())?;
+        written.push(format!("HTML report written to {}", p.display()));
+    }
     set.commit()?;
     Ok(Outcome { report: rep, written })
+}
+
+/// The report's plot data: `after` predicted by the nominal model of `rep` and by that
+/// model with the reported payload added to the last link's parameters (the columns the
+/// payload was fitted on); without an estimate, by the nominal model twice.
+fn report_series(robot: &Robot, rep: &PayloadReport, after: &JointLog, cond: &ConditionOptions) -> Result<Series> {
+    let mut nominal = robot.clone();
+    if let Some(p) = &rep.nominal_params {
+        crate::robot::load::load_params(&mut nominal, p)?;
+    }
+    let mut loaded = nominal.clone();
+    if let Some(add) = &rep.params {
+        let (cols, _) = payload_columns(robot);
+        let mut theta = loaded.params();
+        for (c, v) in cols.iter().zip(add) {
+            theta[*c] += v;
+        }
+        loaded.set_params(&theta)?;
+    }
+    Series::of(&[&nominal, &loaded], after, cond)
 }
 
 /// `src` with the torque constants `prior` settles (a gains report's replace the given

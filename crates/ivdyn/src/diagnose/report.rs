@@ -3,22 +3,21 @@
 //! (measured, predicted and residual torques as JointState topics, for a log viewer).
 //! Topic names and the page's content are documented in `docs/diagnose.md` ("Outputs").
 //!
-//! * [`plots`]: the figures (plotters into an RGB buffer, embedded font, PNG).
-//! * [`html`]: the page text.
+//! * [`crate::report::plots`]: the figures (plotters into an RGB buffer, embedded font,
+//!   PNG), shared with the identify and payload reports;
+//! * [`html`]: the page text (its skeleton: [`crate::report::page`]).
 
-mod backend;
 mod html;
-mod plots;
 
 use std::path::Path;
 
-pub use html::{fmt_num, fmt_p, fmt_pct};
+pub use crate::report::page::{fmt_num, fmt_p, fmt_pct};
 
 use super::Diagnosis;
 use crate::error::{Error, Result};
 use crate::log::McapWriter;
 use crate::output::OutputSet;
-use plots::{StateAxis, Trace};
+use crate::report::plots::{self, StateAxis, Trace, column, zoom_window};
 
 /// File name of the page written by [`write_html`].
 pub const HTML_FILE: &str = "report.html";
@@ -73,44 +72,6 @@ fn check_shapes(d: &Diagnosis) -> Result<(usize, usize)> {
     Ok((t, n))
 }
 
-/// Column `j` of a row-major `T x n` array.
-fn column(a: &[f64], n: usize, j: usize) -> Vec<f64> {
-    a.iter().skip(j).step_by(n).copied().collect()
-}
-
-/// The time window (about a tenth of the log, 1 to 5 s) where the squared residual `r` is
-/// largest; `None` when the log is too short for a zoom to show anything new.
-fn zoom_window(t: &[f64], r: &[f64]) -> Option<(f64, f64)> {
-    let (t0, t1) = (t[0], *t.last()?);
-    let dur = t1 - t0;
-    let w = (dur / 10.0).clamp(1.0, 5.0);
-    if !(dur > 3.0 * w) {
-        return None;
-    }
-    // Prefix sums of r^2 (non-finite values count as 0) for O(T) sliding windows.
-    let mut cum = Vec::with_capacity(r.len() + 1);
-    cum.push(0.0);
-    for &v in r {
-        cum.push(cum.last().unwrap() + if v.is_finite() { v * v } else { 0.0 });
-    }
-    let (mut best, mut best_k) = (f64::NEG_INFINITY, 0);
-    let mut hi = 0;
-    for k in 0..t.len() {
-        if t[k] + w > t1 {
-            break;
-        }
-        while hi < t.len() && t[hi] <= t[k] + w {
-            hi += 1;
-        }
-        let s = cum[hi] - cum[k];
-        if s > best {
-            best = s;
-            best_k = k;
-        }
-    }
-    Some((t[best_k], t[best_k] + w))
-}
-
 /// The error for a figure that cannot be drawn (the report file is what fails).
 fn plot_error(dir: &Path, what: &str, msg: String) -> Error {
     Error::Io { file: dir.join(HTML_FILE), source: std::io::Error::other(format!("cannot draw {what}: {msg}")) }
@@ -156,7 +117,7 @@ fn figures(d: &Diagnosis, n: usize, dir: &Path) -> Result<html::Figures> {
             torque.push(Trace { label: final_label.clone(), color: plots::step_color(last), y: &pred[last], width: 2 });
         }
         let zoom = zoom_window(&tr.t, &res[0]);
-        let torque = plots::torque_vs_time(name, &tr.t, &torque, zoom)
+        let torque = plots::torque_vs_time(name, "whole log", &tr.t, &torque, zoom, "the nominal residual")
             .map_err(|e| plot_error(dir, &format!("the torque plot of joint '{name}'"), e))?;
 
         let residual: Vec<Trace> = (0..=k)

@@ -31,7 +31,7 @@ use quick_xml::escape::escape;
 
 use super::Robot;
 use super::load::{SideFile, side_path};
-use super::physical::{check_link, check_robot_params};
+use super::physical::{check_link, refuse_inconsistent, refused};
 use super::write::{side_file, stage_side};
 use crate::error::{Error, Result};
 use crate::output::OutputSet;
@@ -84,12 +84,7 @@ fn mass_com_inertia(p: &[f64], what: &str) -> Result<(f64, Vector3<f64>, Matrix3
 }
 
 fn refusal(lines: &[String]) -> Error {
-    Error::Estimation {
-        msg: format!(
-            "MJCF export refused: not physically possible (MuJoCo would reject or mis-simulate it): {}. Identify with --consistent (consistent=True) for physically consistent parameters",
-            lines.join("; ")
-        ),
-    }
+    refused("MJCF", lines)
 }
 
 /// `<inertial>` of a body: COM, mass, inertia about the COM in MuJoCo's order.
@@ -123,15 +118,7 @@ fn payload_name(robot: &Robot) -> String {
 /// last link; `notes` go into the side file (and the header comment). See the module docs.
 pub fn to_mjcf(robot: &Robot, payload: Option<&PayloadSpec>, notes: Vec<String>) -> Result<Mjcf> {
     let theta = robot.params();
-    let check = check_robot_params(robot, &theta);
-    if !check.consistent {
-        let named = |kind: &'static str| {
-            move |v: &super::physical::Violations| format!("{kind} '{}': {}", v.name, v.problems.join("; "))
-        };
-        let lines: Vec<String> =
-            check.links.iter().map(named("link")).chain(check.joints.iter().map(named("joint"))).collect();
-        return Err(refusal(&lines));
-    }
+    refuse_inconsistent(robot, &theta, "MJCF")?;
     let payload_body = payload.map(|p| payload_xml(robot, p)).transpose()?;
     let mut notes = notes;
     notes.extend(drive_notes(robot, &theta));

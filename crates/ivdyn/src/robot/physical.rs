@@ -155,3 +155,28 @@ pub fn check_params(theta: &[f64], links: &[String], joints: &[String]) -> Physi
 pub fn check_robot_params(robot: &super::Robot, theta: &[f64]) -> PhysicalCheck {
     check_params(theta, &robot.link_names, &robot.joint_names)
 }
+
+/// `Ok` when the parameters `theta` of `robot` are physically consistent, else the error
+/// refusing to write them as `what` (a URDF, an MJCF), every link and joint named with its
+/// problems: a simulator would reject or mis-simulate them (issue: physically invalid
+/// inertials are never written).
+pub fn refuse_inconsistent(robot: &super::Robot, theta: &[f64], what: &str) -> crate::error::Result<()> {
+    let check = check_robot_params(robot, theta);
+    if check.consistent {
+        return Ok(());
+    }
+    let named = |kind: &'static str| move |v: &Violations| format!("{kind} '{}': {}", v.name, v.problems.join("; "));
+    let lines: Vec<String> =
+        check.links.iter().map(named("link")).chain(check.joints.iter().map(named("joint"))).collect();
+    Err(refused(what, &lines))
+}
+
+/// The error refusing to write `what` for the problems `lines`.
+pub fn refused(what: &str, lines: &[String]) -> crate::error::Error {
+    crate::error::Error::Estimation {
+        msg: format!(
+            "{what} export refused: not physically possible (a simulator would reject or mis-simulate it): {}. Identify with --consistent (consistent=True) for physically consistent parameters",
+            lines.join("; ")
+        ),
+    }
+}

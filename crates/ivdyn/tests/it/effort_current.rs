@@ -184,6 +184,7 @@ fn errors_name_the_option_and_the_joint() {
         source: LogSource::default(),
         opts: Default::default(),
         json: None,
+        report: None,
         urdf: None,
         mjcf: None,
         torque_constant_prior: Default::default(),

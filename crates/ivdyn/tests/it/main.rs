@@ -2,6 +2,8 @@
 //! file (`make test` time), the files' tests run together on the harness's threads. Each
 //! module was a test binary of its own; they share nothing (temporary paths are named per
 //! module). `tests/fixtures.rs` and `tests/urdf_errors.rs` at the repository root belong here too.
+//! `tests/io_stream.rs` stays a binary of its own: it measures the process's resident memory,
+//! which the other tests' threads would add to.
 
 mod base_names;
 mod batch_recovery;
@@ -17,6 +19,7 @@ mod excite;
 mod fixtures;
 mod hostile_inputs;
 mod hostile_limits;
+mod html_reports;
 mod ident_accum;
 mod ident_base;
 mod ident_fit;
@@ -26,8 +29,8 @@ mod inertia_order;
 mod io_bag;
 mod io_csv;
 mod io_mcap;
-mod io_stream;
 mod log_hygiene;
+mod mjcf_write;
 mod output;
 mod payload;
 mod payload_physical;

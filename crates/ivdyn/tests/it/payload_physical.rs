@@ -185,6 +185,7 @@ fn an_impossible_payload_is_never_written() {
         source: LogSource::default(),
         opts: PayloadOptions::default(),
         json: None,
+        report: None,
         urdf: Some((PathBuf::from(UR5), written.clone(), PayloadMode::Link)),
         mjcf: None,
         torque_constant_prior: Default::default(),

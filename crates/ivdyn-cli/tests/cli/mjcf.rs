@@ -2,8 +2,7 @@
 //! are written with the parameter file's values; parameters that are not physically
 //! consistent are refused naming the link, with none of the command's files written.
 //! MuJoCo loads the file in python/tests_io/test_mjcf_export.py.
-#[path = "cli_util/mod.rs"]
-mod util;
+use crate::util;
 use util::*;
 
 /// Attribute `attr` (a number) of the first element of `xml` starting with `head`.

@@ -1,6 +1,5 @@
 //! simulate -> identify -> reload the written parameters -> same torques.
-#[path = "cli_util/mod.rs"]
-mod util;
+use crate::util;
 use util::*;
 
 /// `[sub] + base + rest` for `extra = [sub, rest..]`.

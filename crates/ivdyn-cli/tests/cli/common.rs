@@ -1,6 +1,5 @@
 //! Smoke test of the `ivdyn` binary.
-#[path = "cli_util/mod.rs"]
-mod util;
+use crate::util;
 
 #[test]
 fn cli_help_lists_commands() {

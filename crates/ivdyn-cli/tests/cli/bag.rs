@@ -2,8 +2,7 @@
 //! same fit as the MCAP file inside it, in memory and streamed; a directory is no more
 //! "Is a directory (os error 21)". Bags from an independent writer (Python `rosbags`,
 //! mcap and sqlite3, split, compressed) are in python/tests_io/test_rosbag2.py.
-#[path = "cli_util/mod.rs"]
-mod util;
+use crate::util;
 use util::*;
 
 /// The `base` values of an identify JSON report.

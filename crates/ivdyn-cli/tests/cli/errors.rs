@@ -1,6 +1,5 @@
 //! Bad input: one line on stderr naming the problem, non-zero exit, no output file.
-#[path = "cli_util/mod.rs"]
-mod util;
+use crate::util;
 use util::*;
 
 /// Runs `ivdyn <sub> <args..> --json D/out.json [--out-params D/params.json]` and checks

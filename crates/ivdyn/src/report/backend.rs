@@ -12,16 +12,16 @@ use plotters_backend::text_anchor::{HPos, VPos};
 use plotters_backend::{BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind};
 
 /// DejaVu Sans (licence: `assets/DejaVuSans-LICENSE.txt`).
-pub(super) static FONT_BYTES: &[u8] = include_bytes!("../../../assets/DejaVuSans.ttf");
+pub(crate) static FONT_BYTES: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 
 /// The embedded font, parsed once.
-pub(super) fn font() -> Option<&'static FontRef<'static>> {
+pub(crate) fn font() -> Option<&'static FontRef<'static>> {
     static PARSED: OnceLock<Option<FontRef<'static>>> = OnceLock::new();
     PARSED.get_or_init(|| FontRef::try_from_slice(FONT_BYTES).ok()).as_ref()
 }
 
 /// A [`BitMapBackend`] whose text is drawn by [`draw_text`](DrawingBackend::draw_text) below.
-pub(super) struct Canvas<'a> {
+pub(crate) struct Canvas<'a> {
     inner: BitMapBackend<'a>,
 }
 

@@ -2,8 +2,7 @@
 //! topics on the same stamps, read back with ivdyn's reader; the prediction is checked
 //! against `Y(q, qd, qdd) theta` computed here from the reported parameters (regressor, not
 //! RNEA) at the state of an in-memory conditioning of the original log.
-#[path = "cli_util/mod.rs"]
-mod util;
+use crate::util;
 use ivdyn::log::{ReadOptions, read_mcap};
 use util::*;
 

@@ -18,15 +18,15 @@ use super::backend::Canvas;
 const FAMILY: &str = "sans-serif";
 
 /// Pixel width of every figure: the page shows them unscaled (crisp at 100 % zoom).
-pub(super) const WIDTH: u32 = 1100;
+pub(crate) const WIDTH: u32 = 1100;
 
 /// Most points per scatter panel (per model).
-pub(super) const SCATTER_POINTS: usize = 4000;
+pub(crate) const SCATTER_POINTS: usize = 4000;
 
 /// Measured torque.
-pub(super) const MEASURED: RGBColor = RGBColor(40, 40, 40);
+pub(crate) const MEASURED: RGBColor = RGBColor(40, 40, 40);
 /// The nominal model.
-pub(super) const NOMINAL: RGBColor = RGBColor(31, 119, 180);
+pub(crate) const NOMINAL: RGBColor = RGBColor(31, 119, 180);
 /// Models after step 1, 2, ... (the tab10 palette without its blue).
 const STEPS: [RGBColor; 9] = [
     RGBColor(255, 127, 14),
@@ -41,13 +41,13 @@ const STEPS: [RGBColor; 9] = [
 ];
 
 /// Colour of the model after step `i` (1-based); step 0 is the nominal model.
-pub(super) fn step_color(i: usize) -> RGBColor {
+pub(crate) fn step_color(i: usize) -> RGBColor {
     if i == 0 { NOMINAL } else { STEPS[(i - 1) % STEPS.len()] }
 }
 
 /// A PNG image.
 #[derive(Debug, Clone)]
-pub(super) struct Png {
+pub(crate) struct Png {
     /// Encoded bytes.
     pub bytes: Vec<u8>,
     /// Width in pixels.
@@ -57,7 +57,7 @@ pub(super) struct Png {
 }
 
 /// One line or point set of a figure.
-pub(super) struct Trace<'a> {
+pub(crate) struct Trace<'a> {
     /// Legend text.
     pub label: String,
     /// Colour.
@@ -114,7 +114,7 @@ fn render(width: u32, height: u32, draw: impl FnOnce(&Area<'_>) -> Result<(), Dr
 
 /// What a legend entry shows.
 #[derive(Clone, Copy)]
-pub(super) enum Swatch {
+pub(crate) enum Swatch {
     Line(u32),
     Dot,
     Bar,
@@ -181,7 +181,7 @@ fn y_range<'a>(ys: impl IntoIterator<Item = &'a [f64]>) -> (f64, f64) {
 /// Samples of `y(t)` with `t` in `[t0, t1]` reduced to the min and max of each of `cols`
 /// equal time bins, in time order: a polyline through them covers exactly the pixels the
 /// full series would.
-pub(super) fn envelope(t: &[f64], y: &[f64], t0: f64, t1: f64, cols: usize) -> Vec<(f64, f64)> {
+pub(crate) fn envelope(t: &[f64], y: &[f64], t0: f64, t1: f64, cols: usize) -> Vec<(f64, f64)> {
     let lo = t.partition_point(|&x| x < t0);
     let hi = t.partition_point(|&x| x <= t1);
     let idx = lo..hi;
@@ -219,7 +219,7 @@ pub(super) fn envelope(t: &[f64], y: &[f64], t0: f64, t1: f64, cols: usize) -> V
 
 /// At most `m` sample indices of `0..n`: one uniformly random index in each of `m` equal
 /// strata (deterministic seed; random rather than strided so periodic trajectories do not alias).
-pub(super) fn subsample(n: usize, m: usize) -> Vec<usize> {
+pub(crate) fn subsample(n: usize, m: usize) -> Vec<usize> {
     if n <= m {
         return (0..n).collect();
     }
@@ -234,6 +234,44 @@ pub(super) fn subsample(n: usize, m: usize) -> Vec<usize> {
             (((i as f64 + u) * n as f64 / m as f64) as usize).min(n - 1)
         })
         .collect()
+}
+
+/// Column `j` of a row-major `T x n` array.
+pub(crate) fn column(a: &[f64], n: usize, j: usize) -> Vec<f64> {
+    a.iter().skip(j).step_by(n).copied().collect()
+}
+
+/// The time window (about a tenth of the log, 1 to 5 s) where the squared residual `r` is
+/// largest; `None` when the log is too short for a zoom to show anything new.
+pub(crate) fn zoom_window(t: &[f64], r: &[f64]) -> Option<(f64, f64)> {
+    let (t0, t1) = (t[0], *t.last()?);
+    let dur = t1 - t0;
+    let w = (dur / 10.0).clamp(1.0, 5.0);
+    if !(dur > 3.0 * w) {
+        return None;
+    }
+    // Prefix sums of r^2 (non-finite values count as 0) for O(T) sliding windows.
+    let mut cum = Vec::with_capacity(r.len() + 1);
+    cum.push(0.0);
+    for &v in r {
+        cum.push(cum.last().unwrap() + if v.is_finite() { v * v } else { 0.0 });
+    }
+    let (mut best, mut best_k) = (f64::NEG_INFINITY, 0);
+    let mut hi = 0;
+    for k in 0..t.len() {
+        if t[k] + w > t1 {
+            break;
+        }
+        while hi < t.len() && t[hi] <= t[k] + w {
+            hi += 1;
+        }
+        let s = cum[hi] - cum[k];
+        if s > best {
+            best = s;
+            best_k = k;
+        }
+    }
+    Some((t[best_k], t[best_k] + w))
 }
 
 /// One time-series panel: every trace against `t` over `[t0, t1]`.
@@ -286,12 +324,16 @@ fn time_panel(
     Ok(())
 }
 
-/// Measured vs predicted torque of one joint: the whole log, and a zoom on `zoom`.
-pub(super) fn torque_vs_time(
+/// Measured vs predicted torque of one joint over all of `t` (`span` says what that is,
+/// e.g. "whole log"), and a zoom on `zoom` (where `largest`, e.g. "the nominal residual",
+/// is largest).
+pub(crate) fn torque_vs_time(
     joint: &str,
+    span: &str,
     t: &[f64],
     traces: &[Trace<'_>],
     zoom: Option<(f64, f64)>,
+    largest: &str,
 ) -> Result<Png, String> {
     let full = (t[0], *t.last().unwrap_or(&t[0]));
     let h_full = 330;
@@ -302,10 +344,9 @@ pub(super) fn torque_vs_time(
         let items: Vec<_> = traces.iter().map(|tr| (tr.label.clone(), tr.color, Swatch::Line(tr.width))).collect();
         legend(&top, &items)?;
         let (a, b) = rest.split_vertically(h_full);
-        time_panel(&a, &format!("{joint}: measured and predicted torque, whole log"), t, full, traces, "torque (N m)")?;
+        time_panel(&a, &format!("{joint}: measured and predicted torque, {span}"), t, full, traces, "torque (N m)")?;
         if let Some(z) = zoom {
-            let cap =
-                format!("{joint}: zoom on t = {:.1} to {:.1} s (where the nominal residual is largest)", z.0, z.1);
+            let cap = format!("{joint}: zoom on t = {:.1} to {:.1} s (where {largest} is largest)", z.0, z.1);
             time_panel(&b, &cap, t, z, traces, "torque (N m)")?;
         }
         Ok(())
@@ -313,7 +354,7 @@ pub(super) fn torque_vs_time(
 }
 
 /// Residual (measured - predicted) of one joint vs time, one trace per model.
-pub(super) fn residual_vs_time(joint: &str, t: &[f64], traces: &[Trace<'_>]) -> Result<Png, String> {
+pub(crate) fn residual_vs_time(joint: &str, t: &[f64], traces: &[Trace<'_>]) -> Result<Png, String> {
     let full = (t[0], *t.last().unwrap_or(&t[0]));
     render(WIDTH, 40 + 330, |root| {
         root.fill(&WHITE)?;
@@ -332,7 +373,7 @@ pub(super) fn residual_vs_time(joint: &str, t: &[f64], traces: &[Trace<'_>]) -> 
 }
 
 /// A state signal of one joint (x axis of a scatter panel).
-pub(super) struct StateAxis<'a> {
+pub(crate) struct StateAxis<'a> {
     /// Axis description with unit.
     pub desc: &'a str,
     /// Values, one per sample.
@@ -341,7 +382,7 @@ pub(super) struct StateAxis<'a> {
 
 /// Residual of one joint vs its position, velocity and acceleration (one panel each),
 /// for each model in `traces` (e.g. nominal and final), on a common random subsample.
-pub(super) fn residual_vs_state(joint: &str, axes: &[StateAxis<'_>], traces: &[Trace<'_>]) -> Result<Png, String> {
+pub(crate) fn residual_vs_state(joint: &str, axes: &[StateAxis<'_>], traces: &[Trace<'_>]) -> Result<Png, String> {
     let n = axes.first().map(|a| a.x.len()).unwrap_or(0);
     let idx = subsample(n, SCATTER_POINTS);
     let (ylo, yhi) = y_range(traces.iter().map(|tr| tr.y));
@@ -390,7 +431,7 @@ pub(super) fn residual_vs_state(joint: &str, axes: &[StateAxis<'_>], traces: &[T
 }
 
 /// RMS residual per joint (groups) and model (bars), with the noise estimate as a line.
-pub(super) fn rms_bars(joints: &[String], bars: &[(String, RGBColor, Vec<f64>)], noise: &[f64]) -> Result<Png, String> {
+pub(crate) fn rms_bars(joints: &[String], bars: &[(String, RGBColor, Vec<f64>)], noise: &[f64]) -> Result<Png, String> {
     let nj = joints.len();
     let ymax =
         bars.iter().flat_map(|b| b.2.iter()).chain(noise).copied().filter(|v| v.is_finite()).fold(0.0f64, f64::max);

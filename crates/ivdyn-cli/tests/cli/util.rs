@@ -1,4 +1,4 @@
-#![allow(dead_code)]
+#![allow(dead_code)] // each module uses a part
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 

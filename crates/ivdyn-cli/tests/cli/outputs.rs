@@ -2,8 +2,7 @@
 //! SIGTERM leave none of the command's new files and no staging folder; special files
 //! (FIFOs, /dev/null) are written in place, never replaced.
 #![cfg(unix)]
-#[path = "cli_util/mod.rs"]
-mod util;
+use crate::util;
 use util::*;
 
 use std::os::unix::fs::FileTypeExt;
@@ -27,7 +26,7 @@ fn ur5_log() -> String {
 fn identify_later_output_fails_leaves_none() {
     let d = tmpdir("all_identify");
     let p = |f: &str| s(&d.join(f));
-    // the URDF write-back refuses a negative mass (no --consistent), after --out-params
+    // the URDF write-back refuses physically inconsistent parameters (no --consistent), after --out-params
     let a = ur5_cmd(
         "identify",
         &["--log", &ur5_log(), "--out-params", &p("p.json"), "--write-urdf", &p("u.urdf"), "--json", &p("r.json")],

@@ -1,6 +1,14 @@
 //! Serialisable results shared by every layer: base-parameter values, per-joint fit
 //! quality, the LS-vs-IV test, the full parameter file and a payload description. The
 //! JSON the command line writes is these types, field for field.
+//!
+//! Below them, what every HTML report (diagnose, identify, payload) is made of:
+//! [`page`] (the page skeleton, style sheet, escaping, number formats) and `plots` (PNG
+//! figures drawn with plotters and an embedded font, decimated for long logs).
+
+mod backend;
+pub mod page;
+pub(crate) mod plots;
 
 use serde::{Deserialize, Serialize};
 

@@ -1,8 +1,7 @@
 //! `ivdyn gains` on a simulated UR5 pair: currents (`tau / g + noise`) in CSV `.i` columns
 //! (unloaded) and on an MCAP current topic (loaded, 2 kg payload); the gains that gravity
 //! loads come out within 2 % of the simulation's truth, and torque constants are refused.
-#[path = "cli_util/mod.rs"]
-mod util;
+use crate::util;
 use util::*;
 
 use ivdyn::app::{self, SimulateOptions};

@@ -1,6 +1,5 @@
 //! A simulated UR5 carrying 2 kg: `ivdyn payload` within 3 % (mass) and 1 cm (COM).
-#[path = "cli_util/mod.rs"]
-mod util;
+use crate::util;
 use util::*;
 
 fn run(mut args: Vec<String>, sub: &str, extra: &[&str]) -> std::process::Output {

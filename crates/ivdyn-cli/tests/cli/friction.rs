@@ -1,7 +1,6 @@
 //! `ivdyn identify --friction ... --no-armature --no-offset`: the flags choose which drive
 //! parameters are in the model, and that changes the fit the way physics says it must.
-#[path = "cli_util/mod.rs"]
-mod util;
+use crate::util;
 use util::*;
 
 /// Identifies `log` with `flags`; returns (base parameter names, drive_terms, worst

@@ -1,0 +1,17 @@
+//! The command line's tests in one binary (one build, one link): each module runs the
+//! `ivdyn` binary on fixtures or generated logs; `util` holds what they share (scratch
+//! directories are named per test).
+
+mod util;
+
+mod bag;
+mod common;
+mod errors;
+mod friction;
+mod gains;
+mod mjcf;
+mod out_mcap;
+mod outputs;
+mod payload;
+mod report;
+mod roundtrip;
