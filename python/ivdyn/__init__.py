@@ -48,12 +48,6 @@ import numpy as np
 from . import _ivdyn
 from ._guard import real_array
 
-try:  # the installed distribution's version (pyproject.toml)
-    from importlib.metadata import version as _version
-
-    __version__ = _version("ivdyn")
-except Exception:  # not installed as a distribution (e.g. a bare build tree)
-    __version__ = "unknown"
 
 __all__ = [
     "Robot", "MAX_DOF", "__version__",

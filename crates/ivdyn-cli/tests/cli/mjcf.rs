@@ -50,7 +50,7 @@ fn inconsistent_parameters_are_refused_and_nothing_written() {
     let d = tmpdir("mjcf_refused");
     let p = |f: &str| s(&d.join(f));
     // the least-squares parameters of this log have a link that is not a body (see
-    // cli_outputs.rs: the URDF write-back refuses its negative mass)
+    // cli/outputs.rs: the URDF write-back refuses its negative mass)
     let a = ur5_cmd(
         "identify",
         &["--log", &fixture("logs/ur5_500hz.mcap"), "--out-params", &p("p.json"), "--write-mjcf", &p("u.xml")],

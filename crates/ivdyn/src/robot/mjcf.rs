@@ -204,10 +204,7 @@ fn body_open(x: &mut String, robot: &Robot, chain: &super::Chain, theta: &[f64],
 
 /// The payload's welded `<body>`, after the physical check.
 fn payload_xml(robot: &Robot, p: &PayloadSpec) -> Result<String> {
-    let ic = &p.inertia;
-    let i_c = Matrix3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
-    let com = Vector3::new(p.com[0], p.com[1], p.com[2]);
-    let li = LinkInertia::from_mass_com_inertia(p.mass, &com, &Matrix3::identity(), &i_c);
+    let li = p.link_inertia();
     let name = payload_name(robot);
     let (m, c, ic) = mass_com_inertia(&li.0, &format!("payload '{name}'"))?;
     Ok(format!("<body name=\"{}\">{}</body>", escape(&name), inertial_xml(m, &c, &ic)))
