@@ -163,13 +163,15 @@ mod tests {
 
     #[test]
     fn payload_parts_are_physical() {
+        // inertias in ivdyn's order [Ixx, Ixy, Iyy, Ixz, Iyz, Izz]
         // a 0.1 m solid cube of 1 kg: I = m a^2 / 6 on each axis
-        let cube = [1.0 / 600.0, 0.0, 0.0, 1.0 / 600.0, 0.0, 1.0 / 600.0];
+        let cube = [1.0 / 600.0, 0.0, 1.0 / 600.0, 0.0, 0.0, 1.0 / 600.0];
         assert!(payload_parts(1.0, Some(&[0.0, 0.0, 0.1]), Some(&cube)).is_ok());
         assert!(payload_parts(1.0, None, Some(&[0.0; 6])).is_ok(), "a point mass");
         // a thin rod along z: I = (m L^2 / 12, same, 0): on the triangle inequality's edge
-        assert!(payload_parts(1.0, None, Some(&[1.0 / 12.0, 0.0, 0.0, 1.0 / 12.0, 0.0, 0.0])).is_ok());
-        for bad in [[-1.0, 0.0, 0.0, 1.0, 0.0, 1.0], [1.0, 0.0, 0.0, 0.1, 0.0, 0.1]] {
+        assert!(payload_parts(1.0, None, Some(&[1.0 / 12.0, 0.0, 1.0 / 12.0, 0.0, 0.0, 0.0])).is_ok());
+        // a negative moment; moments 1, 0.1, 0.1 (0.1 + 0.1 < 1)
+        for bad in [[-1.0, 0.0, 1.0, 0.0, 0.0, 1.0], [1.0, 0.0, 0.1, 0.0, 0.0, 0.1]] {
             let e = payload_parts(1.0, None, Some(&bad)).unwrap_err().to_string();
             assert!(e.starts_with("payload_inertia is not a body's inertia"), "{e}");
         }

@@ -45,7 +45,7 @@ fn sim_opts(pair: Pair, seed: u64, payload: bool) -> SimulateOptions {
         base_freq_hz: pair.base_freq_hz,
         fc: Some(vec![2.0, 2.0, 1.5, 0.6, 0.6, 0.4]),
         fv: Some(vec![0.8, 0.8, 0.5, 0.2, 0.2, 0.1]),
-        payload: payload.then_some(PayloadSpec { mass: MASS, com: COM, inertia: [0.004, 0.0, 0.0, 0.004, 0.0, 0.003] }),
+        payload: payload.then_some(PayloadSpec { mass: MASS, com: COM, inertia: [0.004, 0.0, 0.004, 0.0, 0.0, 0.003] }),
         ..Default::default()
     }
 }

@@ -203,7 +203,7 @@ fn impossible_inertials_and_drives_are_refused_naming_them() {
     let e = refusal(&r, None);
     assert!(e.contains("wrist_2_joint") && e.contains("Coulomb"), "{e}");
     // a payload whose inertia is not a body's (a negative principal moment)
-    let bad = PayloadSpec { mass: 1.0, com: [0.0, 0.0, 0.05], inertia: [1e-3, 0.0, 0.0, 1e-3, 0.0, -1e-4] };
+    let bad = PayloadSpec { mass: 1.0, com: [0.0, 0.0, 0.05], inertia: [1e-3, 0.0, 1e-3, 0.0, 0.0, -1e-4] };
     let e = refusal(&base, Some(&bad));
     assert!(e.contains("payload 'ivdyn_payload'"), "{e}");
 }
@@ -211,7 +211,8 @@ fn impossible_inertials_and_drives_are_refused_naming_them() {
 #[test]
 fn payload_is_a_welded_body_in_the_last_link() {
     let robot = ur5();
-    let p = PayloadSpec { mass: 2.0, com: [0.01, -0.02, 0.05], inertia: [2e-3, 1e-4, 0.0, 3e-3, 0.0, 4e-3] };
+    // inertia in ivdyn's order [Ixx, Ixy, Iyy, Ixz, Iyz, Izz]
+    let p = PayloadSpec { mass: 2.0, com: [0.01, -0.02, 0.05], inertia: [2e-3, 1e-4, 3e-3, 0.0, 0.0, 4e-3] };
     let mj = to_mjcf(&robot, Some(&p), vec![]).unwrap();
     let els = elements(&mj.xml);
     let body = els.iter().find(|e| e.tag == "body" && e.attrs["name"] == "ivdyn_payload").unwrap();
@@ -224,7 +225,7 @@ fn payload_is_a_welded_body_in_the_last_link() {
         .unwrap();
     let got = inertial_params(&inertial.attrs);
     let ic = &p.inertia;
-    let i_c = Mat3::new(ic[0], ic[1], ic[2], ic[1], ic[3], ic[4], ic[2], ic[4], ic[5]);
+    let i_c = Mat3::new(ic[0], ic[1], ic[3], ic[1], ic[2], ic[4], ic[3], ic[4], ic[5]);
     let want = LinkInertia::from_mass_com_inertia(p.mass, &Vec3::from(p.com), &Mat3::identity(), &i_c).0;
     for c in 0..LINK_PARAMS {
         assert!(close(got[c], want[c], 1e-12), "payload param {c}: {} vs {}", got[c], want[c]);

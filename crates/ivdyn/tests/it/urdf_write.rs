@@ -100,7 +100,7 @@ fn identify_write_reload_reproduces_the_identified_torques() {
 fn payload_as_link_or_merged_reloads_to_the_loaded_arm() {
     let robot = Robot::from_urdf(UR5, Some("base_link"), Some("tool0")).unwrap();
     let spec =
-        PayloadSpec { mass: 2.0, com: [0.01, -0.02, 0.05], inertia: [0.003, 0.0001, -0.0002, 0.004, 0.0003, 0.002] };
+        PayloadSpec { mass: 2.0, com: [0.01, -0.02, 0.05], inertia: [0.003, 0.0001, 0.004, -0.0002, 0.0003, 0.002] }; // ivdyn order
     let truth = app::true_robot(&robot, &SimulateOptions { payload: Some(spec), ..Default::default() }).unwrap();
     for mode in [PayloadMode::Link, PayloadMode::Merge] {
         let out = tmp(&format!("ur5_payload_{mode:?}.urdf"));
