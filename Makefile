@@ -75,8 +75,11 @@ package:
 
 ## publish-check: `cargo publish --dry-run` of the published crates (packs and builds them
 ## from the packed sources against crates.io, as a publish would)
+# Its own target dir: cargo takes a registry crate's build by name and version, so an
+# ivdyn-core 0.1.0 built by an earlier dry run would stand in for the one just packed.
 publish-check:
-	$(CARGO) publish --dry-run $(PUBLISHED) --allow-dirty
+	rm -rf target/package
+	CARGO_TARGET_DIR=target/publish-check $(CARGO) publish --dry-run $(PUBLISHED) --allow-dirty
 
 # wheel: the abi3 wheel (crates/ivdyn-py via maturin, release, in-tree target/) in
 # target/wheels; py-install installs that same wheel into the venv.
