@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test rust-checks venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
+.PHONY: demo test rust-build venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -34,14 +34,18 @@ demo:
 	@echo "diagnosis of a MuJoCo log (truth: 1.2 kg payload, viscous friction on shoulder_lift and wrist_1): $(DEMO)/diagnose/report.html"
 
 ## test: formatting and lints, the published crates' packaging, every Rust test, the
-## no_std/no-alloc proof, the Python suites, and the wheel in a fresh venv. The venv's
-## packages download and install while the Rust side builds (two jobs), then the Python side.
+## no_std/no-alloc proof, the Python suites, and the wheel in a fresh venv.
+# Two stages of two jobs each, so that neither core idles: (1) the venv's packages install
+# while lint, packaging and the Rust test build run; (2) the Rust tests run (often on one
+# thread: a few long Monte Carlo tests) while the release wheel builds in its own target
+# dir, then the Python suites. -Otarget prints each step's output whole when it ends.
 test:
-	$(MAKE) -j2 venv rust-checks
-	$(MAKE) py-test wheel-smoke
+	$(MAKE) -j2 venv rust-build
+	$(MAKE) -j2 -Otarget rust-test nostd py-test wheel-smoke
 
-rust-checks:
-	$(MAKE) -j1 lint package rust-test nostd
+rust-build:
+	$(MAKE) -j1 lint package
+	$(CARGO) test --workspace --exclude ivdyn-py --no-run
 
 ## lint: rustfmt (rustfmt.toml) and clippy with warnings as errors, on every target
 lint:
@@ -62,9 +66,9 @@ rust-test:
 
 # The core must build for a bare-metal target, and a #![no_main] probe with no global
 # allocator must link: that fails if anything in ivdyn-core reaches `alloc`.
+# (The probe builds ivdyn-core for that target itself: no separate build of the core.)
 nostd:
 	rustup target add thumbv7em-none-eabihf
-	$(CARGO) build -p ivdyn-core --target thumbv7em-none-eabihf
 	$(CARGO) build --release --target thumbv7em-none-eabihf --manifest-path tools/nostd-check/Cargo.toml
 
 ## package: the published crates (ivdyn-core, ivdyn, ivdyn-cli) pack: manifests, versions
@@ -81,13 +85,15 @@ publish-check:
 	rm -rf target/package
 	CARGO_TARGET_DIR=target/publish-check $(CARGO) publish --dry-run $(PUBLISHED) --allow-dirty
 
-# wheel: the abi3 wheel (crates/ivdyn-py via maturin, release, in-tree target/) in
-# target/wheels; py-install installs that same wheel into the venv.
+# wheel: the abi3 wheel (crates/ivdyn-py via maturin, release) in target/wheels; py-install
+# installs that same wheel into the venv. It builds in its own target dir, target/wheel-build,
+# so that it never waits on the lock of a cargo command running beside it (make test).
 WHEELS := target/wheels
 wheel: venv
 	@test -x $(VENV)/bin/maturin || $(VENV)/bin/pip install -q maturin==1.16.0
 	rm -f $(WHEELS)/ivdyn-*.whl
-	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/maturin build --release --out $(WHEELS) --quiet
+	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/maturin build --release --out $(WHEELS) \
+	    --target-dir target/wheel-build --quiet
 
 py-install: wheel
 	$(VENV)/bin/pip install -q --force-reinstall --no-deps $(WHEELS)/ivdyn-*.whl
