@@ -517,6 +517,7 @@ fn msg(e: ivdyn::Error) -> String {
             format!("{} {msg}", flags.join("/"))
         }
         ivdyn::Error::InFile { file, source } => format!("{}: {}", file.display(), msg(*source)),
+        ivdyn::Error::During { step, source } => format!("{step}: {}", msg(*source)),
         e => e.to_string(),
     }
 }

@@ -2,7 +2,7 @@
 
 use crate::inertia::LinkInertia;
 use crate::kinematics::Kinematics;
-use crate::regressor::Regressor;
+use crate::regressor_matrix::Regressor;
 use crate::{Mat3, MatN, Vec3, VecN};
 
 /// Every intermediate buffer of the algorithms for an `N`-joint chain. Create it once

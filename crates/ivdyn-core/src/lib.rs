@@ -63,6 +63,7 @@ pub mod model;
 pub mod paper;
 pub mod params;
 pub mod regressor;
+pub mod regressor_matrix;
 pub mod rnea;
 pub mod rng;
 pub mod sim;

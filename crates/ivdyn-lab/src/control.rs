@@ -24,13 +24,14 @@
 //! println!("{rms:?} {peak:?}");
 //! ```
 
+use ivdyn::closed_loop::{Controller, LoopController, StepHook, StepOutcome, run_loop};
 use ivdyn::error::{Error, Result};
 use ivdyn::ident::{BaseParams, FitReport, IvAccumulator, fit_iv};
-use ivdyn_core::control::{ComputedTorque, CoulombVelocity, Gains, PayloadEstimator, Pd, Reference};
+use ivdyn_core::control::{CoulombVelocity, Gains, PayloadEstimator, Reference};
 use ivdyn_core::estim::terminal::Method;
 use ivdyn_core::estim::{InstrumentModel, Riv, Rls};
 use ivdyn_core::params::{DRIVE_PARAM_NAMES, LINK_PARAM_NAMES, LINK_PARAMS, param_count};
-use ivdyn_core::sim::{IdSample, Sensors, SimConfig, Simulator};
+use ivdyn_core::sim::{IdSample, SimConfig, Simulator};
 use ivdyn_core::trajectory::Fourier;
 use ivdyn_core::{Data, LinkInertia, Mat3, MatN, Model, Vec3, VecN, mass_matrix, regressor};
 use nalgebra::{DMatrix, DVector, Dyn};
@@ -87,6 +88,16 @@ pub enum Scheme {
 }
 
 impl Scheme {
+    /// The control law of the scheme (its model: the nominal, changed by the run for (c)
+    /// and (d)).
+    pub fn controller(&self) -> Controller {
+        match self {
+            Scheme::Pd => Controller::Pd,
+            Scheme::PdGravity => Controller::PdGravity,
+            Scheme::CtNominal | Scheme::CtEstimated | Scheme::CtTrue => Controller::ComputedTorque,
+        }
+    }
+
     /// All schemes, in table order.
     pub const ALL: [Scheme; 5] =
         [Scheme::Pd, Scheme::PdGravity, Scheme::CtNominal, Scheme::CtEstimated, Scheme::CtTrue];
@@ -420,45 +431,88 @@ impl<const N: usize> Experiment<N> {
         )?)
     }
 
-    /// Runs one scheme.
+    /// Runs one scheme: [`ivdyn::closed_loop::run_loop`] with the scheme's controller on
+    /// the nominal model, the grasp, the record and the online estimation as its
+    /// [`SchemeRun`] hook.
     pub fn run(&self, scheme: Scheme) -> Result<RunLog> {
-        let loaded = self.loaded();
         let (r0q, r0qd, _) = self.traj.eval(0.0);
         let mut sim = Simulator::new(self.truth.clone(), self.sim, &r0q, &r0qd)?;
         let mut data = Data::<N>::new();
         let m0 = *mass_matrix(&self.nominal, &mut data, &self.mean_pose());
         let gains = Gains::<N>::critically_damped(self.wn);
-        let mut ctrl = SchemeController::new(self, scheme, gains, &m0);
-        let mut online = OnlineEstimation::new(self, &mut data, m0, gains)?;
+        let mut ctrl =
+            LoopController::new(scheme.controller(), self.nominal.clone(), gains, self.coulomb, &self.mean_pose());
         let steps = (self.duration / self.sim.dt).round() as usize;
-        let mut log = RunLog::with_capacity(scheme, steps);
-        let mut grasped = false;
-        let mut busy = Duration::ZERO;
-        for k in 0..steps {
-            let t = k as f64 * self.sim.dt;
-            if !grasped && t >= self.grasp_time {
-                grasped = true;
-                sim.set_model(loaded.clone());
-                ctrl.grasp(&loaded);
-            }
-            let r = Reference::from_tuple(self.traj.eval(t));
-            let s = *sim.sensors();
-            let t0 = Instant::now();
-            let u = ctrl.torque(&self.nominal, &mut data, &s, &r)?;
-            busy += t0.elapsed();
-            log.record(self.record_every, k, t, &r, &sim);
-            let sample = sim.step(&u)?;
-            if sim.saturated {
-                log.saturated_steps += 1;
-            }
-            // online estimation from the grasp on (the controller knows when it closes
-            // its gripper), one sample late (central differences)
-            if let (Scheme::CtEstimated, Some(smp)) = (scheme, sample) {
-                busy += online.update(self, smp, t, k, &mut ctrl.model, &mut log);
+        let mut run = SchemeRun {
+            exp: self,
+            scheme,
+            loaded: self.loaded(),
+            grasped: false,
+            online: OnlineEstimation::new(self, &mut data, m0, gains)?,
+            log: RunLog::with_capacity(scheme, steps),
+            busy: Duration::ZERO,
+        };
+        let dt = self.sim.dt;
+        run_loop(&mut sim, &mut ctrl, steps, |k| Reference::from_tuple(self.traj.eval(k as f64 * dt)), &mut run)?;
+        let mut log = run.log;
+        log.step_us = run.busy.as_secs_f64() * 1e6 / steps.max(1) as f64;
+        Ok(log)
+    }
+}
+
+/// One run of a Fig. 5 scheme, called around each control step of [`run_loop`]: the
+/// grasp, the record, and scheme (c)'s online estimation writing into the controller's model.
+struct SchemeRun<'a, const N: usize> {
+    exp: &'a Experiment<N>,
+    scheme: Scheme,
+    /// The truth after the grasp.
+    loaded: Model<N>,
+    grasped: bool,
+    online: OnlineEstimation<N>,
+    log: RunLog,
+    /// Wall-clock time of the controller and the estimator.
+    busy: Duration,
+}
+
+impl<const N: usize> StepHook<N> for SchemeRun<'_, N> {
+    fn before(
+        &mut self,
+        k: usize,
+        r: &Reference<N>,
+        sim: &mut Simulator<N>,
+        ctrl: &mut LoopController<N>,
+    ) -> Result<()> {
+        let t = k as f64 * self.exp.sim.dt;
+        if !self.grasped && t >= self.exp.grasp_time {
+            self.grasped = true;
+            sim.set_model(self.loaded.clone());
+            // scheme (d) is told the true loaded model, the others keep theirs
+            if self.scheme == Scheme::CtTrue {
+                ctrl.model = self.loaded.clone();
             }
         }
-        log.step_us = busy.as_secs_f64() * 1e6 / steps.max(1) as f64;
-        Ok(log)
+        self.log.record(self.exp.record_every, k, t, r, sim);
+        Ok(())
+    }
+
+    fn after(
+        &mut self,
+        k: usize,
+        step: &StepOutcome<N>,
+        sim: &Simulator<N>,
+        ctrl: &mut LoopController<N>,
+    ) -> Result<()> {
+        self.busy += step.control_time;
+        if sim.saturated {
+            self.log.saturated_steps += 1;
+        }
+        // online estimation from the grasp on (the controller knows when it closes its
+        // gripper), one sample late (central differences)
+        if let (Scheme::CtEstimated, Some(smp)) = (self.scheme, step.sample) {
+            let t = k as f64 * self.exp.sim.dt;
+            self.busy += self.online.update(self.exp, smp, t, k, &mut ctrl.model, &mut self.log);
+        }
+        Ok(())
     }
 }
 
@@ -493,50 +547,6 @@ impl RunLog {
         }
         self.t_all.push(t);
         self.err_all.push(e);
-    }
-}
-
-/// The controller of one scheme of Fig. 5 and the model its computed-torque law uses.
-struct SchemeController<const N: usize> {
-    /// Which of (a)-(d).
-    scheme: Scheme,
-    /// Computed torque with `model` (schemes b, c, d), gains in acceleration units.
-    ct: ComputedTorque<N>,
-    /// PD (schemes a, a'): the same gains times the nominal `M_ii` at the mean pose.
-    pd: Pd<N>,
-    /// The nominal model; from the grasp on the loaded truth (d), after the switch nominal
-    /// + estimate (c).
-    model: Model<N>,
-}
-
-impl<const N: usize> SchemeController<N> {
-    /// The controllers of `exp` for `scheme`; `m0` is the nominal mass matrix at the mean
-    /// pose, which scales the PD gains to torque units.
-    fn new(exp: &Experiment<N>, scheme: Scheme, gains: Gains<N>, m0: &MatN<N>) -> Self {
-        let mut ct = ComputedTorque::new(gains);
-        ct.coulomb = exp.coulomb;
-        let pd = Pd {
-            gains: gains.scaled(&m0.diagonal()),
-            tau_limit: VecN::<N>::repeat(f64::INFINITY),
-            gravity: scheme == Scheme::PdGravity,
-        };
-        Self { scheme, ct, pd, model: exp.nominal.clone() }
-    }
-
-    /// At the grasp: scheme (d) is told the true loaded model, the others keep theirs.
-    fn grasp(&mut self, loaded: &Model<N>) {
-        if self.scheme == Scheme::CtTrue {
-            self.model = loaded.clone();
-        }
-    }
-
-    /// The command `u` from the sensors `s` and the reference `r`: PD (with the nominal
-    /// gravity for a'), or computed torque with `model`.
-    fn torque(&self, nominal: &Model<N>, data: &mut Data<N>, s: &Sensors<N>, r: &Reference<N>) -> Result<VecN<N>> {
-        Ok(match self.scheme {
-            Scheme::Pd | Scheme::PdGravity => *self.pd.torque(nominal, data, &s.q, &s.qd, r)?,
-            _ => *self.ct.torque(&self.model, data, &s.q, &s.qd, r)?,
-        })
     }
 }
 
@@ -706,21 +716,14 @@ impl<const N: usize> Experiment<N> {
     ) -> Result<UnloadedRows<'a, N>> {
         let (r0q, r0qd, _) = self.traj.eval(0.0);
         let mut sim = Simulator::new(self.truth.clone(), self.sim, &r0q, &r0qd)?;
-        let mut ct = ComputedTorque::new(Gains::<N>::critically_damped(self.wn));
-        ct.coulomb = self.coulomb;
-        let mut rows = UnloadedRows::new(prior, base, self.min_speed);
+        let gains = Gains::<N>::critically_damped(self.wn);
+        let mut ctrl =
+            LoopController::new(Controller::ComputedTorque, prior.clone(), gains, self.coulomb, &self.mean_pose());
+        let mut run = UnloadedRun { rows: UnloadedRows::new(prior, base, self.min_speed), data, traj: &self.traj };
         let steps = (seconds / self.sim.dt).round() as usize;
-        for k in 0..steps {
-            let r = Reference::from_tuple(self.traj.eval(k as f64 * self.sim.dt));
-            let s = *sim.sensors();
-            let u = *ct.torque(prior, data, &s.q, &s.qd, &r)?;
-            let Some(smp) = sim.step(&u)? else { continue };
-            if smp.t < 0.5 {
-                continue; // start-up transient
-            }
-            rows.push(data, &smp, &self.traj.eval(smp.t).2)?;
-        }
-        Ok(rows)
+        let dt = self.sim.dt;
+        run_loop(&mut sim, &mut ctrl, steps, |k| Reference::from_tuple(self.traj.eval(k as f64 * dt)), &mut run)?;
+        Ok(run.rows)
     }
 
     /// RMS over one period of the reference (2000 points) of `rnea(m) - rnea(truth)` per
@@ -777,6 +780,27 @@ fn arm_base_params<const N: usize>(prior: &Model<N>, data: &mut Data<N>) -> Base
     // pivoted, as when docs/control.md's runs were made (the choice of columns decides
     // which full parameters a fit moves)
     BaseParams::from_rows_pivoted(&phi_r, &names)
+}
+
+/// The unloaded run of [`Experiment::with_identified_nominal`] as a [`StepHook`]: each
+/// identification sample from 0.5 s on (after the start-up transient) becomes rows.
+struct UnloadedRun<'a, 'b, const N: usize> {
+    rows: UnloadedRows<'a, N>,
+    data: &'b mut Data<N>,
+    traj: &'b Fourier<N, 2>,
+}
+
+impl<const N: usize> StepHook<N> for UnloadedRun<'_, '_, N> {
+    fn before(&mut self, _: usize, _: &Reference<N>, _: &mut Simulator<N>, _: &mut LoopController<N>) -> Result<()> {
+        Ok(())
+    }
+
+    fn after(&mut self, _: usize, step: &StepOutcome<N>, _: &Simulator<N>, _: &mut LoopController<N>) -> Result<()> {
+        match step.sample {
+            Some(smp) if smp.t >= 0.5 => self.rows.push(self.data, &smp, &self.traj.eval(smp.t).2),
+            _ => Ok(()),
+        }
+    }
 }
 
 /// Batch-IV rows of the unloaded arm in the base columns of `base`: the regressor of
@@ -847,8 +871,9 @@ impl<'a, const N: usize> UnloadedRows<'a, N> {
         acc.add_rows(&self.phi, &self.z, &self.y, None)?;
         let fit = fit_iv(&acc, &self.base.names)?;
         if !fit.unexcited.is_empty() {
-            return Err(Error::Estimation {
-                msg: format!("unloaded-arm identification: not excited by the trajectory: {:?}", fit.unexcited),
+            return Err(Error::Numerical {
+                what: "unloaded-arm identification".into(),
+                msg: format!("not excited by the trajectory: {:?}", fit.unexcited),
             });
         }
         Ok(fit)

@@ -241,8 +241,9 @@ fn fit_consistent_with_free(
     let mut cf = fit_consistent(&red, &base0, &theta_ls, c.nominal, c.links, c.joints, &Default::default())?;
     let r11 = r.view((0, 0), (s, s)).into_owned();
     let rhs = z.rows(0, s) - r.view((0, s), (s, b0)) * nalgebra::DVector::from_column_slice(&cf.theta_base);
-    let k = r11.solve_upper_triangular(&rhs).ok_or_else(|| Error::Estimation {
-        msg: format!("consistent fit: the {s} free columns are singular ({m} rows)"),
+    let k = r11.solve_upper_triangular(&rhs).ok_or_else(|| Error::Numerical {
+        what: "consistent fit".into(),
+        msg: format!("the {s} free columns are singular ({m} rows)"),
     })?;
     cf.theta.extend(k.iter());
     cf.theta_base.extend(k.iter());
@@ -471,7 +472,7 @@ pub fn identify_tx40(data: &Tx40Data, opts: &Tx40Options) -> Result<RealReport> 
 fn check_tx40_windows(t_raw: usize, opts: &Tx40Options) -> Result<()> {
     for (what, r) in [("fit_rows", &opts.fit_rows), ("val_rows", &opts.val_rows)] {
         if r.end > t_raw || r.start >= r.end {
-            return Err(Error::Estimation { msg: format!("TX40: {what} {r:?} outside the {t_raw} samples") });
+            return Err(Error::option(what, format!("{r:?} is outside the TX40 record's {t_raw} samples")));
         }
     }
     Ok(())
@@ -631,9 +632,10 @@ fn fit_tx40(reg: &MotorRegressor, rows: &Rows, opts: &Tx40Options) -> Result<(Fi
     let nominal = reg.params(&vec![Default::default(); n])?;
     let nom_base = base.project(&nominal)?;
     if opts.consistent && opts.joint_drive {
-        return Err(Error::Estimation {
-            msg: "TX40: the consistent fit needs the 10 n + 4 n layout (no joint-side drive columns)".into(),
-        });
+        return Err(Error::option(
+            "consistent",
+            "needs the 10 n + 4 n layout of the TX40 (no joint-side drive columns): leave joint_drive off",
+        ));
     }
     let motors: Vec<String> = robot.joint_names.iter().map(|j| format!("{j}.motor")).collect();
     let cin =
@@ -749,8 +751,10 @@ fn fit_rows_checked(
     consistent: Option<ConsistentInput>,
 ) -> Result<Fitted> {
     if rows.tau.len() < 2 * base.base_count() {
-        return Err(Error::Estimation {
-            msg: format!("{} rows for {} base parameters", rows.tau.len(), base.base_count()),
+        return Err(Error::TooFewSamples {
+            samples: rows.tau.len() / rows.n.max(1),
+            joints: rows.n,
+            params: base.base_count(),
         });
     }
     fit_rows(rows, base, est, consistent)
@@ -851,7 +855,7 @@ pub fn lwr_rows(robot: &Robot, run: &LwrRun, opts: &LwrOptions, edge_s: f64) -> 
     let p14 = robot.num_params();
     let springs = &opts.springs;
     if let Some(&j) = springs.iter().find(|&&j| j >= n) {
-        return Err(Error::Estimation { msg: format!("LWR: spring joint index {j} >= {n} joints") });
+        return Err(Error::option("springs", format!("joint index {j} is not one of the LWR's {n} joints")));
     }
     let p = p14 + springs.len();
     let t_all = run.len();
@@ -877,8 +881,11 @@ pub fn lwr_rows(robot: &Robot, run: &LwrRun, opts: &LwrOptions, edge_s: f64) -> 
     }
     let edge = (edge_s / dt).round() as usize;
     if 2 * edge >= t_all {
-        return Err(Error::Estimation {
-            msg: format!("LWR {}: dropping {edge_s} s at each end leaves no samples", run.file.display()),
+        return Err(Error::ShortLog {
+            what: format!("LWR {}", run.file.display()),
+            samples: t_all,
+            needed: 2 * edge + 1,
+            needed_by: format!("dropping {edge_s} s at each end"),
         });
     }
     let keep: Vec<usize> = (edge..t_all - edge).step_by(opts.step.max(1)).collect();
@@ -978,9 +985,7 @@ pub fn identify_lwr(robot: &Robot, fit: &[&LwrRun], val: &LwrRun, opts: &LwrOpti
 /// held-out per-joint R² of each fold (`runs.len()` folds; needs two runs or more).
 pub fn lwr_cross_validation(robot: &Robot, runs: &[&LwrRun], opts: &LwrOptions) -> Result<Vec<Vec<f64>>> {
     if runs.len() < 2 {
-        return Err(Error::Estimation {
-            msg: format!("LWR cross-validation needs two runs or more, got {}", runs.len()),
-        });
+        return Err(Error::option("runs", format!("LWR cross-validation needs two or more, got {}", runs.len())));
     }
     let o = LwrOptions { consistent: false, ..opts.clone() };
     (0..runs.len())

@@ -3,7 +3,10 @@
 //! - `ValueError`: bad input (array lengths, NaN/inf, URDF content, unknown links, too many
 //!   joints, invalid axes, estimator rows out of range or above the outlier gate);
 //! - `FileNotFoundError` / `OSError`: the URDF file cannot be read;
-//! - `RuntimeError`: numerical failure (e.g. a mass matrix that is not positive definite).
+//! - `RuntimeError`: numerical failure (e.g. a mass matrix that is not positive definite),
+//!   refused write-backs, logs too short or with non-finite samples, joint limits the
+//!   excitation cannot use, terminal-link settings (each kept from the former catch-all
+//!   `Estimation` error, which raised `RuntimeError`), and internal errors.
 //!
 //! The message is always the Rust error's `Display` text.
 
@@ -27,9 +30,9 @@ fn core_is_input(e: &CoreError) -> bool {
 /// `ivdyn::Error` -> Python exception.
 pub fn to_py(e: Error) -> PyErr {
     let msg = e.to_string();
-    // an error in a file is of its cause's kind
+    // an error in a file or in a named step is of its cause's kind
     let mut e = &e;
-    while let Error::InFile { source, .. } = e {
+    while let Error::InFile { source, .. } | Error::During { source, .. } = e {
         e = source;
     }
     match e {

@@ -2,15 +2,18 @@
 //! arm: integrator, held torque, encoders, noise, torque limits) driven by its
 //! [`ComputedTorque`] or [`Pd`] controller (on a controller model, which may differ from
 //! the truth) along a reference given as arrays. What a user needs to try a controller or
-//! record identification data before running an arm; the paper's Fig. 5 experiments
-//! (`ivdyn-lab`) add the online payload estimator to the same loop.
+//! record identification data before running an arm. The loop itself is [`run_loop`]: a
+//! [`StepHook`] called before and after every control step records, changes the truth
+//! (a grasp) or the controller's model; the paper's Fig. 5 experiments (`ivdyn-lab`) run
+//! their online payload estimator as such a hook.
 
 use std::any::Any;
+use std::time::{Duration, Instant};
 
 use crate::Robot;
 use crate::error::{Error, Result};
 use ivdyn_core::control::{ComputedTorque, CoulombVelocity, Gains, Pd, Reference};
-use ivdyn_core::sim::{Integrator, SimConfig, Simulator};
+use ivdyn_core::sim::{IdSample, Integrator, SimConfig, Simulator};
 use ivdyn_core::{Data, Model, VecN, mass_matrix};
 
 /// The controller of a closed-loop run.
@@ -81,10 +84,9 @@ impl LoopSettings {
 
     /// Rejects settings the simulator cannot run, naming the option.
     pub fn check(&self, n: usize) -> Result<()> {
-        let bad = |option: &str, msg: String| Error::Option { option: option.into(), msg };
         for (name, x) in [("dt", self.dt), ("wn", self.wn), ("zeta", self.zeta)] {
             if !(x > 0.0 && x.is_finite()) {
-                return Err(bad(name, format!("must be finite and > 0, got {x}")));
+                return Err(Error::option(name, format!("must be finite and > 0, got {x}")));
             }
         }
         let nonneg = [
@@ -95,23 +97,23 @@ impl LoopSettings {
         ];
         for (name, x) in nonneg {
             if !(x >= 0.0 && x.is_finite()) {
-                return Err(bad(name, format!("must be finite and >= 0, got {x}")));
+                return Err(Error::option(name, format!("must be finite and >= 0, got {x}")));
             }
         }
         if self.substeps == 0 {
-            return Err(bad("substeps", "must be >= 1".into()));
+            return Err(Error::option("substeps", "must be >= 1"));
         }
         if self.encoder_bits.is_some_and(|b| !(1..=62).contains(&b)) {
-            return Err(bad("encoder_bits", "must be in 1..=62".into()));
+            return Err(Error::option("encoder_bits", "must be in 1..=62"));
         }
         if self.tau_limit.len() != n {
-            return Err(bad(
+            return Err(Error::option(
                 "tau_limit",
                 format!("must have {n} entries (one per joint), got {}", self.tau_limit.len()),
             ));
         }
         if self.tau_limit.iter().any(|x| !(*x > 0.0)) {
-            return Err(bad("tau_limit", "must be > 0 (inf for none)".into()));
+            return Err(Error::option("tau_limit", "must be > 0 (inf for none)"));
         }
         Ok(())
     }
@@ -172,10 +174,7 @@ pub fn closed_loop(
 ) -> Result<LoopRecord> {
     let n = truth.dof();
     if model.dof() != n {
-        return Err(Error::Option {
-            option: "model".into(),
-            msg: format!("has {} joints, the robot {n}", model.dof()),
-        });
+        return Err(Error::option("model", format!("has {} joints, the robot {n}", model.dof())));
     }
     let t = q_des.len() / n;
     if t == 0 || q_des.len() != t * n || qd_des.len() != t * n || qdd_des.len() != t * n {
@@ -190,10 +189,7 @@ pub fn closed_loop(
     let qd0 = qd0.unwrap_or(&qd_des[..n]);
     for (name, v) in [("q0", q0), ("qd0", qd0)] {
         if v.len() != n {
-            return Err(Error::Option {
-                option: name.into(),
-                msg: format!("must have {n} entries (one per joint), got {}", v.len()),
-            });
+            return Err(Error::option(name, format!("must have {n} entries (one per joint), got {}", v.len())));
         }
     }
     crate::with_model!(&truth.model, m => closed_loop_n(&**m, model_n(model).expect("same dof"), s, q_des, qd_des, qdd_des, q0, qd0))
@@ -226,52 +222,153 @@ fn closed_loop_n<const N: usize>(
     cfg.velocity_cutoff_hz = s.velocity_cutoff_hz;
     cfg.seed = s.seed;
     let mut sim = Simulator::new(truth.clone(), cfg, &v(q0, 0), &v(qd0, 0))?;
-    let mut data = Data::<N>::new();
     let gains = Gains::<N>::from_bandwidth(&VecN::<N>::repeat(s.wn), s.zeta);
-    let mut ct = ComputedTorque::new(gains);
-    if s.coulomb_reference {
-        ct.coulomb = CoulombVelocity::Reference;
-    }
-    // PD gains in torque units: the acceleration gains times the controller model's
-    // M_ii at the mean reference pose (as the Fig. 5 experiments of `ivdyn-lab`)
+    let coulomb = if s.coulomb_reference { CoulombVelocity::Reference } else { CoulombVelocity::Measured };
+    // PD gains scaled at the mean reference pose
     let mut mean = VecN::<N>::zeros();
     for k in 0..t {
         mean += v(q_des, k);
     }
-    let m0 = *mass_matrix(model, &mut data, &(mean / t.max(1) as f64));
-    let pd = Pd {
-        gains: gains.scaled(&m0.diagonal()),
-        tau_limit: VecN::<N>::repeat(f64::INFINITY),
-        gravity: s.controller == Controller::PdGravity,
-    };
+    let mut ctrl = LoopController::new(s.controller, model.clone(), gains, coulomb, &(mean / t.max(1) as f64));
     let mut rec = LoopRecord::default();
-    for k in 0..t {
-        let r = Reference { q: v(q_des, k), qd: v(qd_des, k), qdd: v(qdd_des, k) };
-        let sens = *sim.sensors();
-        rec.t.push(sim.t);
-        rec.q.extend_from_slice(sim.q.as_slice());
-        rec.qd.extend_from_slice(sim.qd.as_slice());
-        rec.q_meas.extend_from_slice(sens.q.as_slice());
-        rec.qd_meas.extend_from_slice(sens.qd.as_slice());
-        let step = |sim: &mut Simulator<N>, data: &mut Data<N>| -> core::result::Result<_, ivdyn_core::Error> {
-            let u = match s.controller {
-                Controller::ComputedTorque => *ct.torque(model, data, &sens.q, &sens.qd, &r)?,
-                _ => *pd.torque(model, data, &sens.q, &sens.qd, &r)?,
-            };
-            Ok((u, sim.step(&u)?))
-        };
-        let (u, smp) = step(&mut sim, &mut data).map_err(|source| Error::Sample { index: k, source })?;
-        rec.u.extend_from_slice(u.as_slice());
-        rec.tau.extend_from_slice(sim.tau_applied.as_slice());
-        rec.saturated.push(sim.saturated);
-        if let Some(x) = smp {
-            rec.id_t.push(x.t);
-            rec.id_q.extend_from_slice(x.x.q.as_slice());
-            rec.id_qd.extend_from_slice(x.x.qd.as_slice());
-            rec.id_qdd.extend_from_slice(x.x.qdd.as_slice());
-            rec.id_tau.extend_from_slice(x.tau.as_slice());
-            rec.id_u.extend_from_slice(x.u.as_slice());
-        }
-    }
+    let reference = |k: usize| Reference { q: v(q_des, k), qd: v(qd_des, k), qdd: v(qdd_des, k) };
+    run_loop(&mut sim, &mut ctrl, t, reference, &mut rec)?;
     Ok(rec)
+}
+
+/// The controller of a closed loop and the model its law uses, which a [`StepHook`] may
+/// change between steps (a payload estimate written in, the true loaded arm).
+#[derive(Debug, Clone)]
+pub struct LoopController<const N: usize> {
+    /// Which law.
+    pub kind: Controller,
+    /// Computed torque on `model` (gains in acceleration units).
+    pub ct: ComputedTorque<N>,
+    /// PD: the same gains times `M_ii` of the initial model at a pose; with
+    /// [`Controller::PdGravity`] plus `model`'s gravity torque.
+    pub pd: Pd<N>,
+    /// The controller's model.
+    pub model: Model<N>,
+}
+
+impl<const N: usize> LoopController<N> {
+    /// The `kind` controller on `model` with the error dynamics `gains`, computed torque's
+    /// Coulomb term from `coulomb`, PD gains in torque units through `model`'s mass matrix
+    /// at `pd_pose` (the acceleration gains times `M_ii`).
+    pub fn new(
+        kind: Controller,
+        model: Model<N>,
+        gains: Gains<N>,
+        coulomb: CoulombVelocity,
+        pd_pose: &VecN<N>,
+    ) -> Self {
+        let mut ct = ComputedTorque::new(gains);
+        ct.coulomb = coulomb;
+        let m0 = *mass_matrix(&model, &mut Data::<N>::new(), pd_pose);
+        let pd = Pd {
+            gains: gains.scaled(&m0.diagonal()),
+            tau_limit: VecN::<N>::repeat(f64::INFINITY),
+            gravity: kind == Controller::PdGravity,
+        };
+        LoopController { kind, ct, pd, model }
+    }
+
+    /// The command from the measured `q, qd` and the reference `r`.
+    pub fn torque(
+        &self,
+        data: &mut Data<N>,
+        q: &VecN<N>,
+        qd: &VecN<N>,
+        r: &Reference<N>,
+    ) -> core::result::Result<VecN<N>, ivdyn_core::Error> {
+        Ok(match self.kind {
+            Controller::ComputedTorque => *self.ct.torque(&self.model, data, q, qd, r)?,
+            Controller::Pd | Controller::PdGravity => *self.pd.torque(&self.model, data, q, qd, r)?,
+        })
+    }
+}
+
+/// What one control step of [`run_loop`] did.
+#[derive(Debug, Clone, Copy)]
+pub struct StepOutcome<const N: usize> {
+    /// The command.
+    pub u: VecN<N>,
+    /// The identification sample the step completed (one step late: central differences).
+    pub sample: Option<IdSample<N>>,
+    /// Wall-clock time of the control law.
+    pub control_time: Duration,
+}
+
+/// Called by [`run_loop`] around every control step: records, changes the truth (a grasp),
+/// runs an online estimator and updates the controller's model.
+pub trait StepHook<const N: usize> {
+    /// Before control step `k` (reference `r`), the simulator not yet advanced.
+    fn before(
+        &mut self,
+        k: usize,
+        r: &Reference<N>,
+        sim: &mut Simulator<N>,
+        ctrl: &mut LoopController<N>,
+    ) -> Result<()>;
+    /// After control step `k`.
+    fn after(
+        &mut self,
+        k: usize,
+        step: &StepOutcome<N>,
+        sim: &Simulator<N>,
+        ctrl: &mut LoopController<N>,
+    ) -> Result<()>;
+}
+
+/// `steps` control steps of `sim` under `ctrl` along `reference(k)`: per step the hook's
+/// `before`, the command from the sensors, the simulator's step, the hook's `after`. An
+/// error of the controller or the simulator names the step ([`Error::Sample`]).
+pub fn run_loop<const N: usize>(
+    sim: &mut Simulator<N>,
+    ctrl: &mut LoopController<N>,
+    steps: usize,
+    mut reference: impl FnMut(usize) -> Reference<N>,
+    hook: &mut impl StepHook<N>,
+) -> Result<()> {
+    let mut data = Data::<N>::new();
+    for k in 0..steps {
+        let r = reference(k);
+        hook.before(k, &r, sim, ctrl)?;
+        let sens = *sim.sensors();
+        let t0 = Instant::now();
+        let u = ctrl.torque(&mut data, &sens.q, &sens.qd, &r).map_err(|source| Error::Sample { index: k, source })?;
+        let control_time = t0.elapsed();
+        let sample = sim.step(&u).map_err(|source| Error::Sample { index: k, source })?;
+        hook.after(k, &StepOutcome { u, sample, control_time }, sim, ctrl)?;
+    }
+    Ok(())
+}
+
+/// [`closed_loop`]'s record: the state and sensors before each step, the command, applied
+/// torque and identification sample after it.
+impl<const N: usize> StepHook<N> for LoopRecord {
+    fn before(&mut self, _: usize, _: &Reference<N>, sim: &mut Simulator<N>, _: &mut LoopController<N>) -> Result<()> {
+        let sens = *sim.sensors();
+        self.t.push(sim.t);
+        self.q.extend_from_slice(sim.q.as_slice());
+        self.qd.extend_from_slice(sim.qd.as_slice());
+        self.q_meas.extend_from_slice(sens.q.as_slice());
+        self.qd_meas.extend_from_slice(sens.qd.as_slice());
+        Ok(())
+    }
+
+    fn after(&mut self, _: usize, step: &StepOutcome<N>, sim: &Simulator<N>, _: &mut LoopController<N>) -> Result<()> {
+        self.u.extend_from_slice(step.u.as_slice());
+        self.tau.extend_from_slice(sim.tau_applied.as_slice());
+        self.saturated.push(sim.saturated);
+        if let Some(x) = step.sample {
+            self.id_t.push(x.t);
+            self.id_q.extend_from_slice(x.x.q.as_slice());
+            self.id_qd.extend_from_slice(x.x.qd.as_slice());
+            self.id_qdd.extend_from_slice(x.x.qdd.as_slice());
+            self.id_tau.extend_from_slice(x.tau.as_slice());
+            self.id_u.extend_from_slice(x.u.as_slice());
+        }
+        Ok(())
+    }
 }

@@ -182,11 +182,96 @@ pub enum Error {
         /// What is wrong.
         msg: String,
     },
-    /// An identification step that cannot proceed for a reason none of the variants above
-    /// covers (a degenerate fit, an empty stream); the message says which step and where.
-    #[error("identification: {msg}")]
-    Estimation {
-        /// What went wrong, where.
+    /// Parameters that a file format or a simulator cannot take (a negative mass, an inertia
+    /// without positive principal moments or breaking the triangle inequalities): the
+    /// write is refused, and nothing is written.
+    #[error("{what} refused: {problems}")]
+    PhysicallyInconsistent {
+        /// What is refused ("URDF export", "URDF write-back", "writing payload.urdf").
+        what: String,
+        /// Which link or joint, what is wrong with it, and what to do.
+        problems: String,
+    },
+    /// A numerical step that failed on the data: a decomposition given non-finite values
+    /// or not converging, sums that overflow, a projection without a solution, directions
+    /// the data do not excite.
+    #[error("{what}: {msg}")]
+    Numerical {
+        /// The step and the matrix, link or joint ("consistent fit", "joint 'shoulder'").
+        what: String,
+        /// What went wrong.
+        msg: String,
+    },
+    /// A value of a log (after conditioning, or as given) that is not a finite number.
+    #[error("sample {sample}, joint {joint}: {what} is {value}")]
+    NonFiniteSample {
+        /// The signal ("velocity", "effort").
+        what: String,
+        /// Sample index.
+        sample: usize,
+        /// Joint name.
+        joint: String,
+        /// The value (NaN or infinite).
+        value: f64,
+    },
+    /// A log with fewer usable samples than a step needs.
+    #[error("{what} has {samples} usable samples; {needed_by} needs at least {needed}")]
+    ShortLog {
+        /// Which log ("the log", "validation log").
+        what: String,
+        /// Usable samples.
+        samples: usize,
+        /// Samples the step needs.
+        needed: usize,
+        /// The step ("the diagnosis", "the sample time").
+        needed_by: String,
+    },
+    /// A log whose gaps leave no segment long enough to condition.
+    #[error("the log has {gaps} gaps and no segment between them of at least {min_segment} samples")]
+    NoSegment {
+        /// Gaps found.
+        gaps: usize,
+        /// Shortest segment used.
+        min_segment: usize,
+    },
+    /// A sample time below what the conditioning accepts (stamps in the wrong unit).
+    #[error("sample time {dt:e} s is below the {min:e} s (100 kHz) accepted: stamps in the wrong unit?")]
+    SampleTime {
+        /// The sample time (s).
+        dt: f64,
+        /// The smallest accepted (s).
+        min: f64,
+    },
+    /// Joint limits that a step cannot use (an empty position range, a velocity or
+    /// acceleration limit that is not positive and finite).
+    #[error("joint '{joint}' limits: {msg}")]
+    JointLimits {
+        /// Joint name.
+        joint: String,
+        /// What is wrong.
+        msg: String,
+    },
+    /// Settings of the terminal-link estimator (`k`, `first_row`, columns, record counts,
+    /// instrument) that do not fit the chain. Python raises `RuntimeError` for these.
+    #[error("terminal link: {msg}")]
+    TerminalLink {
+        /// What is wrong.
+        msg: String,
+    },
+    /// An error inside a named step of a larger one (the diagnosis' nominal model, an
+    /// IDIM-IV iteration's simulation): the step, then the error.
+    #[error("{step}: {source}")]
+    During {
+        /// The step.
+        step: String,
+        /// What went wrong.
+        source: Box<Error>,
+    },
+    /// A broken internal invariant (a fit that was computed but is missing, a worker that
+    /// stopped): a bug in ivdyn, never the input's fault.
+    #[error("internal error in ivdyn (please report): {msg}")]
+    Internal {
+        /// The invariant.
         msg: String,
     },
     /// A log file (MCAP or CSV) that cannot be used: truncated or corrupt, topic not found,
@@ -223,6 +308,23 @@ pub enum Error {
         /// What is wrong.
         msg: String,
     },
+}
+
+impl Error {
+    /// [`Error::Option`]: `option` (Python's spelling) and what is wrong with its value.
+    pub fn option(option: impl Into<String>, msg: impl Into<String>) -> Error {
+        Error::Option { option: option.into(), msg: msg.into() }
+    }
+
+    /// [`Error::During`]: `source` happened in `step`.
+    pub fn during(step: impl Into<String>, source: Error) -> Error {
+        Error::During { step: step.into(), source: Box::new(source) }
+    }
+
+    /// [`Error::Internal`] with the broken invariant `msg`.
+    pub fn internal(msg: impl Into<String>) -> Error {
+        Error::Internal { msg: msg.into() }
+    }
 }
 
 /// Result alias.

@@ -39,7 +39,7 @@ pub fn in_range(option: &str, x: f64, lo: f64, hi: f64) -> Result<()> {
     if x.is_finite() && (lo..=hi).contains(&x) {
         return Ok(());
     }
-    Err(Error::Option { option: option.into(), msg: format!("must be in [{}, {}], got {}", num(lo), num(hi), num(x)) })
+    Err(Error::option(option, format!("must be in [{}, {}], got {}", num(lo), num(hi), num(x))))
 }
 
 /// `Err` unless `0 < x <= hi` (and `x` finite), naming `option` and the range.
@@ -47,7 +47,7 @@ pub fn positive_up_to(option: &str, x: f64, hi: f64) -> Result<()> {
     if x.is_finite() && x > 0.0 && x <= hi {
         return Ok(());
     }
-    Err(Error::Option { option: option.into(), msg: format!("must be > 0 and at most {}, got {}", num(hi), num(x)) })
+    Err(Error::option(option, format!("must be > 0 and at most {}, got {}", num(hi), num(x))))
 }
 
 /// `Err` unless `lo <= n <= hi`, naming `option` and the range.
@@ -55,7 +55,7 @@ pub fn count_in(option: &str, n: usize, lo: usize, hi: usize) -> Result<()> {
     if (lo..=hi).contains(&n) {
         return Ok(());
     }
-    Err(Error::Option { option: option.into(), msg: format!("must be in {lo}..={hi}, got {n}") })
+    Err(Error::option(option, format!("must be in {lo}..={hi}, got {n}")))
 }
 
 /// [`in_range`] on every value of a per-joint list (`option[i]`).
@@ -69,12 +69,12 @@ pub fn samples_bounded(duration_s: f64, rate_hz: f64) -> Result<()> {
     if samples <= MAX_SAMPLES {
         return Ok(());
     }
-    Err(Error::Option {
-        option: "duration".into(),
-        msg: format!(
+    Err(Error::option(
+        "duration",
+        format!(
             "{duration_s} s at {rate_hz} Hz is {samples:.3e} samples; at most {MAX_SAMPLES:.0e} per run (a shorter duration or a lower rate)"
         ),
-    })
+    ))
 }
 
 /// A checked payload: mass (kg), COM `x, y, z` (m), inertia about the COM `Ixx, Ixy, Iyy,
@@ -87,16 +87,15 @@ pub type PayloadParts = (f64, Option<[f64; 3]>, Option<[f64; 6]>);
 /// zero is a point mass). Errors name the option (`payload_mass`, `payload_com`,
 /// `payload_inertia`).
 pub fn payload_parts(mass: f64, com: Option<&[f64]>, inertia: Option<&[f64]>) -> Result<PayloadParts> {
-    let bad = |option: &str, msg: String| Error::Option { option: option.into(), msg };
     if !(mass.is_finite() && mass > 0.0 && mass <= MAX_PAYLOAD_MASS) {
-        return Err(bad(
+        return Err(Error::option(
             "payload_mass",
             format!("must be positive and at most {} kg, got {}", num(MAX_PAYLOAD_MASS), num(mass)),
         ));
     }
     let com = match com {
         Some(c) if c.len() != 3 || c.iter().any(|x| !(x.abs() <= MAX_PAYLOAD_COM)) => {
-            return Err(bad(
+            return Err(Error::option(
                 "payload_com",
                 format!(
                     "needs 3 finite values x, y, z (m) in the last link's frame, each within +-{MAX_PAYLOAD_COM} m, got {c:?}"
@@ -107,11 +106,11 @@ pub fn payload_parts(mass: f64, com: Option<&[f64]>, inertia: Option<&[f64]>) ->
     };
     let inertia = match inertia {
         Some(i) if i.len() != 6 || i.iter().any(|x| !x.is_finite()) => {
-            return Err(bad("payload_inertia", "needs 6 finite values (kg m^2) about the COM".into()));
+            return Err(Error::option("payload_inertia", "needs 6 finite values (kg m^2) about the COM"));
         }
         // no body within the mass and COM bounds has a moment above m r^2 = 1e6 kg m^2
         Some(i) if i.iter().any(|x| !(x.abs() <= MAX_PAYLOAD_MASS * MAX_PAYLOAD_COM * MAX_PAYLOAD_COM)) => {
-            return Err(bad(
+            return Err(Error::option(
                 "payload_inertia",
                 format!(
                     "values must be within +-{} kg m^2, got {i:?}",
@@ -133,13 +132,13 @@ fn physical_inertia(i_c: [f64; 6]) -> Result<[f64; 6]> {
     e.sort_by(f64::total_cmp);
     let tol = 1e-12 * e[2].abs().max(f64::MIN_POSITIVE);
     if e[0] < -tol || e[0] + e[1] < e[2] - tol {
-        return Err(Error::Option {
-            option: "payload_inertia".into(),
-            msg: format!(
+        return Err(Error::option(
+            "payload_inertia",
+            format!(
                 "is not a body's inertia about its COM: principal moments {:.4e}, {:.4e}, {:.4e} must be >= 0 with I1 + I2 >= I3",
                 e[0], e[1], e[2]
             ),
-        });
+        ));
     }
     Ok(i_c)
 }

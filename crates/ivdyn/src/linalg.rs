@@ -16,17 +16,16 @@ use crate::error::{Error, Result};
 pub const MAX_ITER: usize = 100_000;
 
 fn not_converged(what: &str) -> Error {
-    Error::Estimation {
-        msg: format!(
-            "{what}: the decomposition did not converge in {MAX_ITER} iterations (non-finite or huge values?)"
-        ),
+    Error::Numerical {
+        what: what.into(),
+        msg: format!("the decomposition did not converge in {MAX_ITER} iterations (non-finite or huge values?)"),
     }
 }
 
 /// Thin SVD of `m`; `what` names the matrix in the error.
 pub fn svd(m: DMatrix<f64>, u: bool, v: bool, what: &str) -> Result<SVD<f64, Dyn, Dyn>> {
     if m.iter().any(|x| !x.is_finite()) {
-        return Err(Error::Estimation { msg: format!("{what}: the matrix has non-finite entries") });
+        return Err(Error::Numerical { what: what.into(), msg: "the matrix has non-finite entries".into() });
     }
     SVD::try_new(m, u, v, f64::EPSILON, MAX_ITER).ok_or_else(|| not_converged(what))
 }
@@ -38,7 +37,7 @@ where
     DefaultAllocator: Allocator<D, D> + Allocator<DimDiff<D, U1>> + Allocator<D>,
 {
     if m.iter().any(|x| !x.is_finite()) {
-        return Err(Error::Estimation { msg: format!("{what}: the matrix has non-finite entries") });
+        return Err(Error::Numerical { what: what.into(), msg: "the matrix has non-finite entries".into() });
     }
     SymmetricEigen::try_new(m, f64::EPSILON, MAX_ITER).ok_or_else(|| not_converged(what))
 }

@@ -32,7 +32,7 @@ impl Effort {
             "auto" => Ok(Effort::Auto),
             "torque" => Ok(Effort::Torque),
             "current" => Ok(Effort::Current),
-            e => Err(bad_option("effort", format!("must be 'auto', 'torque' or 'current', got '{e}'"))),
+            e => Err(Error::option("effort", format!("must be 'auto', 'torque' or 'current', got '{e}'"))),
         }
     }
 }
@@ -54,8 +54,9 @@ impl PerJoint {
     /// joint, base to tip) or `joint1=V1,joint2=V2,...` (every joint by name).
     pub fn parse(option: &str, text: &str) -> Result<Self> {
         let items: Vec<&str> = text.split(',').map(str::trim).collect();
-        let num =
-            |s: &str| s.parse::<f64>().map_err(|_| bad_option(option, format!("'{s}' is not a number (in '{text}')")));
+        let num = |s: &str| {
+            s.parse::<f64>().map_err(|_| Error::option(option, format!("'{s}' is not a number (in '{text}')")))
+        };
         if items.iter().all(|i| i.contains('=')) {
             let pairs = items.iter().map(|i| {
                 let (j, v) = i.split_once('=').expect("checked above");
@@ -64,7 +65,7 @@ impl PerJoint {
             return pairs.collect::<Result<_>>().map(PerJoint::Named);
         }
         if items.iter().any(|i| i.contains('=')) {
-            return Err(bad_option(option, format!("mixes values and joint=value pairs in '{text}'; use one form")));
+            return Err(Error::option(option, format!("mixes values and joint=value pairs in '{text}'; use one form")));
         }
         let values = items.into_iter().map(num).collect::<Result<Vec<f64>>>()?;
         Ok(if let [v] = values[..] { PerJoint::All(v) } else { PerJoint::List(values) })
@@ -77,7 +78,7 @@ impl PerJoint {
             PerJoint::All(v) => vec![*v; joints.len()],
             PerJoint::List(v) if v.len() == joints.len() => v.clone(),
             PerJoint::List(v) => {
-                return Err(bad_option(
+                return Err(Error::option(
                     option,
                     format!(
                         "has {} values for the {} joints [{}]: give one value, one per joint in this order, or joint=value pairs",
@@ -90,7 +91,7 @@ impl PerJoint {
             PerJoint::Named(pairs) => by_name(option, pairs, joints)?,
         };
         if let Some((j, v)) = joints.iter().zip(&values).find(|(_, v)| !(v.is_finite() && **v != 0.0)) {
-            return Err(bad_option(option, format!("for joint '{j}' is {v}; it must be finite and nonzero")));
+            return Err(Error::option(option, format!("for joint '{j}' is {v}; it must be finite and nonzero")));
         }
         Ok(values)
     }
@@ -101,17 +102,17 @@ fn by_name(option: &str, pairs: &[(String, f64)], joints: &[String]) -> Result<V
     let chain = || format!("the chain's joints are [{}]", joints.join(", "));
     for (k, (name, _)) in pairs.iter().enumerate() {
         if !joints.contains(name) {
-            return Err(bad_option(option, format!("names joint '{name}', which is not in the chain; {}", chain())));
+            return Err(Error::option(option, format!("names joint '{name}', which is not in the chain; {}", chain())));
         }
         if pairs[..k].iter().any(|(n, _)| n == name) {
-            return Err(bad_option(option, format!("gives joint '{name}' twice")));
+            return Err(Error::option(option, format!("gives joint '{name}' twice")));
         }
     }
     joints
         .iter()
         .map(|j| {
             let value = pairs.iter().find(|(n, _)| n == j).map(|(_, v)| *v);
-            value.ok_or_else(|| bad_option(option, format!("has no value for joint '{j}'; {}", chain())))
+            value.ok_or_else(|| Error::option(option, format!("has no value for joint '{j}'; {}", chain())))
         })
         .collect()
 }
@@ -139,18 +140,16 @@ impl TorqueConstants {
                 let (g, km) = (g.resolve("gear_ratio", joints)?, km.resolve("motor_constant", joints)?);
                 Ok(Some(g.iter().zip(&km).map(|(g, km)| g * km).collect()))
             }
-            (Some(_), _, _) => Err(bad_option(
+            (Some(_), _, _) => Err(Error::option(
                 "torque_constant",
-                "and the gear ratios / motor constants are both given: give one of the two".into(),
+                "and the gear ratios / motor constants are both given: give one of the two",
             )),
-            (None, Some(_), None) => Err(bad_option(
-                "motor_constant",
-                "is needed with the gear ratios (k_t = ratio x motor constant)".into(),
-            )),
-            (None, None, Some(_)) => Err(bad_option(
-                "gear_ratio",
-                "is needed with the motor constants (k_t = ratio x motor constant)".into(),
-            )),
+            (None, Some(_), None) => {
+                Err(Error::option("motor_constant", "is needed with the gear ratios (k_t = ratio x motor constant)"))
+            }
+            (None, None, Some(_)) => {
+                Err(Error::option("gear_ratio", "is needed with the motor constants (k_t = ratio x motor constant)"))
+            }
         }
     }
 }
@@ -168,7 +167,7 @@ pub fn to_torque<'a>(
     let use_current = match effort {
         Effort::Auto => log.tau.is_none() && log.current.is_some(),
         Effort::Torque if log.tau.is_none() && log.current.is_some() => {
-            return Err(bad_option("effort", "is 'torque' but the log has no torques, only motor currents".into()));
+            return Err(Error::option("effort", "is 'torque' but the log has no torques, only motor currents"));
         }
         Effort::Torque => false,
         Effort::Current => true,
@@ -177,17 +176,16 @@ pub fn to_torque<'a>(
         return Ok(log);
     }
     let Some(current) = log.current.as_ref() else {
-        return Err(bad_option(
+        return Err(Error::option(
             "effort",
-            "is 'current' but the log has no motor currents (CSV columns <joint>.i, or an MCAP current topic)".into(),
+            "is 'current' but the log has no motor currents (CSV columns <joint>.i, or an MCAP current topic)",
         ));
     };
     let Some(k_t) = k_t else {
-        return Err(bad_option(
+        return Err(Error::option(
             "torque_constant",
             "is needed: the log's effort is a motor current (A); give the torque constants (N m/A at the joint), \
-             or the gear ratios with the motor constants"
-                .into(),
+             or the gear ratios with the motor constants",
         ));
     };
     let n = k_t.len();
@@ -210,12 +208,12 @@ pub fn current_as_effort<'a>(
 ) -> Result<(Cow<'a, JointLog>, &'static str)> {
     if *constants != TorqueConstants::default() {
         let option = if constants.torque_constant.is_some() { "torque_constant" } else { "gear_ratio/motor_constant" };
-        return Err(bad_option(option, "is what the drive-gain fit estimates; leave the torque constants out".into()));
+        return Err(Error::option(option, "is what the drive-gain fit estimates; leave the torque constants out"));
     }
     let use_current = match effort {
         Effort::Auto => log.current.is_some(),
         Effort::Current if log.current.is_none() => {
-            return Err(bad_option(
+            return Err(Error::option(
                 "effort",
                 format!(
                     "is 'current' but the {what} has no motor currents (CSV columns <joint>.i, or an MCAP current topic)"
@@ -235,10 +233,6 @@ pub fn current_as_effort<'a>(
         return Err(Error::NoCurrent { what: what.into() });
     }
     Ok((log, "effort field"))
-}
-
-fn bad_option(option: &str, msg: String) -> Error {
-    Error::Option { option: option.into(), msg }
 }
 
 #[cfg(test)]

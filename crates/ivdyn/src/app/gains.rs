@@ -43,7 +43,7 @@ impl KnownPayload {
     /// From its parts as a user gives them; errors name the option.
     pub fn from_parts(mass: f64, com: Option<&[f64]>, inertia: Option<&[f64]>) -> Result<Self> {
         if inertia.is_some() && com.is_none() {
-            return Err(bad("payload_inertia", "needs payload_com (the inertia is about the COM)".into()));
+            return Err(Error::option("payload_inertia", "needs payload_com (the inertia is about the COM)"));
         }
         // the mass sets the scale of every gain: checked like any payload's
         let (mass, com, inertia) = crate::limits::payload_parts(mass, com, inertia)?;
@@ -73,10 +73,6 @@ impl KnownPayload {
         g.extend(self.inertia.map(|_| "inertia".to_string()));
         g
     }
-}
-
-fn bad(option: &str, msg: String) -> Error {
-    Error::Option { option: option.into(), msg }
 }
 
 /// Options of [`drive_gains`].

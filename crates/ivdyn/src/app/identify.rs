@@ -100,10 +100,7 @@ impl CoulombMode {
             "auto" => Ok(CoulombMode::Auto),
             "sign" => Ok(CoulombMode::Sign),
             "model" => Ok(CoulombMode::Model),
-            _ => Err(Error::Option {
-                option: "coulomb".into(),
-                msg: format!("must be 'auto', 'sign' or 'model', got '{s}'"),
-            }),
+            _ => Err(Error::option("coulomb", format!("must be 'auto', 'sign' or 'model', got '{s}'"))),
         }
     }
 }
@@ -240,10 +237,6 @@ pub struct IdentifyReport {
 // Preparation: conditioning, regressor stacking, parallel filtering
 // ---------------------------------------------------------------------------------------
 
-pub(crate) fn err_est(msg: impl Into<String>) -> Error {
-    Error::Estimation { msg: msg.into() }
-}
-
 // ---------------------------------------------------------------------------------------
 // identify
 // ---------------------------------------------------------------------------------------
@@ -354,13 +347,13 @@ pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) 
         _ => None,
     };
     if opts.method == Method::IdimIv && prep.bounds.len() > 2 {
-        return Err(Error::Option {
-            option: "method".into(),
-            msg: format!(
+        return Err(Error::option(
+            "method",
+            format!(
                 "idim-iv simulates the arm over one continuous log; this one has {} segments (gaps, or several logs): give one log, or a window without gaps",
                 prep.bounds.len() - 1
             ),
-        });
+        ));
     }
     let tau_fit = rows_of(&prep.tau, n, fit_range.clone());
     let idim = if opts.method == Method::IdimIv {
@@ -697,7 +690,10 @@ fn fits(n: usize, d: &FitData, base: &BaseParams, opts: &IdentifyOptions, nom_ba
         return Ok(Fits { fit: ols, weights: ones, iv: None });
     }
     if opts.method == Method::IdimIv {
-        let fit = d.idim.clone().ok_or_else(|| err_est("IDIM-IV: no fit"))?;
+        let fit = d
+            .idim
+            .clone()
+            .ok_or_else(|| Error::internal("IDIM-IV: the method was chosen but no IDIM-IV fit was made"))?;
         return Ok(Fits { fit, weights: ones, iv: None });
     }
     let weights = per_joint_weights(&d.fit.quality(String::new(), &fill_nominal(&ols.theta, nom_base)).rms);
@@ -712,7 +708,7 @@ fn fits(n: usize, d: &FitData, base: &BaseParams, opts: &IdentifyOptions, nom_ba
     match iv {
         Some(Ok(f)) => Ok(Fits { fit: f.clone(), weights, iv: Some(Ok(f)) }),
         Some(Err(e)) => Err(Error::SingularInstrument { msg: e.to_string() }),
-        None => Err(err_est("IV fit: no instrument was built")),
+        None => Err(Error::internal("IV fit: the method was chosen but no instrument was built")),
     }
 }
 

@@ -94,7 +94,7 @@ fn fit<'a>(robot: &Robot, job: &'a IdentifyJob) -> Result<(IdentifyReport, Optio
         && job.also.is_empty()
         && job.validate.as_ref().is_none_or(|v| v.mcap_path().is_some());
     if job.stream && job.in_memory {
-        return Err(Error::Option { option: "stream".into(), msg: "and in_memory cannot both be set".into() });
+        return Err(Error::option("stream", "and in_memory cannot both be set"));
     }
     let large = |p: &Path| -> Result<bool> {
         let count = super::stream::message_count(p, &job.source.topic)?.unwrap_or(0);

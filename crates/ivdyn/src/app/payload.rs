@@ -280,7 +280,8 @@ fn nominal_model(robot: &Robot, before: Option<&JointLog>, opts: &PayloadOptions
         // with the Coulomb shapes identify chose: its fc belong to them
         crate::robot::load::load_params(&mut nom.robot, &rep.params)?;
         nom.name = "before log".into();
-        let fit = rep.fit_report.as_ref().ok_or_else(|| Error::Estimation { msg: "before log: no fit".into() })?;
+        let fit =
+            rep.fit_report.as_ref().ok_or_else(|| Error::internal("before log: identify returned no fit report"))?;
         nom.before = Some(BeforeModel::new(identify_base(robot, &o)?, fit, rep.fit.clone()));
     }
     Ok(nom)
@@ -573,10 +574,10 @@ fn with_torque_constant_prior(
     }
     let effort = match src.effort {
         Effort::Torque => {
-            return Err(Error::Option {
-                option: "effort".into(),
-                msg: "is 'torque', but a torque-constant uncertainty (torque_constant_std, gains) is for an effort given as current".into(),
-            });
+            return Err(Error::option(
+                "effort",
+                "is 'torque', but a torque-constant uncertainty (torque_constant_std, gains) is for an effort given as current",
+            ));
         }
         // the constants' uncertainty only means something for the current
         Effort::Auto | Effort::Current => Effort::Current,
@@ -635,10 +636,10 @@ pub fn check_writable(spec: &PayloadSpec, out: &Path) -> Result<()> {
     if p.iter().all(|x| x.is_finite()) && v.mass > 0.0 && fine(v.min_principal_moment) && fine(v.triangle_margin) {
         return Ok(());
     }
-    Err(Error::Estimation {
-        msg: format!(
-            "refusing to write {}: the payload (mass {} kg, inertia about the COM {:?} kg m^2) is not a physically possible rigid body ({}); nothing was written",
-            out.display(),
+    Err(Error::PhysicallyInconsistent {
+        what: format!("writing {}", out.display()),
+        problems: format!(
+            "the payload (mass {} kg, inertia about the COM {:?} kg m^2) is not a physically possible rigid body ({}); nothing was written",
             spec.mass,
             spec.inertia,
             violation_words(&v)

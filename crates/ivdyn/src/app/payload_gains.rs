@@ -45,10 +45,10 @@ pub(super) fn add_torque_constant_uncertainty(
 ) -> Result<()> {
     let n = after.dof();
     if rel_cov.len() != n * n || rel_cov.iter().any(|v| !v.is_finite()) {
-        return Err(Error::Option {
-            option: "torque_constant_cov".into(),
-            msg: format!("needs {n} x {n} finite values (one row per joint), got {}", rel_cov.len()),
-        });
+        return Err(Error::option(
+            "torque_constant_cov",
+            format!("needs {n} x {n} finite values (one row per joint), got {}", rel_cov.len()),
+        ));
     }
     let c = DMatrix::from_row_slice(n, n, rel_cov);
     let k = fit.theta.len();
@@ -134,10 +134,11 @@ impl TorqueConstantPrior {
         if !open.is_empty() {
             let names: Vec<&str> = open.iter().map(|&j| joints[j].as_str()).collect();
             let what = if self.gains_report.is_some() { "the gains report does not determine" } else { "needed for" };
-            let given = given
-                .ok_or_else(|| bad("torque_constant", format!("is needed for {} ({what} them)", names.join(", "))))?;
+            let given = given.ok_or_else(|| {
+                Error::option("torque_constant", format!("is needed for {} ({what} them)", names.join(", ")))
+            })?;
             let std = self.std.as_ref().ok_or_else(|| {
-                bad("torque_constant_std", format!("is needed for {} ({what} them)", names.join(", ")))
+                Error::option("torque_constant_std", format!("is needed for {} ({what} them)", names.join(", ")))
             })?;
             let std = std.resolve("torque_constant_std", joints)?;
             for &j in &open {
@@ -154,26 +155,22 @@ impl TorqueConstantPrior {
 /// and a covariance row per joint.
 fn read_gains(text: &str, joints: &[String]) -> Result<GainsDoc> {
     let doc: GainsDoc = serde_json::from_str(text).map_err(|e| {
-        bad("gains", format!("is not an `ivdyn gains` report with `gains` and `gain_covariance` ({e})"))
+        Error::option("gains", format!("is not an `ivdyn gains` report with `gains` and `gain_covariance` ({e})"))
     })?;
     if doc.joints != joints {
-        return Err(bad(
+        return Err(Error::option(
             "gains",
             format!("is a report for the joints [{}], not this chain's [{}]", doc.joints.join(", "), joints.join(", ")),
         ));
     }
     let n = joints.len();
     if doc.gains.len() != n || doc.gain_covariance.len() != n || doc.gain_covariance.iter().any(|r| r.len() != n) {
-        return Err(bad("gains", format!("needs {n} gains and an {n} x {n} gain_covariance")));
+        return Err(Error::option("gains", format!("needs {n} gains and an {n} x {n} gain_covariance")));
     }
     if doc.gains.iter().all(|g| g.value.is_none()) {
-        return Err(bad("gains", "determines no gain (every `value` is null)".into()));
+        return Err(Error::option("gains", "determines no gain (every `value` is null)"));
     }
     Ok(doc)
-}
-
-fn bad(option: &str, msg: String) -> Error {
-    Error::Option { option: option.into(), msg }
 }
 
 #[cfg(test)]

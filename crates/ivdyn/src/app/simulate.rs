@@ -126,49 +126,39 @@ pub fn true_robot(robot: &Robot, opts: &SimulateOptions) -> Result<Robot> {
     Ok(r)
 }
 
-/// The built-in excitation: `(t, q, qd, qdd)`, `q_j(t) = q0_j + sum_l A_jl sin(2 pi l f0 t + phi_jl)`.
+/// The built-in excitation: `(t, q, qd, qdd)`, `q_j(t) = q0_j + sum_l A_jl sin(2 pi l f0 t + phi_jl)`
+/// with random amplitudes `A_jl` (falling as `1/l`, summing to the joint's amplitude) and
+/// phases `phi_jl`. Sampled by [`crate::excite::sample`], the one Fourier series (the core's
+/// [`ivdyn_core::trajectory::Fourier`]), in its sine/cosine coefficients:
+/// `A sin(x + phi) = A cos(phi) sin(x) + A sin(phi) cos(x)`, and the core's harmonic `l` is
+/// `(a sin(x) - b cos(x)) / (l w)`, so `a = l w A cos(phi)` and `b = -l w A sin(phi)`.
 pub fn fourier_trajectory(robot: &Robot, opts: &SimulateOptions) -> (Vec<f64>, Vec<f64>, Vec<f64>, Vec<f64>) {
     let n = robot.dof();
     let limits = crate::with_model!(&robot.model, m => m.limits.to_vec());
     let mut rng = Rng::new(opts.seed);
     let h = opts.harmonics.max(1);
-    let mut coef = vec![(0.0, 0.0); n * h];
-    let mut q0 = vec![0.0; n];
+    let omega = std::f64::consts::TAU * opts.base_freq_hz;
+    let mut co = crate::excite::Coeffs { n, h, omega, q0: vec![0.0; n], a: vec![0.0; n * h], b: vec![0.0; n * h] };
     for j in 0..n {
         let l = &limits[j];
         let mut amp = opts.amplitude;
         if l.lower.is_finite() && l.upper.is_finite() && l.upper > l.lower {
-            q0[j] = if l.upper - l.lower < 2.0 * std::f64::consts::TAU { 0.5 * (l.lower + l.upper) } else { 0.0 };
+            co.q0[j] = if l.upper - l.lower < 2.0 * std::f64::consts::TAU { 0.5 * (l.lower + l.upper) } else { 0.0 };
             amp = amp.min(0.4 * (l.upper - l.lower));
         }
         let raw: Vec<(f64, f64)> =
             (0..h).map(|k| (rng.uniform(0.3, 1.0) / (k + 1) as f64, rng.uniform(0.0, std::f64::consts::TAU))).collect();
         let s: f64 = raw.iter().map(|(a, _)| a).sum();
-        for k in 0..h {
-            coef[j * h + k] = (raw[k].0 * amp / s, raw[k].1);
+        for (k, &(r, phase)) in raw.iter().enumerate() {
+            let (lw, amp_k) = ((k + 1) as f64 * omega, r * amp / s);
+            co.a[j * h + k] = lw * amp_k * phase.cos();
+            co.b[j * h + k] = -lw * amp_k * phase.sin();
         }
     }
     let steps = (opts.duration_s * opts.rate_hz).round().max(2.0) as usize;
-    let (mut t, mut q, mut qd, mut qdd) =
-        (Vec::with_capacity(steps), vec![0.0; steps * n], vec![0.0; steps * n], vec![0.0; steps * n]);
-    for s in 0..steps {
-        let ts = s as f64 / opts.rate_hz;
-        t.push(ts);
-        for j in 0..n {
-            let (mut a, mut v, mut acc) = (q0[j], 0.0, 0.0);
-            for k in 0..h {
-                let w = std::f64::consts::TAU * opts.base_freq_hz * (k + 1) as f64;
-                let (c, ph) = coef[j * h + k];
-                a += c * (w * ts + ph).sin();
-                v += c * w * (w * ts + ph).cos();
-                acc -= c * w * w * (w * ts + ph).sin();
-            }
-            q[s * n + j] = a;
-            qd[s * n + j] = v;
-            qdd[s * n + j] = acc;
-        }
-    }
-    (t, q, qd, qdd)
+    let t: Vec<f64> = (0..steps).map(|s| s as f64 / opts.rate_hz).collect();
+    let s = crate::excite::sample(&co, &t);
+    (s.t, s.q, s.qd, s.qdd)
 }
 
 /// A synthetic log: the true model's inverse dynamics (`rnea`, with payload and friction)
@@ -187,9 +177,9 @@ pub fn simulate(robot: &Robot, traj: &Trajectory, opts: &SimulateOptions) -> Res
                     got: q.len(),
                 });
             }
-            let dt = dsp::median_dt(t).ok_or_else(|| bad_option("traj", "needs increasing times".into()))?;
+            let dt = dsp::median_dt(t).ok_or_else(|| Error::option("traj", "needs increasing times"))?;
             if t.windows(2).any(|w| ((w[1] - w[0]) - dt).abs() > 1e-6 * dt.max(1e-9) + 1e-9) {
-                return Err(bad_option("traj", "times must be uniformly spaced".into()));
+                return Err(Error::option("traj", "times must be uniformly spaced"));
             }
             (t.clone(), q.clone(), dsp::central_diff(q, n, dt)?, dsp::second_diff(q, n, dt)?)
         }
@@ -256,10 +246,6 @@ fn check_simulated(log: &JointLog) -> Result<()> {
     Ok(())
 }
 
-fn bad_option(option: &str, msg: String) -> Error {
-    Error::Option { option: option.into(), msg }
-}
-
 impl PayloadSpec {
     /// A payload from its parts as a user gives them (`mass` in kg, `com` x, y, z in m,
     /// `inertia` Ixx, Ixy, Iyy, Ixz, Iyz, Izz (ivdyn's order) in kg m^2 about the COM; the last two
@@ -268,7 +254,7 @@ impl PayloadSpec {
         let Some(m) = mass else {
             return match (com, inertia) {
                 (None, None) => Ok(None),
-                _ => Err(bad_option("payload_com/payload_inertia", "need payload_mass".into())),
+                _ => Err(Error::option("payload_com/payload_inertia", "need payload_mass")),
             };
         };
         let (m, com, inertia) = crate::limits::payload_parts(m, com, inertia)?;
@@ -290,14 +276,14 @@ impl SimulateOptions {
     pub fn check(&self) -> Result<()> {
         for (name, x) in [("duration", self.duration_s), ("rate", self.rate_hz), ("base_freq", self.base_freq_hz)] {
             if !(x > 0.0 && x.is_finite()) {
-                return Err(bad_option(name, format!("must be finite and > 0, got {x}")));
+                return Err(Error::option(name, format!("must be finite and > 0, got {x}")));
             }
         }
         limits::samples_bounded(self.duration_s, self.rate_hz)?;
         limits::count_in("harmonics", self.harmonics, 1, limits::MAX_HARMONICS)?;
         let top = self.harmonics as f64 * self.base_freq_hz;
         if !(top < 0.5 * self.rate_hz) {
-            return Err(bad_option(
+            return Err(Error::option(
                 "base_freq",
                 format!(
                     "{} harmonics of {} Hz reach {top} Hz, above the Nyquist frequency {} Hz of the rate",

@@ -33,7 +33,7 @@ use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{Receiver, sync_channel};
 
-use super::identify::{FitData, IdentifyOptions, IdentifyReport, Method, err_est};
+use super::identify::{FitData, IdentifyOptions, IdentifyReport, Method};
 use crate::Robot;
 use crate::dsp::{self, Butterworth, DiffMethod};
 use crate::error::{Error, Result};
@@ -141,7 +141,7 @@ fn spawn_reader(
             }
             if cur.stamps.len() == BATCH {
                 let full = std::mem::replace(&mut cur, new());
-                tx.send(full).map_err(|_| err_est("streaming stopped"))?;
+                tx.send(full).map_err(|_| Error::internal("streaming: the fitting side stopped before the reader"))?;
             }
             Ok(())
         });
@@ -564,7 +564,7 @@ impl RowPacker<'_> {
                     for (c, &col) in self.base.independent.iter().enumerate() {
                         let v = y[i * p + col];
                         if v != 0.0 && self.packed.binary_search(&(i * b + c)).is_err() {
-                            return Err(err_est(format!(
+                            return Err(Error::internal(format!(
                                 "sample {}: regressor entry (joint {i}, base parameter {c}) taken as structurally zero is {v}",
                                 first + k
                             )));
@@ -846,7 +846,12 @@ fn accumulate(
         Streamed::Done(i) => i,
         Streamed::Unsupported(why) => return Ok(Streamed::Unsupported(why)),
     };
-    let (mut stacker, mut route, dec) = state.ok_or_else(|| err_est(format!("{what}: no samples")))?;
+    let (mut stacker, mut route, dec) = state.ok_or_else(|| Error::ShortLog {
+        what: what.to_string(),
+        samples: 0,
+        needed: 1,
+        needed_by: "identification".into(),
+    })?;
     let mut rows = vec![];
     stacker.finish(&mut rows);
     decimated += rows.len();

@@ -11,11 +11,10 @@
 
 use nalgebra::DMatrix;
 
-use super::bad;
 use super::signals::Signals;
 use crate::Robot;
 use crate::batch;
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 pub(super) const C_ONE: usize = 0;
 pub(super) const C_Q: usize = 1;
@@ -89,7 +88,7 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> R
         let m = k1 - k0;
         let out = &mut y[..m * n * p_full];
         batch::regressor_batch(robot, &s.q[k0 * n..k1 * n], &s.qd[k0 * n..k1 * n], &s.qdd[k0 * n..k1 * n], out, false)
-            .map_err(|e| bad(format!("regressor: {e}")))?;
+            .map_err(|e| Error::during("regressor", e))?;
         for kk in 0..m {
             for j in 0..n {
                 let row = &out[(kk * n + j) * p_full..(kk * n + j + 1) * p_full];

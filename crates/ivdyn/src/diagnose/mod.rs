@@ -21,8 +21,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::Error;
-
 mod assemble;
 mod dictionary;
 mod model;
@@ -97,11 +95,6 @@ impl Default for DiagnoseOptions {
             urdf_name: String::new(),
         }
     }
-}
-
-/// The error of a log or model the diagnosis cannot work with.
-fn bad(msg: impl Into<String>) -> Error {
-    Error::Estimation { msg: msg.into() }
 }
 
 /// The effect vocabulary of DESIGN.md, in its order.

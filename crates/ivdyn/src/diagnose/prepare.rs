@@ -2,14 +2,14 @@
 //! nominal prediction, the dictionary and its Gram matrices, at the differentiation
 //! cutoff and torque-to-motion alignment that explain the log best.
 
+use super::DiagnoseOptions;
 use super::dictionary::{Dictionary, Grams, build_dictionary, grams};
 use super::model::{all_model, fit, noise_of_all_model, rss_joint};
 use super::signals::{Signals, accel_step, condition};
-use super::{DiagnoseOptions, bad};
 use crate::Robot;
 use crate::batch;
 use crate::dsp;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::log::JointLog;
 
 /// Differentiation cutoffs tried (Hz), at most a quarter of the sample rate.
@@ -26,7 +26,12 @@ pub(super) struct Prepared {
 /// The log prepared at the best cutoff, then again with the acceleration aligned to the
 /// torque.
 pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result<Prepared> {
-    let dt = log.median_dt().ok_or_else(|| bad("need at least two distinct stamps"))?;
+    let dt = log.median_dt().ok_or_else(|| Error::ShortLog {
+        what: "the log".into(),
+        samples: log.t.len(),
+        needed: 2,
+        needed_by: "the sample time (distinct stamps)".into(),
+    })?;
     crate::prep::check_sample_time(dt)?;
     let fs = 1.0 / dt;
     // the differentiation cutoff: given, or the one on a grid that leaves the least
@@ -68,15 +73,15 @@ fn prepare(
     }
     let t_len = s.t.len();
     let mut tau_nom = vec![0.0; t_len * n];
-    batch::rnea_batch(robot, &s.q, &s.qd, &s.qdd, &mut tau_nom).map_err(|e| bad(format!("nominal model: {e}")))?;
+    batch::rnea_batch(robot, &s.q, &s.qd, &s.qdd, &mut tau_nom).map_err(|e| Error::during("nominal model", e))?;
     let d = build_dictionary(robot, &s, &tau_nom)?;
     let gr = grams(&d, t_len, opts.blocks_per_fold.max(1));
     // every fit of the search decomposes these sums: a non-finite one would not converge
     if let Some(j) = gr.g.iter().position(|g| g.iter().any(|m| m.iter().any(|x| !x.is_finite()))) {
-        return Err(bad(format!(
-            "joint '{}': the regressor sums overflow (values in the log too large)",
-            log.joint_names.get(j).map_or("?", String::as_str)
-        )));
+        return Err(Error::Numerical {
+            what: format!("joint '{}'", log.joint_names.get(j).map_or("?", String::as_str)),
+            msg: "the regressor sums overflow (values in the log too large)".into(),
+        });
     }
     Ok(Prepared { s, tau_nom, d, gr })
 }
@@ -100,8 +105,8 @@ impl Prepared {
         let delta = accel_step(&self.s.qd, n, self.s.dt);
         let zero = vec![0.0; t_len * n];
         let (mut m_d, mut m_0) = (vec![0.0; t_len * n], vec![0.0; t_len * n]);
-        batch::rnea_batch(robot, &self.s.q, &zero, &delta, &mut m_d).map_err(|e| bad(format!("alignment: {e}")))?;
-        batch::rnea_batch(robot, &self.s.q, &zero, &zero, &mut m_0).map_err(|e| bad(format!("alignment: {e}")))?;
+        batch::rnea_batch(robot, &self.s.q, &zero, &delta, &mut m_d).map_err(|e| Error::during("alignment", e))?;
+        batch::rnea_batch(robot, &self.s.q, &zero, &zero, &mut m_0).map_err(|e| Error::during("alignment", e))?;
         let (mut num, mut den) = (0.0, 0.0);
         for k in 0..t_len {
             for j in 0..n {

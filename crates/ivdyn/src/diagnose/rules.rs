@@ -26,10 +26,10 @@
 use super::dictionary::{C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, Grams, STRIBECK_VS};
 use super::model::{Fit, Model, Param, all_model, effect_rms, fit, joint_index, noise_of_all_model, rss_joint};
 use super::prepare::Prepared;
-use super::{CandidateScore, DiagnoseOptions, EffectKind, JointScore, bad};
+use super::{CandidateScore, DiagnoseOptions, EffectKind, JointScore};
 use crate::Robot;
 use crate::batch;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::ident::stats::f_sf;
 
 /// Smallest armature (payload) named, as a fraction of the nominal inertia on the joint
@@ -65,7 +65,7 @@ fn mean_mass_diag(robot: &Robot, q: &[f64], n: usize) -> Result<Vec<f64>> {
     let qs: Vec<f64> = (0..t_len).step_by(step).flat_map(|k| q[k * n..(k + 1) * n].to_vec()).collect();
     let m = qs.len() / n;
     let mut out = vec![0.0; m * n * n];
-    batch::mass_matrix_batch(robot, &qs, &mut out).map_err(|e| bad(format!("mass matrix: {e}")))?;
+    batch::mass_matrix_batch(robot, &qs, &mut out).map_err(|e| Error::during("mass matrix", e))?;
     Ok((0..n).map(|j| (0..m).map(|k| out[k * n * n + j * n + j]).sum::<f64>() / m as f64).collect())
 }
 

@@ -3,11 +3,14 @@
 //! transients cut off; and the time shift of the acceleration that aligns it with the
 //! torque.
 
-use super::{DiagnoseOptions, bad};
+use super::DiagnoseOptions;
 use crate::dsp;
 use crate::error::{Error, Result};
 use crate::log::JointLog;
 use crate::prep;
+
+/// Samples the diagnosis needs after conditioning and dropping the filters' edges.
+const MIN_SAMPLES: usize = 50;
 
 /// Conditioned signals, row-major `T x N`.
 pub(super) struct Signals {
@@ -42,21 +45,36 @@ pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) 
     // the log's velocity where it agrees with the positions
     let c = prep::condition(log, &copts)?;
     let t_len = c.t.len();
-    if t_len < 50 {
-        return Err(bad(format!("the log has {t_len} usable samples; the diagnosis needs at least 50")));
+    if t_len < MIN_SAMPLES {
+        return Err(Error::ShortLog {
+            what: "the log".into(),
+            samples: t_len,
+            needed: MIN_SAMPLES,
+            needed_by: "the diagnosis".into(),
+        });
     }
     let tau = c.tau.as_ref().unwrap_or(tau);
     if let Some(i) = tau.iter().position(|v| !v.is_finite()) {
-        return Err(bad(format!("sample {}, joint {}: effort is {}", i / n, log.joint_names[i % n], tau[i])));
+        return Err(Error::NonFiniteSample {
+            what: "effort".into(),
+            sample: i / n,
+            joint: log.joint_names[i % n].clone(),
+            value: tau[i],
+        });
     }
     // the first and last samples carry the filters' and differences' edge transients:
     // two time constants of the cutoff (at least 2 samples) are left out at both ends
     // (`as usize` saturates for an absurd cutoff or sample spacing: the sum must not wrap)
     let trim = ((2.0 / (cutoff_hz * c.dt)).ceil() as usize).max(2);
-    if trim.checked_mul(2).and_then(|e| e.checked_add(50)).is_none_or(|need| t_len <= need) {
-        return Err(bad(format!(
-            "the log has {t_len} samples; with {trim} edge samples dropped at each end (cutoff {cutoff_hz} Hz) fewer than 50 are left"
-        )));
+    if trim.checked_mul(2).and_then(|e| e.checked_add(MIN_SAMPLES)).is_none_or(|need| t_len <= need) {
+        return Err(Error::ShortLog {
+            what: "the log".into(),
+            samples: t_len.saturating_sub(trim.saturating_mul(2)),
+            needed: MIN_SAMPLES,
+            needed_by: format!(
+                "the diagnosis (after dropping {trim} edge samples at each end for the cut-off {cutoff_hz} Hz)"
+            ),
+        });
     }
     let cut = |x: &[f64]| x[trim * n..(t_len - trim) * n].to_vec();
     Ok(Signals {

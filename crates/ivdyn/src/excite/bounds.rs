@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use super::fourier::{Basis, dot};
-use super::{DEFAULT_VEL_LIMIT, ExciteOptions, bad};
+use super::{DEFAULT_VEL_LIMIT, ExciteOptions};
 use crate::Robot;
 use crate::error::{Error, Result};
 
@@ -47,10 +47,13 @@ pub fn joint_bounds(robot: &Robot, opts: &ExciteOptions) -> Result<Vec<JointBoun
         .map(|i| {
             let ok = |v: f64| v > 0.0 && v.is_finite(); // false for NaN too
             if !ok(acc[i]) || !ok(vel[i]) {
-                return Err(bad(format!(
-                    "joint '{}': velocity and acceleration limits must be positive and finite (got {} and {})",
-                    robot.joint_names[i], vel[i], acc[i]
-                )));
+                return Err(Error::JointLimits {
+                    joint: robot.joint_names[i].clone(),
+                    msg: format!(
+                        "velocity and acceleration limits must be positive and finite for the excitation (got {} and {})",
+                        vel[i], acc[i]
+                    ),
+                });
             }
             Ok(JointBounds { lower: lim[i].lower, upper: lim[i].upper, velocity: vel[i], acceleration: acc[i] })
         })
@@ -74,7 +77,10 @@ pub(super) fn margin_boxes(robot: &Robot, bounds: &[JointBounds], margin: f64) -
         .collect();
     for (i, b) in boxes.iter().enumerate() {
         if b.finite_pos() && !(b.upper > b.lower) {
-            return Err(bad(format!("joint '{}': empty position range", robot.joint_names[i])));
+            return Err(Error::JointLimits {
+                joint: robot.joint_names[i].clone(),
+                msg: format!("empty position range after the safety margin {margin}"),
+            });
         }
     }
     Ok(boxes)

@@ -82,22 +82,24 @@ pub const MAX_OPT_SAMPLES: usize = 100_000;
 /// rate, more than `MAX_SAMPLES` written samples, a margin outside `[0, 0.5)`, counts
 /// outside their bounds, limits beyond `MAX_MAGNITUDE`.
 fn check_options(opts: &ExciteOptions) -> Result<()> {
-    let bad = |option: &str, msg: String| Error::Option { option: option.into(), msg };
     let h = opts.harmonics;
     if h < 2 {
-        return Err(bad("harmonics", format!("must be at least 2 (one is used by the rest constraints), got {h}")));
+        return Err(Error::option(
+            "harmonics",
+            format!("must be at least 2 (one is used by the rest constraints), got {h}"),
+        ));
     }
     limits::count_in("harmonics", h, 2, limits::MAX_HARMONICS)?;
     for (what, v) in [("duration", opts.duration_s), ("f0", opts.f0_hz), ("rate", opts.rate_hz)] {
         if !(v > 0.0 && v.is_finite()) {
-            return Err(bad(what, format!("must be positive, got {v}")));
+            return Err(Error::option(what, format!("must be positive, got {v}")));
         }
     }
     limits::samples_bounded(opts.duration_s, opts.rate_hz)?;
     // the written samples must resolve the highest harmonic
     let top = h as f64 * opts.f0_hz;
     if !(top < 0.5 * opts.rate_hz) {
-        return Err(bad(
+        return Err(Error::option(
             "f0",
             format!(
                 "{h} harmonics of {} Hz reach {top} Hz, above the Nyquist frequency {} Hz of --rate",
@@ -107,22 +109,22 @@ fn check_options(opts: &ExciteOptions) -> Result<()> {
         ));
     }
     if !(0.0..0.5).contains(&opts.margin) {
-        return Err(bad("margin", format!("must be in [0, 0.5), got {}", opts.margin)));
+        return Err(Error::option("margin", format!("must be in [0, 0.5), got {}", opts.margin)));
     }
     if opts.starts == 0 {
-        return Err(bad("starts", "must be at least 1".into()));
+        return Err(Error::option("starts", "must be at least 1"));
     }
     limits::count_in("starts", opts.starts, 1, MAX_STARTS)?;
     limits::count_in("iterations", opts.iterations, 0, MAX_ITERATIONS)?;
     limits::count_in("random", opts.random_draws, 0, MAX_RANDOM)?;
     if opts.opt_samples < 2 {
-        return Err(bad("opt_samples", format!("must be at least 2, got {}", opts.opt_samples)));
+        return Err(Error::option("opt_samples", format!("must be at least 2, got {}", opts.opt_samples)));
     }
     limits::count_in("opt_samples", opts.opt_samples, 2, MAX_OPT_SAMPLES)?;
     // non-positive and non-finite limits are refused per joint, by name, in `bounds`
     for (what, v) in [("acc_limit", &opts.acc_limit[..]), ("vel_limit", opts.vel_limit.as_deref().unwrap_or(&[]))] {
         if let Some(x) = v.iter().find(|x| x.is_finite() && **x > limits::MAX_MAGNITUDE) {
-            return Err(bad(
+            return Err(Error::option(
                 what,
                 format!("must be at most {}, got {}", limits::num(limits::MAX_MAGNITUDE), limits::num(*x)),
             ));

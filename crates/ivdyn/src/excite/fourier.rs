@@ -90,22 +90,29 @@ pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// Times per [`Basis`] in [`sample`]: the basis of a long log (simulate's hour at 1 kHz)
+/// would take more memory than the samples themselves.
+const SAMPLE_CHUNK: usize = 4096;
+
 /// Samples `co` at `times` (through [`Basis`], i.e. `Fourier`).
 pub fn sample(co: &Coeffs, times: &[f64]) -> Samples {
-    let (n, h) = (co.n, co.h);
-    let g = Basis::new(co.omega, h, times);
+    let n = co.n;
     let mut s = Samples {
         t: times.to_vec(),
         q: vec![0.0; times.len() * n],
         qd: vec![0.0; times.len() * n],
         qdd: vec![0.0; times.len() * n],
     };
-    for k in 0..times.len() {
-        for i in 0..n {
-            let e = co.joint(i);
-            s.q[k * n + i] = co.q0[i] + dot(g.row(&g.q, k), &e);
-            s.qd[k * n + i] = dot(g.row(&g.qd, k), &e);
-            s.qdd[k * n + i] = dot(g.row(&g.qdd, k), &e);
+    let coef: Vec<Vec<f64>> = (0..n).map(|i| co.joint(i)).collect();
+    for (c, chunk) in times.chunks(SAMPLE_CHUNK).enumerate() {
+        let g = Basis::new(co.omega, co.h, chunk);
+        for k in 0..chunk.len() {
+            let row = (c * SAMPLE_CHUNK + k) * n;
+            for (i, e) in coef.iter().enumerate() {
+                s.q[row + i] = co.q0[i] + dot(g.row(&g.q, k), e);
+                s.qd[row + i] = dot(g.row(&g.qd, k), e);
+                s.qdd[row + i] = dot(g.row(&g.qdd, k), e);
+            }
         }
     }
     s

@@ -49,7 +49,6 @@ mod write;
 
 use serde::Serialize;
 
-use crate::error::Error;
 use crate::progress::ProgressSink;
 
 pub use bounds::{JointBounds, joint_bounds};
@@ -198,8 +197,4 @@ pub struct ExciteReport {
     /// The written samples.
     #[serde(skip)]
     pub trajectory: Samples,
-}
-
-fn bad(msg: String) -> Error {
-    Error::Estimation { msg: format!("excite: {msg}") }
 }

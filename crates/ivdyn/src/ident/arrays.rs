@@ -88,24 +88,24 @@ pub const MAX_RLS_PARAMS: usize = 4096;
 
 fn check_start(p: usize, p0: f64, forgetting: f64) -> Result<()> {
     if p == 0 || p > MAX_RLS_PARAMS {
-        return Err(Error::Option {
-            option: "p".into(),
-            msg: format!(
+        return Err(Error::option(
+            "p",
+            format!(
                 "must be in 1..={MAX_RLS_PARAMS}, got {p} (parameters of the recursive estimator; its covariance is p x p)"
             ),
-        });
+        ));
     }
     if !(p0 > 0.0 && p0.is_finite()) {
-        return Err(Error::Option {
-            option: "p0".into(),
-            msg: format!("must be finite and > 0, got {p0} (initial covariance of the recursive estimator)"),
-        });
+        return Err(Error::option(
+            "p0",
+            format!("must be finite and > 0, got {p0} (initial covariance of the recursive estimator)"),
+        ));
     }
     if !(forgetting > 0.0 && forgetting <= 1.0) {
-        return Err(Error::Option {
-            option: "forgetting".into(),
-            msg: format!("must be in (0, 1], got {forgetting} (forgetting factor of the recursive estimator)"),
-        });
+        return Err(Error::option(
+            "forgetting",
+            format!("must be in (0, 1], got {forgetting} (forgetting factor of the recursive estimator)"),
+        ));
     }
     Ok(())
 }
@@ -115,12 +115,10 @@ fn check_max_variance(v: f64) -> Result<()> {
     if v > 0.0 && v.is_finite() {
         return Ok(());
     }
-    Err(Error::Option {
-        option: "max_variance".into(),
-        msg: format!(
-            "must be finite and > 0, got {v} (anti-windup bound on the covariance under forgetting; default p0)"
-        ),
-    })
+    Err(Error::option(
+        "max_variance",
+        format!("must be finite and > 0, got {v} (anti-windup bound on the covariance under forgetting; default p0)"),
+    ))
 }
 
 /// `outlier_gate` of a recursive estimator: `> 0`, infinity = no gate.
@@ -128,12 +126,12 @@ fn check_outlier_gate(g: f64) -> Result<()> {
     if g > 0.0 {
         return Ok(());
     }
-    Err(Error::Option {
-        option: "outlier_gate".into(),
-        msg: format!(
+    Err(Error::option(
+        "outlier_gate",
+        format!(
             "must be > 0 (inf or None = no gate), got {g} (largest normalised innovation |e| / sqrt(1/w + phi^T P phi) accepted)"
         ),
-    })
+    ))
 }
 
 /// Row `i` of the optional weights (1 when absent).
@@ -410,11 +408,8 @@ pub fn terminal_names(robot: &Robot, spec: &TerminalSpec) -> Vec<String> {
 
 fn check_spec(spec: &TerminalSpec, n: usize) -> Result<()> {
     if spec.k >= n || spec.first_row > spec.k {
-        return Err(Error::Estimation {
-            msg: format!(
-                "terminal link: need first_row <= k < N = {n}, got k = {}, first_row = {}",
-                spec.k, spec.first_row
-            ),
+        return Err(Error::TerminalLink {
+            msg: format!("need first_row <= k < N = {n}, got k = {}, first_row = {}", spec.k, spec.first_row),
         });
     }
     Ok(())
@@ -484,27 +479,23 @@ pub fn terminal_link_run(
         TerminalInstrument::Qdd(z) => check_len("qdd_instr (T x N)", t * n, z.len())?,
         TerminalInstrument::Eq35(u) => check_len("u (T x N)", t * n, u.len())?,
         TerminalInstrument::None if opts.iv => {
-            return Err(Error::Estimation {
-                msg: "terminal link: the IV method needs an instrument (qdd_instr or u)".into(),
-            });
+            return Err(Error::TerminalLink { msg: "the IV method needs an instrument (qdd_instr or u)".into() });
         }
         TerminalInstrument::None => {}
     }
     check_len("row_weight (one per joint)", n, opts.row_weight.len())?;
     let cols = opts.spec.cols(n);
     if opts.columns.is_empty() {
-        return Err(Error::Estimation { msg: "terminal link: no columns to estimate".into() });
+        return Err(Error::TerminalLink { msg: "no columns to estimate".into() });
     }
     if let Some(&c) = opts.columns.iter().find(|&&c| c >= cols) {
-        return Err(Error::Estimation {
-            msg: format!("terminal link: column {c} out of range (the unknown set has {cols} columns)"),
+        return Err(Error::TerminalLink {
+            msg: format!("column {c} out of range (the unknown set has {cols} columns)"),
         });
     }
     check_start(opts.columns.len(), opts.p0, 1.0)?;
     if opts.record.first() == Some(&0) || opts.record.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(Error::Estimation {
-            msg: "terminal link: record must be strictly increasing positive sample counts".into(),
-        });
+        return Err(Error::TerminalLink { msg: "record must be strictly increasing positive sample counts".into() });
     }
     crate::with_model!(&robot.model, m => terminal_run_n(&**m, opts, t, q, qd, qdd, tau, instrument))
 }

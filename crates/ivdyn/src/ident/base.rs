@@ -101,10 +101,10 @@ impl BaseParams {
         let mut seen = vec![false; p];
         for &c in preference {
             if c >= p || std::mem::replace(&mut seen[c], true) {
-                return Err(Error::Option {
-                    option: "preference".into(),
-                    msg: format!("must be a permutation of the {p} columns, got column {c} out of range or twice"),
-                });
+                return Err(Error::option(
+                    "preference",
+                    format!("must be a permutation of the {p} columns, got column {c} out of range or twice"),
+                ));
             }
         }
         if preference.len() != p {
@@ -423,12 +423,12 @@ pub const MAX_BASE_SAMPLES: usize = 20_000;
 /// `samples` random states at most [`MAX_BASE_SAMPLES`] (each base-parameter search).
 pub fn check_base_samples(samples: usize) -> Result<()> {
     if samples > MAX_BASE_SAMPLES {
-        return Err(Error::Option {
-            option: "samples".into(),
-            msg: format!(
+        return Err(Error::option(
+            "samples",
+            format!(
                 "must be at most {MAX_BASE_SAMPLES}, got {samples} (random states for the base parameters; a few hundred suffice)"
             ),
-        });
+        ));
     }
     Ok(())
 }

@@ -271,7 +271,7 @@ fn scales(theta_nom: &[f64], n: usize) -> Vec<f64> {
 }
 
 fn bad(msg: String) -> Error {
-    Error::Estimation { msg: format!("consistent fit: {msg}") }
+    Error::Numerical { what: "consistent fit".into(), msg }
 }
 
 /// Fits physically consistent full parameters (module docs). `acc` holds the (weighted)
@@ -400,7 +400,8 @@ fn null_rows(as_: &DMatrix<f64>, s: &[f64]) -> Result<DMatrix<f64>> {
     let mut padded = DMatrix::zeros(p.max(b), p);
     padded.rows_mut(0, b).copy_from(as_);
     let svd = crate::linalg::svd(padded, false, true, "consistent fit: null space of the scaled regressor")?;
-    let vt = svd.v_t.as_ref().ok_or_else(|| bad("consistent fit: SVD failed".to_string()))?;
+    let vt =
+        svd.v_t.as_ref().ok_or_else(|| Error::internal("consistent fit: the SVD was asked for V^T and gave none"))?;
     let top = svd.singular_values.max().max(0.0);
     let null: Vec<usize> = (0..vt.nrows()).filter(|&k| !(svd.singular_values[k] > NULL_TOL * top)).collect();
     Ok(DMatrix::from_fn(null.len(), p, |r_, c| vt[(null[r_], c)] / s[c]))

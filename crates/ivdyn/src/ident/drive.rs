@@ -46,7 +46,7 @@ impl DriveTerms {
     /// The terms named by a user: friction terms `"coulomb"`, `"viscous"` or `"none"` (alone),
     /// armature and offset switched on or off.
     pub fn from_names(friction: &[&str], armature: bool, offset: bool) -> crate::error::Result<DriveTerms> {
-        let bad = |msg: String| crate::error::Error::Option { option: "friction".into(), msg };
+        let bad = |msg: String| crate::error::Error::option("friction", msg);
         if let Some(f) = friction.iter().find(|f| !matches!(**f, "coulomb" | "viscous" | "none")) {
             return Err(bad(format!("must be 'none' or a list of 'coulomb', 'viscous', got '{f}'")));
         }

@@ -270,25 +270,24 @@ pub fn fit_gains(
     Ok(out)
 }
 
-fn bad(option: &str, msg: String) -> Error {
-    Error::Option { option: option.into(), msg }
-}
-
 fn check_inputs(n: usize, runs: &[GainRun], known: &[Option<f64>; LINK_PARAMS], opts: &GainOptions) -> Result<()> {
     if n == 0 {
         return Err(Error::Dimension { what: "joints".into(), expected: 1, got: 0 });
     }
     if !(runs.iter().any(|r| r.loaded) && runs.iter().any(|r| !r.loaded)) {
-        return Err(bad("logs", "need a run without and a run with the payload".into()));
+        return Err(Error::option("logs", "need a run without and a run with the payload"));
     }
     if !known[0].is_some_and(|m| m.is_finite() && m > 0.0) {
-        return Err(bad("payload_mass", format!("must be positive, got {:?} (the scale of every gain)", known[0])));
+        return Err(Error::option(
+            "payload_mass",
+            format!("must be positive, got {:?} (the scale of every gain)", known[0]),
+        ));
     }
     if let Some(k) = known.iter().position(|v| v.is_some_and(|v| !v.is_finite())) {
-        return Err(bad("payload", format!("{} is not finite", LINK_PARAM_NAMES[k])));
+        return Err(Error::option("payload", format!("{} is not finite", LINK_PARAM_NAMES[k])));
     }
     if !(opts.max_rel_std.is_finite() && opts.max_rel_std > 0.0) {
-        return Err(bad("max_rel_std", format!("must be finite and > 0, got {}", opts.max_rel_std)));
+        return Err(Error::option("max_rel_std", format!("must be finite and > 0, got {}", opts.max_rel_std)));
     }
     Ok(())
 }

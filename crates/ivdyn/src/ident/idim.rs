@@ -112,11 +112,10 @@ where
             }
         }
         let Some(alpha) = used else {
-            return Err(Error::Estimation {
-                msg: format!(
-                    "IDIM-IV iteration {iter}: even the nominal model's simulation failed: {}",
-                    last_err.map(|e| e.to_string()).unwrap_or_default()
-                ),
+            let source = last_err.unwrap_or_else(|| Error::internal("IDIM-IV: no step size was tried"));
+            return Err(Error::During {
+                step: format!("IDIM-IV iteration {iter}: even the nominal model's simulation failed"),
+                source: Box::new(source),
             });
         };
         shrink.push(alpha);

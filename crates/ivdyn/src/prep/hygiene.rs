@@ -68,7 +68,7 @@ pub fn parse_window(s: &str) -> Result<(f64, f64)> {
 
 /// Parses a span `START:END` (seconds) given to `option`; an empty side is 0 or the end.
 pub fn parse_span(s: &str, option: &str) -> Result<(f64, f64)> {
-    let bad = || Error::Option { option: option.into(), msg: format!("must be START:END in seconds, got '{s}'") };
+    let bad = || Error::option(option, format!("must be START:END in seconds, got '{s}'"));
     let (a, b) = s.split_once(':').ok_or_else(bad)?;
     let num =
         |x: &str, empty: f64| if x.trim().is_empty() { Ok(empty) } else { x.trim().parse::<f64>().map_err(|_| bad()) };
@@ -77,7 +77,7 @@ pub fn parse_span(s: &str, option: &str) -> Result<(f64, f64)> {
 
 /// Indices of the samples with `t - t[0]` in `[start, end]`.
 fn window_rows(t: &[f64], (start, end): (f64, f64)) -> Result<Vec<usize>> {
-    let bad = |msg: String| Error::Option { option: "window".into(), msg };
+    let bad = |msg: String| Error::option("window", msg);
     if !start.is_finite() || start < 0.0 || end.is_nan() {
         return Err(bad(format!("{start}:{end}: start must be a time >= 0 s and end a later time (s)")));
     }
@@ -159,10 +159,7 @@ impl RepeatWatch {
 fn outside(t: &[f64], exclude: &[(f64, f64)], t0: f64) -> Result<Vec<usize>> {
     for &(a, b) in exclude {
         if !(a.is_finite() && a >= 0.0 && b > a) {
-            return Err(Error::Option {
-                option: "exclude".into(),
-                msg: format!("{a}:{b}: must be START:END with 0 <= START < END (s)"),
-            });
+            return Err(Error::option("exclude", format!("{a}:{b}: must be START:END with 0 <= START < END (s)")));
         }
     }
     Ok((0..t.len()).filter(|&k| !exclude.iter().any(|&(a, b)| (a..=b).contains(&(t[k] - t0)))).collect())

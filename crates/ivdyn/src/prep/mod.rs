@@ -21,10 +21,6 @@ use crate::log::JointLog;
 pub use hygiene::Hygiene;
 pub use velocity::{VelocityChoice, VelocitySource};
 
-fn bad(msg: &str) -> Error {
-    Error::Estimation { msg: msg.into() }
-}
-
 /// Options of [`condition`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct ConditionOptions {
@@ -216,7 +212,12 @@ pub fn condition_segments(log: &JointLog, opts: &ConditionOptions) -> Result<Vec
     let t_kept: Vec<f64> = dd.keep.iter().map(|&k| log.t[k]).collect();
     let dt = match opts.dt {
         Some(dt) => dt,
-        None => median_dt(&t_kept).ok_or_else(|| bad("need at least two distinct stamps"))?,
+        None => median_dt(&t_kept).ok_or_else(|| Error::ShortLog {
+            what: "the log".into(),
+            samples: t_kept.len(),
+            needed: 2,
+            needed_by: "the sample time (distinct stamps)".into(),
+        })?,
     };
     check_sample_time(dt)?;
     let (segments, gaps) = split_at_gaps(&log.t, &dd.keep, dt);
@@ -230,9 +231,7 @@ pub fn condition_segments(log: &JointLog, opts: &ConditionOptions) -> Result<Vec
         parts.push(uniform(&log, &rows, dt, opts)?);
     }
     if parts.is_empty() {
-        return Err(bad(&format!(
-            "the log has {gaps} gaps and no segment between them of at least {MIN_SEGMENT_SAMPLES} samples"
-        )));
+        return Err(Error::NoSegment { gaps, min_segment: MIN_SEGMENT_SAMPLES });
     }
     hygiene.segments = parts.len();
     let names = &log.joint_names;
@@ -337,9 +336,7 @@ pub fn check_sample_time(dt: f64) -> Result<()> {
     if dt.is_finite() && dt >= MIN_SAMPLE_TIME {
         return Ok(());
     }
-    Err(bad(&format!(
-        "sample time {dt:e} s is below the {MIN_SAMPLE_TIME:e} s (100 kHz) accepted: stamps in the wrong unit?"
-    )))
+    Err(Error::SampleTime { dt, min: MIN_SAMPLE_TIME })
 }
 
 /// The parallel filter: [`Decimator::new`] for a factor > 1 (`0` = [`auto_decimation`]),
@@ -358,10 +355,7 @@ pub(crate) fn parallel_filter(
         crate::dsp::resolve_cutoff(*cutoff_hz, fs)?;
     }
     if decimate > samples.max(1) {
-        return Err(Error::Option {
-            option: "decimate".into(),
-            msg: format!("must be at most the log's {samples} samples, got {decimate}"),
-        });
+        return Err(Error::option("decimate", format!("must be at most the log's {samples} samples, got {decimate}")));
     }
     let f = if decimate == 0 { auto_decimation(fs, condition) } else { decimate };
     if f > 1 { Decimator::new(f, fs) } else { Decimator::with_filter(1, Butterworth::default_for(fs)?) }

@@ -43,10 +43,7 @@ impl VelocitySource {
             "auto" => Ok(VelocitySource::Auto),
             "log" => Ok(VelocitySource::Log),
             "positions" => Ok(VelocitySource::Positions),
-            _ => Err(Error::Option {
-                option: "velocity".into(),
-                msg: format!("must be auto, log or positions, got '{s}'"),
-            }),
+            _ => Err(Error::option("velocity", format!("must be auto, log or positions, got '{s}'"))),
         }
     }
 }
@@ -154,8 +151,11 @@ impl LogVelocity {
     pub fn new(qd_log: &[f64], names: &[String], dt: f64, method: &DiffMethod) -> Result<Self> {
         let n = names.len();
         if let Some(i) = qd_log.iter().position(|v| !v.is_finite()) {
-            return Err(Error::Estimation {
-                msg: format!("sample {}, joint {}: velocity is {}", i / n, names[i % n], qd_log[i]),
+            return Err(Error::NonFiniteSample {
+                what: "velocity".into(),
+                sample: i / n,
+                joint: names[i % n].clone(),
+                value: qd_log[i],
             });
         }
         let (qd, qdd) = smooth(qd_log, n, dt, method)?;
@@ -184,10 +184,7 @@ pub fn decide(
     }
     if parts.iter().any(|p| p.1.is_none()) || parts.is_empty() {
         if policy == VelocitySource::Log {
-            return Err(Error::Option {
-                option: "velocity".into(),
-                msg: "is 'log' but the log has no velocity".into(),
-            });
+            return Err(Error::option("velocity", "is 'log' but the log has no velocity"));
         }
         return Ok(names.iter().map(|j| plain(j, "the log has no velocity")).collect());
     }

@@ -242,13 +242,13 @@ impl Robot {
         }
         if let Some(j) = shapes.iter().position(|c| !(c.v_scale >= 0.0 && c.v_scale.is_finite() && c.asym.abs() < 1.0))
         {
-            return Err(Error::Option {
-                option: "coulomb".into(),
-                msg: format!(
+            return Err(Error::option(
+                "coulomb",
+                format!(
                     "joint {}: velocity scale {} must be finite and >= 0 and asymmetry {} inside (-1, 1)",
                     self.joint_names[j], shapes[j].v_scale, shapes[j].asym
                 ),
-            });
+            ));
         }
         with_model!(&mut self.model, m => m.drive.iter_mut().zip(shapes).for_each(|(d, c)| d.coulomb = *c));
         Ok(())

@@ -173,9 +173,10 @@ pub fn refuse_inconsistent(robot: &super::Robot, theta: &[f64], what: &str) -> c
 
 /// The error refusing to write `what` for the problems `lines`.
 pub fn refused(what: &str, lines: &[String]) -> crate::error::Error {
-    crate::error::Error::Estimation {
-        msg: format!(
-            "{what} export refused: not physically possible (a simulator would reject or mis-simulate it): {}. Identify with --consistent (consistent=True) for physically consistent parameters",
+    crate::error::Error::PhysicallyInconsistent {
+        what: format!("{what} export"),
+        problems: format!(
+            "not physically possible (a simulator would reject or mis-simulate it): {}. Identify with --consistent (consistent=True) for physically consistent parameters",
             lines.join("; ")
         ),
     }

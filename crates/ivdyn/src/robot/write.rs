@@ -68,7 +68,10 @@ fn inertial_xml(p: &[f64], indent: &str, link: &str) -> Result<String> {
     } else {
         LinkInertia([p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9]])
             .to_mass_com_inertia(0)
-            .map_err(|_| Error::Estimation { msg: format!("URDF write-back: link '{link}' would get mass {} kg, which URDF cannot express (use consistent parameters: identify --consistent)", p[0]) })?
+            .map_err(|_| Error::PhysicallyInconsistent {
+                what: "URDF write-back".into(),
+                problems: format!("link '{link}' would get mass {} kg, which URDF cannot express (use consistent parameters: identify --consistent)", p[0]),
+            })?
     };
     let i2 = format!("{indent}  ");
     Ok(format!(
@@ -462,6 +465,7 @@ pub fn stage_files(set: &mut crate::output::OutputSet, path: &Path, wb: &WriteBa
 
 /// Stages the side file `side` as JSON at `path` in `set`.
 pub(crate) fn stage_side(set: &mut crate::output::OutputSet, path: &Path, side: &SideFile) -> Result<()> {
-    let text = serde_json::to_string_pretty(side).map_err(|e| Error::Estimation { msg: e.to_string() })? + "\n";
+    let text =
+        serde_json::to_string_pretty(side).map_err(|e| Error::internal(format!("side file as JSON: {e}")))? + "\n";
     set.write_bytes(path, text.as_bytes())
 }

@@ -7,6 +7,7 @@
 
 mod base_names;
 mod batch_recovery;
+mod closed_loop;
 mod consistent;
 mod coulomb_shape;
 mod diagnose_cases;
@@ -35,6 +36,7 @@ mod output;
 mod payload;
 mod payload_physical;
 mod signal_conditioning;
+mod simulate_excitation;
 mod stream_identify;
 mod transmission;
 #[path = "../../../../tests/urdf_errors.rs"]
