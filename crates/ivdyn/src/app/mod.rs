@@ -15,6 +15,7 @@ pub mod gains;
 pub mod html;
 pub mod identify;
 pub mod identify_job;
+mod identify_options;
 pub mod io;
 pub mod payload;
 pub mod payload_before;

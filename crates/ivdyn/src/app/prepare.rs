@@ -5,7 +5,7 @@
 
 use std::ops::Range;
 
-use super::identify::IdentifyOptions;
+use super::identify_options::IdentifyOptions;
 use crate::Robot;
 use crate::batch::stack_rows;
 use crate::dsp::Decimator;

@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use super::mcap::{MAX_MCAP_RECORD, Pass, ReadOptions, Sample, StreamSummary, stream_into, stream_mcap_file};
+use super::mcap::{Pass, ReadOptions, Sample, StreamSummary, stream_into, stream_mcap_file};
 use crate::error::{Error, Result};
 
 /// How a rosbag2 file stores its messages.
@@ -299,9 +299,6 @@ pub fn message_count(path: &Path, topic: &str) -> Result<Option<u64>> {
     }
     Ok(Some(total))
 }
-
-/// Largest data of one message (bytes), compressed or not: the MCAP record bound.
-pub(super) const MAX_MESSAGE: usize = MAX_MCAP_RECORD;
 
 #[cfg(test)]
 mod tests {

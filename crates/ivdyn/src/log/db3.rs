@@ -6,16 +6,18 @@
 //! data)`, `timestamp` the receive time in ns, `data` the CDR message (as in MCAP).
 //!
 //! The file comes from outside: SQL text is constant (values go in as parameters), the
-//! file is opened read-only, and a message larger than [`super::bag::MAX_MESSAGE`] is
+//! file is opened read-only, and a message larger than [`MAX_MESSAGE`] is
 //! refused before SQLite hands its bytes over.
 
 use std::path::{Path, PathBuf};
 
 use rusqlite::{Connection, OpenFlags, params};
 
-use super::bag::MAX_MESSAGE;
-use super::mcap::{Pass, Sample};
+use super::mcap::{MAX_MCAP_RECORD, Pass, Sample};
 use crate::error::{Error, Result};
+
+/// Largest data of one message (bytes), compressed or not: the MCAP record bound.
+pub(super) const MAX_MESSAGE: usize = MAX_MCAP_RECORD;
 
 /// Largest `.db3` that a `.db3.zstd` is decompressed to (bytes): SQLite needs a file on
 /// disk, and a hostile frame must not fill the disk.

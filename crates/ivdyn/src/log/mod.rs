@@ -30,19 +30,20 @@ pub mod mcap;
 pub mod mcap_out;
 mod mcap_rec;
 pub mod read;
+pub mod recording;
 
 use std::path::Path;
 
 pub use self::bag::{LogFile, LogFiles, Storage, log_files, message_count};
 pub use self::csv::{MAX_CSV_LINE, read_csv, read_csv_from, write_csv};
 pub use self::mcap::{
-    CommandAlign, CommandField, MAX_MCAP_RECORD, ReadOptions, Sample, Source, StreamSummary, for_each_sample,
-    for_each_sample_from, read_mcap,
+    CommandAlign, CommandField, MAX_MCAP_RECORD, ReadOptions, Sample, Source, StreamSummary, for_each_sample_from,
 };
 pub use self::mcap_out::{
     Compression, MEASURED_TOPIC, McapWriter, PREDICTED_TOPIC, PredictionWriter, RESIDUAL_TOPIC, TopicId, write_mcap,
 };
 pub use self::read::{check_pipeline_log, read_joint_log, read_pipeline_log};
+pub use self::recording::{for_each_sample, read_mcap};
 
 use crate::error::{Error, Result};
 
