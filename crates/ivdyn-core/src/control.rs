@@ -25,7 +25,8 @@ use crate::error::{Error, check_finite};
 use crate::estim::terminal::{Method, TerminalLink, TerminalSpec};
 use crate::model::Model;
 use crate::params::{DRIVE_PARAMS, LINK_PARAMS};
-use crate::{VecN, rnea};
+use crate::rnea;
+use crate::types::VecN;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 
@@ -322,7 +323,7 @@ where
     }
 
     /// The last link as nominal + estimate (inertial entries only).
-    pub fn estimated_last_link(&self) -> crate::LinkInertia {
+    pub fn estimated_last_link(&self) -> crate::inertia::LinkInertia {
         let mut li = self.link.nominal.inertia[N - 1];
         for (b, &c) in self.link.columns.iter().enumerate() {
             if c < LINK_PARAMS {

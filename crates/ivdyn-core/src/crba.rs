@@ -4,7 +4,7 @@ use crate::data::Data;
 use crate::kinematics::joint_transforms;
 use crate::model::{JointKind, Model};
 use crate::spatial::Transform;
-use crate::{MatN, Vec3, VecN};
+use crate::types::{MatN, Vec3, VecN};
 
 /// Mass matrix `M(q)` including the armature `ia` on the diagonal. Returns `&data.m`.
 pub fn mass_matrix<'d, const N: usize>(model: &Model<N>, data: &'d mut Data<N>, q: &VecN<N>) -> &'d MatN<N> {

@@ -1,9 +1,9 @@
 //! Work buffers of the algorithms, allocated once by the caller.
 
 use crate::inertia::LinkInertia;
-use crate::kinematics::Kinematics;
 use crate::regressor_matrix::Regressor;
-use crate::{Mat3, MatN, Vec3, VecN};
+use crate::types::{Lanes, Mat3, MatN, Vec3, VecN};
+use nalgebra::{Matrix3, Vector3};
 
 /// Every intermediate buffer of the algorithms for an `N`-joint chain. Create it once
 /// (it can be a `static` on a controller) and pass it to each call; algorithms return
@@ -59,6 +59,38 @@ impl<const N: usize> Data<N> {
 }
 
 impl<const N: usize> Default for Data<N> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Link kinematics at one sample (`T = f64`) or a pack of samples: filled by
+/// [`crate::kinematics::joint_transforms`] and
+/// [`crate::kinematics::forward_pass`], read by RNEA, CRBA and the regressor.
+#[derive(Debug, Clone)]
+pub struct Kinematics<T: nalgebra::Scalar, const N: usize> {
+    /// Link `i` axes in link `i-1` coordinates (`R_i`, parent <- child); filled by every
+    /// algorithm's kinematic pass.
+    pub rot: [Matrix3<T>; N],
+    /// Origin of link `i` in link `i-1` coordinates (includes prismatic displacement).
+    pub pos: [Vector3<T>; N],
+    /// Angular velocity of link `i` (link `i` coords), paper eq (2).
+    pub w: [Vector3<T>; N],
+    /// Angular acceleration of link `i`, paper eq (3).
+    pub wd: [Vector3<T>; N],
+    /// Linear acceleration of link `i`'s origin, gravity included as `-g`, paper eq (4).
+    pub acc: [Vector3<T>; N],
+}
+
+impl<T: Lanes, const N: usize> Kinematics<T, N> {
+    /// Identity rotations, zero vectors.
+    pub fn new() -> Self {
+        let z3 = Vector3::<T>::zeros();
+        Self { rot: [Matrix3::<T>::identity(); N], pos: [z3; N], w: [z3; N], wd: [z3; N], acc: [z3; N] }
+    }
+}
+
+impl<T: Lanes, const N: usize> Default for Kinematics<T, N> {
     fn default() -> Self {
         Self::new()
     }

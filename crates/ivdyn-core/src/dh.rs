@@ -11,7 +11,7 @@ use crate::inertia::LinkInertia;
 use crate::model::{Joint, Model};
 use crate::params::DriveParams;
 use crate::spatial::{Transform, rot_x, rot_z};
-use crate::{Mat3, Vec3};
+use crate::types::{Mat3, Vec3};
 
 /// One row of a standard DH table (SI units, radians).
 #[derive(Debug, Clone, Copy, PartialEq)]

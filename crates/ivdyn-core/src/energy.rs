@@ -3,7 +3,7 @@
 use crate::data::Data;
 use crate::kinematics::{forward_kinematics, joint_transforms};
 use crate::model::{JointKind, Model};
-use crate::{Vec3, VecN};
+use crate::types::{Vec3, VecN};
 
 /// Kinetic energy `1/2 qd^T M(q) qd` computed from link velocities, including the
 /// armature's `1/2 ia qd^2`.

@@ -3,7 +3,8 @@
 use crate::data::Data;
 use crate::error::Error;
 use crate::model::Model;
-use crate::{VecN, crba, rnea};
+use crate::types::VecN;
+use crate::{crba, rnea};
 #[allow(unused_imports)] // needed without std (libm-backed sqrt), unused when std is unified in
 use nalgebra::ComplexField;
 
@@ -29,8 +30,8 @@ pub fn forward_dynamics<'d, const N: usize>(
 /// Solves `a x = b` in place for symmetric positive definite `a`; `l` receives the
 /// lower Cholesky factor. Fails with the failing pivot's index.
 pub fn cholesky_solve<const N: usize>(
-    a: &crate::MatN<N>,
-    l: &mut crate::MatN<N>,
+    a: &crate::types::MatN<N>,
+    l: &mut crate::types::MatN<N>,
     b: &mut VecN<N>,
 ) -> Result<(), Error> {
     for j in 0..N {

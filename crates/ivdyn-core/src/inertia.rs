@@ -2,7 +2,7 @@
 
 use crate::error::Error;
 use crate::spatial::{Transform, skew};
-use crate::{Mat3, Vec3};
+use crate::types::{Mat3, Vec3};
 
 /// Names of an inertia 6-vector's entries in ivdyn's order (the order of the 10-vector's
 /// last six, Pinocchio's): every inertia 6-vector of the Rust and Python APIs uses it.

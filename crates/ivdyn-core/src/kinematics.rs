@@ -5,41 +5,12 @@
 //! (four samples in lock step, as in `ivdyn`'s batch kernels). The model stays `f64`;
 //! its constants are broadcast with `splat`, a no-op for `f64`.
 
+use crate::data::Data;
+pub use crate::data::Kinematics;
 use crate::model::{JointKind, Model};
 use crate::spatial::axis_angle_sc;
-use crate::{Data, Lanes, Mat3, Vec3, VecN};
+use crate::types::{Lanes, Mat3, Vec3, VecN};
 use nalgebra::{Matrix3, SVector, Vector3};
-
-/// Link kinematics at one sample (`T = f64`) or a pack of samples: filled by
-/// [`joint_transforms`] and [`forward_pass`], read by RNEA, CRBA and the regressor.
-#[derive(Debug, Clone)]
-pub struct Kinematics<T: nalgebra::Scalar, const N: usize> {
-    /// Link `i` axes in link `i-1` coordinates (`R_i`, parent <- child); filled by every
-    /// algorithm's kinematic pass.
-    pub rot: [Matrix3<T>; N],
-    /// Origin of link `i` in link `i-1` coordinates (includes prismatic displacement).
-    pub pos: [Vector3<T>; N],
-    /// Angular velocity of link `i` (link `i` coords), paper eq (2).
-    pub w: [Vector3<T>; N],
-    /// Angular acceleration of link `i`, paper eq (3).
-    pub wd: [Vector3<T>; N],
-    /// Linear acceleration of link `i`'s origin, gravity included as `-g`, paper eq (4).
-    pub acc: [Vector3<T>; N],
-}
-
-impl<T: Lanes, const N: usize> Kinematics<T, N> {
-    /// Identity rotations, zero vectors.
-    pub fn new() -> Self {
-        let z3 = Vector3::<T>::zeros();
-        Self { rot: [Matrix3::<T>::identity(); N], pos: [z3; N], w: [z3; N], wd: [z3; N], acc: [z3; N] }
-    }
-}
-
-impl<T: Lanes, const N: usize> Default for Kinematics<T, N> {
-    fn default() -> Self {
-        Self::new()
-    }
-}
 
 /// `v` broadcast to every lane of `T`.
 #[inline(always)]
@@ -140,7 +111,7 @@ pub fn forward_pass<T: Lanes, const N: usize>(
 /// `rot`, `pos`).
 pub fn forward_kinematics<const N: usize>(model: &Model<N>, data: &mut Data<N>, q: &VecN<N>) {
     joint_transforms(model, &mut data.kin, q);
-    let mut r = crate::Mat3::identity();
+    let mut r = crate::types::Mat3::identity();
     let mut p = Vec3::zeros();
     for i in 0..N {
         p += r * data.kin.pos[i];
@@ -151,10 +122,10 @@ pub fn forward_kinematics<const N: usize>(model: &Model<N>, data: &mut Data<N>, 
 }
 
 /// Placement of the tool frame in the base frame at `q`.
-pub fn tool_pose<const N: usize>(model: &Model<N>, data: &mut Data<N>, q: &VecN<N>) -> crate::Transform {
+pub fn tool_pose<const N: usize>(model: &Model<N>, data: &mut Data<N>, q: &VecN<N>) -> crate::spatial::Transform {
     forward_kinematics(model, data, q);
     if N == 0 {
         return model.tool;
     }
-    crate::Transform::new(data.o_rot[N - 1], data.o_pos[N - 1]).compose(&model.tool)
+    crate::spatial::Transform::new(data.o_rot[N - 1], data.o_pos[N - 1]).compose(&model.tool)
 }

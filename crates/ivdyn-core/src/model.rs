@@ -1,10 +1,10 @@
 //! The constant description of a chain: joints, frames, gravity, nominal parameters.
 
-use crate::Vec3;
 use crate::error::Error;
 use crate::inertia::LinkInertia;
 use crate::params::{DRIVE_PARAMS, DriveParams, LINK_PARAMS, param_count};
 use crate::spatial::Transform;
+use crate::types::Vec3;
 
 /// Kind of a one-degree-of-freedom joint.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -5,7 +5,7 @@ use crate::dh::{DhRow, inertia_from_dh_frame, model_from_dh};
 use crate::inertia::LinkInertia;
 use crate::model::Model;
 use crate::params::DriveParams;
-use crate::{Mat3, Vec3};
+use crate::types::{Mat3, Vec3};
 use core::f64::consts::FRAC_PI_2;
 
 /// Table 1: `(a, d, alpha)`; all joints revolute with `theta_i = q_i`.

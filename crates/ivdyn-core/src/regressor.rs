@@ -20,7 +20,7 @@ use crate::data::Data;
 use crate::kinematics::{Kinematics, forward_pass, joint_transforms, splat3};
 use crate::model::{JointKind, Model};
 use crate::params::{DRIVE_PARAMS, LINK_PARAMS};
-use crate::{Lanes, VecN};
+use crate::types::{Lanes, VecN};
 use nalgebra::{SVector, Vector3};
 
 pub use crate::regressor_matrix::Regressor;

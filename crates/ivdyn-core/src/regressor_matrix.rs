@@ -3,7 +3,7 @@
 //! is why it lives below both.
 
 use crate::params::{DRIVE_PARAMS, LINK_PARAMS, PARAMS_PER_JOINT};
-use crate::{Lanes, VecN};
+use crate::types::{Lanes, VecN};
 
 /// Joint-torque regressor of an `N`-joint chain, stored by blocks: `link[i][j]` is row
 /// `i`'s 10 entries for link `j` (zero for `j < i`), `drive[i]` row `i`'s 4 entries for

@@ -3,7 +3,7 @@
 use crate::data::Data;
 use crate::kinematics::{Kinematics, forward_pass, joint_transforms, splat3};
 use crate::model::{JointKind, Model};
-use crate::{Lanes, VecN};
+use crate::types::{Lanes, VecN};
 use nalgebra::{SVector, Vector3};
 
 /// Inverse dynamics `tau = M(q) qdd + C(q, qd) qd + g(q) + tau_drive(qd, qdd)`, with the

@@ -34,10 +34,12 @@
 
 use crate::control::saturate;
 use crate::data::Data;
+use crate::energy;
 use crate::error::{Error, check_finite};
+use crate::fd::forward_dynamics;
 use crate::model::Model;
 use crate::rng::Rng;
-use crate::{VecN, energy, forward_dynamics};
+use crate::types::VecN;
 
 /// Fixed-step integration scheme.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -4,7 +4,7 @@
 //! a point `x_c` in child coordinates is `rot * x_c + trans` in parent coordinates, so the
 //! columns of `rot` are the child axes seen from the parent.
 
-use crate::{Mat3, Vec3};
+use crate::types::{Mat3, Vec3};
 #[allow(unused_imports)] // needed without std (libm-backed trig), unused when std is unified in
 use nalgebra::{ComplexField, RealField};
 
@@ -64,7 +64,7 @@ pub fn axis_angle(axis: &Vec3, angle: f64) -> Mat3 {
 
 /// [`axis_angle`] with sine and cosine given (per lane for a pack of samples).
 #[inline]
-pub fn axis_angle_sc<T: crate::Lanes>(a: &Vec3, s: T, c: T) -> nalgebra::Matrix3<T> {
+pub fn axis_angle_sc<T: crate::types::Lanes>(a: &Vec3, s: T, c: T) -> nalgebra::Matrix3<T> {
     let t = T::splat(1.0) - c;
     let (x, y, z) = (T::splat(a.x), T::splat(a.y), T::splat(a.z));
     nalgebra::Matrix3::new(

@@ -2,7 +2,7 @@
 //! `2 pi / omega`: `q_i(t) = q0_i + sum_l a_il / (l w) sin(l w t) - b_il / (l w) cos(l w t)`.
 //! Planned accelerations are exact, which makes them a free instrument.
 
-use crate::VecN;
+use crate::types::VecN;
 #[allow(unused_imports)] // needed without std (libm-backed trig), unused when std is unified in
 use nalgebra::ComplexField;
 

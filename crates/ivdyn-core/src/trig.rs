@@ -17,7 +17,7 @@
 
 #![allow(clippy::excessive_precision)]
 
-use crate::Lanes;
+use crate::types::Lanes;
 
 // The constants are fdlibm's decimal literals verbatim (they parse to fdlibm's bit
 // patterns, e.g. P1 = 0x3FF921FB54400000, S1 = 0xBFC5555555555549, C6 = 0xBDA8FAE9BE8838D4):

@@ -7,9 +7,9 @@
 //! Because `u` and the previous velocity do not contain the current acceleration noise,
 //! the regressor evaluated at `qdd_hat` is a valid instrument (eqs 36-37).
 
-use crate::VecN;
 use crate::data::Data;
 use crate::model::Model;
+use crate::types::VecN;
 
 /// Coefficients of eq (35) per joint.
 #[derive(Debug, Clone, Copy, PartialEq)]

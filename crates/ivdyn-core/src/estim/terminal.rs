@@ -15,7 +15,8 @@ use crate::estim::{Riv, Rls};
 use crate::model::Model;
 use crate::params::{DRIVE_PARAMS, LINK_PARAMS};
 use crate::regressor::Regressor;
-use crate::{VecN, regressor, rnea};
+use crate::types::VecN;
+use crate::{regressor, rnea};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
