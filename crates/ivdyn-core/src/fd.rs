@@ -20,7 +20,8 @@ pub fn forward_dynamics<'d, const N: usize>(
 ) -> Result<&'d VecN<N>, Error> {
     let zero = VecN::<N>::zeros();
     let bias = *rnea::rnea(model, data, q, qd, &zero);
-    crba::mass_matrix(model, data, q);
+    // the RNEA left the joint placements at q in data.kin: no second kinematic pass
+    crba::mass_matrix_at_transforms(model, data);
     let mut x = tau - bias;
     cholesky_solve(&data.m, &mut data.l, &mut x)?;
     data.qdd = x;

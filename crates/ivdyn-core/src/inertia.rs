@@ -98,20 +98,20 @@ impl LinkInertia {
     /// The same body described in the parent frame, given the body frame's placement `x`
     /// in the parent: `h' = R h + m p`,
     /// `I' = R I R^T - [p]x [R h]x - [R h]x [p]x - m [p]x [p]x`.
+    #[inline]
     pub fn transformed(&self, x: &Transform) -> Self {
-        // with [a]x [b]x = b a^T - (a.b) 1:
-        // I' = R I R^T + 2 (p.Rh) 1 - (Rh p^T + p Rh^T) + m (|p|^2 1 - p p^T)
-        let m = self.mass();
-        let rh = x.rot * self.first_moment();
-        let p = &x.trans;
-        let i_r = x.rot * self.inertia_origin() * x.rot.transpose();
-        let d = 2.0 * p.dot(&rh) + m * p.dot(p);
-        let e = |a: usize, b: usize| -> f64 {
-            let diag = if a == b { d } else { 0.0 };
-            i_r[(a, b)] + diag - rh[a] * p[b] - p[a] * rh[b] - m * p[a] * p[b]
-        };
-        let h = rh + m * p;
-        LinkInertia([m, h.x, h.y, h.z, e(0, 0), e(0, 1), e(1, 1), e(0, 2), e(1, 2), e(2, 2)])
+        // with [a]x [b]x = b a^T - (a.b) 1 and u = R h + m p / 2:
+        // I' = R I R^T + 2 (p.u) 1 - (u p^T + p u^T)
+        // (the mass mixed into u saves the separate m p p^T term: 12 fewer products)
+        let (r, p, m) = (&x.rot, &x.trans, self.mass());
+        let rh = r * self.first_moment();
+        let mp2 = p * (0.5 * m);
+        let u = rh + mp2;
+        let d = 2.0 * p.dot(&u);
+        let i_r = rotate_symmetric(r, &self.inertia_origin());
+        let e = |a: usize, b: usize| i_r[(a, b)] - (u[a] * p[b] + p[a] * u[b]);
+        let h = u + mp2;
+        LinkInertia([m, h.x, h.y, h.z, e(0, 0) + d, e(0, 1), e(1, 1) + d, e(0, 2), e(1, 2), e(2, 2) + d])
     }
 
     /// Sum of two bodies described in the same frame.
@@ -144,4 +144,14 @@ impl LinkInertia {
         let d3 = s.determinant();
         d1 >= 0.0 && d2 >= 0.0 && d3 >= 0.0 && s[(1, 1)] >= 0.0 && s[(2, 2)] >= 0.0
     }
+}
+
+/// `R S R^T` for a symmetric `S`: the upper triangle of the product only (45 products
+/// instead of 54), mirrored.
+#[inline(always)]
+pub fn rotate_symmetric(r: &Mat3, s: &Mat3) -> Mat3 {
+    let a = r * s;
+    let e = |i: usize, j: usize| a[(i, 0)] * r[(j, 0)] + a[(i, 1)] * r[(j, 1)] + a[(i, 2)] * r[(j, 2)];
+    let (xy, xz, yz) = (e(0, 1), e(0, 2), e(1, 2));
+    Mat3::new(e(0, 0), xy, xz, xy, e(1, 1), yz, xz, yz, e(2, 2))
 }

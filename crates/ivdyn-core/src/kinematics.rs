@@ -52,17 +52,24 @@ pub fn rotate_about<T: Lanes>(e: &Mat3, axis: &Vec3, angle: T) -> Matrix3<T> {
     } else {
         return e.map(T::splat) * axis_angle_sc(axis, s, c);
     };
-    // columns (a, b) rotate in their plane: Rot(z) = [[c, -s], [s, c]] on (x, y), etc.
-    let (a, b) = match k {
-        0 => (1, 2),
-        1 => (2, 0),
-        _ => (0, 1),
-    };
-    let mut r = e.map(T::splat);
-    let (ca, cb) = (splat3::<T>(&e.column(a).into_owned()), splat3::<T>(&e.column(b).into_owned()));
-    r.set_column(a, &(ca * c + cb * s));
-    r.set_column(b, &(cb * c - ca * s));
-    r
+    // columns (a, b) rotate in their plane: Rot(z) = [[c, -s], [s, c]] on (x, y), etc.;
+    // one literal matrix per axis, so the columns stay in registers (no indexed stores)
+    let col = |j: usize| splat3::<T>(&e.column(j).into_owned());
+    let turn = |ca: Vector3<T>, cb: Vector3<T>| (ca * c + cb * s, cb * c - ca * s);
+    match k {
+        0 => {
+            let (c1, c2) = turn(col(1), col(2));
+            Matrix3::from_columns(&[col(0), c1, c2])
+        }
+        1 => {
+            let (c2, c0) = turn(col(2), col(0));
+            Matrix3::from_columns(&[c0, col(1), c2])
+        }
+        _ => {
+            let (c0, c1) = turn(col(0), col(1));
+            Matrix3::from_columns(&[c0, c1, col(2)])
+        }
+    }
 }
 
 /// Forward recursion of the Newton-Euler method, paper eqs (2)-(4) generalised to any
