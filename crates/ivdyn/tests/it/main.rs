@@ -15,6 +15,7 @@ mod drive_gains;
 mod dwh_level;
 mod effort_current;
 mod excite;
+mod fleet_stats;
 #[path = "../../../../tests/fixtures.rs"]
 mod fixtures;
 mod hostile_inputs;
