@@ -340,6 +340,9 @@ pub struct FleetFit {
     /// ([`JointAccs::long_run_factor`]) at the estimate: the iid covariance understates
     /// the variance of the estimate by about this factor when the residual is correlated.
     pub long_run: Vec<f64>,
+    /// The covariance of the base parameters (rows of `report.base`; `NaN`, i.e. JSON
+    /// `null`, for the unexcited ones): the report keeps it out of its JSON.
+    pub covariance: Vec<Vec<f64>>,
     /// The logs fitted.
     pub logs: Vec<LogInfo>,
 }
@@ -376,5 +379,7 @@ pub fn fit_stats(robot: &Robot, stats: &LogStats, opts: &IdentifyOptions) -> Res
     // unexcited parameters (no estimate) at their nominal values, as identify's residuals
     let theta: Vec<f64> = report.base.iter().map(|v| if v.value.is_nan() { v.nominal } else { v.value }).collect();
     let long_run = (0..robot.dof()).map(|i| acc.long_run_factor(i, &theta)).collect();
-    Ok(FleetFit { report, long_run, logs: stats.logs.clone() })
+    let cov = &report.fit_report.as_ref().expect("finish_identify keeps its fit").covariance;
+    let covariance = cov.row_iter().map(|r| r.iter().copied().collect()).collect();
+    Ok(FleetFit { report, long_run, covariance, logs: stats.logs.clone() })
 }

@@ -12,6 +12,7 @@ pub mod diagnose;
 pub mod effort;
 pub mod excite;
 pub mod fleet;
+pub mod fleet_drift;
 pub mod gains;
 pub mod html;
 pub mod identify;

@@ -151,3 +151,61 @@ fn statistics_of_another_model_are_refused_naming_both() {
     let e = fleet::fit_stats(&robot, &a, &no_offset).unwrap_err().to_string();
     assert!(e.contains("statistics of different models cannot be combined"), "{e}");
 }
+
+/// Four arms, two periods of three logs each; arm 2's elbow Coulomb friction rises by
+/// 40 % (1.5 -> 2.1 N m) in the second period, nothing else changes. At a false-discovery
+/// rate of 1 % across all the fleet's tests, exactly that change is flagged: under the
+/// null the chance of any false flag is at most about 1 % (Benjamini-Hochberg bounds the
+/// family-wise error by q when all but one hypothesis are null, up to the true change's
+/// share), and the change is ~10 standard deviations (fc is known to ~0.03 N m here).
+#[test]
+fn drift_flags_exactly_the_planted_friction_change() {
+    use ivdyn::app::fleet_drift::{benjamini_hochberg, describe, drift_tests};
+    let robot = arm();
+    let period = |arm: u64, p: u64, elbow_fc: f64| -> fleet::FleetFit {
+        let parts: Vec<LogStats> = (0..3)
+            .map(|k| {
+                let o = SimulateOptions {
+                    rate_hz: 500.0,
+                    duration_s: 6.0,
+                    seed: 1000 * arm + 10 * p + k,
+                    fc: Some(vec![2.0, 2.0, elbow_fc]),
+                    fv: Some(vec![0.8, 0.8, 0.5]),
+                    noise_tau: 0.1,
+                    ..Default::default()
+                };
+                let l = app::simulate(&robot, &Trajectory::Fourier, &o).unwrap();
+                stats(&robot, &l, &format!("arm-{arm}/p{p}-{k}.mcap"))
+            })
+            .collect();
+        fleet::fit_stats(&robot, &LogStats::merge_all(parts).unwrap(), &opts()).unwrap()
+    };
+    let mut all = vec![];
+    for arm in 0..4u64 {
+        let later_fc = if arm == 2 { 2.1 } else { 1.5 };
+        let tests = drift_tests(&period(arm, 0, 1.5), &period(arm, 1, later_fc), "forearm_link").unwrap();
+        all.extend(tests.into_iter().map(|t| (arm, t)));
+    }
+    let p: Vec<f64> = all.iter().map(|(_, t)| t.p_value).collect();
+    let flags = benjamini_hochberg(&p, 0.01);
+    let flagged: Vec<&(u64, _)> = all.iter().zip(&flags).filter(|(_, f)| **f).map(|(t, _)| t).collect();
+    let words: Vec<String> = flagged.iter().map(|(a, t)| describe(&format!("arm-{a}"), t, "p0")).collect();
+    eprintln!("{} tests, flagged: {words:?}", all.len());
+    assert_eq!(flagged.len(), 1, "{words:?}");
+    let (a, t) = flagged[0];
+    assert_eq!((*a, t.effect.as_str(), t.joint.as_deref()), (2, "coulomb_friction", Some("elbow_joint")));
+    // the change within 4 standard deviations of the planted 0.6 N m
+    assert!((t.change[0] - 0.6).abs() < 4.0 * t.std[0], "{} ± {}", t.change[0], t.std[0]);
+    assert!(words[0].starts_with("arm-2, elbow_joint: coulomb friction +"), "{}", words[0]);
+}
+
+#[test]
+fn benjamini_hochberg_matches_its_definition() {
+    use ivdyn::app::fleet_drift::benjamini_hochberg;
+    // m = 5, q = 0.05: thresholds 0.01, 0.02, 0.03, 0.04, 0.05; the largest k with
+    // p_(k) <= k q / m is k = 3 (0.029 <= 0.03), so the three smallest are discoveries
+    // although 0.025 > 0.02 (the step-up rule)
+    let p = [0.2, 0.029, 0.001, 0.025, 0.9];
+    assert_eq!(benjamini_hochberg(&p, 0.05), vec![false, true, true, true, false]);
+    assert_eq!(benjamini_hochberg(&[0.5, 0.6], 0.05), vec![false, false]);
+}
