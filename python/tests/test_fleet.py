@@ -188,3 +188,33 @@ def test_manifest_csv_and_json(tmp_path):
     (tmp_path / "bad.csv").write_text("log,robot\na.mcap,arm-1\n")
     with pytest.raises(ValueError, match=r"bad.csv: row 1: 'model' is missing"):
         fleet.read_manifest(str(tmp_path / "bad.csv"))
+
+
+def test_module_command_writes_json_and_reloadable_params(fleet_dir, tmp_path):
+    """``python -m ivdyn.fleet`` (what ``ivdyn fleet`` runs): fleet.json with the rows,
+    fits, drift and the flagged change in words; one parameter file per robot and period
+    that ``params=`` (``--params``) loads."""
+    import json
+    import subprocess
+    import sys
+
+    d, entries = fleet_dir
+    manifest = tmp_path / "m.csv"
+    manifest.write_text("log,robot,model,period,base,tip\n" + "".join(
+        f"{e.log},{e.robot},{e.model},{e.period},{BASE},{TIP}\n" for e in entries))
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "ivdyn.fleet", str(manifest), "--out", str(out), "--engine", "local",
+                        "--fdr", "0.01", "--quiet"], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((out / "fleet.json").read_text())
+    assert len(doc["rows"]) == len(entries) and len(doc["fits"]) == ROBOTS * PERIODS
+    assert len(doc["flagged"]) == 1 and doc["flagged"][0].startswith("arm-2, elbow_joint: coulomb friction +")
+    assert doc["flagged"][0] in r.stdout
+    params = out / "params" / "arm-2_day1.json"
+    robot = ivdyn.Robot.from_urdf(UR5, base=BASE, tip=TIP)
+    i = robot.param_names.index("elbow_joint.fc")
+    # the file replaces the URDF's values: the elbow's friction is the fitted 2.1 N m
+    sim = ivdyn.simulate(UR5, base=BASE, tip=TIP, params=str(params), duration=1.0)
+    tp = sim["true_params"]
+    fc = tp["theta"][tp["names"].index("elbow_joint.fc")]
+    assert abs(robot.params[i] - 2.1) > 0.5 and abs(fc - 2.1) < 0.1, fc

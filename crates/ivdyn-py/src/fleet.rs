@@ -6,7 +6,7 @@ use crate::PyRobot;
 use crate::error::to_py;
 use crate::pipeline::{condition, json, log_input, log_source, robot_with_params, run};
 use ivdyn::app::fleet::{self, LogStats};
-use ivdyn::app::fleet_drift;
+use ivdyn::app::fleet_drift as drift;
 use ivdyn::app::{IdentifyOptions, Method};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -25,7 +25,9 @@ fn fleet_opts(
     let method = match method {
         "ols" => Method::Ols,
         "wls" => Method::Wls,
-        m => return Err(PyValueError::new_err(format!("method must be 'ols' or 'wls' for fleet statistics, got {m:?}"))),
+        m => {
+            return Err(PyValueError::new_err(format!("method must be 'ols' or 'wls' for fleet statistics, got {m:?}")));
+        }
     };
     let friction = friction.unwrap_or_else(|| vec!["coulomb".into(), "viscous".into()]);
     let names: Vec<&str> = friction.iter().map(String::as_str).collect();
@@ -150,16 +152,16 @@ fn fleet_drift(
     let r = robot_with_params(&robot.inner, params_json)?;
     let tests = run(py, None, |_| {
         let (a, b) = (LogStats::from_bytes(reference, "reference")?, LogStats::from_bytes(stats, "statistics")?);
-        fleet_drift::drift_of_stats(&r, &a, &b, &opts)
+        drift::drift_of_stats(&r, &a, &b, &opts)
     })?;
     #[derive(serde::Serialize)]
     struct Worded<'a> {
         #[serde(flatten)]
-        test: &'a fleet_drift::DriftTest,
+        test: &'a drift::DriftTest,
         words: String,
     }
     let out: Vec<Worded<'_>> =
-        tests.iter().map(|t| Worded { test: t, words: fleet_drift::describe(robot_id, t, since) }).collect();
+        tests.iter().map(|t| Worded { test: t, words: drift::describe(robot_id, t, since) }).collect();
     json(&out)
 }
 
@@ -169,7 +171,7 @@ fn fleet_fdr(p_values: Vec<f64>, q: f64) -> PyResult<Vec<bool>> {
     if !(q > 0.0 && q < 1.0) {
         return Err(PyValueError::new_err(format!("q must be in (0, 1), got {q}")));
     }
-    Ok(fleet_drift::benjamini_hochberg(&p_values, q))
+    Ok(drift::benjamini_hochberg(&p_values, q))
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -277,7 +277,8 @@ def drift(result: FleetResult, options: Options = Options(), *, q: float = 0.05,
     """Per robot, each period against its reference period (``reference[robot]``, default
     its first period in sorted order): a Wald test per effect on the difference of the two
     fits (``docs/fleet.md``), then Benjamini-Hochberg at false-discovery rate ``q`` across
-    every test of the fleet. One dict per test (``robot``, ``period``, ``reference``,
+    every test of the fleet. One dict per test (``robot``, ``period``, ``reference_period``,
+    ``reference`` (the reference estimates),
     ``effect``, ``joint``, ``parameters``, ``change``, ``std``, ``statistic``, ``dof``,
     ``p_value``, ``flagged``, ``words``), the flagged ones first, by p-value."""
     rows: List[Dict[str, Any]] = []
@@ -293,7 +294,7 @@ def drift(result: FleetResult, options: Options = Options(), *, q: float = 0.05,
                 continue
             tests = json.loads(_ivdyn.fleet_drift(native, result.stats[(robot, ref)], result.stats[(robot, p)],
                                                   robot, ref, **options._fit_kwargs()))
-            rows.extend(dict(robot=robot, period=p, reference=ref, **t) for t in tests)
+            rows.extend(dict(robot=robot, period=p, reference_period=ref, **t) for t in tests)
     flags = _ivdyn.fleet_fdr([r["p_value"] for r in rows], q) if rows else []
     for r, f in zip(rows, flags):
         r["flagged"] = f

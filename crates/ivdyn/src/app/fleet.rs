@@ -225,10 +225,7 @@ fn fleet_model(robot: &Robot, opts: &IdentifyOptions) -> Result<(Robot, BasePara
     if !matches!(opts.method, Method::Ols | Method::Wls) {
         return Err(Error::Option {
             option: "method".into(),
-            msg: format!(
-                "'{}' iterates over the data; fleet statistics fit 'ols' or 'wls'",
-                opts.method.name()
-            ),
+            msg: format!("'{}' iterates over the data; fleet statistics fit 'ols' or 'wls'", opts.method.name()),
         });
     }
     if opts.validation_log.is_some() {

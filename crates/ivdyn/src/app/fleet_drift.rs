@@ -122,7 +122,10 @@ pub fn drift_of_stats(
 }
 
 fn fit_of(f: &FleetFit) -> Result<&crate::ident::FitReport> {
-    f.report.fit_report.as_ref().ok_or_else(|| Error::Stats { what: "drift".into(), msg: "a fit has no covariance".into() })
+    f.report
+        .fit_report
+        .as_ref()
+        .ok_or_else(|| Error::Stats { what: "drift".into(), msg: "a fit has no covariance".into() })
 }
 
 /// `dᵀ V⁺ d` and the rank of `V` (eigenvalues above `1e-12` of the largest).

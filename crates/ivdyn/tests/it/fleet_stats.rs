@@ -112,8 +112,10 @@ fn merged_statistics_equal_one_pass_over_the_logs_in_any_order() {
     // the merge adds information: more rows, smaller variances than any one log
     let single = fleet::fit_stats(&robot, &parts[0], &opts()).unwrap();
     let (_, c1) = theta_cov(&single);
-    let (tr0, tr1): (f64, f64) =
-        ((0..c0.nrows()).map(|i| c0[(i, i)]).filter(|v| v.is_finite()).sum(), (0..c1.nrows()).map(|i| c1[(i, i)]).filter(|v| v.is_finite()).sum());
+    let (tr0, tr1): (f64, f64) = (
+        (0..c0.nrows()).map(|i| c0[(i, i)]).filter(|v| v.is_finite()).sum(),
+        (0..c1.nrows()).map(|i| c1[(i, i)]).filter(|v| v.is_finite()).sum(),
+    );
     assert!(tr0 < tr1 / 3.0, "trace of the covariance {tr0} (5 logs) vs {tr1} (1 log)");
 }
 
@@ -147,7 +149,8 @@ fn statistics_of_another_model_are_refused_naming_both() {
     assert!(e.contains(&a.model.describe()) && e.contains(&b.model.describe()), "{e}");
     assert_eq!(m, a, "a refused merge leaves the statistics unchanged");
     // same joints, other drive model: another parameter layout
-    let no_offset = IdentifyOptions { drive: ivdyn::ident::DriveTerms { offset: false, ..Default::default() }, ..opts() };
+    let no_offset =
+        IdentifyOptions { drive: ivdyn::ident::DriveTerms { offset: false, ..Default::default() }, ..opts() };
     let e = fleet::fit_stats(&robot, &a, &no_offset).unwrap_err().to_string();
     assert!(e.contains("statistics of different models cannot be combined"), "{e}");
 }

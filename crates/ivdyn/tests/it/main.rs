@@ -15,9 +15,9 @@ mod drive_gains;
 mod dwh_level;
 mod effort_current;
 mod excite;
-mod fleet_stats;
 #[path = "../../../../tests/fixtures.rs"]
 mod fixtures;
+mod fleet_stats;
 mod hostile_inputs;
 mod hostile_limits;
 mod html_reports;
