@@ -190,8 +190,8 @@ def test_manifest_csv_and_json(tmp_path):
         fleet.read_manifest(str(tmp_path / "bad.csv"))
 
 
-def test_module_command_writes_json_and_reloadable_params(fleet_dir, tmp_path):
-    """``python -m ivdyn.fleet`` (what ``ivdyn fleet`` runs): fleet.json with the rows,
+def test_fleet_command_writes_json_and_reloadable_params(fleet_dir, tmp_path, ivdyn_bin):
+    """``ivdyn fleet`` (running ``python -m ivdyn.fleet`` in this interpreter): fleet.json with the rows,
     fits, drift and the flagged change in words; one parameter file per robot and period
     that ``params=`` (``--params``) loads."""
     import json
@@ -203,8 +203,9 @@ def test_module_command_writes_json_and_reloadable_params(fleet_dir, tmp_path):
     manifest.write_text("log,robot,model,period,base,tip\n" + "".join(
         f"{e.log},{e.robot},{e.model},{e.period},{BASE},{TIP}\n" for e in entries))
     out = tmp_path / "out"
-    r = subprocess.run([sys.executable, "-m", "ivdyn.fleet", str(manifest), "--out", str(out), "--engine", "local",
-                        "--fdr", "0.01", "--quiet"], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    r = subprocess.run([ivdyn_bin, "fleet", str(manifest), "--out", str(out), "--engine", "local",
+                        "--fdr", "0.01", "--quiet"], capture_output=True, text=True, cwd=tmp_path, timeout=300,
+                       env=dict(os.environ, IVDYN_PYTHON=sys.executable))
     assert r.returncode == 0, r.stderr
     doc = json.loads((out / "fleet.json").read_text())
     assert len(doc["rows"]) == len(entries) and len(doc["fits"]) == ROBOTS * PERIODS

@@ -26,7 +26,9 @@ fn fleet_opts(
         "ols" => Method::Ols,
         "wls" => Method::Wls,
         m => {
-            return Err(PyValueError::new_err(format!("method must be 'ols' or 'wls' for fleet statistics, got {m:?}")));
+            return Err(PyValueError::new_err(format!(
+                "method must be 'ols' or 'wls' for fleet statistics, got {m:?}"
+            )));
         }
     };
     let friction = friction.unwrap_or_else(|| vec!["coulomb".into(), "viscous".into()]);

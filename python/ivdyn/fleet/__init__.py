@@ -31,7 +31,7 @@ import json
 import os
 import re
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 from .. import _ivdyn
 
@@ -94,17 +94,18 @@ def _entry(row: Dict[str, Any], where: str, root: str) -> LogEntry:
     def at(p: str) -> str:
         return p if "://" in p or os.path.isabs(p) else os.path.join(root, p)
 
+    log, robot, model = (str(vals[k]) for k in ("log", "robot", "model"))
     time = vals.get("time")
     period = vals.get("period") or (time[:10] if time else "all")
-    return LogEntry(log=at(vals["log"]), robot=vals["robot"], model=at(vals["model"]), period=period, time=time,
+    return LogEntry(log=at(log), robot=robot, model=at(model), period=period, time=time,
                     payload=vals.get("payload"), base=vals.get("base"), tip=vals.get("tip"))
 
 
-def read_manifest(path: str) -> List[LogEntry]:
+def read_manifest(path: Union[str, "os.PathLike[str]"]) -> List[LogEntry]:
     """The rows of a manifest: CSV with a header naming the columns (:data:`COLUMNS`), or
     JSON (a list of objects, or ``{"logs": [...]}``). Relative paths are relative to the
     manifest's directory."""
-    path = os.fspath(path)
+    path = str(os.fspath(path))
     root = os.path.dirname(os.path.abspath(path))
     with open(path, newline="") as f:
         if path.lower().endswith(".json"):

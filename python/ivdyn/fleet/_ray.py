@@ -24,9 +24,9 @@ def _merge_parts(*parts: bytes) -> bytes:
     return merge(parts)
 
 
-_stats_task = ray.remote(num_returns=2, max_retries=MAX_RETRIES)(_stats_parts)
-_merge_task = ray.remote(max_retries=MAX_RETRIES)(_merge_parts)
-_fit_task = ray.remote(max_retries=MAX_RETRIES)(_safe_fit)
+_stats_task: Any = ray.remote(num_returns=2, max_retries=MAX_RETRIES)(_stats_parts)
+_merge_task: Any = ray.remote(max_retries=MAX_RETRIES)(_merge_parts)
+_fit_task: Any = ray.remote(max_retries=MAX_RETRIES)(_safe_fit)
 
 
 def start(address: Optional[str] = None, num_cpus: Optional[int] = None) -> None:
@@ -44,7 +44,7 @@ def start(address: Optional[str] = None, num_cpus: Optional[int] = None) -> None
 def run_ray(entries: Sequence[LogEntry], options: Options, address: Optional[str], num_cpus: Optional[int],
             progress: Progress, fan_in: int) -> Tuple[List[Tuple[str, Any]], Dict, Dict]:
     start(address, num_cpus)
-    pairs = [_stats_task.remote(e, options) for e in entries]
+    pairs: List[Any] = [_stats_task.remote(e, options) for e in entries]
     status_refs = [p[0] for p in pairs]
     pending = list(status_refs)
     while pending:  # the map, with progress as logs finish
