@@ -108,9 +108,10 @@ wheel-smoke: wheel
 	cd $(SMOKE_VENV) && ./bin/python $(abspath python/tools/wheel_smoke.py) $(abspath fixtures)
 
 # py-test runs every pytest suite (python/reference, python/tests, python/tests_io), on
-# two workers (pytest-xdist).
+# two workers (pytest-xdist; tests marked xdist_group run on one worker: the Ray tests share
+# one runtime).
 py-test: py-install
-	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q -n 2 python
+	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q -n 2 --dist loadgroup python
 
 ## fuzz: every reader fuzzed for FUZZ_SECS seconds each, coverage-guided (cargo-fuzz on
 ## nightly, installed here; 1 GB memory and 20 s per input at most). `make test` runs the

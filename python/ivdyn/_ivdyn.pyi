@@ -15,7 +15,8 @@ __all__ = [
     "Robot", "FitReport", "BaseParams", "Rls", "Riv", "PaperSim", "fit_ls", "fit_iv", "base_params",
     "fit_robot", "payload_from_fit", "read_joint_states", "paper_estimators", "terminal_base",
     "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "gains", "simulate", "diagnose",
-    "excite",
+    "excite", "fleet_log_stats", "fleet_merge", "fleet_stats_info", "fleet_fit", "fleet_drift",
+    "fleet_fdr",
     "batch_threads", "__version__", "MAX_DOF", "inertia_to_urdf", "inertia_from_urdf", "INERTIA_ORDER",
     "INERTIA_URDF_ORDER",
 ]
@@ -320,6 +321,26 @@ def identify(robot: Robot, log: Union[_Log, List[_Log]], method: str = "wls", va
              motor_constant: _PerJoint = None, coulomb: str = "auto",
              write_mjcf: Optional[str] = None, report: Optional[str] = None) -> str:
     """``ivdyn identify`` -> its ``--json`` document."""
+def fleet_log_stats(robot: Robot, log: _Log, name: str, topic: str = "/joint_states", log_time: bool = False,
+                    cutoff: Optional[float] = None, decimate: int = 0, params_json: Optional[str] = None,
+                    friction: Optional[List[str]] = None, armature: bool = True, offset: bool = True,
+                    method: str = "wls") -> bytes:
+    """One log's fleet statistics (versioned bytes with the model's fingerprint)."""
+def fleet_merge(parts: List[bytes]) -> bytes:
+    """The merge of fleet statistics."""
+def fleet_stats_info(stats: bytes) -> str:
+    """JSON ``{"model", "logs", "samples"}`` of fleet statistics."""
+def fleet_fit(robot: Robot, stats: bytes, cutoff: Optional[float] = None, decimate: int = 0,
+              params_json: Optional[str] = None, friction: Optional[List[str]] = None, armature: bool = True,
+              offset: bool = True, method: str = "wls") -> str:
+    """JSON ``{"report", "long_run", "logs"}``: the fit of fleet statistics."""
+def fleet_drift(robot: Robot, reference: bytes, stats: bytes, robot_id: str, since: str,
+                cutoff: Optional[float] = None, decimate: int = 0, params_json: Optional[str] = None,
+                friction: Optional[List[str]] = None, armature: bool = True, offset: bool = True,
+                method: str = "wls") -> str:
+    """JSON list of drift tests (one per effect, with ``words``) of ``stats`` against ``reference``."""
+def fleet_fdr(p_values: List[float], q: float) -> List[bool]:
+    """Benjamini-Hochberg discoveries at false-discovery rate ``q``."""
 def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/joint_states",
              log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3,
              min_effect: float = 0.5, ignore_log_velocity: bool = False, report: bool = True,

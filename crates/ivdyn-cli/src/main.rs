@@ -52,6 +52,9 @@ enum Cmd {
     /// Design an excitation trajectory (finite Fourier series, optimised base regressor).
     #[command(allow_negative_numbers = true)]
     Excite(ExciteArgs),
+    /// Identify a fleet from a manifest of logs on Ray, and name what changed (docs/fleet.md;
+    /// runs the Python driver `python -m ivdyn.fleet`).
+    Fleet(fleet_cmd::FleetArgs),
 }
 
 #[derive(Args)]
@@ -353,6 +356,8 @@ struct SimulateArgs {
 
 #[path = "cmd/diagnose.rs"]
 mod diagnose_cmd;
+#[path = "cmd/fleet.rs"]
+mod fleet_cmd;
 #[path = "cmd/gains.rs"]
 mod gains_cmd;
 #[derive(Args)]
@@ -425,6 +430,7 @@ fn main() -> ExitCode {
         Cmd::Simulate(a) => simulate(a, &bars),
         Cmd::Diagnose(a) => diagnose_cmd::run(a, &bars),
         Cmd::Excite(a) => excite(a, &bars),
+        Cmd::Fleet(a) => fleet_cmd::run(a),
     };
     if signals::stopping() {
         // the handler removes the staged files and exits with 130/143

@@ -51,7 +51,8 @@ pub fn to_py(e: Error) -> PyErr {
         | Error::Dimension { .. }
         | Error::Log { .. }
         | Error::Signal { .. }
-        | Error::Option { .. } => PyValueError::new_err(msg),
+        | Error::Option { .. }
+        | Error::Stats { .. } => PyValueError::new_err(msg),
         Error::Sample { source, .. } if core_is_input(source) => PyValueError::new_err(msg),
         _ => PyRuntimeError::new_err(msg),
     }

@@ -11,6 +11,7 @@
 
 mod control;
 mod error;
+mod fleet;
 mod ident;
 mod pipeline;
 mod terminal;
@@ -334,6 +335,7 @@ fn _ivdyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     terminal::register(m)?;
     control::register(m)?;
     pipeline::register(m)?;
+    fleet::register(m)?;
     m.add_function(wrap_pyfunction!(batch_threads, m)?)?;
     m.add_function(wrap_pyfunction!(inertia_to_urdf, m)?)?;
     m.add_function(wrap_pyfunction!(inertia_from_urdf, m)?)?;

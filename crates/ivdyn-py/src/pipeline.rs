@@ -86,7 +86,7 @@ impl Progress for PyProgress {
 
 /// Runs `f` (a pipeline) with the GIL released and `progress` as its sink; turns an abort
 /// from the callback back into its Python exception.
-fn run<T: Send>(
+pub(crate) fn run<T: Send>(
     py: Python<'_>,
     callback: Option<Py<PyAny>>,
     f: impl FnOnce(ivdyn::progress::ProgressSink) -> ivdyn::error::Result<T> + Send,
@@ -105,7 +105,7 @@ fn run<T: Send>(
 
 // ------------------------------------------------------------------ inputs
 
-fn robot_with_params(robot: &Robot, params_json: Option<&str>) -> PyResult<Robot> {
+pub(crate) fn robot_with_params(robot: &Robot, params_json: Option<&str>) -> PyResult<Robot> {
     let mut r = robot.clone();
     if let Some(js) = params_json {
         ivdyn::robot::load::apply_params_json(&mut r, js, Path::new("params")).map_err(to_py)?;
@@ -149,7 +149,7 @@ fn f64_2d(d: &Bound<'_, PyDict>, key: &str, t: usize, n: usize) -> PyResult<Opti
 /// A log given as a path (read by the job, as the command line reads it) or as a dict of
 /// arrays (`t`, `q`, optional `qd`, `tau`, `u`, `current`, `joint_names`), checked like a
 /// file's.
-fn log_input(robot: &Robot, log: &Bound<'_, PyAny>, what: &str) -> PyResult<LogInput> {
+pub(crate) fn log_input(robot: &Robot, log: &Bound<'_, PyAny>, what: &str) -> PyResult<LogInput> {
     let Ok(d) = log.cast::<PyDict>() else {
         let path: PathBuf = log.extract().map_err(|_| {
             PyValueError::new_err(format!("{what} must be a path (str or os.PathLike) or a dict of arrays"))
@@ -188,7 +188,7 @@ fn log_input(robot: &Robot, log: &Bound<'_, PyAny>, what: &str) -> PyResult<LogI
     Ok(LogInput::Arrays(jl))
 }
 
-fn log_source(topic: &str, command_topic: Option<&str>, log_time: bool) -> LogSource {
+pub(crate) fn log_source(topic: &str, command_topic: Option<&str>, log_time: bool) -> LogSource {
     LogSource { topic: topic.into(), command_topic: command_topic.map(Into::into), log_time, ..Default::default() }
 }
 
@@ -241,7 +241,7 @@ impl EffortArgs<'_, '_> {
     }
 }
 
-fn condition(
+pub(crate) fn condition(
     cutoff: Option<f64>,
     velocity: &str,
     window: Option<(f64, f64)>,
@@ -262,7 +262,7 @@ fn condition(
     Ok(c)
 }
 
-fn json<T: serde::Serialize>(v: &T) -> PyResult<String> {
+pub(crate) fn json<T: serde::Serialize>(v: &T) -> PyResult<String> {
     serde_json::to_string(v).map_err(|e| PyRuntimeError::new_err(format!("internal error: report to JSON: {e}")))
 }
 

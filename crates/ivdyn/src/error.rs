@@ -293,6 +293,15 @@ pub enum Error {
         /// What is wrong with it ("must be positive, got -1").
         msg: String,
     },
+    /// Fleet statistics (`app::fleet`) that cannot be read or combined: another format
+    /// version, another robot model, damaged bytes. `what` names the statistics (their logs).
+    #[error("fleet statistics {what}: {msg}")]
+    Stats {
+        /// The statistics (e.g. "of arm-07 (3 logs)").
+        what: String,
+        /// What is wrong, naming both sides of a mismatch.
+        msg: String,
+    },
     /// An error while working on a file (a log, an output): the file, then the error.
     #[error("{file}: {source}")]
     InFile {

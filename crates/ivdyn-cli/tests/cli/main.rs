@@ -7,6 +7,7 @@ mod util;
 mod bag;
 mod common;
 mod errors;
+mod fleet;
 mod friction;
 mod gains;
 mod mjcf;

@@ -338,7 +338,7 @@ pub(crate) fn starting_shapes(robot: &Robot, mode: CoulombMode) -> Result<Robot>
 
 /// Adds the rows `r` of `p` (inside its segments, [`Prepared::pieces`]) to `acc`, with the
 /// instrument rows when `with_z`.
-fn accumulate(acc: &mut JointAccs, p: &Prepared, r: std::ops::Range<usize>, with_z: bool) -> Result<()> {
+pub(crate) fn accumulate(acc: &mut JointAccs, p: &Prepared, r: std::ops::Range<usize>, with_z: bool) -> Result<()> {
     let w = p.n * (p.phi.len() / p.tau.len().max(1));
     for piece in p.pieces(r) {
         acc.gap();

@@ -1,5 +1,5 @@
 //! The one orchestration: every command (`identify`, `payload`, `gains`, `simulate`,
-//! `diagnose`, `excite`) as a job that reads its inputs, runs, and writes its outputs whole or not at
+//! `diagnose`, `excite`; `fleet`'s engine-neutral statistics) as a job that reads its inputs, runs, and writes its outputs whole or not at
 //! all. The command line (`crates/ivdyn-cli`) and the Python package (`crates/ivdyn-py`)
 //! build a job from their arguments, call it, and present the result; neither holds any
 //! orchestration of its own.
@@ -11,6 +11,8 @@ mod coulomb;
 pub mod diagnose;
 pub mod effort;
 pub mod excite;
+pub mod fleet;
+pub mod fleet_drift;
 pub mod gains;
 pub mod html;
 pub mod identify;

@@ -201,6 +201,29 @@ impl LsAccumulator {
         }
     }
 
+    /// Statistics rebuilt from an upper-triangular factor `r_aug` (`(p+1) x (p+1)`, e.g.
+    /// [`r_aug`](Self::r_aug) of another accumulator), its row count and `Σ w y²`.
+    pub fn from_r_aug(r_aug: DMatrix<f64>, rows: usize, sum_wyy: f64) -> Result<Self> {
+        let n = r_aug.nrows();
+        if n == 0 || r_aug.ncols() != n {
+            return Err(mismatch("LsAccumulator::from_r_aug: columns of the square R_aug", n, r_aug.ncols()));
+        }
+        if let Some(i) = r_aug.iter().position(|v| !v.is_finite()) {
+            return Err(non_finite("r_aug", i));
+        }
+        if !sum_wyy.is_finite() {
+            return Err(non_finite("sum_wyy", 0));
+        }
+        if (0..n).any(|i| (0..i).any(|j| r_aug[(i, j)] != 0.0)) {
+            return Err(Error::Estimation { msg: "LsAccumulator::from_r_aug: R_aug is not upper triangular".into() });
+        }
+        let mut acc = LsAccumulator::new(n - 1);
+        acc.r = r_aug;
+        acc.rows = rows;
+        acc.sum_wyy = sum_wyy;
+        Ok(acc)
+    }
+
     /// Number of parameters `p`.
     pub fn p(&self) -> usize {
         self.p

@@ -273,6 +273,118 @@ impl JointAccs {
     }
 }
 
+/// One joint's least-squares statistics as plain numbers, the form in which per-log
+/// statistics travel between processes ([`JointAccs::joint_stats`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct JointStats {
+    /// `R_aug` (`(b + 1) x (b + 1)`, row-major, upper triangular) of the joint's rows.
+    pub r_aug: Vec<f64>,
+    /// Rows accumulated.
+    pub rows: usize,
+    /// `Σ τ²` as the accumulator keeps it (unit weights).
+    pub sum_wyy: f64,
+    /// `Σ τ_i`.
+    pub sum_y: f64,
+    /// `Σ τ_i²`.
+    pub sum_yy: f64,
+    /// Lagged products `M_l` (`l = 1..=L`, each `(b + 1)²`, row-major).
+    pub lags: Vec<Vec<f64>>,
+}
+
+impl JointAccs {
+    /// Each joint's least-squares statistics (the instrument sums are not carried).
+    pub fn joint_stats(&self) -> Vec<JointStats> {
+        (0..self.n)
+            .map(|i| {
+                let ls = self.per[i].ls();
+                let r = ls.r_aug();
+                let w = self.b + 1;
+                JointStats {
+                    r_aug: (0..w * w).map(|k| r[(k / w, k % w)]).collect(),
+                    rows: ls.rows(),
+                    sum_wyy: ls.sum_wyy(),
+                    sum_y: self.sum_y[i],
+                    sum_yy: self.sum_yy[i],
+                    lags: self.lags.get(i).map(|l| l.m.clone()).unwrap_or_default(),
+                }
+            })
+            .collect()
+    }
+
+    /// Least-squares statistics rebuilt from [`joint_stats`](Self::joint_stats) (`b` base
+    /// parameters, `samples` samples): every joint must carry the same number of lags.
+    pub fn from_joint_stats(b: usize, samples: usize, stats: &[JointStats]) -> Result<Self> {
+        let w = b + 1;
+        let lags = stats.first().map_or(0, |s| s.lags.len());
+        let mut acc = JointAccs::new(stats.len(), b, false);
+        acc.samples = samples;
+        for (i, s) in stats.iter().enumerate() {
+            if s.r_aug.len() != w * w || s.lags.len() != lags || s.lags.iter().any(|m| m.len() != w * w) {
+                return Err(crate::Error::Dimension {
+                    what: format!("joint statistics of joint {i}: R_aug and lagged products ((b + 1)² each)"),
+                    expected: w * w,
+                    got: s.r_aug.len(),
+                });
+            }
+            let r = nalgebra::DMatrix::from_row_slice(w, w, &s.r_aug);
+            acc.per[i] = Acc::Ls(LsAccumulator::from_r_aug(r, s.rows, s.sum_wyy)?);
+            acc.sum_y[i] = s.sum_y;
+            acc.sum_yy[i] = s.sum_yy;
+        }
+        if lags > 0 {
+            acc.lags = stats.iter().map(|s| LagSums { m: s.lags.clone(), carry: VecDeque::new() }).collect();
+        }
+        Ok(acc)
+    }
+
+    /// Adds the statistics of other rows (another log: no lagged product spans the two),
+    /// so that `self` describes both row sets; the lagged products kept are the lags both
+    /// have. Least-squares statistics only (instrument sums are not merged).
+    pub fn merge(&mut self, other: &JointAccs) -> Result<()> {
+        if (other.n, other.b) != (self.n, self.b) {
+            return Err(crate::Error::Dimension {
+                what: "JointAccs::merge: joints x base parameters of the other statistics".into(),
+                expected: self.n * self.b,
+                got: other.n * other.b,
+            });
+        }
+        if self.has_iv() || other.has_iv() {
+            return Err(crate::error::Error::Estimation {
+                msg: "JointAccs::merge: instrument sums are not merged".into(),
+            });
+        }
+        for (a, o) in self.per.iter_mut().zip(&other.per) {
+            let Acc::Ls(a) = a else { unreachable!("checked") };
+            a.merge(o.ls())?;
+        }
+        for i in 0..self.n {
+            self.sum_y[i] += other.sum_y[i];
+            self.sum_yy[i] += other.sum_yy[i];
+        }
+        self.samples += other.samples;
+        self.keep_lags(other.lags.first().map_or(0, |l| l.m.len()));
+        for (l, o) in self.lags.iter_mut().zip(&other.lags) {
+            l.m.iter_mut().zip(&o.m).for_each(|(m, om)| m.iter_mut().zip(om).for_each(|(x, y)| *x += y));
+            l.carry.clear();
+        }
+        Ok(())
+    }
+
+    /// Keeps the lagged products of lags `1..=lags` at most (a data set whose rows are
+    /// correlated over fewer lags joins: the lags kept are those every part has).
+    pub fn keep_lags(&mut self, lags: usize) {
+        if lags == 0 {
+            self.lags.clear();
+        }
+        for l in &mut self.lags {
+            l.m.truncate(lags);
+            while l.carry.len() > lags {
+                l.carry.pop_front();
+            }
+        }
+    }
+}
+
 /// Lags of [`JointAccs::long_run_factor`] for rows at sample time `dt` after a zero-phase
 /// low-pass at `cutoff_hz`: twice the filter's correlation time `1 / cutoff_hz` in samples
 /// (5 at the automatic decimation, 2.5 samples per cut-off period), between 2 and 12 (the

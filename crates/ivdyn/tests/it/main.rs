@@ -18,6 +18,7 @@ mod effort_current;
 mod excite;
 #[path = "../../../../tests/fixtures.rs"]
 mod fixtures;
+mod fleet_stats;
 mod hostile_inputs;
 mod hostile_limits;
 mod html_reports;

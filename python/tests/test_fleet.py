@@ -1,0 +1,221 @@
+"""ivdyn.fleet on a real local Ray runtime (started once for this module, in its own
+temporary directory; the module runs in one xdist group so that one runtime serves every
+test): the Ray run equals the in-process statistics merged in another order (1e-12
+relative), a corrupt or missing log marks its row failed by name and the run goes on, a
+worker killed mid-run changes nothing, statistics of another model are refused."""
+import os
+import signal
+import tempfile
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import ivdyn
+from ivdyn import fleet
+
+ray = pytest.importorskip("ray")
+pytestmark = pytest.mark.xdist_group("ray")
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")
+BASE, TIP = "base_link", "forearm_link"  # the UR5's first three joints: small and quick
+ROBOTS, PERIODS, LOGS = 3, 2, 2
+PLANTED = (2, 1)  # arm-2's elbow Coulomb friction rises 40 % (1.5 -> 2.1 N m) on day 1
+
+
+@pytest.fixture(scope="module")
+def fleet_dir(tmp_path_factory):
+    """ROBOTS arms x PERIODS days x LOGS logs of 6 s at 250 Hz (MCAP), each arm with its
+    own friction (Fourier excitation, 0.1 N m torque noise), one change planted (PLANTED)."""
+    d = tmp_path_factory.mktemp("fleet")
+    entries = []
+    for a in range(ROBOTS):
+        for p in range(PERIODS):
+            for k in range(LOGS):
+                path = d / f"arm-{a}_day{p}_{k}.mcap"
+                elbow_fc = 2.1 if (a, p) == PLANTED else 1.5
+                ivdyn.simulate(UR5, str(path), base=BASE, tip=TIP, duration=6.0, rate=250.0,
+                               seed=100 * a + 10 * p + k + 1, fc=[2.0 + a, 2.0, elbow_fc], fv=[0.8, 0.8, 0.5],
+                               noise=0.1)
+                entries.append(fleet.LogEntry(log=str(path), robot=f"arm-{a}", model=UR5, period=f"day{p}",
+                                              base=BASE, tip=TIP))
+    return d, entries
+
+
+@pytest.fixture(scope="module")
+def ray_runtime():
+    """A local Ray runtime of 2 CPUs in a short private directory (Ray's socket paths
+    must stay under ~107 characters; two xdist workers must not share a session)."""
+    tmp = tempfile.mkdtemp(prefix="ivr", dir="/tmp")
+    ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tmp, log_to_driver=False)
+    yield
+    ray.shutdown()
+
+
+def _theta_cov(f):
+    theta = [np.nan if b["value"] is None else b["value"] for b in f["report"]["base"]]
+    return np.array(theta, dtype=float), np.array(f["covariance"], dtype=float)
+
+
+def _rel(a, b):
+    ok = np.isfinite(b)
+    assert np.array_equal(np.isfinite(a), ok)
+    return np.linalg.norm(a[ok] - b[ok]) / np.linalg.norm(b[ok])
+
+
+def _assert_same_fits(fits, reference, tol=1e-12):
+    assert set(fits) == set(reference)
+    for key in reference:
+        (t, c), (t0, c0) = _theta_cov(fits[key]), _theta_cov(reference[key])
+        assert _rel(t, t0) <= tol and _rel(c, c0) <= tol, (key, _rel(t, t0), _rel(c, c0))
+
+
+def _in_process(entries):
+    """Per (robot, period): every log's statistics here, merged in reverse order, fitted."""
+    parts = {}
+    for e in entries:
+        parts.setdefault((e.robot, e.period), []).append(fleet.log_stats(e))
+    return {key: fleet.fit(UR5, fleet.merge(p[::-1]), base=BASE, tip=TIP) for key, p in parts.items()}
+
+
+def test_ray_run_equals_in_process_merge_and_reports_progress(fleet_dir, ray_runtime):
+    _, entries = fleet_dir
+    calls = []
+    res = fleet.run(entries, engine="ray", progress=lambda done, total: calls.append((done, total)), fan_in=2)
+    assert [r["status"] for r in res.rows] == ["ok"] * len(entries)
+    assert calls[-1] == (len(entries), len(entries)) and len(calls) == len(entries)
+    assert [c[0] for c in calls] == sorted(c[0] for c in calls)
+    assert set(res.fits) == {(f"arm-{a}", f"day{p}") for a in range(ROBOTS) for p in range(PERIODS)}
+    for key, f in res.fits.items():
+        assert "error" not in f, f
+        assert [lg["name"] for lg in f["logs"]] == sorted(e.log for e in entries if (e.robot, e.period) == key)
+    _assert_same_fits(res.fits, _in_process(entries))
+    # the engine-neutral path without Ray gives the same numbers
+    _assert_same_fits(fleet.run(entries, engine="local", num_cpus=2).fits, res.fits)
+
+
+def test_drift_flags_exactly_the_planted_change(fleet_dir):
+    """At a 1 % false-discovery rate only the planted change is flagged (it is tens of
+    standard deviations; under the null a false flag has a chance of about 1 %)."""
+    _, entries = fleet_dir
+    rows = fleet.drift(fleet.run(entries, engine="local", num_cpus=2), q=0.01)
+    flagged = [r for r in rows if r["flagged"]]
+    assert [(r["robot"], r["period"], r["effect"], r["joint"]) for r in flagged] == [
+        ("arm-2", "day1", "coulomb_friction", "elbow_joint")], [r["words"] for r in flagged]
+    assert flagged[0]["words"].startswith("arm-2, elbow_joint: coulomb friction +")
+    assert flagged[0]["words"].endswith("since day0")
+    assert abs(flagged[0]["change"][0] - 0.6) < 4 * flagged[0]["std"][0]
+    assert rows[0] is flagged[0] and len(rows) > 10
+
+
+def test_corrupt_and_missing_logs_fail_their_rows_by_name(fleet_dir, ray_runtime):
+    d, entries = fleet_dir
+    bad = d / "arm-0_day0_corrupt.mcap"
+    bad.write_bytes(b"\x89MCAP0\r\n" + os.urandom(2000))
+    missing = d / "arm-1_day0_gone.mcap"
+    extra = [fleet.LogEntry(log=str(bad), robot="arm-0", model=UR5, period="day0", base=BASE, tip=TIP),
+             fleet.LogEntry(log=str(missing), robot="arm-1", model=UR5, period="day0", base=BASE, tip=TIP)]
+    res = fleet.run(entries[:4] + extra, engine="ray")
+    failed = res.failed
+    assert [r["log"] for r in failed] == [str(bad), str(missing)]
+    for r in failed:
+        assert r["log"] in r["error"], r["error"]
+    assert all(r["status"] == "ok" for r in res.rows[:4])
+    # the good logs of the same group are fitted as if the bad ones were not listed
+    _assert_same_fits(res.fits, _in_process(entries[:4]))
+
+
+def _kill_one_stats_worker(killed, stop):
+    """SIGKILLs the first Ray worker seen running a statistics task (its process title is
+    ``ray::_stats_parts`` while it runs one)."""
+    while not stop.is_set():
+        for pid in os.listdir("/proc"):
+            if not pid.isdigit():
+                continue
+            try:
+                with open(f"/proc/{pid}/cmdline", "rb") as f:
+                    cmd = f.read()
+            except OSError:
+                continue
+            if cmd.startswith(b"ray::_stats_parts"):
+                os.kill(int(pid), signal.SIGKILL)
+                killed.append(int(pid))
+                return
+        time.sleep(0.005)
+
+
+def test_a_worker_killed_mid_run_changes_nothing(fleet_dir, ray_runtime):
+    _, entries = fleet_dir
+    killed, stop = [], threading.Event()
+    killer = threading.Thread(target=_kill_one_stats_worker, args=(killed, stop))
+    killer.start()
+    try:
+        res = fleet.run(entries, engine="ray")
+    finally:
+        stop.set()
+        killer.join()
+    assert killed, "no statistics task was caught running"
+    assert [r["status"] for r in res.rows] == ["ok"] * len(entries)
+    _assert_same_fits(res.fits, _in_process(entries))
+
+
+def test_statistics_of_another_model_are_refused_naming_both(fleet_dir):
+    _, entries = fleet_dir
+    a = fleet.log_stats(entries[0])
+    other = fleet.LogEntry(log=entries[1].log, robot="x", model=UR5, base=BASE, tip=TIP)
+    # the same log with the drive model of another fleet: another parameter layout
+    b = fleet.log_stats(other, fleet.Options(offset=False))
+    with pytest.raises(ValueError) as e:
+        fleet.merge([a, b])
+    msg = str(e.value)
+    assert entries[0].log in msg and entries[1].log in msg
+    assert "drive terms fc,fv,ia,tau0)" in msg and "drive terms fc,fv,ia)" in msg
+    info = fleet.stats_info(a)
+    assert info["logs"][0]["name"] == entries[0].log and info["model"]["joints"] == [
+        "shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint"]
+
+
+def test_manifest_csv_and_json(tmp_path):
+    (tmp_path / "m.csv").write_text("log,robot,model,time,payload\nlogs/a.mcap,arm-1,ur5.urdf,2026-11-02T10:00,box\n")
+    (tmp_path / "m.json").write_text('{"logs": [{"log": "/x/b.mcap", "robot": "arm-2", "model": "/m/ur5.urdf",'
+                                     ' "period": "w45"}]}')
+    [c] = fleet.read_manifest(str(tmp_path / "m.csv"))
+    assert c.log == str(tmp_path / "logs" / "a.mcap") and c.period == "2026-11-02" and c.payload == "box"
+    [j] = fleet.read_manifest(str(tmp_path / "m.json"))
+    assert (j.log, j.robot, j.model, j.period) == ("/x/b.mcap", "arm-2", "/m/ur5.urdf", "w45")
+    (tmp_path / "bad.csv").write_text("log,robot\na.mcap,arm-1\n")
+    with pytest.raises(ValueError, match=r"bad.csv: row 1: 'model' is missing"):
+        fleet.read_manifest(str(tmp_path / "bad.csv"))
+
+
+def test_fleet_command_writes_json_and_reloadable_params(fleet_dir, tmp_path, ivdyn_bin):
+    """``ivdyn fleet`` (running ``python -m ivdyn.fleet`` in this interpreter): fleet.json with the rows,
+    fits, drift and the flagged change in words; one parameter file per robot and period
+    that ``params=`` (``--params``) loads."""
+    import json
+    import subprocess
+    import sys
+
+    d, entries = fleet_dir
+    manifest = tmp_path / "m.csv"
+    manifest.write_text("log,robot,model,period,base,tip\n" + "".join(
+        f"{e.log},{e.robot},{e.model},{e.period},{BASE},{TIP}\n" for e in entries))
+    out = tmp_path / "out"
+    r = subprocess.run([ivdyn_bin, "fleet", str(manifest), "--out", str(out), "--engine", "local",
+                        "--fdr", "0.01", "--quiet"], capture_output=True, text=True, cwd=tmp_path, timeout=300,
+                       env=dict(os.environ, IVDYN_PYTHON=sys.executable))
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((out / "fleet.json").read_text())
+    assert len(doc["rows"]) == len(entries) and len(doc["fits"]) == ROBOTS * PERIODS
+    assert len(doc["flagged"]) == 1 and doc["flagged"][0].startswith("arm-2, elbow_joint: coulomb friction +")
+    assert doc["flagged"][0] in r.stdout
+    params = out / "params" / "arm-2_day1.json"
+    robot = ivdyn.Robot.from_urdf(UR5, base=BASE, tip=TIP)
+    i = robot.param_names.index("elbow_joint.fc")
+    # the file replaces the URDF's values: the elbow's friction is the fitted 2.1 N m
+    sim = ivdyn.simulate(UR5, base=BASE, tip=TIP, params=str(params), duration=1.0)
+    tp = sim["true_params"]
+    fc = tp["theta"][tp["names"].index("elbow_joint.fc")]
+    assert abs(robot.params[i] - 2.1) > 0.5 and abs(fc - 2.1) < 0.1, fc
