@@ -29,6 +29,7 @@ make_diagnose_cases.py, URDF paths absolute; each case also has `oracle.oracle_r
 what the true effects leave with the *true* rigid-body model) and OUT/split.json.
 
     .venv/bin/python python/tools/make_cad_cases.py --out /tmp/cad_cases [--duration 2]
+    .venv/bin/python python/tools/make_cad_cases.py --out fixtures/diagnose_cad --only ur5/e15_0fx,...
 """
 import argparse
 import json
@@ -192,8 +193,16 @@ def draw_effects(cfg, robot, names, seed, count, rng):
     return effects
 
 
-def robot_cases(name, out, duration, seed0):
-    """Simulates every case of one arm into OUT/<name>/ and writes its cases.json."""
+def rel(path):
+    """`path` relative to the repository root when inside it (fixtures), else absolute."""
+    r = os.path.relpath(path, mdc.ROOT)
+    return path if r.startswith("..") else r
+
+
+def robot_cases(name, out, duration, seed0, only=None):
+    """Simulates every case of one arm into OUT/<name>/ and writes its cases.json; with
+    `only` (ids "robot/case"), just those (the others are drawn all the same, so a case
+    is the same whichever are written)."""
     out_r = os.path.join(out, name)
     cfg = cad_config(name, out_r)
     robot = ivdyn.Robot.from_urdf(cfg["urdf_path"], base=cfg["base"], tip=cfg["tip"])
@@ -203,7 +212,7 @@ def robot_cases(name, out, duration, seed0):
     print(f"{name}: MuJoCo vs ivdyn on the clean model: tau {err_tau:.2e}, M {err_m:.2e}")
     if err_tau > mdc.AGREEMENT_TOL or err_m > mdc.AGREEMENT_TOL:
         sys.exit(f"{name}: MuJoCo and ivdyn disagree on the clean model; not writing anything")
-    manifest = {"generator": "python/tools/make_cad_cases.py", "robot_urdf": cfg["urdf_path"],
+    manifest = {"generator": "python/tools/make_cad_cases.py", "robot_urdf": rel(cfg["urdf_path"]),
                 "base": cfg["base"], "tip": cfg["tip"], "terminal_link": cfg["terminal_link"], "joints": names,
                 "topic": "/joint_states", "duration_s": duration, "cases": []}
     rng = np.random.default_rng(seed0)
@@ -214,6 +223,9 @@ def robot_cases(name, out, duration, seed0):
             case["effects"] = draw_effects(cfg, robot, names, seed, count, rng)
             nominal = os.path.join(out_r, f"{case['name']}_nominal.urdf")
             factors = nominal_urdf(cfg, nominal, level, rng)
+            if only is not None and f"{name}/{case['name']}" not in only:
+                os.remove(nominal)
+                continue
             sim, q_meas, qd_meas, tau_meas, noise = mdc.measured(cfg, case, robot, duration)
             log = f"{case['name']}.mcap"
             size = mdc.write_mcap(os.path.join(out_r, log), names, sim["t"], q_meas, qd_meas, tau_meas)
@@ -222,10 +234,10 @@ def robot_cases(name, out, duration, seed0):
             tau_true = robot.rnea(sim["q"], sim["qd"], sim["qdd"])
             tau_nom = nom.rnea(sim["q"], sim["qd"], sim["qdd"])
             manifest["cases"].append({
-                "name": case["name"], "log": log, "bytes": size, "urdf": nominal, "samples": len(sim["t"]),
+                "name": case["name"], "log": log, "bytes": size, "urdf": rel(nominal), "samples": len(sim["t"]),
                 "velocity_in_log": True, "seed": seed, "effects": case["effects"], "torque_noise_std": noise,
                 "model_error": {"kind": "mass, inertia and COM scaled per link", "level": level,
-                                "true_urdf": cfg["urdf_path"], "mass_inertia_com_factor": factors},
+                                "true_urdf": rel(cfg["urdf_path"]), "mass_inertia_com_factor": factors},
                 "oracle": {"effect_rms": mdc.rms(eff), "baseline_rms_exact": mdc.rms(tau_meas - tau_nom),
                            "oracle_rms_exact": mdc.rms(tau_meas - tau_nom - eff),
                            "oracle_rms_true_model": mdc.rms(tau_meas - tau_true - eff)},
@@ -240,11 +252,16 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="/tmp/cad_cases")
     ap.add_argument("--duration", type=float, default=2.0)
-    ap.add_argument("--robots", default="ur5,panda,ur3,talos_arm")
+    ap.add_argument("--only", default=None, help="comma list of ids robot/case to write (default: all, "
+                    "with split.json); fixtures/diagnose_cad holds a few cases of the tuning part")
     args = ap.parse_args(argv)
     ids = []
-    for i, name in enumerate(args.robots.split(",")):
-        ids += robot_cases(name, args.out, args.duration, 1500 + 100 * i)
+    only = None if args.only is None else set(args.only.split(","))
+    for i, name in enumerate(["ur5", "panda", "ur3", "talos_arm"]):
+        if only is None or any(x.startswith(name + "/") for x in only):
+            ids += robot_cases(name, args.out, args.duration, 1500 + 100 * i, only)
+    if only is not None:
+        return 0
     # the split is fixed before any diagnosis runs: every third id of a seeded permutation
     perm = [ids[i] for i in np.random.default_rng(SPLIT_SEED).permutation(len(ids))]
     split = {"seed": SPLIT_SEED, "tune": sorted(perm[i] for i in range(len(perm)) if i % 3 != 2),

@@ -107,9 +107,13 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> R
 }
 
 /// Gram matrices `[X r]^T [X r]` per joint and fold.
+#[derive(Clone)]
 pub(super) struct Grams {
     pub(super) g: Vec<[DMatrix<f64>; 2]>,
     pub(super) rows: Vec<[usize; 2]>,
+    /// Ridge on the link-scale parameters in every fit (unit-diagonal normal equations;
+    /// 0 unless the nominal re-fit chose one, `refit`).
+    pub(super) ridge: f64,
 }
 
 /// The fold of sample `k`: the log cut into `2 blocks_per_fold` blocks, alternately in
@@ -154,5 +158,5 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
         }
         g.push(gj);
     }
-    Grams { g, rows }
+    Grams { g, rows, ridge: 0.0 }
 }

@@ -24,13 +24,18 @@ pub(super) struct Model {
     pub(super) per_joint: Vec<Vec<EffectKind>>,
     pub(super) stribeck_vs: Vec<usize>,
     pub(super) payload: bool,
-    /// Per-link scale factors of the nominal inertials (look-alike check only).
+    /// Per-link scale factors of the nominal inertials, every link (look-alike check).
     pub(super) link_scale: bool,
+    /// The nominal re-fit (`refit`): per-link scale factors of the links before the
+    /// terminal one, ridge-regularised toward the nominal (`Grams::ridge`). The terminal
+    /// link is left out: a change there is what a payload is, and the payload candidate
+    /// and its rules decide it.
+    pub(super) refit: bool,
 }
 
 impl Model {
     pub(super) fn new(n: usize) -> Self {
-        Model { per_joint: vec![vec![]; n], stribeck_vs: vec![0; n], payload: false, link_scale: false }
+        Model { per_joint: vec![vec![]; n], stribeck_vs: vec![0; n], payload: false, link_scale: false, refit: false }
     }
 
     pub(super) fn has(&self, j: usize, e: EffectKind) -> bool {
@@ -90,10 +95,16 @@ impl Model {
                 p.push(Param { kind: Some(EffectKind::Payload), joint: None, col: C_PAYLOAD + k });
             }
         }
-        if self.link_scale {
-            for i in 0..self.per_joint.len() {
-                p.push(Param { kind: None, joint: None, col: C_LINK + i });
-            }
+        let n = self.per_joint.len();
+        let links = if self.link_scale {
+            n
+        } else if self.refit {
+            n - 1
+        } else {
+            0
+        };
+        for i in 0..links {
+            p.push(Param { kind: None, joint: None, col: C_LINK + i });
         }
         p
     }
@@ -152,7 +163,14 @@ pub(super) fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]
     }
     // scale to unit diagonal, then a pseudo-inverse with a relative threshold
     let s: Vec<f64> = (0..p).map(|i| if a[(i, i)] > 0.0 { 1.0 / a[(i, i)].sqrt() } else { 0.0 }).collect();
-    let an = DMatrix::from_fn(p, p, |i, k| a[(i, k)] * s[i] * s[k]);
+    let mut an = DMatrix::from_fn(p, p, |i, k| a[(i, k)] * s[i] * s[k]);
+    // the link-scale parameters are pulled toward the nominal model (scale 0) with the
+    // ridge chosen for the nominal re-fit (0: plain least squares)
+    for (i, q) in model_params.iter().enumerate() {
+        if q.kind.is_none() && s[i] > 0.0 {
+            an[(i, i)] += gr.ridge;
+        }
+    }
     let bn = DVector::from_fn(p, |i, _| b[i] * s[i]);
     // The Gram matrices are checked finite before the search (`prepare`), so this converges;
     // were it not to, the candidate explains nothing (zero effects) rather than hanging.
