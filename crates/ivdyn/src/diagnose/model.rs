@@ -4,7 +4,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::EffectKind;
-use super::dictionary::{C_LINK, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, C_TARGET, Dictionary, Grams};
+use super::dictionary::{C_LINK, LINK_GROUPS, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, C_TARGET, Dictionary, Grams};
 use super::residual::noise_and_tau;
 
 /// One parameter of a model: which joints' rows it touches and through which column.
@@ -103,11 +103,21 @@ impl Model {
         } else {
             0
         };
-        for i in 0..links {
-            p.push(Param { kind: None, joint: None, col: C_LINK + i });
+        for c in C_LINK..C_LINK + LINK_GROUPS.len() * links {
+            p.push(Param { kind: None, joint: None, col: c });
         }
         p
     }
+}
+
+/// The model with friction (Coulomb and viscous) on every joint: the effects a wrong
+/// nominal link inertial cannot imitate (the base of the nominal re-fit's decision).
+pub(super) fn friction_model(n: usize) -> Model {
+    let mut m = Model::new(n);
+    for j in 0..n {
+        m.per_joint[j] = vec![EffectKind::Coulomb, EffectKind::Viscous];
+    }
+    m
 }
 
 /// The model with every candidate on every joint (and a payload): what is left after it
@@ -231,10 +241,18 @@ pub(super) fn effect_torque(f: &Fit, d: &Dictionary, n: usize, t_len: usize) -> 
 }
 
 /// Noise std and integrated autocorrelation time per joint from the residual of
-/// [`all_model`], and that residual.
-pub(super) fn noise_of_all_model(d: &Dictionary, gr: &Grams, n: usize, t_len: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+/// [`all_model`] (with the nominal re-fit when `refit`), and that residual.
+pub(super) fn noise_of_all_model(
+    d: &Dictionary,
+    gr: &Grams,
+    n: usize,
+    t_len: usize,
+    refit: bool,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let unit = vec![1.0; n];
-    let f_all = fit(&all_model(n).params(), gr, &unit, &[0, 1]);
+    let mut all = all_model(n);
+    all.refit = refit;
+    let f_all = fit(&all.params(), gr, &unit, &[0, 1]);
     let e_all = effect_torque(&f_all, d, n, t_len);
     let r_all: Vec<f64> = (0..t_len * n).map(|i| d.r0[i % n][i / n] - e_all[i]).collect();
     let (sigma, rho): (Vec<f64>, Vec<f64>) = (0..n).map(|j| noise_and_tau(&r_all, n, j)).unzip();

@@ -6,29 +6,32 @@
 //! share of a real effect (friction) until nothing is named. So when the log says the
 //! rigid-body model is off, the search runs on top of a re-fitted one:
 //!
-//! * **What is re-fitted**: one scale factor per link on its nominal inertial parameters
-//!   (the link's nominal torque `Y_i theta_i` as a column, `1 + s_i` times it), every link
-//!   but the terminal one: a change of the terminal link is what a payload is, and the
+//! * **What is re-fitted**: three scale factors per link on its nominal inertial
+//!   parameters, one each for its mass, its first moment (mass times COM) and its
+//!   rotational inertia (the torque of each part, `Y_i,g theta_i,g`, as a column, `1 + s`
+//!   times it), every link but the terminal one: a change of the terminal link is what a payload is, and the
 //!   payload candidate with its own rules (size beyond the CAD margin, held-out share,
-//!   look-alike check) decides it. A positive factor keeps a link physically consistent.
+//!   look-alike check) decides it.
 //! * **Regularised toward the nominal**: a ridge on the scales (unit-diagonal normal
-//!   equations), the largest on a grid whose two-fold held-out residual, with every
-//!   candidate effect fitted jointly, is within 1 % of the best; grid values that make a
-//!   link's factor non-positive are skipped. The ridge makes the re-fit the explanation of
+//!   equations), the largest on a grid whose two-fold held-out residual, with friction
+//!   on every joint fitted jointly, is within 1 % of the best; grid values that leave a
+//!   re-fitted link physically inconsistent are skipped. The ridge makes the re-fit the explanation of
 //!   last resort: where an effect's column and a scale explain the same thing (armature on
 //!   a vertical first joint and that link's inertia), the effect takes it.
-//! * **Turned on** when, with every candidate effect of the vocabulary in (so that it
-//!   cannot be chosen for what an effect explains), it is significant on some joint: F test
-//!   at `alpha` on the effective sample count, it removes at least `REFIT_MIN_SHARE` of the
-//!   held-out residual above the noise, and the torque it adds has an RMS of at least
-//!   `min_effect` noise standard deviations.
+//! * **Turned on** when, on top of friction (Coulomb and viscous) on every joint, the
+//!   effects a link inertial cannot imitate, it removes on some joint at least
+//!   `REFIT_MIN_SHARE` of the held-out residual above the noise, with a torque of at least
+//!   `min_effect` noise standard deviations RMS. (No F test: a rigid-body error leaves a
+//!   smooth residual whose effective sample count is too small for one; the held-out
+//!   test is the validation.) The look-alikes (offset, spring, armature, payload) are not
+//!   in that base: they would absorb the error the re-fit is for.
 //!
 //! The effects are then searched with the re-fit in every model, so a look-alike the
 //! re-fit explains on held-out data is not significant, and `effects` keeps only what the
 //! model lacks.
 
-use super::dictionary::{C_LINK, Grams};
-use super::model::{Fit, Model, all_model, fit, rss_joint};
+use super::dictionary::{C_LINK, Grams, LINK_GROUPS};
+use super::model::{Fit, Model, effect_rms, fit, friction_model, rss_joint};
 use super::rules::Ctx;
 use super::{BaseParamsJson, NominalRefitJson};
 use crate::Robot;
@@ -61,28 +64,55 @@ pub(super) struct RefitDecision {
     pub(super) joints: Vec<usize>,
 }
 
-/// The scales of a fit's link-scale parameters (link index, scale).
-pub(super) fn link_scales(f: &Fit) -> Vec<(usize, f64)> {
-    f.params.iter().zip(&f.theta).filter(|(p, _)| p.kind.is_none()).map(|(p, &v)| (p.col - C_LINK, v)).collect()
+/// The scales of a fit's link-scale parameters: (link, part of `LINK_GROUPS`, scale).
+pub(super) fn link_scales(f: &Fit) -> Vec<(usize, usize, f64)> {
+    let g = LINK_GROUPS.len();
+    f.params
+        .iter()
+        .zip(&f.theta)
+        .filter(|(p, _)| p.kind.is_none())
+        .map(|(p, &v)| ((p.col - C_LINK) / g, (p.col - C_LINK) % g, v))
+        .collect()
+}
+
+/// The nominal inertial parameters with each link's parts scaled by `1 + s`.
+fn scaled(nominal: &[f64], scales: &[(usize, usize, f64)]) -> Vec<f64> {
+    let mut theta = nominal.to_vec();
+    for &(i, g, s) in scales {
+        let (lo, hi) = LINK_GROUPS[g];
+        for v in &mut theta[10 * i + lo..10 * i + hi] {
+            *v *= 1.0 + s;
+        }
+    }
+    theta
+}
+
+/// Whether every re-fitted link of `theta` is physically consistent (positive mass,
+/// inertia about the COM positive definite with the triangle inequalities).
+fn consistent(theta: &[f64], scales: &[(usize, usize, f64)]) -> bool {
+    scales.iter().all(|&(i, _, _)| {
+        let p: [f64; 10] = theta[10 * i..10 * i + 10].try_into().expect("10 parameters");
+        ivdyn_core::LinkInertia(p).is_physically_consistent(0.0)
+    })
 }
 
 /// Weighted held-out RSS (both folds) of the model `m`, and its scales fitted on all data.
-fn heldout(ctx: &Ctx, gr: &Grams, m: &Model) -> (f64, Vec<f64>) {
+fn heldout(ctx: &Ctx, gr: &Grams, m: &Model) -> (f64, Vec<(usize, usize, f64)>) {
     let ps = m.params();
     let (f0, f1) = (fit(&ps, gr, &ctx.w, &[0]), fit(&ps, gr, &ctx.w, &[1]));
     let h = (0..ctx.n).map(|j| ctx.w[j] * (rss_joint(&f0, gr, j, &[1]) + rss_joint(&f1, gr, j, &[0]))).sum();
-    (h, link_scales(&fit(&ps, gr, &ctx.w, &[0, 1])).into_iter().map(|x| x.1).collect())
+    (h, link_scales(&fit(&ps, gr, &ctx.w, &[0, 1])))
 }
 
-/// The ridge of the re-fit on top of every candidate (module docs), or `None` when no
-/// grid value keeps every link's factor positive.
-fn choose_ridge(ctx: &Ctx, with: &Model) -> Option<f64> {
+/// The ridge of the re-fit on top of friction (module docs), or `None` when no grid value
+/// keeps every link physically consistent.
+fn choose_ridge(ctx: &Ctx, with: &Model, nominal: &[f64]) -> Option<f64> {
     let mut tried = vec![];
     for &ridge in &RIDGE_GRID {
         let mut gr = ctx.gr.clone();
         gr.ridge = ridge;
         let (h, scales) = heldout(ctx, &gr, with);
-        if scales.iter().all(|s| 1.0 + s > 0.0) {
+        if consistent(&scaled(nominal, &scales), &scales) {
             tried.push((ridge, h));
         }
     }
@@ -95,32 +125,32 @@ fn choose_ridge(ctx: &Ctx, with: &Model) -> Option<f64> {
 }
 
 /// Whether the log calls for the re-fit, and with which ridge (module docs).
-pub(super) fn decide(ctx: &Ctx) -> Option<RefitDecision> {
+pub(super) fn decide(ctx: &Ctx, robot: &Robot) -> Option<RefitDecision> {
     let n = ctx.n;
     if n < 2 {
         return None; // one link: its change is a payload's business
     }
-    let all = all_model(n);
-    let mut with = all.clone();
+    let base = friction_model(n);
+    let mut with = base.clone();
     with.refit = true;
-    let ridge = choose_ridge(ctx, &with)?;
+    let ridge = choose_ridge(ctx, &with, &robot.params())?;
     let mut gr = ctx.gr.clone();
     gr.ridge = ridge;
-    let c = ctx.with_grams(&gr);
-    let (pa, pw) = (all.params(), with.params());
+    let (pb, pw) = (base.params(), with.params());
+    let f_all = fit(&pw, &gr, &ctx.w, &[0, 1]);
     let mut share = vec![0.0; n];
     let mut joints = vec![];
     for (j, sh) in share.iter_mut().enumerate() {
         let (mut h0, mut h1) = (0.0, 0.0);
         for (train, test) in [(0usize, 1usize), (1, 0)] {
-            h0 += rss_joint(&fit(&pa, &gr, &ctx.w, &[train]), &gr, j, &[test]);
+            h0 += rss_joint(&fit(&pb, &gr, &ctx.w, &[train]), &gr, j, &[test]);
             h1 += rss_joint(&fit(&pw, &gr, &ctx.w, &[train]), &gr, j, &[test]);
         }
         let rows = (gr.rows[j][0] + gr.rows[j][1]) as f64;
         let above = h0 - rows * ctx.sigma[j].powi(2);
         *sh = if above > 0.0 { (h0 - h1) / above } else { 0.0 };
-        let sc = c.joint_score(&all, &with, j, &|p| p.kind.is_none());
-        if sc.p < ctx.opts.alpha && *sh >= REFIT_MIN_SHARE && sc.effect_rms >= ctx.opts.min_effect * ctx.sigma[j] {
+        let size = effect_rms(&f_all, &gr, j, &|p| p.kind.is_none());
+        if *sh >= REFIT_MIN_SHARE && size >= ctx.opts.min_effect * ctx.sigma[j] {
             joints.push(j);
         }
     }
@@ -140,21 +170,20 @@ pub(super) fn report(
 ) -> Result<NominalRefitJson> {
     let scales = link_scales(f);
     let nominal = robot.params();
-    let mut theta = nominal.clone();
-    for &(i, s) in &scales {
-        for v in &mut theta[10 * i..10 * (i + 1)] {
-            *v *= 1.0 + s;
-        }
-    }
+    let theta = scaled(&nominal, &scales);
     let bp = crate::ident::base::robot_base_params_with(robot, BASE_SAMPLES, 15, true)?;
+    // the rigid-body base parameters are over the 10 N inertial parameters only
+    let k = bp.full_cols.min(theta.len());
     let base_params =
-        BaseParamsJson { names: bp.names.clone(), nominal: bp.project(&nominal)?, values: bp.project(&theta)? };
-    let (worst, s) = scales.iter().copied().fold((0usize, 0.0f64), |a, x| if x.1.abs() > a.1.abs() { x } else { a });
+        BaseParamsJson { names: bp.names.clone(), nominal: bp.project(&nominal[..k])?, values: bp.project(&theta[..k])? };
+    let (worst, part, s) =
+        scales.iter().copied().fold((0usize, 0usize, 0.0f64), |a, x| if x.2.abs() > a.2.abs() { x } else { a });
     let link = robot.link_names.get(worst).cloned().unwrap_or_else(|| format!("link {}", worst + 1));
+    let part = ["mass", "first moment (mass x COM)", "rotational inertia"][part];
     let on: Vec<String> =
         dec.joints.iter().map(|&j| format!("{} ({:.0} %)", names[j], 100.0 * dec.share[j].min(1.0))).collect();
     let why = format!(
-        "the nominal rigid-body model is off: with every candidate effect in, per-link scale factors of the nominal inertials (all links but the terminal one, ridge {:.0e} toward the nominal chosen on held-out data) still remove this share of the held-out residual above the noise on {}; largest change: {link} x{:.2}",
+        "the nominal rigid-body model is off: on top of friction on every joint, per-link scale factors of the nominal inertials (all links but the terminal one, ridge {:.0e} toward the nominal chosen on held-out data) still remove this share of the held-out residual above the noise on {}; largest change: {link} {part} x{:.2}",
         dec.ridge,
         on.join(", "),
         1.0 + s

@@ -78,7 +78,7 @@ impl<'a> Ctx<'a> {
         let n = robot.dof();
         let (s, d, gr) = (&p.s, &p.d, &p.gr);
         let t_len = s.t.len();
-        let (sigma, rho, _) = noise_of_all_model(d, gr, n, t_len);
+        let (sigma, rho, _) = noise_of_all_model(d, gr, n, t_len, refit);
         let w: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
         let m_diag = mean_mass_diag(robot, &s.q, n)?;
         let terminal_mass = robot.params()[10 * (n - 1)];
@@ -93,15 +93,7 @@ impl<'a> Ctx<'a> {
     }
 }
 
-impl<'a> Ctx<'a> {
-    /// The same context over other Gram matrices (the nominal re-fit's ridge).
-    pub(super) fn with_grams<'b>(&self, gr: &'b Grams) -> Ctx<'b>
-    where
-        'a: 'b,
-    {
-        Ctx { gr, ..self.clone() }
-    }
-
+impl Ctx<'_> {
     fn n_eff(&self, j: usize) -> f64 {
         let rows = (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64;
         (rows / self.tau[j]).max(10.0)

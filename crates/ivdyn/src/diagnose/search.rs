@@ -33,7 +33,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     let mut p = prepare_best(robot, log, opts)?;
     // the nominal model's own error first: with every candidate in, does a re-fit of it
     // still explain held-out residual? Then every model of the search contains it.
-    let refit = refit::decide(&Ctx::new(robot, &p, opts, false)?);
+    let refit = refit::decide(&Ctx::new(robot, &p, opts, false)?, robot);
     if let Some(r) = &refit {
         p.gr.ridge = r.ridge;
     }
