@@ -4,7 +4,9 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::EffectKind;
-use super::dictionary::{C_LINK, LINK_GROUPS, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, C_TARGET, Dictionary, Grams};
+use super::dictionary::{
+    C_LINK, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, C_TARGET, Dictionary, Grams, LINK_GROUPS,
+};
 use super::residual::noise_and_tau;
 
 /// One parameter of a model: which joints' rows it touches and through which column.

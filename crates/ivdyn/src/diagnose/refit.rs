@@ -174,8 +174,11 @@ pub(super) fn report(
     let bp = crate::ident::base::robot_base_params_with(robot, BASE_SAMPLES, 15, true)?;
     // the rigid-body base parameters are over the 10 N inertial parameters only
     let k = bp.full_cols.min(theta.len());
-    let base_params =
-        BaseParamsJson { names: bp.names.clone(), nominal: bp.project(&nominal[..k])?, values: bp.project(&theta[..k])? };
+    let base_params = BaseParamsJson {
+        names: bp.names.clone(),
+        nominal: bp.project(&nominal[..k])?,
+        values: bp.project(&theta[..k])?,
+    };
     let (worst, part, s) =
         scales.iter().copied().fold((0usize, 0usize, 0.0f64), |a, x| if x.2.abs() > a.2.abs() { x } else { a });
     let link = robot.link_names.get(worst).cloned().unwrap_or_else(|| format!("link {}", worst + 1));
