@@ -74,12 +74,7 @@ def chain_urdf(src, keep_links, path_out):
         for tag in ("visual", "collision"):
             for el in link.findall(tag):
                 link.remove(el)
-    for joint in root.findall("joint"):
-        dyn = joint.find("dynamics")
-        if dyn is not None:
-            dyn.attrib.clear()
-            dyn.set("damping", "0.0")
-            dyn.set("friction", "0.0")
+    mdc.zero_dynamics(root)
     tree.write(path_out, encoding="utf-8", xml_declaration=True)
 
 

@@ -212,13 +212,19 @@ def panda_arm_urdf(path_out):
     for joint in list(root.findall("joint")):
         if joint.find("child").get("link") in fingers:
             root.remove(joint)
-            continue
+    zero_dynamics(root)
+    tree.write(path_out, encoding="utf-8", xml_declaration=True)
+
+
+def zero_dynamics(root):
+    """Every joint's <dynamics> set to damping = friction = 0 (the nominal model carries no
+    drive terms: the hidden effects of cases.json are the whole truth)."""
+    for joint in root.findall("joint"):
         dyn = joint.find("dynamics")
         if dyn is not None:
             dyn.attrib.clear()
             dyn.set("damping", "0.0")
             dyn.set("friction", "0.0")
-    tree.write(path_out, encoding="utf-8", xml_declaration=True)
 
 
 # ----------------------------------------------------------------------------- models
