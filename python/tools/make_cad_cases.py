@@ -128,26 +128,9 @@ def cad_config(name, out):
 def nominal_urdf(cfg, path_out, level, rng):
     """The clean URDF with each moving link's mass, inertia tensor and COM scaled by independent
     factors 1 +- U(level/2, level). Returns {link: [mass, inertia, com] factors}."""
-    tree = ET.parse(cfg["urdf_path"])
-    factors = {}
-    for link in tree.getroot().findall("link"):
-        name = link.get("name")
-        if name not in cfg["moving_links"]:
-            continue
-        f = [1.0 + float(rng.choice([-1.0, 1.0]) * rng.uniform(level / 2, level)) for _ in range(3)]
-        factors[name] = f
-        inert = link.find("inertial")
-        mass = inert.find("mass")
-        mass.set("value", repr(float(mass.get("value")) * f[0]))
-        it = inert.find("inertia")
-        for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
-            it.set(k, repr(float(it.get(k)) * f[1]))
-        origin = inert.find("origin")
-        if origin is not None and origin.get("xyz"):
-            xyz = [float(v) * f[2] for v in origin.get("xyz").split()]
-            origin.set("xyz", " ".join(repr(v) for v in xyz))
-    tree.write(path_out, encoding="utf-8", xml_declaration=True)
-    return factors
+    def draw():
+        return tuple(1.0 + float(rng.choice([-1.0, 1.0]) * rng.uniform(level / 2, level)) for _ in range(3))
+    return {k: list(v) for k, v in mdc.scale_inertials(cfg, path_out, draw).items()}
 
 
 def draw_effects(cfg, robot, names, seed, count, rng):
