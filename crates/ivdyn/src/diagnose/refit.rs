@@ -9,15 +9,15 @@
 //! * **What is re-fitted**: three scale factors per link on its nominal inertial
 //!   parameters, one each for its mass, its first moment (mass times COM) and its
 //!   rotational inertia (the torque of each part, `Y_i,g theta_i,g`, as a column, `1 + s`
-//!   times it), every link but the terminal one: a change of the terminal link is what a payload is, and the
-//!   payload candidate with its own rules (size beyond the CAD margin, held-out share,
-//!   look-alike check) decides it.
+//!   times it), every link but the terminal one: a change of the terminal link is what a
+//!   payload is, and the payload candidate with its own rules (size beyond the CAD
+//!   margin, held-out share, look-alike check) decides it.
 //! * **Regularised toward the nominal**: a ridge on the scales (unit-diagonal normal
 //!   equations), the largest on a grid whose two-fold held-out residual, with friction
 //!   on every joint fitted jointly, is within 1 % of the best; grid values that leave a
-//!   re-fitted link physically inconsistent are skipped. The ridge makes the re-fit the explanation of
-//!   last resort: where an effect's column and a scale explain the same thing (armature on
-//!   a vertical first joint and that link's inertia), the effect takes it.
+//!   re-fitted link physically inconsistent are skipped. In a joint fit the ridge leaves
+//!   to an effect's (unpenalised) column what it and a scale explain alike (armature on a
+//!   vertical first joint and that link's inertia).
 //! * **Turned on** when, on top of friction (Coulomb and viscous) on every joint, the
 //!   effects a link inertial cannot imitate, it removes on some joint at least
 //!   `REFIT_MIN_SHARE` of the held-out residual above the noise, with a torque of at least
@@ -41,8 +41,8 @@ use crate::error::Result;
 /// data on its column).
 const RIDGE_GRID: [f64; 7] = [1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0];
 
-/// Share of the held-out residual above the noise (all candidates in) the re-fit must
-/// remove on a joint to be turned on.
+/// Share of the held-out residual above the noise (friction in) the re-fit must remove
+/// on a joint to be turned on.
 const REFIT_MIN_SHARE: f64 = 0.5;
 
 /// A held-out residual within this fraction of the best counts as as good (the largest
@@ -57,8 +57,7 @@ const BASE_SAMPLES: usize = 200;
 pub(super) struct RefitDecision {
     /// Ridge chosen (unit-diagonal normal equations).
     pub(super) ridge: f64,
-    /// Share of the held-out residual above the noise it removes per joint (every
-    /// candidate in).
+    /// Share of the held-out residual above the noise it removes per joint (friction in).
     pub(super) share: Vec<f64>,
     /// Joints where it is significant.
     pub(super) joints: Vec<usize>,

@@ -213,6 +213,9 @@ fn html_is_self_contained_and_complete() {
     assert!(html.contains("Missing: Coulomb friction on j_one, wrist&lt;1&gt;"));
     assert!(html.contains("j_one") && html.contains("wrist&lt;1&gt;") && !html.contains("wrist<1>"));
     assert!(html.contains("logs/run &amp; test.mcap") && html.contains("robots/arm.urdf"));
+    // the details under the headline, and each rejected row's rule with its numbers
+    assert!(html.contains("<li>missing: Coulomb friction on j_one, wrist&lt;1&gt;</li>"));
+    assert!(html.contains("<th>rejected by</th>") && html.contains("F test: F 1.1, p 0.29 &gt;= alpha 1e-3"));
 
     // RMS table: joint | nominal | after step 1 | final | noise | final/noise
     let rms = table_rows(&html, "rms-table");
