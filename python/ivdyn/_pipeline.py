@@ -446,7 +446,8 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
     ``effects`` [{name, joints, parameters, rms_before, rms_after}] in the order found
     (empty when nothing is missing), ``baseline_rms`` and ``final_rms`` (N m per joint),
-    ``joints``. With ``out`` (a directory) it also writes ``diagnosis.json``,
+    ``joints``, and ``nominal_refit`` {base_params, rms_before, rms_after, why} when the
+    nominal rigid-body model was re-fitted. With ``out`` (a directory) it also writes ``diagnosis.json``,
     ``report.html`` (unless ``report=False``) and ``residuals.mcap`` there.
 
     ``robot``: an :class:`ivdyn.Robot` or a URDF path (``base``/``tip`` links,

@@ -212,13 +212,19 @@ def panda_arm_urdf(path_out):
     for joint in list(root.findall("joint")):
         if joint.find("child").get("link") in fingers:
             root.remove(joint)
-            continue
+    zero_dynamics(root)
+    tree.write(path_out, encoding="utf-8", xml_declaration=True)
+
+
+def zero_dynamics(root):
+    """Every joint's <dynamics> set to damping = friction = 0 (the nominal model carries no
+    drive terms: the hidden effects of cases.json are the whole truth)."""
+    for joint in root.findall("joint"):
         dyn = joint.find("dynamics")
         if dyn is not None:
             dyn.attrib.clear()
             dyn.set("damping", "0.0")
             dyn.set("friction", "0.0")
-    tree.write(path_out, encoding="utf-8", xml_declaration=True)
 
 
 # ----------------------------------------------------------------------------- models
@@ -265,20 +271,34 @@ def perturbed_urdf(cfg, path_out, seed):
     """The clean URDF with every moving link's mass and inertia tensor scaled by 1 +- 5 %
     (random signs, drawn in file order); COMs unchanged. Returns {link: factor}."""
     rng = np.random.default_rng(seed)
+
+    def draw():
+        f = 1.0 + 0.05 * float(rng.choice([-1.0, 1.0]))
+        return f, f, 1.0
+    factors = scale_inertials(cfg, path_out, draw)
+    return {name: f[0] for name, f in factors.items()}
+
+
+def scale_inertials(cfg, path_out, draw):
+    """The clean URDF with each moving link's mass, inertia tensor (about the COM) and COM
+    scaled by the factors `draw()` returns for it, in file order (a COM factor of 1 leaves the
+    COM as written). Returns {link: (mass, inertia, com) factors}."""
     tree = ET.parse(cfg["urdf_path"])
     factors = {}
     for link in tree.getroot().findall("link"):
         name = link.get("name")
         if name not in cfg["moving_links"]:
             continue
-        f = 1.0 + 0.05 * float(rng.choice([-1.0, 1.0]))
-        factors[name] = f
+        fm, fi, fc = factors[name] = draw()
         inert = link.find("inertial")
         mass = inert.find("mass")
-        mass.set("value", repr(float(mass.get("value")) * f))
+        mass.set("value", repr(float(mass.get("value")) * fm))
         it = inert.find("inertia")
         for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz"):
-            it.set(k, repr(float(it.get(k)) * f))
+            it.set(k, repr(float(it.get(k)) * fi))
+        origin = inert.find("origin")
+        if fc != 1.0 and origin is not None and origin.get("xyz"):
+            origin.set("xyz", " ".join(repr(float(v) * fc) for v in origin.get("xyz").split()))
     tree.write(path_out, encoding="utf-8", xml_declaration=True)
     return factors
 

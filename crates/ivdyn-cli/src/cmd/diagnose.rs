@@ -74,6 +74,9 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
 fn print_summary(d: &diagnose::Diagnosis) {
     let j = &d.json;
     say!("{}", d.verdict);
+    for line in &d.details {
+        say!("  * {line}");
+    }
     for (st, e) in d.steps.iter().zip(&j.effects) {
         say!("\n{} ({})", st.effect.label(), e.name);
         for line in &st.evidence {

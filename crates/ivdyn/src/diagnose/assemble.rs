@@ -5,11 +5,13 @@
 use super::dictionary::{C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, Dictionary};
 use super::model::{Fit, Model, effect_torque, fit, rss_joint};
 use super::prepare::Prepared;
+use super::refit::{self, RefitDecision};
 use super::residual::{regimes, rms_per_joint};
 use super::rules::{Ctx, LINK_SCALE_MAX};
 use super::signals::Signals;
 use super::{
-    CandidateScore, DiagnoseOptions, Diagnosis, DiagnosisJson, EffectJson, EffectKind, LogInfo, Regimes, Step, Traces,
+    CandidateScore, DiagnoseOptions, Diagnosis, DiagnosisJson, EffectJson, EffectKind, LogInfo, NominalRefitJson,
+    Regimes, Step, Traces,
 };
 use crate::Robot;
 use crate::error::Result;
@@ -24,6 +26,8 @@ pub(super) struct Found {
     pub(super) final_candidates: Vec<CandidateScore>,
     /// The final model.
     pub(super) model: Model,
+    /// The nominal re-fit the search ran on (the final model has it too).
+    pub(super) refit: Option<RefitDecision>,
 }
 
 /// The diagnosis of `found` on the prepared log (`r_nom`: the nominal residual, `T x N`).
@@ -36,7 +40,7 @@ pub(super) fn assemble(
     baseline_rms: Vec<f64>,
     r_nom: &[f64],
 ) -> Result<Diagnosis> {
-    let Found { steps, final_candidates, model: m } = found;
+    let Found { steps, final_candidates, model: m, refit } = found;
     let (s, d) = (&p.s, &p.d);
     let n = ctx.n;
     let t_len = s.t.len();
@@ -45,6 +49,19 @@ pub(super) fn assemble(
     let e = effect_torque(&f, d, n, t_len);
     let r_final: Vec<f64> = (0..t_len * n).map(|i| r_nom[i] - e[i]).collect();
     let final_rms = rms_per_joint(&r_final, n);
+    let nominal_refit = match &refit {
+        Some(dec) => {
+            // the re-fit's own part of the final fit (its scales, no effect)
+            let only = Fit {
+                params: f.params.clone(),
+                theta: f.params.iter().zip(&f.theta).map(|(p, &v)| if p.kind.is_none() { v } else { 0.0 }).collect(),
+            };
+            let e_refit = effect_torque(&only, d, n, t_len);
+            let r: Vec<f64> = (0..t_len * n).map(|i| r_nom[i] - e_refit[i]).collect();
+            Some(refit::report(robot, dec, &f, baseline_rms.clone(), rms_per_joint(&r, n), names)?)
+        }
+        None => None,
+    };
     let raw: Vec<(EffectKind, Model)> = steps.iter().map(|(st, ms)| (st.effect, ms.clone())).collect();
     let regimes_before = regimes(s, r_nom, n);
     let regimes_after = regimes(s, &r_final, n);
@@ -55,17 +72,18 @@ pub(super) fn assemble(
         out_steps.into_iter().filter(|st| effects.iter().any(|e| e.name == st.effect.name())).collect();
     let predicted = step_predictions(&raw, &kept, ctx, d, &p.tau_nom);
     let gaps = remaining_gaps(ctx, &m, &final_rms, &regimes_after, names);
-    let verdict = verdict(&effects, &kept, &gaps, names);
+    let (verdict, details) = verdict(&kept, &gaps, nominal_refit.as_ref(), names, opts);
     let traces =
         Traces { t: s.t.clone(), q: s.q.clone(), qd: s.qd.clone(), qdd: s.qdd.clone(), tau: s.tau.clone(), predicted };
     Ok(Diagnosis {
-        json: DiagnosisJson { effects, baseline_rms, final_rms, joints: names.clone() },
+        json: DiagnosisJson { effects, baseline_rms, final_rms, joints: names.clone(), nominal_refit },
         steps: kept,
         final_candidates,
         noise_std: ctx.sigma.clone(),
         regimes_before,
         regimes_after,
         verdict,
+        details,
         traces,
         info: log_info(opts, s),
     })
@@ -209,33 +227,88 @@ fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
     }
 }
 
-/// The verdict in one sentence: what was added, and what is left.
-fn verdict(effects: &[EffectJson], kept: &[Step], gaps: &str, names: &[String]) -> String {
-    if effects.is_empty() && gaps.is_empty() {
-        return "nothing significant missing: the nominal model explains the log down to the noise".to_string();
+/// Longest headline (characters): one sentence a person reads first.
+pub(super) const HEADLINE_MAX: usize = 200;
+
+/// The headline (one sentence, at most `HEADLINE_MAX` characters, naming what is missing)
+/// and the details below it: each effect with its joints, the nominal re-fit, what is
+/// left above the noise per joint, and the next command to run.
+fn verdict(
+    kept: &[Step],
+    gaps: &[String],
+    refit: Option<&NominalRefitJson>,
+    names: &[String],
+    opts: &DiagnoseOptions,
+) -> (String, Vec<String>) {
+    let on = |st: &Step, full: bool| -> String {
+        let js: Vec<&str> = st.joints.iter().map(|&j| names[j].as_str()).collect();
+        match st.effect {
+            EffectKind::Payload => st.effect.label().to_string(),
+            _ if full || js.len() <= 2 => format!("{} on {}", st.effect.label(), js.join(", ")),
+            _ => format!("{} on {} joints", st.effect.label(), js.len()),
+        }
+    };
+    let mut details: Vec<String> = kept.iter().map(|st| format!("missing: {}", on(st, true))).collect();
+    if let Some(r) = refit {
+        details.push(format!("nominal model re-fitted: {}", r.why));
     }
-    if effects.is_empty() {
-        return format!("no effect of the vocabulary is significantly missing, but {gaps}");
+    details.extend(gaps.iter().map(|g| format!("left above the noise: {g}")));
+    if let Some(cmd) = next_command(kept, opts) {
+        details.push(format!("next: {cmd}"));
     }
-    let list: Vec<String> = kept
-        .iter()
-        .map(|st| {
-            if st.effect == EffectKind::Payload {
-                st.effect.label().to_string()
-            } else {
-                format!(
-                    "{} on {}",
-                    st.effect.label(),
-                    st.joints.iter().map(|&j| names[j].as_str()).collect::<Vec<_>>().join(", ")
-                )
-            }
-        })
-        .collect();
-    if gaps.is_empty() {
-        format!("missing: {}; after adding them nothing significant is left", list.join("; "))
+    let refit_note = if refit.is_some() { " (on the re-fitted nominal inertials)" } else { "" };
+    let left = if gaps.is_empty() {
+        String::new()
     } else {
-        format!("missing: {}; after adding them no other effect is significant, but {gaps}", list.join("; "))
+        format!("; residual above the noise left on {} joint(s)", gaps.len())
+    };
+    let headline = if kept.is_empty() && gaps.is_empty() {
+        format!("Nothing significant missing: the model explains the log down to the noise{refit_note}.")
+    } else if kept.is_empty() {
+        format!("No effect of the vocabulary is missing{refit_note}{left} (details below).")
+    } else {
+        let long: Vec<String> = kept.iter().map(|st| on(st, false)).collect();
+        let short: Vec<String> = kept.iter().map(|st| st.effect.label().to_string()).collect();
+        let h = format!("Missing: {}{refit_note}{left}.", long.join("; "));
+        if h.chars().count() <= HEADLINE_MAX { h } else { format!("Missing: {}{refit_note}{left}.", short.join("; ")) }
+    };
+    (headline, details)
+}
+
+/// The `ivdyn identify` command that fits the named effects into the model (with the
+/// re-identified inertials), or `None` when nothing was named.
+fn next_command(kept: &[Step], opts: &DiagnoseOptions) -> Option<String> {
+    if kept.is_empty() {
+        return None;
     }
+    let has = |e: EffectKind| kept.iter().any(|st| st.effect == e);
+    let mut friction = vec![];
+    if has(EffectKind::Coulomb) || has(EffectKind::Stribeck) {
+        friction.push("coulomb");
+    }
+    if has(EffectKind::Viscous) {
+        friction.push("viscous");
+    }
+    let mut cmd = format!(
+        "ivdyn identify --urdf {} --log {} --consistent --friction {}",
+        if opts.urdf_name.is_empty() { "URDF" } else { &opts.urdf_name },
+        if opts.log_name.is_empty() { "LOG" } else { &opts.log_name },
+        if friction.is_empty() { "none".to_string() } else { friction.join(",") }
+    );
+    if !has(EffectKind::Armature) {
+        cmd.push_str(" --no-armature");
+    }
+    if !has(EffectKind::TorqueOffset) {
+        cmd.push_str(" --no-offset");
+    }
+    cmd.push_str(" --write-urdf identified.urdf");
+    if has(EffectKind::Payload) {
+        cmd.push_str(" (the payload: ivdyn payload)");
+    }
+    if has(EffectKind::JointSpring) {
+        cmd.push_str(" (identify has no joint spring: it stays in the residual)");
+    }
+    Some(cmd)
 }
 
 /// The facts about the input the report shows.
@@ -280,11 +353,11 @@ fn step_predictions(
     predicted
 }
 
-/// What is left above the noise after the final model, in words (empty if nothing): per
+/// What is left above the noise after the final model, in words, one entry per
 /// joint whose final RMS exceeds 1.5 noise std, where the residual is (velocity reversals)
 /// and whether per-link scale factors of the nominal inertials explain it (a wrong nominal
 /// model rather than a missing effect).
-fn remaining_gaps(ctx: &Ctx, m: &Model, final_rms: &[f64], reg: &[Regimes], names: &[String]) -> String {
+fn remaining_gaps(ctx: &Ctx, m: &Model, final_rms: &[f64], reg: &[Regimes], names: &[String]) -> Vec<String> {
     let mut scaled = m.clone();
     scaled.link_scale = true;
     let (f0, f1) = (fit(&m.params(), ctx.gr, &ctx.w, &[0, 1]), fit(&scaled.params(), ctx.gr, &ctx.w, &[0, 1]));
@@ -331,11 +404,7 @@ fn remaining_gaps(ctx: &Ctx, m: &Model, final_rms: &[f64], reg: &[Regimes], name
             why.join("; ")
         ));
     }
-    if parts.is_empty() {
-        String::new()
-    } else {
-        format!("the residual stays above the noise on {}", parts.join(" | "))
-    }
+    parts
 }
 
 /// Sentences a user understands, from the regimes of the nominal residual and the fit.

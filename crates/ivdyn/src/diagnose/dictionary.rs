@@ -25,10 +25,14 @@ pub(super) const C_QDD: usize = 4;
 pub(super) const STRIBECK_VS: [f64; 5] = [0.02, 0.05, 0.1, 0.2, 0.4];
 pub(super) const C_STRIBECK: usize = 5;
 pub(super) const C_PAYLOAD: usize = C_STRIBECK + STRIBECK_VS.len();
-/// Link-scale columns of the look-alike check: link i's nominal torque on the joint,
-/// `Y_i(q, qd, qdd) theta_i` (a wrong link mass or inertia scales it).
+/// Link-scale columns of the look-alike check and the nominal re-fit: link i's nominal
+/// torque on the joint split by the parts of its inertial parameters, `Y_i,g theta_i,g`
+/// for g = its mass, its first moment (mass times COM) and its rotational inertia, at
+/// `C_LINK + LINK_GROUPS i + g` (a wrong mass, COM or inertia scales one of them).
 pub(super) const C_LINK: usize = C_PAYLOAD + 10;
-const NCOLS: usize = C_LINK + crate::MAX_DOF;
+/// Parts of a link's 10 inertial parameters that are scaled separately: `[lo, hi)`.
+pub(super) const LINK_GROUPS: [(usize, usize); 3] = [(0, 1), (1, 4), (4, 10)];
+const NCOLS: usize = C_LINK + LINK_GROUPS.len() * crate::MAX_DOF;
 /// The target (the nominal residual) is the last Gram column.
 pub(super) const C_TARGET: usize = NCOLS;
 
@@ -96,7 +100,10 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> R
                     cols[j][C_PAYLOAD + c][k0 + kk] = row[link + c];
                 }
                 for i in 0..n {
-                    cols[j][C_LINK + i][k0 + kk] = (0..10).map(|c| row[10 * i + c] * theta_nom[10 * i + c]).sum();
+                    for (g, &(lo, hi)) in LINK_GROUPS.iter().enumerate() {
+                        cols[j][C_LINK + LINK_GROUPS.len() * i + g][k0 + kk] =
+                            (lo..hi).map(|c| row[10 * i + c] * theta_nom[10 * i + c]).sum();
+                    }
                 }
             }
         }
@@ -106,9 +113,13 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> R
 }
 
 /// Gram matrices `[X r]^T [X r]` per joint and fold.
+#[derive(Clone)]
 pub(super) struct Grams {
     pub(super) g: Vec<[DMatrix<f64>; 2]>,
     pub(super) rows: Vec<[usize; 2]>,
+    /// Ridge on the link-scale parameters in every fit (unit-diagonal normal equations;
+    /// 0 unless the nominal re-fit chose one, `refit`).
+    pub(super) ridge: f64,
 }
 
 /// The fold of sample `k`: the log cut into `2 blocks_per_fold` blocks, alternately in
@@ -126,6 +137,8 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
     for j in 0..n {
         let mut gj = [DMatrix::<f64>::zeros(NCOLS + 1, NCOLS + 1), DMatrix::<f64>::zeros(NCOLS + 1, NCOLS + 1)];
         let mut x = [0.0; NCOLS + 1];
+        // the columns in use (the link columns of links beyond the robot's stay zero)
+        let used: Vec<usize> = (0..C_LINK + LINK_GROUPS.len() * n).chain([C_TARGET]).collect();
         for k in 0..t_len {
             let f = fold_of(k, t_len, blocks_per_fold);
             rows[j][f] += 1;
@@ -134,12 +147,12 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
             }
             x[C_TARGET] = d.r0[j][k];
             let m = &mut gj[f];
-            for a in 0..=NCOLS {
+            for (ia, &a) in used.iter().enumerate() {
                 let xa = x[a];
                 if xa == 0.0 {
                     continue;
                 }
-                for b in a..=NCOLS {
+                for &b in &used[ia..] {
                     m[(a, b)] += xa * x[b];
                 }
             }
@@ -153,5 +166,5 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
         }
         g.push(gj);
     }
-    Grams { g, rows }
+    Grams { g, rows, ridge: 0.0 }
 }

@@ -9,6 +9,7 @@
 //! * `dictionary`: the candidate effects' regressor columns and their Gram matrices.
 //! * `model`: a model of effects, its parameters and its fit from the Gram matrices.
 //! * `prepare`: the differentiation cutoff and torque alignment chosen on the log.
+//! * `refit`: the nominal model's own error re-fitted when the log calls for it.
 //! * `rules`: scoring a candidate (F test, held-out share, size, physics, look-alikes).
 //! * [`search`]: the add / drop / refit loop ([`diagnose`]).
 //! * `assemble`: the [`Diagnosis`] of the model found (parameters, evidence, verdict).
@@ -25,6 +26,7 @@ mod assemble;
 mod dictionary;
 mod model;
 mod prepare;
+mod refit;
 pub mod report;
 mod residual;
 mod rules;
@@ -191,6 +193,34 @@ pub struct DiagnosisJson {
     pub final_rms: Vec<f64>,
     /// Joint names, the order of every per-joint list.
     pub joints: Vec<String>,
+    /// The nominal rigid-body model re-identified inside the diagnosis (DESIGN.md); absent
+    /// when the log did not call for it (then the key is not written).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub nominal_refit: Option<NominalRefitJson>,
+}
+
+/// `nominal_refit` of `diagnosis.json`: the rigid-body model the effects were searched on.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NominalRefitJson {
+    /// Base parameters (rigid body only) of the nominal and of the re-fitted model.
+    pub base_params: BaseParamsJson,
+    /// RMS residual per joint of the nominal model (N m).
+    pub rms_before: Vec<f64>,
+    /// RMS residual per joint with the re-fit alone (its part of the final fit; N m).
+    pub rms_after: Vec<f64>,
+    /// Why the nominal model was re-fitted, with the numbers.
+    pub why: String,
+}
+
+/// Base parameters: names (combinations of link parameters), nominal and re-fitted values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BaseParamsJson {
+    /// Readable name of each base parameter (`ident::base::BaseParams::names`).
+    pub names: Vec<String>,
+    /// Values of the nominal (URDF) model.
+    pub nominal: Vec<f64>,
+    /// Values of the re-fitted model.
+    pub values: Vec<f64>,
 }
 
 /// How one candidate fared on one joint at one step.
@@ -208,6 +238,10 @@ pub struct JointScore {
     pub effect_rms: f64,
     /// Whether the candidate is significant on this joint.
     pub significant: bool,
+    /// The rule that rejected it on this joint, with its numbers (F test, held-out share,
+    /// size, sign, CAD-uncertainty margin, look-alike; "not tried: ..." where it cannot
+    /// go); `None` when significant.
+    pub rejected_by: Option<String>,
 }
 
 /// One candidate effect scored at one step.
@@ -330,8 +364,12 @@ pub struct Diagnosis {
     pub regimes_before: Vec<Regimes>,
     /// Regimes of the final residual, per joint.
     pub regimes_after: Vec<Regimes>,
-    /// The verdict in one sentence ("nothing significant missing", or what was added).
+    /// The headline: one sentence of at most 200 characters naming what is missing (or
+    /// "nothing significant missing").
     pub verdict: String,
+    /// The details below the headline: each effect with its joints, the nominal re-fit
+    /// and why, what is left above the noise per joint, the next command to run.
+    pub details: Vec<String>,
     /// Signals for plots and `residuals.mcap`.
     pub traces: Traces,
     /// The input.

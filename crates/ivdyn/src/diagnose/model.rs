@@ -4,7 +4,9 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::EffectKind;
-use super::dictionary::{C_LINK, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, C_TARGET, Dictionary, Grams};
+use super::dictionary::{
+    C_LINK, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, C_TARGET, Dictionary, Grams, LINK_GROUPS,
+};
 use super::residual::noise_and_tau;
 
 /// One parameter of a model: which joints' rows it touches and through which column.
@@ -24,13 +26,18 @@ pub(super) struct Model {
     pub(super) per_joint: Vec<Vec<EffectKind>>,
     pub(super) stribeck_vs: Vec<usize>,
     pub(super) payload: bool,
-    /// Per-link scale factors of the nominal inertials (look-alike check only).
+    /// Per-link scale factors of the nominal inertials, every link (look-alike check).
     pub(super) link_scale: bool,
+    /// The nominal re-fit (`refit`): per-link scale factors of the links before the
+    /// terminal one, ridge-regularised toward the nominal (`Grams::ridge`). The terminal
+    /// link is left out: a change there is what a payload is, and the payload candidate
+    /// and its rules decide it.
+    pub(super) refit: bool,
 }
 
 impl Model {
     pub(super) fn new(n: usize) -> Self {
-        Model { per_joint: vec![vec![]; n], stribeck_vs: vec![0; n], payload: false, link_scale: false }
+        Model { per_joint: vec![vec![]; n], stribeck_vs: vec![0; n], payload: false, link_scale: false, refit: false }
     }
 
     pub(super) fn has(&self, j: usize, e: EffectKind) -> bool {
@@ -90,13 +97,29 @@ impl Model {
                 p.push(Param { kind: Some(EffectKind::Payload), joint: None, col: C_PAYLOAD + k });
             }
         }
-        if self.link_scale {
-            for i in 0..self.per_joint.len() {
-                p.push(Param { kind: None, joint: None, col: C_LINK + i });
-            }
+        let n = self.per_joint.len();
+        let links = if self.link_scale {
+            n
+        } else if self.refit {
+            n - 1
+        } else {
+            0
+        };
+        for c in C_LINK..C_LINK + LINK_GROUPS.len() * links {
+            p.push(Param { kind: None, joint: None, col: c });
         }
         p
     }
+}
+
+/// The model with friction (Coulomb and viscous) on every joint: the effects a wrong
+/// nominal link inertial cannot imitate (the base of the nominal re-fit's decision).
+pub(super) fn friction_model(n: usize) -> Model {
+    let mut m = Model::new(n);
+    for j in 0..n {
+        m.per_joint[j] = vec![EffectKind::Coulomb, EffectKind::Viscous];
+    }
+    m
 }
 
 /// The model with every candidate on every joint (and a payload): what is left after it
@@ -152,7 +175,14 @@ pub(super) fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]
     }
     // scale to unit diagonal, then a pseudo-inverse with a relative threshold
     let s: Vec<f64> = (0..p).map(|i| if a[(i, i)] > 0.0 { 1.0 / a[(i, i)].sqrt() } else { 0.0 }).collect();
-    let an = DMatrix::from_fn(p, p, |i, k| a[(i, k)] * s[i] * s[k]);
+    let mut an = DMatrix::from_fn(p, p, |i, k| a[(i, k)] * s[i] * s[k]);
+    // the link-scale parameters are pulled toward the nominal model (scale 0) with the
+    // ridge chosen for the nominal re-fit (0: plain least squares)
+    for (i, q) in model_params.iter().enumerate() {
+        if q.kind.is_none() && s[i] > 0.0 {
+            an[(i, i)] += gr.ridge;
+        }
+    }
     let bn = DVector::from_fn(p, |i, _| b[i] * s[i]);
     // The Gram matrices are checked finite before the search (`prepare`), so this converges;
     // were it not to, the candidate explains nothing (zero effects) rather than hanging.
@@ -213,10 +243,18 @@ pub(super) fn effect_torque(f: &Fit, d: &Dictionary, n: usize, t_len: usize) -> 
 }
 
 /// Noise std and integrated autocorrelation time per joint from the residual of
-/// [`all_model`], and that residual.
-pub(super) fn noise_of_all_model(d: &Dictionary, gr: &Grams, n: usize, t_len: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+/// [`all_model`] (with the nominal re-fit when `refit`), and that residual.
+pub(super) fn noise_of_all_model(
+    d: &Dictionary,
+    gr: &Grams,
+    n: usize,
+    t_len: usize,
+    refit: bool,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let unit = vec![1.0; n];
-    let f_all = fit(&all_model(n).params(), gr, &unit, &[0, 1]);
+    let mut all = all_model(n);
+    all.refit = refit;
+    let f_all = fit(&all.params(), gr, &unit, &[0, 1]);
     let e_all = effect_torque(&f_all, d, n, t_len);
     let r_all: Vec<f64> = (0..t_len * n).map(|i| d.r0[i % n][i / n] - e_all[i]).collect();
     let (sigma, rho): (Vec<f64>, Vec<f64>) = (0..n).map(|j| noise_and_tau(&r_all, n, j)).unzip();

@@ -42,6 +42,7 @@ pub(super) const LINK_SCALE_MAX: f64 = 0.25;
 
 /// What the rules compare a candidate with: the Gram matrices, the noise, the nominal
 /// inertias, and the options' thresholds.
+#[derive(Clone)]
 pub(super) struct Ctx<'a> {
     pub(super) gr: &'a Grams,
     /// Mean diagonal of the nominal mass matrix over the log (kg m^2 or kg).
@@ -50,12 +51,13 @@ pub(super) struct Ctx<'a> {
     terminal_mass: f64,
     pub(super) w: Vec<f64>,
     pub(super) sigma: Vec<f64>,
-    /// Held-out RSS per joint of the all-candidates model (two-fold).
+    /// Held-out RSS per joint of the all-candidates model (two-fold; with the nominal
+    /// re-fit when there is one).
     h_all: Vec<f64>,
     /// Integrated autocorrelation time of the residual per joint (samples).
     tau: Vec<f64>,
     pub(super) n: usize,
-    opts: &'a DiagnoseOptions,
+    pub(super) opts: &'a DiagnoseOptions,
 }
 
 /// Mean over (a subsample of) the log of the nominal mass matrix's diagonal.
@@ -71,17 +73,19 @@ fn mean_mass_diag(robot: &Robot, q: &[f64], n: usize) -> Result<Vec<f64>> {
 
 impl<'a> Ctx<'a> {
     /// The noise (weights), autocorrelation times, held-out floor and nominal inertias of
-    /// the prepared log.
-    pub(super) fn new(robot: &Robot, p: &'a Prepared, opts: &'a DiagnoseOptions) -> Result<Self> {
+    /// the prepared log; `refit`: the search runs on top of the nominal re-fit.
+    pub(super) fn new(robot: &Robot, p: &'a Prepared, opts: &'a DiagnoseOptions, refit: bool) -> Result<Self> {
         let n = robot.dof();
         let (s, d, gr) = (&p.s, &p.d, &p.gr);
         let t_len = s.t.len();
-        let (sigma, rho, _) = noise_of_all_model(d, gr, n, t_len);
+        let (sigma, rho, _) = noise_of_all_model(d, gr, n, t_len, refit);
         let w: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
         let m_diag = mean_mass_diag(robot, &s.q, n)?;
         let terminal_mass = robot.params()[10 * (n - 1)];
         let h_all: Vec<f64> = {
-            let pa = all_model(n).params();
+            let mut all = all_model(n);
+            all.refit = refit;
+            let pa = all.params();
             let (f0, f1) = (fit(&pa, gr, &w, &[0]), fit(&pa, gr, &w, &[1]));
             (0..n).map(|j| rss_joint(&f0, gr, j, &[1]) + rss_joint(&f1, gr, j, &[0])).collect()
         };
@@ -136,46 +140,85 @@ impl Ctx<'_> {
         let structure = explainable.max(0.05 * h0);
         let heldout_gain = if h0 > 0.0 { ((h0 - h1) / structure).min(1.0) } else { 0.0 };
         let e_rms = effect_rms(&fl, self.gr, j, added);
-        let significant = p < self.opts.alpha
-            && heldout_gain >= self.opts.min_share
-            && e_rms >= self.opts.min_effect * self.sigma[j]
-            && Self::physical(&fl, j, added)
-            && self.beyond_nominal_uncertainty(&fl, j, added);
-        JointScore { f: f_stat, p, heldout_gain, effect_rms: e_rms, significant }
+        let mut sc =
+            JointScore { f: f_stat, p, heldout_gain, effect_rms: e_rms, significant: false, rejected_by: None };
+        sc.rejected_by = self
+            .statistical_rule(&sc, j)
+            .or_else(|| Self::unphysical(&fl, j, added))
+            .or_else(|| self.within_nominal_uncertainty(&fl, j, added));
+        sc.significant = sc.rejected_by.is_none();
+        sc
+    }
+
+    /// The first statistical rule (F test, held-out share, size) a score fails on joint
+    /// `j`, in words with its numbers.
+    fn statistical_rule(&self, sc: &JointScore, j: usize) -> Option<String> {
+        let o = self.opts;
+        if sc.p >= o.alpha {
+            Some(format!("F test: F {:.3}, p {:.1e} >= alpha {:.0e}", sc.f, sc.p, o.alpha))
+        } else if sc.heldout_gain < o.min_share {
+            Some(format!(
+                "held-out share: removes {:.0} % of the explainable held-out residual, needs {:.0} %",
+                100.0 * sc.heldout_gain,
+                100.0 * o.min_share
+            ))
+        } else if sc.effect_rms < o.min_effect * self.sigma[j] {
+            Some(format!(
+                "size: adds {:.3} N m RMS, {:.2} noise std, needs {:.2}",
+                sc.effect_rms,
+                sc.effect_rms / self.sigma[j],
+                o.min_effect
+            ))
+        } else {
+            None
+        }
     }
 
     /// An armature below `NOMINAL_UNCERTAINTY` of the inertia the nominal model already
     /// puts on the joint, or a payload lighter than that share of the terminal link, is
     /// indistinguishable from an error of the links' own (CAD) inertias, which are rarely
-    /// better than that: not named as a missing effect.
-    fn beyond_nominal_uncertainty(&self, f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> bool {
-        f.params.iter().zip(&f.theta).all(|(p, &v)| {
-            let small_armature =
-                p.joint == Some(j) && p.kind == Some(EffectKind::Armature) && v < NOMINAL_UNCERTAINTY * self.m_diag[j];
-            let small_payload = p.kind == Some(EffectKind::Payload)
-                && p.col == C_PAYLOAD
-                && v < NOMINAL_UNCERTAINTY * self.terminal_mass;
-            !(added(p) && (small_armature || small_payload))
+    /// better than that: not named as a missing effect (the rule, in words, when it applies).
+    fn within_nominal_uncertainty(&self, f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> Option<String> {
+        f.params.iter().zip(&f.theta).find_map(|(p, &v)| {
+            if !added(p) {
+                return None;
+            }
+            if p.joint == Some(j) && p.kind == Some(EffectKind::Armature) && v < NOMINAL_UNCERTAINTY * self.m_diag[j] {
+                return Some(format!(
+                    "CAD-uncertainty margin: ia {v:.4} kg m^2 is below {:.0} % of the nominal inertia on the joint ({:.4})",
+                    100.0 * NOMINAL_UNCERTAINTY,
+                    self.m_diag[j]
+                ));
+            }
+            let payload = p.kind == Some(EffectKind::Payload) && p.col == C_PAYLOAD;
+            (payload && v < NOMINAL_UNCERTAINTY * self.terminal_mass).then(|| {
+                format!(
+                    "CAD-uncertainty margin: payload mass {v:.3} kg is below {:.0} % of the terminal link's {:.3} kg",
+                    100.0 * NOMINAL_UNCERTAINTY,
+                    self.terminal_mass
+                )
+            })
         })
     }
 
-    /// Whether the added parameters touching joint `j` have their physical sign: friction,
-    /// armature and spring stiffness dissipate or store energy only when positive, and a
-    /// payload has a positive mass. A negative fit is how differentiation lag or a model
-    /// error imitates an effect, never the effect itself.
-    fn physical(f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> bool {
-        f.params.iter().zip(&f.theta).all(|(p, &v)| {
+    /// The added parameter touching joint `j` without its physical sign, in words (none
+    /// when all have it): friction, armature and spring stiffness dissipate or store
+    /// energy only when positive, and a payload has a positive mass. A negative fit is how
+    /// differentiation lag or a model error imitates an effect, never the effect itself.
+    fn unphysical(f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> Option<String> {
+        f.params.iter().zip(&f.theta).find_map(|(p, &v)| {
             if !added(p) || p.joint.is_some_and(|x| x != j) {
-                return true;
+                return None;
             }
-            match (p.kind, p.col) {
-                (Some(EffectKind::Coulomb), C_SIGN)
-                | (Some(EffectKind::Viscous), C_QD)
-                | (Some(EffectKind::Armature), C_QDD)
-                | (Some(EffectKind::JointSpring), C_Q)
-                | (Some(EffectKind::Payload), C_PAYLOAD) => v > 0.0,
-                _ => true,
-            }
+            let name = match (p.kind, p.col) {
+                (Some(EffectKind::Coulomb), C_SIGN) => "fc",
+                (Some(EffectKind::Viscous), C_QD) => "fv",
+                (Some(EffectKind::Armature), C_QDD) => "ia",
+                (Some(EffectKind::JointSpring), C_Q) => "k",
+                (Some(EffectKind::Payload), C_PAYLOAD) => "payload mass",
+                _ => return None,
+            };
+            (v <= 0.0).then(|| format!("sign: {name} = {v:.4} is not positive"))
         })
     }
 
@@ -231,8 +274,15 @@ fn propose(m: &Model, e: EffectKind, j: usize) -> Option<Model> {
 
 /// The score of a candidate that cannot go on a joint (already there, or its
 /// precondition missing).
-fn not_scored() -> JointScore {
-    JointScore { f: 0.0, p: 1.0, heldout_gain: 0.0, effect_rms: 0.0, significant: false }
+fn not_scored(why: &str) -> JointScore {
+    JointScore {
+        f: 0.0,
+        p: 1.0,
+        heldout_gain: 0.0,
+        effect_rms: 0.0,
+        significant: false,
+        rejected_by: Some(format!("not tried: {why}")),
+    }
 }
 
 /// One candidate effect scored on every joint: the scores, the model with it added where
@@ -274,7 +324,7 @@ fn score_payload(ctx: &Ctx, m: &Model) -> Scored {
         if sc.significant
             && let Some(s) = model_error_lookalike(ctx, m, &l, j, &is_payload)
         {
-            sc.significant = false;
+            reject_as_lookalike(&mut sc, s);
             lookalike.push((j, s));
         }
         per_joint.push(sc);
@@ -289,7 +339,7 @@ fn score_stribeck(ctx: &Ctx, m: &Model) -> Scored {
     let mut larger = m.clone();
     for j in 0..ctx.n {
         if !m.has(j, EffectKind::Coulomb) || m.has(j, EffectKind::Stribeck) {
-            per_joint.push(not_scored());
+            per_joint.push(not_scored("a refinement of Coulomb friction already found on the joint"));
             continue;
         }
         let (sc, l) = best_stribeck(ctx, m, j);
@@ -316,8 +366,10 @@ fn best_stribeck(ctx: &Ctx, m: &Model, j: usize) -> (JointScore, Model) {
             .position(|p| p.kind == Some(EffectKind::Stribeck) && p.joint == Some(j))
             .map(|i| f.theta[i]);
         let mut sc = ctx.joint_score(m, &l, j, &|p| p.kind == Some(EffectKind::Stribeck));
-        if fs.is_none_or(|v| v <= 0.0) {
+        let v = fs.unwrap_or(0.0);
+        if v <= 0.0 && sc.significant {
             sc.significant = false;
+            sc.rejected_by = Some(format!("sign: fs = {v:.4} is not positive (static friction not above Coulomb)"));
         }
         if best.as_ref().is_none_or(|(b, _)| sc.f > b.f) {
             best = Some((sc, l));
@@ -333,7 +385,7 @@ fn score_joint_effect(ctx: &Ctx, m: &Model, e: EffectKind) -> Scored {
     let mut larger = m.clone();
     for j in 0..ctx.n {
         let Some(l) = propose(m, e, j) else {
-            per_joint.push(not_scored());
+            per_joint.push(not_scored("already in the model on this joint"));
             continue;
         };
         // a spring is named only if its position column matters beyond
@@ -379,7 +431,7 @@ fn reject_link_scale_lookalikes(
             Box::new(move |p: &Param| p.joint == Some(j) && p.kind == Some(e))
         };
         if let Some(sc) = model_error_lookalike(ctx, &base, larger, j, &*sel) {
-            per_joint[j].significant = false;
+            reject_as_lookalike(&mut per_joint[j], sc);
             lookalike.push((j, sc));
         }
     }
@@ -387,6 +439,13 @@ fn reject_link_scale_lookalikes(
         larger.per_joint[j] = m.per_joint[j].clone();
     }
     lookalike
+}
+
+/// Marks a score rejected by the look-alike rule (link scales of at most `scale` imitate it).
+fn reject_as_lookalike(sc: &mut JointScore, scale: f64) {
+    sc.significant = false;
+    sc.rejected_by =
+        Some(format!("look-alike: the nominal link inertials off by up to {:.0} % explain it as well", 100.0 * scale));
 }
 
 /// Why a candidate was not named on joints where link-scale errors imitate it (empty if

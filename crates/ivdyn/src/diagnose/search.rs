@@ -10,6 +10,7 @@ use super::assemble::{Found, assemble};
 use super::dictionary::Dictionary;
 use super::model::{Model, effect_torque, fit};
 use super::prepare::prepare_best;
+use super::refit::{self, RefitDecision};
 use super::residual::rms_per_joint;
 use super::rules::{Ctx, score_candidates};
 use super::{CandidateScore, Diagnosis, EffectKind, Step};
@@ -29,22 +30,44 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
         });
     }
     crate::prep::hygiene::torque_check(log)?;
-    let p = prepare_best(robot, log, opts)?;
-    let ctx = Ctx::new(robot, &p, opts)?;
+    let mut p = prepare_best(robot, log, opts)?;
+    // the nominal model's own error first: with every candidate in, does a re-fit of it
+    // still explain held-out residual? Then every model of the search contains it.
+    let refit = refit::decide(&Ctx::new(robot, &p, opts, false)?, robot);
+    if let Some(r) = &refit {
+        p.gr.ridge = r.ridge;
+    }
+    let ctx = Ctx::new(robot, &p, opts, refit.is_some())?;
     let t_len = p.s.t.len();
     let r_nom: Vec<f64> = (0..t_len * n).map(|i| p.d.r0[i % n][i / n]).collect();
     let baseline_rms = rms_per_joint(&r_nom, n);
-    let found = search(&ctx, &p.d, t_len, opts.max_steps, &baseline_rms);
+    let mut start = Model::new(n);
+    start.refit = refit.is_some();
+    let found = search(&ctx, &p.d, t_len, opts.max_steps, start, refit);
     assemble(robot, opts, &p, &ctx, found, baseline_rms, &r_nom)
 }
 
-/// The forward-backward loop from the nominal model (no effect), at most `max_steps`
-/// effects added.
-fn search(ctx: &Ctx, d: &Dictionary, t_len: usize, max_steps: usize, baseline_rms: &[f64]) -> Found {
-    let n = ctx.n;
-    let mut m = Model::new(n);
+/// RMS per joint of the residual the model `m` (fitted on every sample) leaves.
+fn model_rms(ctx: &Ctx, d: &Dictionary, t_len: usize, m: &Model) -> Vec<f64> {
+    let f = fit(&m.params(), ctx.gr, &ctx.w, &[0, 1]);
+    let e = effect_torque(&f, d, ctx.n, t_len);
+    let r: Vec<f64> = (0..t_len * ctx.n).map(|i| d.r0[i % ctx.n][i / ctx.n] - e[i]).collect();
+    rms_per_joint(&r, ctx.n)
+}
+
+/// The forward-backward loop from `start` (no effect; the nominal re-fit in it when
+/// `refit` says so), at most `max_steps` effects added.
+fn search(
+    ctx: &Ctx,
+    d: &Dictionary,
+    t_len: usize,
+    max_steps: usize,
+    start: Model,
+    refit: Option<RefitDecision>,
+) -> Found {
+    let mut m = start;
     let mut steps: Vec<(Step, Model)> = vec![];
-    let mut rms_cur = baseline_rms.to_vec();
+    let mut rms_cur = model_rms(ctx, d, t_len, &m);
     let mut final_candidates = vec![];
     for _ in 0..max_steps {
         let mut cands = score_candidates(ctx, &m);
@@ -56,10 +79,7 @@ fn search(ctx: &Ctx, d: &Dictionary, t_len: usize, max_steps: usize, baseline_rm
         let effect = cands[bi].0.effect;
         let joints = cands[bi].0.joints.clone();
         let m_new = backward(ctx, &cands[bi].1);
-        let f = fit(&m_new.params(), ctx.gr, &ctx.w, &[0, 1]);
-        let e = effect_torque(&f, d, n, t_len);
-        let r: Vec<f64> = (0..t_len * n).map(|i| d.r0[i % n][i / n] - e[i]).collect();
-        let rms_after = rms_per_joint(&r, n);
+        let rms_after = model_rms(ctx, d, t_len, &m_new);
         let step = Step {
             effect,
             joints,
@@ -75,7 +95,7 @@ fn search(ctx: &Ctx, d: &Dictionary, t_len: usize, max_steps: usize, baseline_rm
         m = m_new;
         steps.push((step, m.clone()));
     }
-    Found { steps, final_candidates, model: m }
+    Found { steps, final_candidates, model: m, refit }
 }
 
 /// The candidate with the largest score among those significant on some joint.

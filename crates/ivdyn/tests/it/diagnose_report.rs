@@ -37,7 +37,8 @@ fn regimes(rms: f64, rev: f64) -> Regimes {
 }
 
 fn score(significant: bool, f: f64, p: f64, gain: f64) -> JointScore {
-    JointScore { f, p, heldout_gain: gain, effect_rms: 0.25, significant }
+    let rejected_by = (!significant).then(|| format!("F test: F {f}, p {p} >= alpha 1e-3"));
+    JointScore { f, p, heldout_gain: gain, effect_rms: 0.25, significant, rejected_by }
 }
 
 /// Joint 0 `j_one`, joint 1 `wrist<1>`; q = sin(2 pi t + j), qd, qdd its derivatives;
@@ -98,6 +99,7 @@ fn synthetic() -> Diagnosis {
             baseline_rms: vec![0.512, 1.25],
             final_rms: vec![0.0225, 0.0478],
             joints: joints.clone(),
+            nominal_refit: None,
         },
         steps: vec![Step {
             effect: EffectKind::Coulomb,
@@ -114,6 +116,7 @@ fn synthetic() -> Diagnosis {
         regimes_before: vec![regimes(0.512, 0.7), regimes(1.25, 1.5)],
         regimes_after: vec![regimes(0.0225, f64::NAN), regimes(0.0478, 0.05)],
         verdict: "Missing: Coulomb friction on j_one, wrist<1>".into(),
+        details: vec!["missing: Coulomb friction on j_one, wrist<1>".into()],
         traces: Traces { t, q, qd, qdd, tau, predicted: vec![nominal, fin] },
         info: LogInfo {
             file: "logs/run & test.mcap".into(),
@@ -210,6 +213,9 @@ fn html_is_self_contained_and_complete() {
     assert!(html.contains("Missing: Coulomb friction on j_one, wrist&lt;1&gt;"));
     assert!(html.contains("j_one") && html.contains("wrist&lt;1&gt;") && !html.contains("wrist<1>"));
     assert!(html.contains("logs/run &amp; test.mcap") && html.contains("robots/arm.urdf"));
+    // the details under the headline, and each rejected row's rule with its numbers
+    assert!(html.contains("<li>missing: Coulomb friction on j_one, wrist&lt;1&gt;</li>"));
+    assert!(html.contains("<th>rejected by</th>") && html.contains("F test: F 1.1, p 0.29 &gt;= alpha 1e-3"));
 
     // RMS table: joint | nominal | after step 1 | final | noise | final/noise
     let rms = table_rows(&html, "rms-table");

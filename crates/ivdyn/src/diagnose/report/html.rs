@@ -56,6 +56,13 @@ pub(super) fn document(d: &Diagnosis, figs: &Figures) -> String {
     header(&mut o, d, &title);
     let class = if k == 0 { "clean" } else { "found" };
     let _ = writeln!(o, "<div class=\"verdict {class}\" id=\"verdict\">{}</div>", esc(&d.verdict));
+    if !d.details.is_empty() {
+        o.push_str("<ul id=\"details\">\n");
+        for line in &d.details {
+            let _ = writeln!(o, "<li>{}</li>", esc(line));
+        }
+        o.push_str("</ul>\n");
+    }
     o.push_str(
         "<nav><a href=\"#rms\">RMS table</a><a href=\"#steps\">Steps</a><a href=\"#final\">Final check</a>\
          <a href=\"#regimes\">Where the residual is</a><a href=\"#plots\">Plots per joint</a></nav>\n",
@@ -230,7 +237,7 @@ fn candidates_table(o: &mut String, d: &Diagnosis, cands: &[CandidateScore]) {
     o.push_str(
         "<table class=\"candidates\">\n<tr><th>candidate</th><th>joint</th><th>significant</th>\
          <th>held-out gain</th><th>effect RMS <span class=\"unit\">(N m)</span></th><th>F</th><th>p</th>\
-         <th>score</th><th>decision</th></tr>\n",
+         <th>rejected by</th><th>score</th><th>decision</th></tr>\n",
     );
     for c in cands {
         let class = if c.accepted { " class=\"accepted\"" } else { "" };
@@ -249,11 +256,12 @@ fn candidates_table(o: &mut String, d: &Diagnosis, cands: &[CandidateScore]) {
             let sig = if s.significant { "<td class=\"sig\">yes</td>" } else { "<td class=\"dim\">no</td>" };
             let _ = write!(
                 o,
-                "<td>{joint}</td>{sig}<td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td>",
+                "<td>{joint}</td>{sig}<td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td class=\"n\">{}</td><td>{}</td>",
                 fmt_pct(s.heldout_gain),
                 fmt_num(s.effect_rms),
                 fmt_num(s.f),
-                fmt_p(s.p)
+                fmt_p(s.p),
+                esc(s.rejected_by.as_deref().unwrap_or(""))
             );
             if j == 0 {
                 let verdict = if c.accepted { "<b>added</b>: " } else { "not added: " };
@@ -269,7 +277,7 @@ fn candidates_table(o: &mut String, d: &Diagnosis, cands: &[CandidateScore]) {
         if c.per_joint.is_empty() {
             let _ = writeln!(
                 o,
-                "<tr{class}><td>{}</td><td colspan=\"8\">{}</td></tr>",
+                "<tr{class}><td>{}</td><td colspan=\"9\">{}</td></tr>",
                 esc(c.effect.label()),
                 esc(&c.reason)
             );
@@ -282,8 +290,8 @@ fn candidates_table(o: &mut String, d: &Diagnosis, cands: &[CandidateScore]) {
          columns on the training part rejects \u{201c}no effect\u{201d}, and the fit also helps on the \
          held-out part; <i>held-out gain</i> = fraction of the held-out residual variance above the noise \
          that the fitted candidate removes (negative: it made the held-out part worse); <i>effect RMS</i> = \
-         RMS of the torque the fitted candidate adds; <i>F</i>, <i>p</i> = the F statistic and its p-value. \
-         The score ranks the candidates (0 when nothing is significant).</p>"
+         RMS of the torque the fitted candidate adds; <i>F</i>, <i>p</i> = the F statistic and its p-value; \
+         <i>rejected by</i> = the rule that rejected it on the joint, with its numbers. The score ranks the candidates (0 when nothing is significant).</p>"
     );
 }
 

@@ -1,0 +1,254 @@
+#!/usr/bin/env python3
+"""Generate the "diagnosis from a CAD model" case set (issue 15, item 5): MuJoCo logs of four
+arms whose nominal URDF has inertial errors of 5, 15 or 30 %, with none, one, two or three
+hidden effects, plus a seeded split that sets a third of the cases aside as a held-out set.
+
+Everything about the simulation (MuJoCo mechanisms of each effect, controller, sensor noise and
+quantisation, the mj_inverse-vs-rnea agreement check, the oracle) is that of
+make_diagnose_cases.py, which this script imports; what it adds:
+
+* two arms the diagnosis was never tuned on, derived from example-robot-data (the `pin` wheel):
+  UR3 (ur_description/urdf/ur3_robot.urdf) and the TALOS left arm (talos_data/robots/
+  talos_left_arm.urdf: arm_left_1_link is its fixed root, 6 joints arm_left_2..7; the wrist
+  force sensor and gripper are dropped), beside the UR5 and Panda of the fixtures. The arms
+  reserved for the project's external evaluation are not used.
+* the nominal model a user would have: every moving link's mass, inertia tensor (about the
+  COM) and COM vector scaled by independent factors 1 +- U(L/2, L) (random signs), L = the
+  case's error level. A mass and COM error is not a uniform scale of the link's 10
+  inertial parameters: no per-link scale factor reproduces it exactly.
+* effects drawn per case (seeded): kinds without repetition from coulomb_friction,
+  viscous_friction, armature, torque_offset, joint_spring, payload, on 1-3 joints each, sized
+  so that each adds 5-15 noise standard deviations of RMS torque on its joint along the
+  reference motion (armature: 30-80 % of the nominal inertia on the joint, as reflected rotor
+  inertias are; payload: a part of 0.5-2 kg depending on the arm).
+* `split.json`: a seeded permutation of all case ids ("robot/case"); every third is held out.
+  Tune on "tune"; run "heldout" once, at the end (python/tools/score_diagnose_cases.py).
+
+Writes OUT/<robot>/{<case>.mcap, <case>_nominal.urdf, cases.json} (cases.json in the format of
+make_diagnose_cases.py, URDF paths absolute; each case also has `oracle.oracle_rms_true_model`:
+what the true effects leave with the *true* rigid-body model) and OUT/split.json.
+
+    .venv/bin/python python/tools/make_cad_cases.py --out /tmp/cad_cases [--duration 2]
+    .venv/bin/python python/tools/make_cad_cases.py --out fixtures/diagnose_cad --only ur5/e15_0fx,...
+"""
+import argparse
+import json
+import os
+import sys
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import make_diagnose_cases as mdc  # noqa: E402
+import ivdyn  # noqa: E402
+
+LEVELS = [0.05, 0.15, 0.30]
+KINDS = ["coulomb_friction", "viscous_friction", "armature", "torque_offset", "joint_spring", "payload"]
+SPLIT_SEED = 15
+
+
+def erd_robots():
+    """example-robot-data's robots/ folder (installed with `pin` under site-packages/cmeel.prefix)."""
+    import sysconfig
+    path = os.path.join(sysconfig.get_paths()["purelib"], "cmeel.prefix", "share", "example-robot-data", "robots")
+    if not os.path.isdir(path):
+        raise SystemExit(f"example-robot-data not found at {path} (pip install pin)")
+    return path
+
+
+def chain_urdf(src, keep_links, path_out):
+    """`src` with only `keep_links` and the joints between them, without visual / collision /
+    transmission / gazebo elements, every <dynamics> zeroed (the hidden effects are the truth)."""
+    tree = ET.parse(src)
+    root = tree.getroot()
+    for el in list(root):
+        if el.tag == "link" and el.get("name") not in keep_links:
+            root.remove(el)
+        elif el.tag == "joint" and (el.find("parent").get("link") not in keep_links
+                                    or el.find("child").get("link") not in keep_links):
+            root.remove(el)
+        elif el.tag not in ("link", "joint"):
+            root.remove(el)
+    for link in root.findall("link"):
+        for tag in ("visual", "collision"):
+            for el in link.findall(tag):
+                link.remove(el)
+    mdc.zero_dynamics(root)
+    tree.write(path_out, encoding="utf-8", xml_declaration=True)
+
+
+UR_LINKS = ["world", "base_link", "base", "shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link",
+            "wrist_2_link", "wrist_3_link", "ee_link", "tool0"]
+TALOS_LINKS = [f"arm_left_{i}_link" for i in range(1, 8)]
+
+# Amplitudes: the sum of 3 harmonics reaches 1.83 amp_scale in position and ~12 amp_scale in
+# velocity; chosen inside 90 % of the URDF velocity limits and 0.2 rad of the joint limits
+# (checked by mdc.check_reference).
+CAD_ROBOTS = {
+    "ur5": dict(mdc.ROBOTS["ur5"], payload_mass=(1.0, 2.0)),
+    "panda": dict(mdc.ROBOTS["panda"], payload_mass=(0.5, 1.0)),
+    "ur3": {
+        "erd": "ur_description/urdf/ur3_robot.urdf", "keep": UR_LINKS, "urdf": "ur3_arm.urdf",
+        "base": "base_link", "tip": "tool0", "terminal_link": "wrist_3_link",
+        "torque_noise": [0.08, 0.08, 0.05, 0.02, 0.02, 0.015],
+        "centres": [0.0, -1.3, 1.2, -1.2, 1.4, 0.0],
+        "amp_scale": np.array([0.15, 0.15, 0.22, 0.22, 0.22, 0.22]),
+        "acc_limits": None, "check_reference": True,
+        "moving_links": ["shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link", "wrist_2_link",
+                         "wrist_3_link"],
+        "payload_mass": (0.5, 1.5),
+    },
+    "talos_arm": {
+        "erd": "talos_data/robots/talos_left_arm.urdf", "keep": TALOS_LINKS, "urdf": "talos_arm.urdf",
+        "base": "arm_left_1_link", "tip": "arm_left_7_link", "terminal_link": "arm_left_7_link",
+        "torque_noise": [0.1, 0.1, 0.05, 0.03, 0.02, 0.02],
+        "centres": [1.2, 0.0, -1.2, 0.0, 0.0, 0.0],
+        "amp_scale": np.array([0.25, 0.3, 0.3, 0.13, 0.12, 0.12]),
+        "acc_limits": None, "check_reference": True,
+        "moving_links": TALOS_LINKS[1:],
+        "payload_mass": (0.5, 1.0),
+    },
+}
+
+
+def cad_config(name, out):
+    """The robot's settings with `urdf_path` (its clean URDF, written into `out` if derived)."""
+    os.makedirs(out, exist_ok=True)
+    if name in ("ur5", "panda"):
+        cfg = mdc.robot_config(name, out)
+        cfg.update(payload_mass=CAD_ROBOTS[name]["payload_mass"])
+        return cfg
+    cfg = dict(CAD_ROBOTS[name], name=name, out=out)
+    cfg["urdf_path"] = os.path.join(out, cfg["urdf"])
+    chain_urdf(os.path.join(erd_robots(), cfg["erd"]), cfg["keep"], cfg["urdf_path"])
+    return cfg
+
+
+def nominal_urdf(cfg, path_out, level, rng):
+    """The clean URDF with each moving link's mass, inertia tensor and COM scaled by independent
+    factors 1 +- U(level/2, level). Returns {link: [mass, inertia, com] factors}."""
+    def draw():
+        return tuple(1.0 + float(rng.choice([-1.0, 1.0]) * rng.uniform(level / 2, level)) for _ in range(3))
+    return {k: list(v) for k, v in mdc.scale_inertials(cfg, path_out, draw).items()}
+
+
+def draw_effects(cfg, robot, names, seed, count, rng):
+    """`count` effects of distinct kinds on random joints, sized on the reference motion."""
+    t = np.arange(int(round(2.0 / mdc.DT))) * mdc.DT
+    q, qd, qdd = mdc.reference(cfg, seed, t)
+    sig = np.array(cfg["torque_noise"])
+    m_diag = np.mean([np.diag(robot.mass_matrix(q[k])) for k in range(0, len(t), 50)], axis=0)
+    n = len(names)
+    effects = []
+    for kind in rng.choice(KINDS, size=count, replace=False):
+        if kind == "payload":
+            lo, hi = cfg["payload_mass"]
+            m = float(rng.uniform(lo, hi))
+            com = [float(v) for v in rng.uniform(-0.04, 0.04, 3)]
+            com[int(rng.integers(3))] = float(rng.choice([-1, 1]) * rng.uniform(0.06, 0.14))
+            r2 = m * 0.03 ** 2
+            effects.append({"name": "payload", "joints": [],
+                            "parameters": {"mass": m, "com": com,
+                                           "inertia": [1.2 * r2, 0.0, 0.0, 1.0 * r2, 0.0, 0.8 * r2]}})
+            continue
+        js = sorted(int(j) for j in rng.choice(n, size=int(rng.integers(1, 4)), replace=False))
+        k = rng.uniform(5.0, 15.0, len(js))
+        rms_of = lambda x: np.sqrt(np.mean(x ** 2, axis=0))  # noqa: E731
+        if kind == "coulomb_friction":
+            p = {"fc": [float(k[i] * sig[j]) for i, j in enumerate(js)]}
+        elif kind == "viscous_friction":
+            p = {"fv": [float(k[i] * sig[j] / rms_of(qd)[j]) for i, j in enumerate(js)]}
+        elif kind == "armature":
+            p = {"ia": [float(rng.uniform(0.3, 0.8) * m_diag[j]) for j in js]}
+        elif kind == "torque_offset":
+            p = {"tau0": [float(rng.choice([-1, 1]) * k[i] * sig[j]) for i, j in enumerate(js)]}
+        else:
+            qs = np.std(q, axis=0)
+            p = {"k": [float(k[i] * sig[j] / qs[j]) for i, j in enumerate(js)],
+                 "q0": [float(cfg["centres"][j] + rng.uniform(-0.3, 0.3)) for j in js]}
+        effects.append({"name": str(kind), "joints": [names[j] for j in js], "parameters": p})
+    return effects
+
+
+def rel(path):
+    """`path` relative to the repository root when inside it (fixtures), else absolute."""
+    r = os.path.relpath(path, mdc.ROOT)
+    return path if r.startswith("..") else r
+
+
+def robot_cases(name, out, duration, seed0, only=None):
+    """Simulates every case of one arm into OUT/<name>/ and writes its cases.json; with
+    `only` (ids "robot/case"), just those (the others are drawn all the same, so a case
+    is the same whichever are written)."""
+    out_r = os.path.join(out, name)
+    cfg = cad_config(name, out_r)
+    robot = ivdyn.Robot.from_urdf(cfg["urdf_path"], base=cfg["base"], tip=cfg["tip"])
+    names = list(robot.joint_names)
+    assert robot.link_names[-1] == cfg["terminal_link"], robot.link_names
+    err_tau, err_m = mdc.check_agreement(robot, cfg=cfg)
+    print(f"{name}: MuJoCo vs ivdyn on the clean model: tau {err_tau:.2e}, M {err_m:.2e}")
+    if err_tau > mdc.AGREEMENT_TOL or err_m > mdc.AGREEMENT_TOL:
+        sys.exit(f"{name}: MuJoCo and ivdyn disagree on the clean model; not writing anything")
+    manifest = {"generator": "python/tools/make_cad_cases.py", "robot_urdf": rel(cfg["urdf_path"]),
+                "base": cfg["base"], "tip": cfg["tip"], "terminal_link": cfg["terminal_link"], "joints": names,
+                "topic": "/joint_states", "duration_s": duration, "cases": []}
+    rng = np.random.default_rng(seed0)
+    for li, level in enumerate(LEVELS):
+        for count in range(4):
+            seed = seed0 + 10 * li + count
+            case = {"name": f"e{int(round(100 * level)):02d}_{count}fx", "seed": seed}
+            case["effects"] = draw_effects(cfg, robot, names, seed, count, rng)
+            nominal = os.path.join(out_r, f"{case['name']}_nominal.urdf")
+            factors = nominal_urdf(cfg, nominal, level, rng)
+            if only is not None and f"{name}/{case['name']}" not in only:
+                os.remove(nominal)
+                continue
+            sim, q_meas, qd_meas, tau_meas, noise = mdc.measured(cfg, case, robot, duration)
+            log = f"{case['name']}.mcap"
+            size = mdc.write_mcap(os.path.join(out_r, log), names, sim["t"], q_meas, qd_meas, tau_meas)
+            nom = ivdyn.Robot.from_urdf(nominal, base=cfg["base"], tip=cfg["tip"])
+            eff = mdc.effect_torque(case["effects"], names, sim["q"], sim["qd"], sim["qdd"], robot)
+            tau_true = robot.rnea(sim["q"], sim["qd"], sim["qdd"])
+            tau_nom = nom.rnea(sim["q"], sim["qd"], sim["qdd"])
+            manifest["cases"].append({
+                "name": case["name"], "log": log, "bytes": size, "urdf": rel(nominal), "samples": len(sim["t"]),
+                "velocity_in_log": True, "seed": seed, "effects": case["effects"], "torque_noise_std": noise,
+                "model_error": {"kind": "mass, inertia and COM scaled per link", "level": level,
+                                "true_urdf": rel(cfg["urdf_path"]), "mass_inertia_com_factor": factors},
+                "oracle": {"effect_rms": mdc.rms(eff), "baseline_rms_exact": mdc.rms(tau_meas - tau_nom),
+                           "oracle_rms_exact": mdc.rms(tau_meas - tau_nom - eff),
+                           "oracle_rms_true_model": mdc.rms(tau_meas - tau_true - eff)},
+            })
+            print(f"  {case['name']}: {[(e['name'], e['joints']) for e in case['effects']]}")
+    with open(os.path.join(out_r, "cases.json"), "w") as f:
+        json.dump(manifest, f, indent=1)
+    return [f"{name}/{c['name']}" for c in manifest["cases"]]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--out", default="/tmp/cad_cases")
+    ap.add_argument("--duration", type=float, default=2.0)
+    ap.add_argument("--only", default=None, help="comma list of ids robot/case to write (default: all, "
+                    "with split.json); fixtures/diagnose_cad holds a few cases of the tuning part")
+    args = ap.parse_args(argv)
+    ids = []
+    only = None if args.only is None else set(args.only.split(","))
+    for i, name in enumerate(["ur5", "panda", "ur3", "talos_arm"]):
+        if only is None or any(x.startswith(name + "/") for x in only):
+            ids += robot_cases(name, args.out, args.duration, 1500 + 100 * i, only)
+    if only is not None:
+        return 0
+    # the split is fixed before any diagnosis runs: every third id of a seeded permutation
+    perm = [ids[i] for i in np.random.default_rng(SPLIT_SEED).permutation(len(ids))]
+    split = {"seed": SPLIT_SEED, "tune": sorted(perm[i] for i in range(len(perm)) if i % 3 != 2),
+             "heldout": sorted(perm[i] for i in range(len(perm)) if i % 3 == 2)}
+    with open(os.path.join(args.out, "split.json"), "w") as f:
+        json.dump(split, f, indent=1)
+    print(f"{len(ids)} cases: {len(split['tune'])} to tune on, {len(split['heldout'])} held out")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
