@@ -237,29 +237,8 @@ pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) 
             ),
         ));
     }
-    let tau_fit = rows_of(&prep.tau, n, fit_range.clone());
     let idim = if opts.method == Method::IdimIv {
-        let r = fit_range.clone();
-        let (q, qd, qdd) =
-            (rows_of(&prep.q, n, r.clone()), rows_of(&prep.qd, n, r.clone()), rows_of(&prep.qdd, n, r.clone()));
-        let tf = r.len();
-        let mut ff = vec![0.0; tf * n];
-        crate::batch::rnea_batch(robot, q, qd, qdd, &mut ff)?;
-        let mut mm = vec![0.0; tf * n * n];
-        crate::batch::mass_matrix_batch(robot, q, &mut mm)?;
-        let (kp, kd) = Tracker::gains(prep.dt);
-        let control = |k: usize, qs: &[f64], qds: &[f64]| -> Vec<f64> {
-            let e: Vec<f64> = (0..n).map(|i| kp * (q[k * n + i] - qs[i]) + kd * (qd[k * n + i] - qds[i])).collect();
-            (0..n).map(|i| ff[k * n + i] + (0..n).map(|j| mm[k * n * n + i * n + j] * e[j]).sum::<f64>()).collect()
-        };
-        let exp = ident::Experiment { dt: prep.dt, q, qd, qdd, tau: tau_fit };
-        let _st = Stage::begin(&opts.progress, "IDIM-IV iterations", 0);
-        let res = ident::idim_iv(robot, &base, &exp, control, opts.idim_max_iter, opts.idim_tol)?;
-        if !res.converged {
-            notes.push(format!("IDIM-IV did not converge in {} iterations", opts.idim_max_iter));
-        }
-        notes.push("IDIM-IV control law: stand-in stiff PD on the measured positions (M-scaled, 10 Hz, damping 0.7) + nominal inverse dynamics feed-forward".into());
-        Some(res.fit)
+        Some(idim_fit(robot, &base, &prep, fit_range.clone(), opts, &mut notes)?)
     } else {
         None
     };
@@ -280,6 +259,41 @@ pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) 
     let mut r = finish_identify(robot, &base, opts, data)?;
     r.coulomb = coulomb;
     Ok(r)
+}
+
+/// `--method idim-iv` on the fit rows of one continuous log: [`ident::idim_iv`] with the
+/// stand-in control law, a stiff PD on the measured positions scaled by the nominal mass
+/// matrix plus the nominal inverse dynamics as feed-forward.
+fn idim_fit(
+    robot: &Robot,
+    base: &BaseParams,
+    prep: &Prepared,
+    r: std::ops::Range<usize>,
+    opts: &IdentifyOptions,
+    notes: &mut Vec<String>,
+) -> Result<FitReport> {
+    let n = robot.dof();
+    let tau_fit = rows_of(&prep.tau, n, r.clone());
+    let (q, qd, qdd) =
+        (rows_of(&prep.q, n, r.clone()), rows_of(&prep.qd, n, r.clone()), rows_of(&prep.qdd, n, r.clone()));
+    let tf = r.len();
+    let mut ff = vec![0.0; tf * n];
+    crate::batch::rnea_batch(robot, q, qd, qdd, &mut ff)?;
+    let mut mm = vec![0.0; tf * n * n];
+    crate::batch::mass_matrix_batch(robot, q, &mut mm)?;
+    let (kp, kd) = Tracker::gains(prep.dt);
+    let control = |k: usize, qs: &[f64], qds: &[f64]| -> Vec<f64> {
+        let e: Vec<f64> = (0..n).map(|i| kp * (q[k * n + i] - qs[i]) + kd * (qd[k * n + i] - qds[i])).collect();
+        (0..n).map(|i| ff[k * n + i] + (0..n).map(|j| mm[k * n * n + i * n + j] * e[j]).sum::<f64>()).collect()
+    };
+    let exp = ident::Experiment { dt: prep.dt, q, qd, qdd, tau: tau_fit };
+    let _st = Stage::begin(&opts.progress, "IDIM-IV iterations", 0);
+    let res = ident::idim_iv(robot, base, &exp, control, opts.idim_max_iter, opts.idim_tol)?;
+    if !res.converged {
+        notes.push(format!("IDIM-IV did not converge in {} iterations", opts.idim_max_iter));
+    }
+    notes.push("IDIM-IV control law: stand-in stiff PD on the measured positions (M-scaled, 10 Hz, damping 0.7) + nominal inverse dynamics feed-forward".into());
+    Ok(res.fit)
 }
 
 /// The model with each joint's Coulomb shape: chosen on the fit rows ([`super::coulomb`])

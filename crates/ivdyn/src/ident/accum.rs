@@ -215,7 +215,10 @@ impl LsAccumulator {
             return Err(non_finite("sum_wyy", 0));
         }
         if (0..n).any(|i| (0..i).any(|j| r_aug[(i, j)] != 0.0)) {
-            return Err(Error::Estimation { msg: "LsAccumulator::from_r_aug: R_aug is not upper triangular".into() });
+            return Err(Error::Stats {
+                what: "LsAccumulator::from_r_aug".into(),
+                msg: "R_aug is not upper triangular".into(),
+            });
         }
         let mut acc = LsAccumulator::new(n - 1);
         acc.r = r_aug;

@@ -349,8 +349,9 @@ impl JointAccs {
             });
         }
         if self.has_iv() || other.has_iv() {
-            return Err(crate::error::Error::Estimation {
-                msg: "JointAccs::merge: instrument sums are not merged".into(),
+            return Err(crate::error::Error::Stats {
+                what: "JointAccs::merge".into(),
+                msg: "instrument sums are not merged (statistics with an instrument cannot be merged)".into(),
             });
         }
         for (a, o) in self.per.iter_mut().zip(&other.per) {
