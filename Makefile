@@ -53,10 +53,12 @@ lint:
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
 
 venv: $(STAMP)
+# --no-compile: Python compiles what it imports on first use; compiling every file of Ray,
+# MuJoCo, Pinocchio and pandas up front takes CPU from the Rust build running beside it.
 $(STAMP): python/requirements-dev.txt
 	python3 -m venv $(VENV)
 	$(VENV)/bin/pip install -q --upgrade pip
-	$(VENV)/bin/pip install -q -r python/requirements-dev.txt
+	$(VENV)/bin/pip install -q --no-compile -r python/requirements-dev.txt
 	$(VENV)/bin/pip install -q maturin==1.16.0
 	touch $(STAMP)
 
