@@ -405,6 +405,8 @@ struct PassInfo {
     samples: usize,
     duplicates: usize,
     truncated: bool,
+    /// Stamps of the first and the last sample kept (ns).
+    span_ns: (i64, i64),
 }
 
 /// Reads and conditions the log at `path` block by block, calling `sink` with each
@@ -469,6 +471,7 @@ fn conditioned_pass(
         samples: front.samples,
         duplicates: front.duplicates,
         truncated: summary.truncated,
+        span_ns: (front.t0.expect("finished"), front.last.expect("finished")),
     }))
 }
 
@@ -800,6 +803,7 @@ fn accumulate(
     holdout: bool,
     what: &str,
     samples: Option<usize>,
+    start: Option<&JointAccs>,
 ) -> Result<Streamed<Accumulated>> {
     let n = robot.dof();
     let b = base.base_count();
@@ -826,14 +830,19 @@ fn accumulate(
             };
             let (fit, val) = super::identify::split_ranges(expected, &split);
             let (edge, cut) = (fit.start, val.map(|v| v.start));
-            let route = Route {
-                edge,
-                cut,
-                pending: VecDeque::new(),
-                fit: JointAccs::new(n, b, instrument)
-                    .with_lags(crate::ident::joint_acc::hac_lags(dt * dec.factor as f64, dec.filter.cutoff_hz)),
-                val: cut.map(|_| JointAccs::new(n, b, false)),
+            let lags = crate::ident::joint_acc::hac_lags(dt * dec.factor as f64, dec.filter.cutoff_hz);
+            let fit = match start {
+                // this log's rows after those of `start`, as one more segment
+                Some(a) => {
+                    let mut a = a.clone();
+                    a.gap();
+                    a.keep_lags(lags);
+                    a
+                }
+                None => JointAccs::new(n, b, instrument).with_lags(lags),
             };
+            let route =
+                Route { edge, cut, pending: VecDeque::new(), fit, val: cut.map(|_| JointAccs::new(n, b, false)) };
             state = Some((stacker, route, dec));
         }
         let (stacker, route, _) = state.as_mut().expect("set");
@@ -857,6 +866,71 @@ fn accumulate(
     decimated += rows.len();
     route.take(&stacker, rows)?;
     Ok(Streamed::Done(Accumulated { fit: route.fit, val: route.val, info, dec, decimated, expected }))
+}
+
+/// What a streamed pass did to the log that is worth a remark.
+fn pass_notes(a: &Accumulated) -> Vec<String> {
+    let mut notes = vec![];
+    if a.info.truncated {
+        notes.push("the log was truncated; only the samples before the damage were used".into());
+    }
+    if a.info.duplicates > 0 {
+        notes.push(format!("{} samples with a duplicated stamp were dropped", a.info.duplicates));
+    }
+    notes
+}
+
+/// One log's fitted rows, streamed: what fleet statistics take from a log file.
+pub(crate) struct StreamedRows {
+    /// The statistics given as `start`, then this log's rows (one more segment).
+    pub fit: JointAccs,
+    /// Sample time of the fitted rows (s, after decimation).
+    pub dt: f64,
+    /// Decimation factor and the parallel filter's cut-off (Hz).
+    pub factor: usize,
+    pub cutoff_hz: f64,
+    /// Stamps of the first and the last sample (ns).
+    pub span_ns: (i64, i64),
+    /// What the pass did worth a remark.
+    pub notes: Vec<String>,
+}
+
+/// The rows of the MCAP log at `path` as [`identify_mcap`] fits them with no held-out
+/// tail (every row but the dropped edges, no instrument), added to (a copy of) `start` as
+/// one more segment: no filter and no lagged product spans the two. `robot` and `base` as
+/// the fit uses them (Coulomb shapes already chosen).
+pub(crate) fn fit_rows_mcap(
+    robot: &Robot,
+    base: &BaseParams,
+    path: &Path,
+    read: &ReadOptions,
+    opts: &IdentifyOptions,
+    start: Option<&JointAccs>,
+) -> Result<Streamed<StreamedRows>> {
+    if let Some(why) = unsupported(opts, read) {
+        return Ok(Streamed::Unsupported(why));
+    }
+    let mut a = match accumulate(robot, base, path, read, opts, false, false, "log", None, start)? {
+        Streamed::Done(a) => a,
+        Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(w)),
+    };
+    // the dropped edges depend on the row count (`split_ranges`): when the message count
+    // overstated it (duplicated stamps, a truncated file), once more with the count known
+    if a.expected != a.decimated {
+        a = match accumulate(robot, base, path, read, opts, false, false, "log", Some(a.info.samples), start)? {
+            Streamed::Done(a) => a,
+            Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(w)),
+        };
+    }
+    let notes = pass_notes(&a);
+    Ok(Streamed::Done(StreamedRows {
+        dt: a.info.dt * a.dec.factor as f64,
+        factor: a.dec.factor,
+        cutoff_hz: a.dec.filter.cutoff_hz,
+        span_ns: a.info.span_ns,
+        notes,
+        fit: a.fit,
+    }))
 }
 
 /// [`super::identify::identify`] streamed from the MCAP file `path` (and the validation log
@@ -886,7 +960,7 @@ pub fn identify_mcap(
         super::identify::identify_base(robot, opts)?
     };
     let holdout = validation.is_none();
-    let mut main = match accumulate(robot, &base, path, read, opts, true, holdout, "log", None)? {
+    let mut main = match accumulate(robot, &base, path, read, opts, true, holdout, "log", None, None)? {
         Streamed::Done(a) => a,
         Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(w)),
     };
@@ -895,21 +969,18 @@ pub fn identify_mcap(
     // second pass, so that it is the in-memory path's tail exactly
     if holdout && main.expected != main.decimated {
         let samples = Some(main.info.samples);
-        main = match accumulate(robot, &base, path, read, opts, true, holdout, "log (split placed again)", samples)? {
-            Streamed::Done(a) => a,
-            Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(w)),
-        };
+        main =
+            match accumulate(robot, &base, path, read, opts, true, holdout, "log (split placed again)", samples, None)?
+            {
+                Streamed::Done(a) => a,
+                Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(w)),
+            };
     }
     let mut notes = vec![];
     if opts.coulomb == super::identify::CoulombMode::Auto {
         notes.push("Coulomb friction kept as sign(qd): a streamed log is not held to choose its shape per joint (--in-memory chooses it)".into());
     }
-    if main.info.truncated {
-        notes.push("the log was truncated; only the samples before the damage were used".into());
-    }
-    if main.info.duplicates > 0 {
-        notes.push(format!("{} samples with a duplicated stamp were dropped", main.info.duplicates));
-    }
+    notes.extend(pass_notes(&main));
     if main.expected != main.decimated {
         notes.push(format!(
             "the fit/validation split was placed from the message count in the MCAP summary ({} decimated samples expected, {} found)",
@@ -918,7 +989,7 @@ pub fn identify_mcap(
         ));
     }
     let validation = match validation {
-        Some(v) => match accumulate(robot, &base, v, read, opts, false, false, "validation log", None)? {
+        Some(v) => match accumulate(robot, &base, v, read, opts, false, false, "validation log", None, None)? {
             Streamed::Done(a) => Some(("validation log".to_string(), a.fit)),
             Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(format!("validation log: {w}"))),
         },

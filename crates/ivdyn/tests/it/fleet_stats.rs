@@ -81,8 +81,9 @@ fn merged_statistics_equal_one_pass_over_the_logs_in_any_order() {
     let robot = arm();
     let logs: Vec<JointLog> = (0..5).map(|k| log(&robot, 10 + k, 3.0 + k as f64, k as i64)).collect();
     let names: Vec<String> = (0..5).map(|k| format!("day{k}.mcap")).collect();
-    let pairs: Vec<(&str, &JointLog)> = names.iter().map(|s| s.as_str()).zip(&logs).collect();
-    let one_pass = fleet::logs_stats(&robot, &pairs, &opts()).unwrap();
+    let inputs: Vec<LogInput> = logs.iter().map(|l| LogInput::Arrays(l.clone())).collect();
+    let pairs: Vec<(&str, &LogInput)> = names.iter().map(|s| s.as_str()).zip(&inputs).collect();
+    let one_pass = fleet::logs_stats(&robot, &pairs, &LogSource::default(), &opts()).unwrap();
     // each log's statistics through bytes, as an engine ships them
     let parts: Vec<LogStats> = logs
         .iter()
@@ -125,10 +126,16 @@ fn bytes_round_trip_exactly_and_refuse_other_versions_and_damage() {
     let s = stats(&robot, &log(&robot, 5, 3.0, 0), "arm-07/day0.mcap");
     let b = s.to_bytes().unwrap();
     assert_eq!(LogStats::from_bytes(&b, "x").unwrap(), s);
-    let mut v2 = b.clone();
-    v2[8..12].copy_from_slice(&2u32.to_le_bytes());
-    let e = LogStats::from_bytes(&v2, "arm-07.stats").unwrap_err().to_string();
-    assert!(e.contains("arm-07.stats") && e.contains("format version 2") && e.contains("version 1"), "{e}");
+    let (ours, next) = (fleet::STATS_FORMAT, fleet::STATS_FORMAT + 1);
+    let mut other = b.clone();
+    other[8..12].copy_from_slice(&next.to_le_bytes());
+    let e = LogStats::from_bytes(&other, "arm-07.stats").unwrap_err().to_string();
+    assert!(
+        e.contains("arm-07.stats")
+            && e.contains(&format!("format version {next}"))
+            && e.contains(&format!("version {ours}")),
+        "{e}"
+    );
     let e = LogStats::from_bytes(b"not statistics at all", "junk.bin").unwrap_err().to_string();
     assert!(e.contains("junk.bin") && e.contains("not ivdyn fleet statistics"), "{e}");
     let e = LogStats::from_bytes(&b[..b.len() / 2], "cut.bin").unwrap_err().to_string();
@@ -211,4 +218,96 @@ fn benjamini_hochberg_matches_its_definition() {
     let p = [0.2, 0.029, 0.001, 0.025, 0.9];
     assert_eq!(benjamini_hochberg(&p, 0.05), vec![false, true, true, true, false]);
     assert_eq!(benjamini_hochberg(&[0.5, 0.6], 0.05), vec![false, false]);
+}
+
+/// `log(...)` written as an MCAP file `name` in this test binary's temporary directory.
+fn mcap_file(l: &JointLog, name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("ivdyn-fleet-stream-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    ivdyn::log::write_mcap(&path, l, &[]).unwrap();
+    path
+}
+
+fn file_stats(robot: &Robot, path: &std::path::Path) -> LogStats {
+    let name = path.to_string_lossy();
+    fleet::log_stats(robot, &LogInput::File(path.to_path_buf()), &LogSource::default(), &name, &opts()).unwrap()
+}
+
+/// An MCAP file is streamed, and its statistics are the streamed `identify`'s: the fit of
+/// one log's statistics equals `identify_mcap` on that file with no held-out tail.
+#[test]
+fn a_log_file_is_streamed_and_fits_to_the_streamed_identify() {
+    let robot = arm();
+    // 30 s at 500 Hz: past the stream's sample-time probe (10 000 samples) and several blocks
+    let l = log(&robot, 21, 30.0, 0);
+    let path = mcap_file(&l, "streamed.mcap");
+    let s = file_stats(&robot, &path);
+    assert!(s.logs[0].streamed, "{:?}", s.logs[0].notes);
+    let f = fleet::fit_stats(&robot, &s, &opts()).unwrap();
+    let read = ivdyn::log::ReadOptions::new(&robot.joint_names);
+    let app::stream::Streamed::Done(direct) = app::stream::identify_mcap(&robot, &path, None, &read, &opts()).unwrap()
+    else {
+        panic!("identify did not stream the log")
+    };
+    assert!(direct.streamed && direct.validation.is_none());
+    let d = direct.fit_report.as_ref().unwrap();
+    let (theta, cov) = theta_cov(&f);
+    let (rt, rc) = (rel(&theta, &d.theta), rel(cov.as_slice(), d.covariance.as_slice()));
+    assert!(rt <= 1e-12 && rc <= 1e-12, "theta {rt:e}, covariance {rc:e}");
+    assert_eq!((f.report.fit.samples, s.samples), (direct.fit.samples, direct.fit.samples));
+    // the span is the log's first and last stamp
+    let (t0, t1) = s.logs[0].span_s;
+    assert!((t0 - l.t[0]).abs() < 1e-6 && (t1 - l.t[l.t.len() - 1]).abs() < 1e-6, "{t0} {t1}");
+}
+
+/// Streamed logs merged in any tree equal one streamed pass over the files, log after log
+/// into one set of accumulators (each log conditioned on its own: a log boundary is a
+/// segment break), to 1e-12 relative.
+#[test]
+fn merged_streamed_statistics_equal_one_streamed_pass_over_the_files() {
+    let robot = arm();
+    let paths: Vec<PathBuf> = [(31, 8.0), (32, 24.0), (33, 12.0)]
+        .iter()
+        .enumerate()
+        .map(|(k, &(seed, secs))| mcap_file(&log(&robot, seed, secs, k as i64), &format!("merge-{k}.mcap")))
+        .collect();
+    let names: Vec<String> = paths.iter().map(|p| p.to_string_lossy().into_owned()).collect();
+    let inputs: Vec<LogInput> = paths.iter().map(|p| LogInput::File(p.clone())).collect();
+    let pairs: Vec<(&str, &LogInput)> = names.iter().map(|s| s.as_str()).zip(&inputs).collect();
+    let one_pass = fleet::logs_stats(&robot, &pairs, &LogSource::default(), &opts()).unwrap();
+    assert!(one_pass.logs.iter().all(|l| l.streamed));
+    let parts: Vec<LogStats> = paths.iter().map(|p| file_stats(&robot, p)).collect();
+    let reversed = LogStats::merge_all(parts.into_iter().rev().collect()).unwrap();
+    assert_eq!((reversed.samples, &reversed.logs), (one_pass.samples, &one_pass.logs));
+    let (t0, c0) = theta_cov(&fleet::fit_stats(&robot, &one_pass, &opts()).unwrap());
+    let (t, c) = theta_cov(&fleet::fit_stats(&robot, &reversed, &opts()).unwrap());
+    let (rt, rc) = (rel(&t, &t0), rel(c.as_slice(), c0.as_slice()));
+    eprintln!("streamed, merged in reverse: theta {rt:.1e}, covariance {rc:.1e} relative to one pass");
+    assert!(rt <= 1e-12 && rc <= 1e-12, "theta {rt:e}, covariance {rc:e}");
+}
+
+/// A file the stream cannot take (uneven stamps need resampling) is read into memory,
+/// says so, and gives the statistics of the same log given as arrays.
+#[test]
+fn a_file_the_stream_cannot_take_is_read_into_memory() {
+    let robot = arm();
+    let mut l = log(&robot, 41, 30.0, 0);
+    // one interval 30 % long, after the stream's sample-time probe
+    for t in l.t.iter_mut().skip(12_000) {
+        *t += 0.3 * 2e-3;
+    }
+    let path = mcap_file(&l, "uneven.mcap");
+    let s = file_stats(&robot, &path);
+    let info = &s.logs[0];
+    assert!(!info.streamed);
+    assert!(
+        info.notes.iter().any(|n| n.starts_with("read into memory (not streamed): uneven stamps")),
+        "{:?}",
+        info.notes
+    );
+    let arrays = stats(&robot, &LogSource::default().read(&path, &robot).unwrap(), "arrays");
+    let (t0, c0) = theta_cov(&fleet::fit_stats(&robot, &arrays, &opts()).unwrap());
+    let (t, c) = theta_cov(&fleet::fit_stats(&robot, &s, &opts()).unwrap());
+    assert_eq!((t, c), (t0, c0));
 }
