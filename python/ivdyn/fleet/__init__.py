@@ -34,6 +34,7 @@ from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 from .. import _ivdyn
+from . import _s3
 
 __all__ = [
     "LogEntry", "Options", "FleetResult", "read_manifest", "manifest_from_glob",
@@ -156,8 +157,17 @@ def _robot(model: str, base: Optional[str], tip: Optional[str]):
 
 
 def log_stats(entry: LogEntry, options: Options = Options()) -> bytes:
-    """The sufficient statistics of one log (bytes), named by its path."""
-    return _ivdyn.fleet_log_stats(_robot(entry.model, entry.base, entry.tip), entry.log, entry.log,
+    """The sufficient statistics of one log (bytes), named by its path or URI. An MCAP file
+    is streamed (memory bounded by the stream's buffers, whatever its length); an
+    ``s3://bucket/key`` log is downloaded to a temporary file first (:mod:`._s3`)."""
+    if _s3.is_s3(entry.log):
+        with _s3.local_copy(entry.log) as path:
+            return _s3.named(entry.log, path, lambda: _native_stats(entry, path, options))
+    return _native_stats(entry, entry.log, options)
+
+
+def _native_stats(entry: LogEntry, path: str, options: Options) -> bytes:
+    return _ivdyn.fleet_log_stats(_robot(entry.model, entry.base, entry.tip), path, entry.log,
                                   topic=options.topic, log_time=options.log_time, cutoff=options.cutoff,
                                   decimate=options.decimate, friction=list(options.friction),
                                   armature=options.armature, offset=options.offset, method=options.method)
