@@ -24,6 +24,12 @@ def _merge_parts(*parts: bytes) -> bytes:
     return merge(parts)
 
 
+#: Environment of the workers of a local runtime. glibc gives each thread that allocates a
+#: malloc arena of its own and keeps freed memory in it; the per-log pass starts short-lived
+#: threads block after block, so a worker that runs log after log grew to ~3x one log's
+#: peak (336 MB against 105 MB idle, measured); two arenas keep it at one log's.
+WORKER_ENV = {"MALLOC_ARENA_MAX": "2"}
+
 _stats_task: Any = ray.remote(num_returns=2, max_retries=MAX_RETRIES)(_stats_parts)
 _merge_task: Any = ray.remote(max_retries=MAX_RETRIES)(_merge_parts)
 _fit_task: Any = ray.remote(max_retries=MAX_RETRIES)(_safe_fit)
@@ -31,14 +37,16 @@ _fit_task: Any = ray.remote(max_retries=MAX_RETRIES)(_safe_fit)
 
 def start(address: Optional[str] = None, num_cpus: Optional[int] = None) -> None:
     """Connects to the cluster at ``address`` (or ``RAY_ADDRESS``), else starts a local
-    runtime with ``num_cpus`` CPUs (default: the machine's); nothing if Ray is running."""
+    runtime with ``num_cpus`` CPUs (default: the machine's) and :data:`WORKER_ENV`;
+    nothing if Ray is running."""
     if ray.is_initialized():
         return
     address = address or os.environ.get("RAY_ADDRESS")
     if address:
         ray.init(address=address)
     else:
-        ray.init(num_cpus=num_cpus or os.cpu_count(), include_dashboard=False)
+        ray.init(num_cpus=num_cpus or os.cpu_count(), include_dashboard=False,
+                 runtime_env={"env_vars": WORKER_ENV})
 
 
 def run_ray(entries: Sequence[LogEntry], options: Options, address: Optional[str], num_cpus: Optional[int],

@@ -1,0 +1,188 @@
+"""Fleet throughput, Ray's overhead and memory per worker (issue 18), printed as a table.
+
+    python benches/fleet_bench.py                          # 20 logs of 1 min (a few minutes)
+    python benches/fleet_bench.py --logs 100 --minutes 5   # the issue's size (~30 min here)
+
+Logs: simulated six-joint UR5 logs (base_link to tool0, Fourier excitation, friction,
+0.1 N m torque noise) at ``--rate`` Hz as MCAP, ``--per-robot`` logs per robot, made once
+into ``--dir`` (not timed). Each is then reduced to its fleet statistics (the streamed
+per-log pass), merged per robot and fitted, by:
+
+* ``identify (streamed)``: ``ivdyn.identify(stream=True, holdout=0)`` on each log in turn,
+  in this process: the single-log tool on the same logs (a fit per log, no merge);
+* ``in-process, 1 thread``: ``fleet.run(engine="local", num_cpus=1)``;
+* ``Ray, k workers``: ``fleet.run(engine="ray")`` on a local Ray runtime of ``k`` CPUs
+  (its start-up is timed apart and not counted);
+* ``in-process, 2 threads``: ``fleet.run(engine="local", num_cpus=2)``.
+
+Ray's overhead is its time over the in-process run's with as many workers. The peak memory
+per worker is the largest peak resident set (``VmHWM``) of the Ray worker processes that
+ran statistics, beside that of an idle worker (Python, NumPy, Ray, ivdyn imported). The
+projection to a cluster scales the per-core rate of the 2-worker Ray run.
+
+Each per-log pass runs its parallel filter on two threads and reads on a third, so on
+this 2-core machine one worker already uses more than one core: "per core" below divides
+by the machine's cores, not by workers.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+
+import ivdyn
+from ivdyn import fleet
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")
+BASE, TIP = "base_link", "tool0"
+
+
+def make_logs(d: str, count: int, minutes: float, rate: float, per_robot: int):
+    os.makedirs(d, exist_ok=True)
+    entries = []
+    for k in range(count):
+        path = os.path.join(d, f"log{k:04d}_{minutes:g}min_{rate:g}hz.mcap")
+        if not os.path.exists(path):
+            ivdyn.simulate(UR5, path + ".part.mcap", base=BASE, tip=TIP, duration=60.0 * minutes, rate=rate,
+                           seed=k + 1, fc=[2.0, 2.0, 1.5, 0.6, 0.6, 0.4], fv=[0.8, 0.8, 0.5, 0.2, 0.2, 0.1],
+                           noise=0.1)
+            os.replace(path + ".part.mcap", path)
+        entries.append(fleet.LogEntry(log=path, robot=f"arm-{k // per_robot:03d}", model=UR5, period="day0",
+                                      base=BASE, tip=TIP))
+    return entries
+
+
+def timed(f):
+    t = time.perf_counter()
+    out = f()
+    return time.perf_counter() - t, out
+
+
+def _descends_from_us(pid: int) -> bool:
+    """Whether ``pid`` was started (through any chain of parents) by this process: the
+    workers of the Ray runtime this script started, not another session's."""
+    me = os.getpid()
+    while pid > 1:
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                pid = int(f.read().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            return False
+        if pid == me:
+            return True
+    return False
+
+
+def worker_peaks_mb():
+    """Peak and current resident memory (MB) of this runtime's Ray worker processes."""
+    out = {}
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit() or not _descends_from_us(int(pid)):
+            continue
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                cmd = f.read().split(b"\0")[0].decode(errors="replace")
+            if not cmd.startswith("ray::"):
+                continue
+            with open(f"/proc/{pid}/status") as f:
+                st = dict(line.split(":", 1) for line in f if ":" in line)
+            out[int(pid)] = (cmd, int(st["VmHWM"].split()[0]) / 1024, int(st["VmRSS"].split()[0]) / 1024)
+        except (OSError, KeyError, ValueError):
+            continue
+    return out
+
+
+def ray_run(entries, cpus: int):
+    import ray
+
+    tmp = tempfile.mkdtemp(prefix="ivfb", dir="/tmp")
+    from ivdyn.fleet._ray import WORKER_ENV
+
+    # the runtime fleet.run starts (fleet._ray.start), in a private directory
+    t_init, _ = timed(lambda: ray.init(num_cpus=cpus, include_dashboard=False, _temp_dir=tmp,
+                                       log_to_driver=False, runtime_env={"env_vars": WORKER_ENV}))
+    try:
+        @ray.remote
+        def idle():
+            import ivdyn.fleet  # noqa: F401 -- what a statistics worker imports
+            return os.getpid()
+
+        # a worker that imported everything but ran no log: its peak is the baseline
+        idle_pid = ray.get(idle.remote())
+        before = worker_peaks_mb()
+        t, res = timed(lambda: fleet.run(entries, engine="ray"))
+        peaks = worker_peaks_mb()
+    finally:
+        ray.shutdown()
+    baseline = before.get(idle_pid, (None, float("nan"), float("nan")))[1]
+    return t, t_init, res, max((hwm for _, hwm, _ in peaks.values()), default=float("nan")), baseline
+
+
+def check(res, n):
+    bad = res.failed
+    if bad:
+        raise SystemExit(f"{len(bad)} of {n} logs failed: {bad[0]['error']}")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--logs", type=int, default=20)
+    ap.add_argument("--minutes", type=float, default=1.0)
+    ap.add_argument("--rate", type=float, default=1000.0)
+    ap.add_argument("--per-robot", type=int, default=5)
+    ap.add_argument("--dir", default=os.path.join(tempfile.gettempdir(), "ivdyn-fleet-bench"))
+    ap.add_argument("--hours-per-arm", type=float, default=8.0, help="logged hours per arm per day (projection)")
+    ap.add_argument("--arms", type=int, default=1000)
+    ap.add_argument("--turnaround-min", type=float, default=10.0)
+    a = ap.parse_args()
+
+    entries = make_logs(a.dir, a.logs, a.minutes, a.rate, a.per_robot)
+    load = os.getloadavg()[0]
+    hours = a.logs * a.minutes / 60.0
+    n = len(entries)
+    rows = []
+
+    def row(what, secs, workers, peak="", note=""):
+        rows.append((what, workers, secs, hours / secs, peak, note))
+
+    t_id, _ = timed(lambda: [ivdyn.identify(UR5, e.log, base=BASE, tip=TIP, stream=True, holdout=0.0,
+                                            coulomb="sign") for e in entries])
+    row("identify (streamed), one log after another", t_id, 1)
+    t_l1, r_l1 = timed(lambda: fleet.run(entries, engine="local", num_cpus=1))
+    check(r_l1, n)
+    row("fleet in-process, 1 thread", t_l1, 1)
+    ray_times = {}
+    for cpus in (1, 2):
+        t, t_init, res, peak, base = ray_run(entries, cpus)
+        check(res, n)
+        ray_times[cpus] = t
+        row(f"fleet on Ray, {cpus} worker(s)", t, cpus, f"{peak:.0f} (idle {base:.0f})",
+            f"Ray start {t_init:.1f} s, not counted")
+    t_l2, r_l2 = timed(lambda: fleet.run(entries, engine="local", num_cpus=2))
+    check(r_l2, n)
+    row("fleet in-process, 2 threads", t_l2, 2)
+
+    print(f"\n{n} logs x {a.minutes:g} min at {a.rate:g} Hz, six joints = {hours:.2f} log-hours; "
+          f"{os.cpu_count()} cores; load average at the start: {load:.2f}\n")
+    print("| run | workers | seconds | log-hours / s | peak MB per worker | note |")
+    print("|---|--:|--:|--:|--:|---|")
+    for what, w, secs, rate, peak, note in rows:
+        print(f"| {what} | {w} | {secs:.1f} | {rate:.3f} | {peak} | {note} |")
+    print()
+    for cpus, t_in in ((1, t_l1), (2, t_l2)):
+        print(f"Ray overhead, {cpus} worker(s): {100.0 * (ray_times[cpus] / t_in - 1.0):+.1f} % "
+              f"against the in-process run with {cpus} thread(s)")
+    per_core = hours / ray_times[2] / (os.cpu_count() or 2)
+    day = a.arms * a.hours_per_arm
+    cores = day / (per_core * 60.0 * a.turnaround_min)
+    print(f"\nProjection (not measured): {per_core * 3600:.0f} log-hours per core-hour on this machine's cores "
+          f"(Ray, 2 workers, {os.cpu_count()} cores); a {a.arms}-arm fleet logging {a.hours_per_arm:g} h a day "
+          f"at {a.rate:g} Hz = {day:.0f} log-hours a day, i.e. {day / per_core / 3600:.0f} core-hours, "
+          f"{cores:.0f} such cores for a {a.turnaround_min:g}-minute turnaround (no I/O limit, no scheduling "
+          f"overhead beyond what was measured here).")
+
+
+if __name__ == "__main__":
+    main()
