@@ -47,7 +47,7 @@ def _s3_client(uri: str) -> Any:
     with _lock:
         if _client is None:
             try:
-                import boto3
+                import boto3  # type: ignore[import-untyped,import-not-found]
             except ImportError as e:
                 raise ImportError(f"{uri}: reading s3:// logs needs boto3 (pip install 'ivdyn[s3]')") from e
             _client = boto3.session.Session().client("s3")
@@ -60,7 +60,7 @@ def local_copy(uri: str) -> Iterator[str]:
     tells MCAP from CSV), removed on exit. Errors name the URI."""
     bucket, key = split(uri)
     client = _s3_client(uri)
-    from boto3.s3.transfer import TransferConfig
+    from boto3.s3.transfer import TransferConfig  # type: ignore[import-untyped,import-not-found]
 
     fd, path = tempfile.mkstemp(prefix="ivdyn-s3-", suffix=os.path.splitext(key)[1])
     os.close(fd)
