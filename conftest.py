@@ -25,3 +25,14 @@ def ivdyn_exe():
 @pytest.fixture(scope="session")
 def ivdyn_bin():
     return ivdyn_exe()
+
+
+# `make test` skips nothing: a test that would skip (a missing package, a missing binary)
+# fails instead, with the reason, so that a suite never passes with a part of it unrun.
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    outcome = yield
+    rep = outcome.get_result()
+    if rep.skipped and not hasattr(rep, "wasxfail"):
+        rep.outcome = "failed"
+        rep.longrepr = f"skipped, and this suite skips nothing: {rep.longrepr}"

@@ -15,7 +15,7 @@ import pytest
 import ivdyn
 from ivdyn import fleet
 
-ray = pytest.importorskip("ray")
+import ray
 pytestmark = pytest.mark.xdist_group("ray")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

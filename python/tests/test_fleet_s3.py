@@ -16,8 +16,8 @@ import pytest
 import ivdyn
 from ivdyn import fleet
 
-boto3 = pytest.importorskip("boto3")
-pytest.importorskip("moto.server")
+import boto3
+import moto.server  # noqa: F401  (the S3 server the tests start)
 pytestmark = pytest.mark.xdist_group("ray")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -127,7 +127,7 @@ def test_s3_manifest_equals_the_local_run_and_names_a_missing_object(logs, tmp_p
 def test_s3_manifest_on_ray_equals_the_local_run(logs):
     """Ray workers read the objects themselves (they inherit the endpoint and credentials
     from the environment the runtime was started in)."""
-    ray = pytest.importorskip("ray")
+    import ray
     local, remote = logs
     tmp = tempfile.mkdtemp(prefix="ivs3", dir="/tmp")
     ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tmp, log_to_driver=False)

@@ -18,7 +18,7 @@ UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")
 sys.path.insert(0, os.path.join(ROOT, "python", "reference"))
 from ivdyn_ref import model as rm  # noqa: E402
 
-pd = pytest.importorskip("pandas")
+import pandas as pd
 FC = [2, 2, 1.5, 0.6, 0.6, 0.4]
 FV = [0.8, 0.8, 0.5, 0.2, 0.2, 0.1]
 NOISE = 0.05
@@ -176,7 +176,7 @@ def test_base_params_repr_and_html(ur5):
 
 @pytest.fixture(scope="module")
 def plt():
-    mpl = pytest.importorskip("matplotlib")
+    import matplotlib as mpl
     mpl.use("Agg")
     import matplotlib.pyplot as plt
     yield plt

@@ -15,7 +15,7 @@ import pytest
 
 import ivdyn
 
-pin = pytest.importorskip("pinocchio")
+import pinocchio as pin
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 URDF = os.path.join(ROOT, "tests", "data", "arm7_hand.urdf")
