@@ -13,9 +13,9 @@ thresholded least squares (STLSQ, Brunton et al. 2016) of `r = tau - rnea_nomina
   regressor columns (payload) and, as rigid-body corrections that name nothing, each other link's
   torque split into its mass, first-moment and rotational-inertia parts (the re-fit's columns);
 * generic terms of the joint's own q, qd, qdd: q^2, qd^2, qdd^2, q qd, q qdd, qd qdd, qd^3,
-  qd |qd|, sin q, cos q, sin 2q, cos 2q, and the torque of a one-sample shift of the
-  acceleration (M(q) dt dqdd/dt: the torque-to-motion alignment ivdyn fits; without it a
-  simulator's half-sample lag reads as viscous friction). These name nothing.
+  qd |qd|, sin q, cos q, sin 2q, cos 2q, and dt qddd (a shift of the acceleration by a sample:
+  the torque-to-motion alignment ivdyn fits, here per joint on the joint's own jerk; without
+  it a simulator's half-sample lag reads as viscous friction). These name nothing.
 
 Columns are scaled to unit RMS, so a coefficient is the RMS torque its term adds; STLSQ drops
 every term below `lambda` noise standard deviations (the joint's noise: MAD of the sample-to-sample
@@ -122,11 +122,8 @@ def dictionary(model, q, qd, qdd, qddd, dt, tau):
     theta = np.concatenate([links.ravel(), np.asarray(model.drive, float).ravel()])
     T = len(q)
     Y = np.empty((T, n, 14 * n))
-    shift = np.empty((T, n))
-    zero = np.zeros(n)
     for k in range(T):
         Y[k] = ref_dyn.regressor(model, q[k], qd[k], qdd[k])
-        shift[k] = ref_dyn.regressor(model, q[k], zero, dt * qddd[k], gravity=False)[:, :10 * n] @ links.ravel()
     r = tau - Y @ theta
     cols = []
     for j in range(n):
@@ -143,7 +140,7 @@ def dictionary(model, q, qd, qdd, qddd, dt, tau):
         c += [("q^2", None, x * x), ("qd^2", None, v * v), ("qdd^2", None, a * a), ("q qd", None, x * v),
               ("q qdd", None, x * a), ("qd qdd", None, v * a), ("qd^3", None, v ** 3), ("qd|qd|", None, v * abs(v)),
               ("sin q", None, np.sin(x)), ("cos q", None, np.cos(x)), ("sin 2q", None, np.sin(2 * x)),
-              ("cos 2q", None, np.cos(2 * x)), ("acceleration shift", None, shift[:, j])]
+              ("cos 2q", None, np.cos(2 * x)), ("dt qddd", None, dt * qddd[:, j])]
         cols.append(c)
     return r, cols
 
@@ -167,7 +164,10 @@ def stlsq(X, y, lam, ridge=0.0, iters=20):
         xi[:] = 0.0
         if len(idx):
             A = Xn[:, idx]
-            xi[idx] = np.linalg.solve(A.T @ A / len(y) + ridge * np.eye(len(idx)), A.T @ y / len(y))
+            if ridge > 0:
+                xi[idx] = np.linalg.solve(A.T @ A / len(y) + ridge * np.eye(len(idx)), A.T @ y / len(y))
+            else:  # plain least squares; collinear columns get the minimum-norm solution
+                xi[idx] = np.linalg.lstsq(A, y, rcond=None)[0]
         small = active & (np.abs(xi) < lam)
         if not small.any():
             break
@@ -177,9 +177,23 @@ def stlsq(X, y, lam, ridge=0.0, iters=20):
 
 
 class Prepared:
-    """One case's residual, dictionary and noise: everything but the threshold."""
+    """One case's residual, dictionary and noise: everything but the threshold (cached in
+    `cache` as .npz when given: the NumPy regressor is the slow part)."""
 
-    def __init__(self, case, manifest, root):
+    def __init__(self, case, manifest, root, cache=None):
+        path = os.path.join(cache, f"{os.path.basename(root)}_{case['name']}.npz") if cache else None
+        if path and os.path.exists(path):
+            z = np.load(path, allow_pickle=False)
+            self.names, self.r, self.sigma = list(manifest["joints"]), z["r"], list(z["sigma"])
+            self.X = [z[f"X{j}"] for j in range(len(self.names))]
+            self.kinds = [list(z[f"k{j}"]) for j in range(len(self.names))]
+            return
+        self._compute(case, manifest, root)
+        if path:
+            np.savez(path, r=self.r, sigma=np.array(self.sigma), **{f"X{j}": x for j, x in enumerate(self.X)},
+                     **{f"k{j}": np.array(k) for j, k in enumerate(self.kinds)})
+
+    def _compute(self, case, manifest, root):
         names = manifest["joints"]
         urdf = case["urdf"] if os.path.isabs(case["urdf"]) else os.path.join(sdc_root(), case["urdf"])
         model = ref_model.from_urdf(urdf, manifest["base"], manifest["tip"])
@@ -188,6 +202,7 @@ class Prepared:
         self.r, self.cols = dictionary(model, q, v, a, j3, dt, tau[keep])
         self.names = names
         self.X = [np.column_stack([c[2] for c in cols]) for cols in self.cols]
+        self.kinds = [[c[1] or "" for c in cols] for cols in self.cols]
         self.sigma = []
         for j in range(len(names)):
             full = self.r[:, j] - self.X[j] @ np.linalg.lstsq(self.X[j], self.r[:, j], rcond=None)[0]
@@ -200,7 +215,7 @@ class Prepared:
         for j, name in enumerate(self.names):
             coef, active = stlsq(self.X[j], self.r[:, j], lam * self.sigma[j], ridge)
             final.append(float(np.sqrt(np.mean((self.r[:, j] - self.X[j] @ coef) ** 2))))
-            kinds = {c[1] for c, a in zip(self.cols[j], active) if a and c[1]}
+            kinds = {k for k, a in zip(self.kinds[j], active) if a and k}
             if "stribeck_friction" in kinds:
                 kinds.discard("coulomb_friction")
             if "joint_spring" in kinds:
@@ -267,17 +282,26 @@ def main(argv=None):
                     help="the ivdyn binary scored beside the baseline (skipped when missing)")
     ap.add_argument("--lambdas", default=",".join(str(x) for x in LAMBDAS),
                     help="STLSQ thresholds tried, in noise standard deviations of RMS torque")
+    ap.add_argument("--cache", default=None, help="directory for the prepared dictionaries (.npz)")
+    ap.add_argument("--prepare-only", default=None, metavar="I/K",
+                    help="only fill --cache for every K-th case from the I-th (parallel preparation)")
     ap.add_argument("--ridges", default=",".join(str(x) for x in RIDGES),
                     help="ridges tried (relative to the unit diagonal of the normal equations)")
     args = ap.parse_args(argv)
     cases = load_cases(args.root, args.part)
+    if args.prepare_only:
+        i, k = (int(x) for x in args.prepare_only.split("/"))
+        for cid, m, case in cases[i::k]:
+            Prepared(case, m, m["_dir"], args.cache)
+            print(f"{cid}: prepared", file=sys.stderr)
+        return 0
     grid = [(float(x), float(y)) for x in args.lambdas.split(",") for y in args.ridges.split(",")]
     per_lam = {g: [] for g in grid}
     ivdyn = []
     have_bin = os.path.exists(args.bin)
     with tempfile.TemporaryDirectory() as tmp:
         for cid, m, case in cases:
-            p = Prepared(case, m, m["_dir"])
+            p = Prepared(case, m, m["_dir"], args.cache)
             for g in grid:
                 per_lam[g].append(p.run(*g))
             if have_bin:

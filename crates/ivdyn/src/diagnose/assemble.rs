@@ -275,7 +275,10 @@ fn verdict(
     details.extend(gaps.iter().map(|g| format!("left above the noise: {g}")));
     let has = |e: EffectKind| kept.iter().any(|st| st.effect == e);
     if has(EffectKind::Payload) {
-        details.push("the payload is not part of identify's model: estimate it with `ivdyn payload` on a log after the grasp".into());
+        details.push(
+            "the payload is not part of identify's model: estimate it with `ivdyn payload` on a log after the grasp"
+                .into(),
+        );
     }
     if has(EffectKind::JointSpring) {
         details.push("identify has no joint spring: it stays in identify's residual".into());
@@ -303,7 +306,11 @@ fn verdict(
 /// specially, else in single quotes.
 fn shell_word(arg: &str) -> String {
     let plain = |c: char| c.is_ascii_alphanumeric() || "_-./:=,@+%".contains(c);
-    if !arg.is_empty() && arg.chars().all(plain) { arg.to_string() } else { format!("'{}'", arg.replace('\'', "'\\''")) }
+    if !arg.is_empty() && arg.chars().all(plain) {
+        arg.to_string()
+    } else {
+        format!("'{}'", arg.replace('\'', "'\\''"))
+    }
 }
 
 /// The `ivdyn identify` command that fits the named effects into the model (physically
