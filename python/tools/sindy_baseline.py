@@ -151,29 +151,29 @@ def noise_std(res):
     return max(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0), 1e-12)
 
 
-def stlsq(X, y, lam, ridge=0.0, iters=20):
-    """Sequentially thresholded (ridge) least squares on unit-RMS columns, as PySINDy's STLSQ:
-    coefficients (in the columns' own scale) with every term adding less than `lam` RMS torque
-    dropped; `ridge` is relative to the unit diagonal of the normal equations (X^T X / T)."""
-    s = np.sqrt(np.mean(X ** 2, axis=0))
+def stlsq(G, b, lam, ridge=0.0, iters=20):
+    """Sequentially thresholded (ridge) least squares on unit-RMS columns, as PySINDy's STLSQ, from
+    the normal equations (G = X^T X / T, b = X^T y / T): coefficients (in the columns' own scale)
+    with every term adding less than `lam` RMS torque dropped; `ridge` is relative to the unit
+    diagonal of the scaled normal equations."""
+    s = np.sqrt(np.maximum(np.diag(G), 0.0))
     active = s > 0
-    Xn = np.where(active, X / np.where(active, s, 1.0), 0.0)
-    xi = np.zeros(X.shape[1])
+    inv = np.where(active, 1.0 / np.where(active, s, 1.0), 0.0)
+    Gn, bn = G * np.outer(inv, inv), b * inv
+    xi = np.zeros(len(b))
     for _ in range(iters):
         idx = np.flatnonzero(active)
         xi[:] = 0.0
         if len(idx):
-            A = Xn[:, idx]
-            if ridge > 0:
-                xi[idx] = np.linalg.solve(A.T @ A / len(y) + ridge * np.eye(len(idx)), A.T @ y / len(y))
-            else:  # plain least squares; collinear columns get the minimum-norm solution
-                xi[idx] = np.linalg.lstsq(A, y, rcond=None)[0]
+            A = Gn[np.ix_(idx, idx)] + ridge * np.eye(len(idx))
+            # ridge 0: collinear columns get the minimum-norm solution
+            xi[idx] = np.linalg.lstsq(A, bn[idx], rcond=None)[0]
         small = active & (np.abs(xi) < lam)
         if not small.any():
             break
         active &= ~small
     xi[~active] = 0.0
-    return np.where(s > 0, xi / np.where(s > 0, s, 1.0), 0.0), active
+    return xi * inv, active
 
 
 class Prepared:
@@ -212,8 +212,12 @@ class Prepared:
         """diagnosis.json-like {effects, final_rms} for threshold `lam` (noise std) and `ridge`."""
         named = {}
         final = []
+        if not hasattr(self, "G"):
+            T = len(self.r)
+            self.G = [x.T @ x / T for x in self.X]
+            self.b = [x.T @ self.r[:, j] / T for j, x in enumerate(self.X)]
         for j, name in enumerate(self.names):
-            coef, active = stlsq(self.X[j], self.r[:, j], lam * self.sigma[j], ridge)
+            coef, active = stlsq(self.G[j], self.b[j], lam * self.sigma[j], ridge)
             final.append(float(np.sqrt(np.mean((self.r[:, j] - self.X[j] @ coef) ** 2))))
             kinds = {k for k, a in zip(self.kinds[j], active) if a and k}
             if "stribeck_friction" in kinds:
