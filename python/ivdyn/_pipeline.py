@@ -444,10 +444,12 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
              gear_ratio=None, motor_constant=None, progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
-    ``effects`` [{name, joints, parameters, rms_before, rms_after}] in the order found
-    (empty when nothing is missing), ``baseline_rms`` and ``final_rms`` (N m per joint),
-    ``joints``, and ``nominal_refit`` {base_params, rms_before, rms_after, why} when the
-    nominal rigid-body model was re-fitted. With ``out`` (a directory) it also writes ``diagnosis.json``,
+    ``effects`` [{name, joints, parameters, parameters_std, rms_before, rms_after}] in the
+    order found (empty when nothing is missing; ``parameters_std``: the standard error of
+    each parameter), ``baseline_rms`` and ``final_rms`` (N m per joint), ``joints``,
+    ``nominal_refit`` {base_params, rms_before, rms_after, why} when the nominal rigid-body
+    model was re-fitted, and ``next_command`` (the ``ivdyn identify`` command to run next)
+    when something was found. With ``out`` (a directory) it also writes ``diagnosis.json``,
     ``report.html`` (unless ``report=False``) and ``residuals.mcap`` there.
 
     ``robot``: an :class:`ivdyn.Robot` or a URDF path (``base``/``tip`` links,

@@ -31,12 +31,16 @@ def _case(name):
 def test_diagnose_names_the_hidden_coulomb_friction(tmp_path):
     case, m = _case("coulomb")
     d = ivdyn.diagnose(_robot(case, m), os.path.join(CASES, case["log"]), out=tmp_path)
-    assert set(d) == {"effects", "baseline_rms", "final_rms", "joints"}
+    assert set(d) == {"effects", "baseline_rms", "final_rms", "joints", "next_command"}
+    assert d["next_command"].startswith("ivdyn identify --urdf ") and "--friction coulomb" in d["next_command"]
     assert d["joints"] == m["joints"]
     (e,) = d["effects"]
     truth = case["effects"][0]
     assert e["name"] == "coulomb_friction" and e["joints"] == truth["joints"]
     np.testing.assert_allclose(e["parameters"]["fc"], truth["parameters"]["fc"], rtol=0.1)
+    # a standard error for every parameter, same shape (docs/diagnose.md, "Uncertainty")
+    assert set(e["parameters_std"]) == set(e["parameters"]) and len(e["parameters_std"]["fc"]) == len(e["joints"])
+    assert all(0 < s < 0.1 * f for s, f in zip(e["parameters_std"]["fc"], e["parameters"]["fc"]))
     assert np.all(np.asarray(d["final_rms"]) <= 1.5 * np.asarray(case["oracle"]["oracle_rms_exact"]))
     # the output directory holds the same JSON, the report and the residual log
     with open(tmp_path / "diagnosis.json") as f:

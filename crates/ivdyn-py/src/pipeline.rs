@@ -655,6 +655,12 @@ fn diagnose(
             window,
             exclude: exclude.unwrap_or_default(),
             urdf_name,
+            // the chain as loaded, for the `ivdyn identify` command the diagnosis suggests
+            next_args: [("--base", r.base_link.as_str()), ("--tip", r.tip_link.as_str())]
+                .into_iter()
+                .chain((topic != "/joint_states").then_some(("--topic", topic)))
+                .flat_map(|(k, v)| [k.to_string(), v.to_string()])
+                .collect(),
             ..Default::default()
         },
         out,

@@ -4,7 +4,7 @@ use crate::stdout::say;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use clap::Args;
+use clap::{Args, ValueEnum};
 
 use super::{Bars, LogArgs, R, RobotArgs, condition_opts, load_robot, log_source, msg};
 use ivdyn::app::{DiagnoseJob, LogInput, diagnose_job};
@@ -56,6 +56,7 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
         exclude: cond.exclude.clone(),
         log_name: a.log.display().to_string(),
         urdf_name: a.robot.urdf.display().to_string(),
+        next_args: identify_args(&a),
         ..Default::default()
     };
     let job = DiagnoseJob {
@@ -71,11 +72,54 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// This run's robot and log options as `ivdyn identify` arguments (both commands share
+/// `RobotArgs` and `LogArgs`), for the next command the diagnosis suggests.
+fn identify_args(a: &DiagnoseArgs) -> Vec<String> {
+    let (r, l) = (&a.robot, &a.log_args);
+    let mut out: Vec<String> = vec![];
+    let mut opt = |name: &str, v: Option<String>| {
+        if let Some(v) = v {
+            out.extend([format!("--{name}"), v]);
+        }
+    };
+    opt("base", r.base.clone());
+    opt("tip", r.tip.clone());
+    opt("params", r.params.as_ref().map(|p| p.display().to_string()));
+    opt("topic", (l.topic != "/joint_states").then(|| l.topic.clone()));
+    opt("current-topic", l.current_topic.clone());
+    opt("torque-constant", l.torque_constant.clone());
+    opt("gear-ratio", l.gear_ratio.clone());
+    opt("motor-constant", l.motor_constant.clone());
+    opt("window", l.window.clone());
+    for e in &l.exclude {
+        opt("exclude", Some(e.clone()));
+    }
+    let name = |v: Option<clap::builder::PossibleValue>| v.map(|p| p.get_name().to_string());
+    let effort = name(l.effort.to_possible_value()).filter(|e| e != "auto");
+    opt("effort", effort);
+    let velocity = if a.ignore_log_velocity {
+        Some("positions".to_string())
+    } else {
+        name(l.velocity.to_possible_value()).filter(|v| v != "auto")
+    };
+    opt("velocity", velocity);
+    if r.fuse_beyond_tip {
+        out.push("--fuse-beyond-tip".into());
+    }
+    if l.log_time {
+        out.push("--log-time".into());
+    }
+    out
+}
+
 fn print_summary(d: &diagnose::Diagnosis) {
     let j = &d.json;
     say!("{}", d.verdict);
     for line in &d.details {
         say!("  * {line}");
+    }
+    if let Some(cmd) = &j.next_command {
+        say!("  * next: {cmd}");
     }
     for (st, e) in d.steps.iter().zip(&j.effects) {
         say!("\n{} ({})", st.effect.label(), e.name);

@@ -6,6 +6,7 @@ mod util;
 
 mod bag;
 mod common;
+mod diagnose;
 mod errors;
 mod fleet;
 mod friction;

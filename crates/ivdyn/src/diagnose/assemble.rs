@@ -9,6 +9,7 @@ use super::refit::{self, RefitDecision};
 use super::residual::{regimes, rms_per_joint};
 use super::rules::{Ctx, LINK_SCALE_MAX};
 use super::signals::Signals;
+use super::uncertainty;
 use super::{
     CandidateScore, DiagnoseOptions, Diagnosis, DiagnosisJson, EffectJson, EffectKind, LogInfo, NominalRefitJson,
     Regimes, Step, Traces,
@@ -49,6 +50,7 @@ pub(super) fn assemble(
     let e = effect_torque(&f, d, n, t_len);
     let r_final: Vec<f64> = (0..t_len * n).map(|i| r_nom[i] - e[i]).collect();
     let final_rms = rms_per_joint(&r_final, n);
+    let cov = uncertainty::covariance(&f, ctx.gr, &ctx.w, &r_final);
     let nominal_refit = match &refit {
         Some(dec) => {
             // the re-fit's own part of the final fit (its scales, no effect)
@@ -67,16 +69,17 @@ pub(super) fn assemble(
     let regimes_after = regimes(s, &r_final, n);
 
     let mut out_steps = merge_repeats(steps);
-    let effects = report_effects(&mut out_steps, &f, &m, d, names, &regimes_before, ctx);
+    let effects = report_effects(&mut out_steps, (&f, cov.as_ref()), &m, d, names, &regimes_before, ctx);
     let kept: Vec<Step> =
         out_steps.into_iter().filter(|st| effects.iter().any(|e| e.name == st.effect.name())).collect();
     let predicted = step_predictions(&raw, &kept, ctx, d, &p.tau_nom);
     let gaps = remaining_gaps(ctx, &m, &final_rms, &regimes_after, names);
-    let (verdict, details) = verdict(&kept, &gaps, nominal_refit.as_ref(), names, opts);
+    let next_command = next_command(&kept, nominal_refit.is_some(), opts);
+    let (verdict, details) = verdict(&kept, &effects, &gaps, nominal_refit.as_ref(), names);
     let traces =
         Traces { t: s.t.clone(), q: s.q.clone(), qd: s.qd.clone(), qdd: s.qdd.clone(), tau: s.tau.clone(), predicted };
     Ok(Diagnosis {
-        json: DiagnosisJson { effects, baseline_rms, final_rms, joints: names.clone(), nominal_refit },
+        json: DiagnosisJson { effects, baseline_rms, final_rms, joints: names.clone(), nominal_refit, next_command },
         steps: kept,
         final_candidates,
         noise_std: ctx.sigma.clone(),
@@ -109,12 +112,13 @@ fn merge_repeats(steps: Vec<(Step, Model)>) -> Vec<Step> {
     out_steps
 }
 
-/// The effects in the order found, with the final fit's parameters; an effect whose
-/// joints were all dropped by a later backward step is not reported. Sets each reported
-/// step's joints (those of the final model) and evidence.
+/// The effects in the order found, with the final fit's parameters and their standard
+/// errors (from `cov`, the covariance of the fit's `theta`); an effect whose joints were
+/// all dropped by a later backward step is not reported. Sets each reported step's joints
+/// (those of the final model) and evidence.
 fn report_effects(
     out_steps: &mut [Step],
-    f: &Fit,
+    (f, cov): (&Fit, Option<&nalgebra::DMatrix<f64>>),
     m: &Model,
     d: &Dictionary,
     names: &[String],
@@ -135,6 +139,9 @@ fn report_effects(
             continue;
         }
         let params = effect_parameters(kind, &joints, f, m, d, n);
+        let parameters_std = cov
+            .map(|c| uncertainty::parameters_std(f, c, &|g| effect_parameters(kind, &joints, g, m, d, n)))
+            .unwrap_or_default();
         st.joints = joints.clone();
         st.evidence = evidence(st, &params, names, regimes_before, ctx);
         effects.push(EffectJson {
@@ -145,6 +152,7 @@ fn report_effects(
                 joints.iter().map(|&j| names[j].clone()).collect()
             },
             parameters: params,
+            parameters_std,
             rms_before: st.rms_before.clone(),
             rms_after: st.rms_after.clone(),
         });
@@ -231,14 +239,15 @@ fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
 pub(super) const HEADLINE_MAX: usize = 200;
 
 /// The headline (one sentence, at most `HEADLINE_MAX` characters, naming what is missing)
-/// and the details below it: each effect with its joints, the nominal re-fit, what is
-/// left above the noise per joint, and the next command to run.
+/// and the details below it: each effect with its joints and parameters (value ± 2
+/// standard errors), the nominal re-fit, what is left above the noise per joint, and what
+/// the next command (`next_command`, shown beside them) leaves out.
 fn verdict(
     kept: &[Step],
+    effects: &[EffectJson],
     gaps: &[String],
     refit: Option<&NominalRefitJson>,
     names: &[String],
-    opts: &DiagnoseOptions,
 ) -> (String, Vec<String>) {
     let on = |st: &Step, full: bool| -> String {
         let js: Vec<&str> = st.joints.iter().map(|&j| names[j].as_str()).collect();
@@ -248,13 +257,31 @@ fn verdict(
             _ => format!("{} on {} joints", st.effect.label(), js.len()),
         }
     };
-    let mut details: Vec<String> = kept.iter().map(|st| format!("missing: {}", on(st, true))).collect();
+    let unit_of = |k: &str| super::report::param_meta(k).0;
+    let mut details: Vec<String> = kept
+        .iter()
+        .map(|st| match effects.iter().find(|e| e.name == st.effect.name()) {
+            Some(e) if !e.parameters_std.is_empty() => format!(
+                "missing: {}: {} (\u{b1} 2 standard errors)",
+                on(st, true),
+                uncertainty::with_two_std(&e.parameters, &e.parameters_std, &unit_of)
+            ),
+            _ => format!("missing: {}", on(st, true)),
+        })
+        .collect();
     if let Some(r) = refit {
         details.push(format!("nominal model re-fitted: {}", r.why));
     }
     details.extend(gaps.iter().map(|g| format!("left above the noise: {g}")));
-    if let Some(cmd) = next_command(kept, opts) {
-        details.push(format!("next: {cmd}"));
+    let has = |e: EffectKind| kept.iter().any(|st| st.effect == e);
+    if has(EffectKind::Payload) {
+        details.push(
+            "the payload is not part of identify's model: estimate it with `ivdyn payload` on a log after the grasp"
+                .into(),
+        );
+    }
+    if has(EffectKind::JointSpring) {
+        details.push("identify has no joint spring: it stays in identify's residual".into());
     }
     let refit_note = if refit.is_some() { " (on the re-fitted nominal inertials)" } else { "" };
     let left = if gaps.is_empty() {
@@ -275,10 +302,25 @@ fn verdict(
     (headline, details)
 }
 
-/// The `ivdyn identify` command that fits the named effects into the model (with the
-/// re-identified inertials), or `None` when nothing was named.
-fn next_command(kept: &[Step], opts: &DiagnoseOptions) -> Option<String> {
-    if kept.is_empty() {
+/// `arg` as one shell word: as it is when it holds only characters no shell treats
+/// specially, else in single quotes.
+fn shell_word(arg: &str) -> String {
+    let plain = |c: char| c.is_ascii_alphanumeric() || "_-./:=,@+%".contains(c);
+    if !arg.is_empty() && arg.chars().all(plain) {
+        arg.to_string()
+    } else {
+        format!("'{}'", arg.replace('\'', "'\\''"))
+    }
+}
+
+/// The `ivdyn identify` command that fits the named effects into the model (physically
+/// consistent inertials, written as a URDF), reading the robot and the log as this run
+/// did (`opts.next_args`); `None` when nothing was named and the nominal model was not
+/// re-fitted. Stribeck friction is identify's Coulomb friction with its shape chosen per
+/// joint (`--coulomb auto`, the default); a payload and a spring are not in its model (the
+/// details say so).
+fn next_command(kept: &[Step], refit: bool, opts: &DiagnoseOptions) -> Option<String> {
+    if kept.is_empty() && !refit {
         return None;
     }
     let has = |e: EffectKind| kept.iter().any(|st| st.effect == e);
@@ -289,26 +331,22 @@ fn next_command(kept: &[Step], opts: &DiagnoseOptions) -> Option<String> {
     if has(EffectKind::Viscous) {
         friction.push("viscous");
     }
-    let mut cmd = format!(
-        "ivdyn identify --urdf {} --log {} --consistent --friction {}",
-        if opts.urdf_name.is_empty() { "URDF" } else { &opts.urdf_name },
-        if opts.log_name.is_empty() { "LOG" } else { &opts.log_name },
-        if friction.is_empty() { "none".to_string() } else { friction.join(",") }
-    );
+    let or = |s: &str, d: &str| if s.is_empty() { d.to_string() } else { s.to_string() };
+    let mut args: Vec<String> =
+        vec!["--urdf".into(), or(&opts.urdf_name, "URDF"), "--log".into(), or(&opts.log_name, "LOG")];
+    args.extend(opts.next_args.iter().cloned());
+    args.push("--consistent".into());
+    args.push("--friction".into());
+    args.push(if friction.is_empty() { "none".into() } else { friction.join(",") });
     if !has(EffectKind::Armature) {
-        cmd.push_str(" --no-armature");
+        args.push("--no-armature".into());
     }
     if !has(EffectKind::TorqueOffset) {
-        cmd.push_str(" --no-offset");
+        args.push("--no-offset".into());
     }
-    cmd.push_str(" --write-urdf identified.urdf");
-    if has(EffectKind::Payload) {
-        cmd.push_str(" (the payload: ivdyn payload)");
-    }
-    if has(EffectKind::JointSpring) {
-        cmd.push_str(" (identify has no joint spring: it stays in the residual)");
-    }
-    Some(cmd)
+    args.extend(["--write-urdf".to_string(), "identified.urdf".to_string()]);
+    let words: Vec<String> = args.iter().map(|a| shell_word(a)).collect();
+    Some(format!("ivdyn identify {}", words.join(" ")))
 }
 
 /// The facts about the input the report shows.

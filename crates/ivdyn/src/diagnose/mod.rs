@@ -12,6 +12,7 @@
 //! * `refit`: the nominal model's own error re-fitted when the log calls for it.
 //! * `rules`: scoring a candidate (F test, held-out share, size, physics, look-alikes).
 //! * [`search`]: the add / drop / refit loop ([`diagnose`]).
+//! * `uncertainty`: standard errors of the final fit's parameters (`parameters_std`).
 //! * `assemble`: the [`Diagnosis`] of the model found (parameters, evidence, verdict).
 //!
 //! And [`report`]: `report.html` (self-contained, PNG plots) and `residuals.mcap`.
@@ -32,6 +33,7 @@ mod residual;
 mod rules;
 pub mod search;
 mod signals;
+mod uncertainty;
 
 pub use search::diagnose;
 
@@ -66,6 +68,10 @@ pub struct DiagnoseOptions {
     pub log_name: String,
     /// URDF file name for the report (informational).
     pub urdf_name: String,
+    /// How this run read the robot and the log, as `ivdyn identify` arguments beyond
+    /// `--urdf` and `--log` (`--base`, `--tip`, `--topic`, ...): the next command the
+    /// report suggests (`next_command`) reads them the same way.
+    pub next_args: Vec<String>,
 }
 
 impl DiagnoseOptions {
@@ -95,6 +101,7 @@ impl Default for DiagnoseOptions {
             max_steps: 10,
             log_name: String::new(),
             urdf_name: String::new(),
+            next_args: vec![],
         }
     }
 }
@@ -176,6 +183,11 @@ pub struct EffectJson {
     /// `{"fc","fs","vs"}`, armature `{"ia"}`, torque_offset `{"tau0"}`, joint_spring
     /// `{"k","q0"}` (lists over `joints`), payload `{"mass","com","inertia"}`.
     pub parameters: serde_json::Map<String, serde_json::Value>,
+    /// Standard error of each parameter, same keys and shape as `parameters` (`null` where
+    /// there is none: a shape chosen on a grid, a value that is not identifiable); from
+    /// the final fit's covariance (docs/diagnose.md, "Uncertainty"). Not written when empty.
+    #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
+    pub parameters_std: serde_json::Map<String, serde_json::Value>,
     /// RMS residual per joint (N m, whole log) before this effect was added.
     pub rms_before: Vec<f64>,
     /// RMS residual per joint (N m, whole log) with it (and every earlier effect) added.
@@ -197,6 +209,11 @@ pub struct DiagnosisJson {
     /// when the log did not call for it (then the key is not written).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub nominal_refit: Option<NominalRefitJson>,
+    /// The `ivdyn identify` command to run next (the named effects switched on, the
+    /// identified model written as a URDF), as it can be pasted into a shell; absent when
+    /// nothing was named and the nominal model was not re-fitted.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub next_command: Option<String>,
 }
 
 /// `nominal_refit` of `diagnosis.json`: the rigid-body model the effects were searched on.

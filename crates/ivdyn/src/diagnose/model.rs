@@ -145,7 +145,7 @@ pub(super) fn joint_index(params: &[Param], j: usize) -> Vec<(usize, usize)> {
     params.iter().enumerate().filter(|(_, p)| p.joint.is_none_or(|x| x == j)).map(|(i, p)| (i, p.col)).collect()
 }
 
-fn sum_folds(g: &[DMatrix<f64>; 2], folds: &[usize]) -> DMatrix<f64> {
+pub(super) fn sum_folds(g: &[DMatrix<f64>; 2], folds: &[usize]) -> DMatrix<f64> {
     let mut m = g[folds[0]].clone();
     for &f in &folds[1..] {
         m += &g[f];
@@ -153,14 +153,18 @@ fn sum_folds(g: &[DMatrix<f64>; 2], folds: &[usize]) -> DMatrix<f64> {
     m
 }
 
-/// Weighted LS over `folds` (weights `w[j]` per joint). Rank-deficient directions (e.g.
-/// payload parameters this motion cannot see) get the minimum-norm solution.
-pub(super) fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]) -> Fit {
+/// The weighted normal equations of [`fit`] over `folds`: `A = sum_j w_j X_j^T X_j` and
+/// `b = sum_j w_j X_j^T r_j` on the model's parameters, from the Gram matrices.
+pub(super) fn normal_equations(
+    model_params: &[Param],
+    gr: &Grams,
+    w: &[f64],
+    folds: &[usize],
+) -> (DMatrix<f64>, DVector<f64>) {
     let p = model_params.len();
-    let n = gr.g.len();
     let mut a = DMatrix::<f64>::zeros(p, p);
     let mut b = DVector::<f64>::zeros(p);
-    for j in 0..n {
+    for j in 0..gr.g.len() {
         let g = sum_folds(&gr.g[j], folds);
         let idx = joint_index(model_params, j);
         for &(ia, ca) in &idx {
@@ -170,9 +174,14 @@ pub(super) fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]
             }
         }
     }
-    if p == 0 {
-        return Fit { params: vec![], theta: vec![] };
-    }
+    (a, b)
+}
+
+/// The solution operator of [`fit`] for the normal matrix `a`: the column scaling `s`
+/// (unit diagonal) and the pseudo-inverse of the scaled matrix with the ridge on the
+/// link-scale parameters, so that `theta = S pinv (S b)`; `None` if the SVD fails.
+pub(super) fn scaled_pinv(model_params: &[Param], ridge: f64, a: &DMatrix<f64>) -> Option<(Vec<f64>, DMatrix<f64>)> {
+    let p = model_params.len();
     // scale to unit diagonal, then a pseudo-inverse with a relative threshold
     let s: Vec<f64> = (0..p).map(|i| if a[(i, i)] > 0.0 { 1.0 / a[(i, i)].sqrt() } else { 0.0 }).collect();
     let mut an = DMatrix::from_fn(p, p, |i, k| a[(i, k)] * s[i] * s[k]);
@@ -180,17 +189,29 @@ pub(super) fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]
     // ridge chosen for the nominal re-fit (0: plain least squares)
     for (i, q) in model_params.iter().enumerate() {
         if q.kind.is_none() && s[i] > 0.0 {
-            an[(i, i)] += gr.ridge;
+            an[(i, i)] += ridge;
         }
     }
-    let bn = DVector::from_fn(p, |i, _| b[i] * s[i]);
-    // The Gram matrices are checked finite before the search (`prepare`), so this converges;
-    // were it not to, the candidate explains nothing (zero effects) rather than hanging.
-    let Ok(svd) = crate::linalg::svd(an, true, true, "diagnosis: candidate fit") else {
-        return Fit { params: model_params.to_vec(), theta: vec![0.0; p] };
-    };
+    let svd = crate::linalg::svd(an, true, true, "diagnosis: candidate fit").ok()?;
     let tol = 1e-10 * svd.singular_values.max();
     let pinv = svd.pseudo_inverse(tol).unwrap_or_else(|_| DMatrix::zeros(p, p));
+    Some((s, pinv))
+}
+
+/// Weighted LS over `folds` (weights `w[j]` per joint). Rank-deficient directions (e.g.
+/// payload parameters this motion cannot see) get the minimum-norm solution.
+pub(super) fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]) -> Fit {
+    let p = model_params.len();
+    if p == 0 {
+        return Fit { params: vec![], theta: vec![] };
+    }
+    let (a, b) = normal_equations(model_params, gr, w, folds);
+    // The Gram matrices are checked finite before the search (`prepare`), so this converges;
+    // were it not to, the candidate explains nothing (zero effects) rather than hanging.
+    let Some((s, pinv)) = scaled_pinv(model_params, gr.ridge, &a) else {
+        return Fit { params: model_params.to_vec(), theta: vec![0.0; p] };
+    };
+    let bn = DVector::from_fn(p, |i, _| b[i] * s[i]);
     let xn = &pinv * &bn;
     let theta: Vec<f64> = (0..p).map(|i| xn[i] * s[i]).collect();
     Fit { params: model_params.to_vec(), theta }

@@ -24,6 +24,25 @@ pub const HTML_FILE: &str = "report.html";
 /// File name of the log written by [`write_mcap`].
 pub const MCAP_FILE: &str = "residuals.mcap";
 
+/// Unit and meaning of an effect parameter of `diagnosis.json` (revolute joints; for a
+/// prismatic joint read N for N m and m for rad).
+pub fn param_meta(key: &str) -> (&'static str, &'static str) {
+    match key {
+        "fc" => ("N m", "Coulomb friction level"),
+        "fs" => ("N m", "Stribeck excess over Coulomb at rest"),
+        "vs" => ("rad/s", "Stribeck velocity"),
+        "fv" => ("N m s/rad", "viscous coefficient"),
+        "ia" => ("kg m\u{b2}", "armature (rotor) inertia"),
+        "tau0" => ("N m", "torque offset"),
+        "k" => ("N m/rad", "spring stiffness"),
+        "q0" => ("rad", "spring rest position"),
+        "mass" => ("kg", "mass"),
+        "com" => ("m", "centre of mass [x, y, z] in the terminal link frame"),
+        "inertia" => ("kg m\u{b2}", "inertia about the COM [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]"),
+        _ => ("", ""),
+    }
+}
+
 /// Sample count `T` and joint count `N` of a diagnosis whose arrays all agree; otherwise
 /// an error naming the field.
 fn check_shapes(d: &Diagnosis) -> Result<(usize, usize)> {

@@ -202,7 +202,8 @@ fn headline_and_rejection_rules() {
         let d = run_full(set, case, &m);
         assert!(d.verdict.chars().count() <= 200, "{}", d.verdict);
         assert!(d.verdict.starts_with("Missing:") && !d.verdict.contains('\n'), "{}", d.verdict);
-        assert!(d.details.iter().any(|l| l.starts_with("next: ivdyn identify")), "{:?}", d.details);
+        let next = d.json.next_command.as_deref().unwrap_or_default();
+        assert!(next.starts_with("ivdyn identify --urdf "), "{name}: next command {next:?}");
         let rows = d.steps.iter().flat_map(|s| &s.candidates).chain(&d.final_candidates);
         let mut rejected = 0;
         for c in rows {

@@ -93,6 +93,7 @@ fn synthetic() -> Diagnosis {
                 name: "coulomb_friction".into(),
                 joints: joints.clone(),
                 parameters: params,
+                parameters_std: serde_json::json!({"fc": [0.005, 0.0125]}).as_object().unwrap().clone(),
                 rms_before: vec![0.512, 1.25],
                 rms_after: vec![0.0225, 0.0478],
             }],
@@ -100,6 +101,7 @@ fn synthetic() -> Diagnosis {
             final_rms: vec![0.0225, 0.0478],
             joints: joints.clone(),
             nominal_refit: None,
+            next_command: Some("ivdyn identify --urdf 'robots/my arm.urdf' --friction coulomb".into()),
         },
         steps: vec![Step {
             effect: EffectKind::Coulomb,
@@ -226,7 +228,12 @@ fn html_is_self_contained_and_complete() {
 
     // Parameters with units, evidence, candidate scores.
     assert!(html.contains("Coulomb friction level <span class=\"unit\">(N m)</span>"));
-    assert!(html.contains(">0.500<") && html.contains(">1.25<"));
+    // each value with twice its standard error, and the next command
+    assert!(html.contains(">0.500 \u{b1} 0.0100<") && html.contains(">1.25 \u{b1} 0.0250<"));
+    assert!(html.contains("\u{b1} 2 standard errors"));
+    assert!(html.contains(
+        "<p id=\"next-command\">Next command: <code>ivdyn identify --urdf &#39;robots/my arm.urdf&#39; --friction coulomb</code></p>"
+    ));
     assert!(html.contains("residual jumps by 2.5 N m at every velocity reversal"));
     for s in [
         ">812<",

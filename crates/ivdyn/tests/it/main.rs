@@ -12,6 +12,7 @@ mod consistent;
 mod coulomb_shape;
 mod diagnose_cases;
 mod diagnose_report;
+mod diagnose_uncertainty;
 mod drive_gains;
 mod dwh_level;
 mod effort_current;

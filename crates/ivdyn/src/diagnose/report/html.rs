@@ -9,6 +9,8 @@ use crate::diagnose::{CandidateScore, Diagnosis, EffectJson, EffectKind, Regimes
 use crate::report::page::{self, esc, figure, file_name, fmt_num, fmt_p, fmt_pct, unit};
 use crate::report::plots::Png;
 
+use super::param_meta;
+
 /// The figures of one joint.
 pub(super) struct JointFigures {
     /// Measured vs predicted torque.
@@ -27,25 +29,6 @@ pub(super) struct Figures {
     pub joints: Vec<JointFigures>,
 }
 
-/// Unit and meaning of an effect parameter of `diagnosis.json` (revolute joints; for a
-/// prismatic joint read N for N m and m for rad).
-fn param_meta(key: &str) -> (&'static str, &'static str) {
-    match key {
-        "fc" => ("N m", "Coulomb friction level"),
-        "fs" => ("N m", "Stribeck excess over Coulomb at rest"),
-        "vs" => ("rad/s", "Stribeck velocity"),
-        "fv" => ("N m s/rad", "viscous coefficient"),
-        "ia" => ("kg m\u{b2}", "armature (rotor) inertia"),
-        "tau0" => ("N m", "torque offset"),
-        "k" => ("N m/rad", "spring stiffness"),
-        "q0" => ("rad", "spring rest position"),
-        "mass" => ("kg", "mass"),
-        "com" => ("m", "centre of mass [x, y, z] in the terminal link frame"),
-        "inertia" => ("kg m\u{b2}", "inertia about the COM [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]"),
-        _ => ("", ""),
-    }
-}
-
 /// The whole page.
 pub(super) fn document(d: &Diagnosis, figs: &Figures) -> String {
     let mut o = String::with_capacity(4 << 20);
@@ -62,6 +45,9 @@ pub(super) fn document(d: &Diagnosis, figs: &Figures) -> String {
             let _ = writeln!(o, "<li>{}</li>", esc(line));
         }
         o.push_str("</ul>\n");
+    }
+    if let Some(cmd) = &d.json.next_command {
+        let _ = writeln!(o, "<p id=\"next-command\">Next command: <code>{}</code></p>", esc(cmd));
     }
     o.push_str(
         "<nav><a href=\"#rms\">RMS table</a><a href=\"#steps\">Steps</a><a href=\"#final\">Final check</a>\
@@ -199,8 +185,9 @@ fn params_table(o: &mut String, e: &EffectJson, kind: EffectKind) {
         o.push_str("</tr>\n");
         for (r, joint) in e.joints.iter().enumerate() {
             let _ = write!(o, "<tr><td>{}</td>", esc(joint));
-            for v in e.parameters.values() {
-                let _ = write!(o, "<td class=\"n\">{}</td>", value_text(&v[r]));
+            for (key, v) in &e.parameters {
+                let s = e.parameters_std.get(key).and_then(|s| s.get(r));
+                let _ = write!(o, "<td class=\"n\">{}</td>", value_text(&v[r], s));
             }
             o.push_str("</tr>\n");
         }
@@ -215,18 +202,35 @@ fn params_table(o: &mut String, e: &EffectJson, kind: EffectKind) {
                 esc(key),
                 esc(what),
                 unit(u),
-                value_text(v)
+                value_text(v, e.parameters_std.get(key))
             );
         }
         o.push_str("</table>\n");
     }
+    if !e.parameters_std.is_empty() {
+        o.push_str(
+            "<p class=\"note\">Values \u{b1} 2 standard errors (about 95 % when the residual is \
+             noise of the estimated level; from the final fit's covariance, docs/diagnose.md \
+             \u{201c}Uncertainty\u{201d}); no \u{b1} where there is none (a shape chosen on a grid).</p>\n",
+        );
+    }
 }
 
-/// A JSON parameter value as text: numbers with [`fmt_num`], lists in brackets.
-fn value_text(v: &Value) -> String {
+/// A JSON parameter value as text: numbers with [`fmt_num`], `\u{b1}` twice its standard
+/// error `std` when there is one, lists in brackets.
+fn value_text(v: &Value, std: Option<&Value>) -> String {
     match v {
-        Value::Number(n) => n.as_f64().map(fmt_num).unwrap_or_else(|| esc(&n.to_string())),
-        Value::Array(a) => format!("[{}]", a.iter().map(value_text).collect::<Vec<_>>().join(", ")),
+        Value::Number(n) => {
+            let x = n.as_f64().map(fmt_num).unwrap_or_else(|| esc(&n.to_string()));
+            match std.and_then(Value::as_f64) {
+                Some(s) => format!("{x} \u{b1} {}", fmt_num(2.0 * s)),
+                None => x,
+            }
+        }
+        Value::Array(a) => format!(
+            "[{}]",
+            a.iter().enumerate().map(|(i, x)| value_text(x, std.and_then(|s| s.get(i)))).collect::<Vec<_>>().join(", ")
+        ),
         Value::Null => "\u{2013}".into(),
         other => esc(&other.to_string()),
     }

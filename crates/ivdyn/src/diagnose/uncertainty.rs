@@ -1,0 +1,152 @@
+//! Standard errors of the identified effect parameters (`parameters_std` of
+//! `diagnosis.json`, docs/diagnose.md "Uncertainty").
+//!
+//! The final fit is a weighted least-squares fit `theta = H b`, `b = sum_j w_j X_j^T r_j`
+//! (`model::fit`; `H` its solution operator, with the nominal re-fit's ridge when there
+//! is one). Its covariance is the sandwich `H (sum_j w_j^2 s_j^2 tau_j X_j^T X_j) H`, with
+//! per joint `s_j^2` the final residual's variance (RSS over the degrees of freedom left)
+//! and `tau_j` its integrated autocorrelation time: for regressors that vary slowly
+//! against the residual's correlation (friction, offset, spring, inertial columns), the
+//! variance of `X_j^T e_j` is `tau_j` times its white-noise value. With white noise of
+//! the weights' level this is the textbook `(X^T W X)^-1`. It does not hold the bias of
+//! the ridge, nor the uncertainty of shapes chosen on a grid (a Stribeck `vs`): those get
+//! no standard error (`null`).
+//!
+//! The parameters of `diagnosis.json` are functions of `theta` (a spring's `q0 = qm - c/k`,
+//! a payload's centre of mass `m c / m`): their standard errors are propagated to first
+//! order (delta method) with central differences of that very function.
+
+use nalgebra::DMatrix;
+use serde_json::Value;
+
+use super::dictionary::Grams;
+use super::model::{Fit, joint_index, normal_equations, rss_joint, scaled_pinv, sum_folds};
+use super::residual::noise_and_tau;
+
+type Params = serde_json::Map<String, serde_json::Value>;
+
+/// Covariance of `f.theta` (module docs) for the weights `w` and the final residual
+/// `r_final` (`T x N`, row-major); `None` when the fit's operator cannot be formed.
+pub(super) fn covariance(f: &Fit, gr: &Grams, w: &[f64], r_final: &[f64]) -> Option<DMatrix<f64>> {
+    let p = f.params.len();
+    let n = gr.g.len();
+    if p == 0 || n == 0 {
+        return None;
+    }
+    let (a, _) = normal_equations(&f.params, gr, w, &[0, 1]);
+    let (s, pinv) = scaled_pinv(&f.params, gr.ridge, &a)?;
+    let h = DMatrix::from_fn(p, p, |i, k| s[i] * pinv[(i, k)] * s[k]);
+    let mut meat = DMatrix::<f64>::zeros(p, p);
+    for j in 0..n {
+        let idx = joint_index(&f.params, j);
+        let rows = (gr.rows[j][0] + gr.rows[j][1]) as f64;
+        let dof = (rows - idx.len() as f64).max(1.0);
+        let var = rss_joint(f, gr, j, &[0, 1]) / dof;
+        let (_, tau) = noise_and_tau(r_final, n, j);
+        let c = w[j] * w[j] * var * tau;
+        let g = sum_folds(&gr.g[j], &[0, 1]);
+        for &(ia, ca) in &idx {
+            for &(ib, cb) in &idx {
+                meat[(ia, ib)] += c * g[(ca, cb)];
+            }
+        }
+    }
+    let cov = &h * meat * h.transpose();
+    cov.iter().all(|x| x.is_finite()).then_some(cov)
+}
+
+/// The numbers of a parameter map in order (lists flattened; `null` as NaN).
+fn numbers(p: &Params) -> Vec<f64> {
+    let mut out = vec![];
+    for v in p.values() {
+        match v {
+            Value::Array(a) => out.extend(a.iter().map(|x| x.as_f64().unwrap_or(f64::NAN))),
+            x => out.push(x.as_f64().unwrap_or(f64::NAN)),
+        }
+    }
+    out
+}
+
+/// `template`'s shape filled with `vals` in order (`None`: `null`).
+fn same_shape(template: &Params, vals: &[Option<f64>]) -> Params {
+    let mut it = vals.iter();
+    let mut num = || it.next().copied().flatten().map_or(Value::Null, Value::from);
+    template
+        .iter()
+        .map(|(k, v)| {
+            let out = match v {
+                Value::Array(a) => Value::Array(a.iter().map(|_| num()).collect()),
+                _ => num(),
+            };
+            (k.clone(), out)
+        })
+        .collect()
+}
+
+/// The standard error of each parameter of `eval(f)` (same keys and shape), propagated
+/// from `cov` to first order; `null` where a parameter does not depend on the fitted
+/// `theta` (chosen on a grid) or is not a number.
+pub(super) fn parameters_std(f: &Fit, cov: &DMatrix<f64>, eval: &dyn Fn(&Fit) -> Params) -> Params {
+    let base = eval(f);
+    let x0 = numbers(&base);
+    let p = f.theta.len();
+    // Jacobian d(parameters)/d(theta), central differences at a thousandth of each std
+    let mut jac = DMatrix::<f64>::zeros(x0.len(), p);
+    for i in 0..p {
+        let h = 1e-3 * cov[(i, i)].max(0.0).sqrt();
+        if h <= 0.0 || !h.is_finite() {
+            continue;
+        }
+        let at = |d: f64| {
+            let mut g = f.clone();
+            g.theta[i] += d;
+            numbers(&eval(&g))
+        };
+        let (hi, lo) = (at(h), at(-h));
+        if hi.len() != x0.len() || lo.len() != x0.len() {
+            continue;
+        }
+        for r in 0..x0.len() {
+            jac[(r, i)] = (hi[r] - lo[r]) / (2.0 * h);
+        }
+    }
+    let var = &jac * cov * jac.transpose();
+    let std: Vec<Option<f64>> = (0..x0.len())
+        .map(|r| {
+            let row = jac.row(r);
+            let ok = x0[r].is_finite() && row.iter().all(|x| x.is_finite()) && row.iter().any(|&x| x != 0.0);
+            ok.then(|| var[(r, r)].max(0.0).sqrt())
+        })
+        .collect();
+    same_shape(&base, &std)
+}
+
+/// `value ± 2 std` of every parameter of an effect, with its unit (`unit_of` a key), for
+/// the verdict's details: `fc = 1.00 ± 0.0213, 0.502 ± 0.011 N m`.
+pub(super) fn with_two_std(params: &Params, std: &Params, unit_of: &dyn Fn(&str) -> &'static str) -> String {
+    use crate::report::page::fmt_num;
+    let one = |v: &Value, s: Option<&Value>| -> String {
+        let v = v.as_f64().map_or("\u{2013}".to_string(), fmt_num);
+        match s.and_then(Value::as_f64) {
+            Some(s) => format!("{v} \u{b1} {}", fmt_num(2.0 * s)),
+            None => v,
+        }
+    };
+    params
+        .iter()
+        .map(|(k, v)| {
+            let s = std.get(k);
+            let text = match v {
+                Value::Array(a) => {
+                    let parts: Vec<String> =
+                        a.iter().enumerate().map(|(i, x)| one(x, s.and_then(|s| s.get(i)))).collect();
+                    parts.join(", ")
+                }
+                x => one(x, s),
+            };
+            let u = unit_of(k);
+            if u.is_empty() { format!("{k} = {text}") } else { format!("{k} = {text} {u}") }
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
