@@ -8,12 +8,14 @@ test is, and the flagged changes' sizes agree with the truth within 4 standard
 deviations. Then the report: it parses, names the changed arms first, and its parameter
 files reload.
 
-Why this size: 120 logs of 12,000 samples keep the six-joint UR5 generation and the run
-to ~20 s on 2 cores; each planted change is tens of standard deviations at one day's log.
+Why this size: 120 logs of 12,000 samples of the six-joint UR5 cost ~42 CPU seconds
+(generation 5, statistics and fits 35, drift 2; release build), ~21 s on 2 cores plus Ray's
+start; each planted change is still at least ~5 standard deviations in one day's log (the
+torque bias, the weakest: 0.3 N m against a 95 % interval of about +-0.11 N m).
 
-False-flag chance: the drift tests (12 arms x 9 days x 26 effects, ~2,800) are flagged by
+False-flag chance: the drift tests (12 arms x 9 days x 24 effects: 2,592) are flagged by
 Benjamini-Hochberg at ``Q`` = 0.001. With ~17 true discoveries, a null test is flagged
-when its p-value is below ~17 Q / 2,800, so the expected number of false flags is about
+when its p-value is below ~17 Q / 2,592, so the expected number of false flags is about
 17 Q = 0.017: this test fails by chance with probability under 2 % (for its one seed it
 either always passes or always fails; it is deterministic).
 """

@@ -193,10 +193,9 @@ pub fn describe(robot: &str, t: &DriftTest, since: &str) -> String {
         None => format!("{robot}: {what}"),
     };
     if t.change.len() != 1 {
-        return format!(
-            "{head} changed since {since} ({} parameters, chi2 {:.1}, p = {:.2e})",
-            t.dof, t.statistic, t.p_value
-        );
+        // below 1e-16 the p-value is rounding (or underflow) of the χ² tail
+        let p = if t.p_value < 1e-16 { "p < 1e-16".to_string() } else { format!("p = {:.2e}", t.p_value) };
+        return format!("{head} changed since {since} ({} parameters, chi2 {:.1}, {p})", t.dof, t.statistic);
     }
     let (r, d, s) = (t.reference[0], t.change[0], t.std[0]);
     let ci = CI95 * s;
