@@ -16,7 +16,7 @@ __all__ = [
     "fit_robot", "payload_from_fit", "read_joint_states", "paper_estimators", "terminal_base",
     "terminal_link", "closed_loop", "control_experiment", "identify", "payload", "gains", "simulate", "diagnose",
     "excite", "fleet_log_stats", "fleet_merge", "fleet_stats_info", "fleet_fit", "fleet_drift",
-    "fleet_fdr",
+    "fleet_fdr", "fleet_describe",
     "batch_threads", "__version__", "MAX_DOF", "inertia_to_urdf", "inertia_from_urdf", "INERTIA_ORDER",
     "INERTIA_URDF_ORDER",
 ]
@@ -341,6 +341,8 @@ def fleet_drift(robot: Robot, reference: bytes, stats: bytes, robot_id: str, sin
     """JSON list of drift tests (one per effect, with ``words``) of ``stats`` against ``reference``."""
 def fleet_fdr(p_values: List[float], q: float) -> List[bool]:
     """Benjamini-Hochberg discoveries at false-discovery rate ``q``."""
+def fleet_describe(robot_id: str, test_json: str, since: str) -> str:
+    """The words of a drift test (JSON) for ``robot_id``, dated ``since``."""
 def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/joint_states",
              log_time: bool = False, cutoff: Optional[float] = None, alpha: float = 1e-3,
              min_effect: float = 0.5, ignore_log_velocity: bool = False, report: bool = True,

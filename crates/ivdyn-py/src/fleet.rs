@@ -167,6 +167,15 @@ fn fleet_drift(
     json(&out)
 }
 
+/// The words of a drift test (JSON, one of `fleet_drift`'s tests) for `robot_id`, dated
+/// `since`.
+#[pyfunction]
+fn fleet_describe(robot_id: &str, test_json: &str, since: &str) -> PyResult<String> {
+    let t: drift::DriftTest = serde_json::from_str(test_json)
+        .map_err(|e| PyValueError::new_err(format!("not a drift test of ivdyn.fleet.drift: {e}")))?;
+    Ok(drift::describe(robot_id, &t, since))
+}
+
 /// Benjamini-Hochberg discoveries among `p_values` at false-discovery rate `q`.
 #[pyfunction]
 fn fleet_fdr(p_values: Vec<f64>, q: f64) -> PyResult<Vec<bool>> {
@@ -183,5 +192,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(fleet_fit, m)?)?;
     m.add_function(wrap_pyfunction!(fleet_drift, m)?)?;
     m.add_function(wrap_pyfunction!(fleet_fdr, m)?)?;
+    m.add_function(wrap_pyfunction!(fleet_describe, m)?)?;
     Ok(())
 }

@@ -1,18 +1,19 @@
-"""``python -m ivdyn.fleet MANIFEST --out DIR``: the fleet run of :func:`ivdyn.fleet.run`
-and the drift of :func:`ivdyn.fleet.drift`, written to ``DIR/fleet.json`` (rows, fits,
-drift tests, flagged changes in words) and one parameter file per robot and period
-(``DIR/params/<robot>_<period>.json``, reloadable with ``--params``). Every file is
-written to a temporary name first and moved in place once all are written."""
+"""``python -m ivdyn.fleet MANIFEST --out DIR --report DIR``: the fleet run of
+:func:`ivdyn.fleet.run` and the drift of :func:`ivdyn.fleet.drift`, written by
+:func:`ivdyn.fleet.report.write`: ``--out``: ``fleet.json`` (rows, fits, drift tests,
+flagged changes in words, the latest changes, the heat map) and one parameter file per
+robot and period (``params/<robot>_<period>.json``, reloadable with ``--params``);
+``--report``: ``fleet.html``, ``fleet.json`` and one parameter file per robot (its latest
+period). Every file is written to a temporary name first and moved in place once all are
+written."""
 from __future__ import annotations
 
 import argparse
-import json
-import os
 import sys
-import tempfile
-from typing import Any, Dict, List, Optional
+from typing import List, Optional
 
 from . import Options, drift, manifest_from_glob, read_manifest, run
+from .report import write
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -23,7 +24,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--model", help="URDF of every robot (with --glob)")
     p.add_argument("--base", help="base link (with --glob)")
     p.add_argument("--tip", help="tip link (with --glob)")
-    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--out", help="output directory: fleet.json and a parameter file per robot and period")
+    p.add_argument("--report", help="report directory: fleet.html, fleet.json and a parameter file per robot")
     p.add_argument("--engine", choices=("ray", "local"), default="ray")
     p.add_argument("--address", help="Ray cluster address (default: $RAY_ADDRESS, else a local runtime)")
     p.add_argument("--num-cpus", type=int, help="CPUs of a local runtime (default: the machine's)")
@@ -52,60 +54,21 @@ def _bar(done: int, total: int) -> None:
     sys.stderr.flush()
 
 
-def _write_all(files: Dict[str, Any], out: str) -> List[str]:
-    """Writes every file (path relative to ``out`` -> JSON value) under temporary names,
-    then moves them in place: all or nothing."""
-    staged = []
-    try:
-        for rel, doc in files.items():
-            path = os.path.join(out, rel)
-            os.makedirs(os.path.dirname(path), exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path), prefix=".ivdyn-")
-            staged.append((tmp, path))
-            with os.fdopen(fd, "w") as f:
-                json.dump(doc, f, indent=1, allow_nan=False, default=str)
-    except BaseException:
-        for tmp, _ in staged:
-            os.unlink(tmp)
-        raise
-    for tmp, path in staged:
-        os.replace(tmp, path)
-    return [p for _, p in staged]
-
-
-def _nan_to_none(x):
-    if isinstance(x, float) and x != x:
-        return None
-    if isinstance(x, dict):
-        return {k: _nan_to_none(v) for k, v in x.items()}
-    if isinstance(x, list):
-        return [_nan_to_none(v) for v in x]
-    return x
-
-
 def main(argv: Optional[List[str]] = None) -> int:
     a = _parser().parse_args(argv)
+    if a.out is None and a.report is None:
+        raise SystemExit("ivdyn fleet: give --out DIR, --report DIR or both")
     opts = Options(method=a.method)
     res = run(_entries(a), opts, engine=a.engine, address=a.address, num_cpus=a.num_cpus,
               progress=None if a.quiet else _bar)
     tests = drift(res, opts, q=a.fdr)
-    doc = {
-        "rows": res.rows,
-        "fits": [dict(robot=r, period=p, **f) for (r, p), f in sorted(res.fits.items())],
-        "drift": tests,
-        "flagged": [t["words"] for t in tests if t["flagged"]],
-        "fdr": a.fdr,
-    }
-    files = {"fleet.json": _nan_to_none(doc)}
-    for (robot, period), f in res.fits.items():
-        if "report" in f:
-            files[os.path.join("params", f"{robot}_{period}.json")] = _nan_to_none(f["report"]["params"])
-    for path in _write_all(files, a.out):
+    for path in write(res, tests, out=a.out, report=a.report, fdr=a.fdr):
         print(f"written to {path}")
     for r in res.failed:
         print(f"failed: {r['error']}", file=sys.stderr)
-    for w in doc["flagged"]:
-        print(w)
+    for t in tests:
+        if t["flagged"]:
+            print(t["words"])
     return 1 if res.failed else 0
 
 

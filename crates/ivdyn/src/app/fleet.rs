@@ -229,7 +229,7 @@ impl LogStats {
 /// The model statistics are built and fitted with: Coulomb friction as `sign(qd)` (or the
 /// model's shapes with [`CoulombMode::Model`]) and its base parameters. Refuses options
 /// that need the data again (IV, IDIM-IV) or a validation log.
-fn fleet_model(robot: &Robot, opts: &IdentifyOptions) -> Result<(Robot, BaseParams)> {
+pub(crate) fn fleet_model(robot: &Robot, opts: &IdentifyOptions) -> Result<(Robot, BaseParams)> {
     opts.check()?;
     if !matches!(opts.method, Method::Ols | Method::Wls) {
         return Err(Error::Option {

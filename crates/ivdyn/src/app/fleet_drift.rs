@@ -6,7 +6,9 @@
 //! Effects, from the base parameters' names: a drive parameter that is a base parameter
 //! of its own (`<joint>.fc`, `.fv`, `.ia`, `.tau0`) is tested alone (one degree of
 //! freedom); the base parameters that involve the last link's inertials together
-//! (`payload`); the remaining base parameters together (`rigid_body`).
+//! (`payload`: every base parameter whose combination holds one of the last link's ten
+//! parameters, read off the base-parameter map, not off the names, which are shortened);
+//! the remaining base parameters together (`rigid_body`).
 //!
 //! The fit's covariance is the iid one; the parallel filter leaves the residual
 //! correlated, which it understates by the long-run factor of each joint
@@ -14,15 +16,17 @@
 //! factor of their fit (conservative where joints differ).
 
 use nalgebra::DMatrix;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::IdentifyOptions;
-use super::fleet::{FleetFit, LogStats, fit_stats};
+use super::fleet::{FleetFit, LogStats, fit_stats, fleet_model};
 use crate::error::{Error, Result};
+use crate::ident::BaseParams;
 use crate::ident::stats::chi2_sf;
+use ivdyn_core::params::LINK_PARAMS;
 
 /// One effect's test between a reference fit and a later one.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct DriftTest {
     /// `coulomb_friction`, `viscous_friction`, `armature`, `torque_offset`, `payload` or
     /// `rigid_body` (the vocabulary of `diagnose`).
@@ -53,12 +57,31 @@ const DRIVE: [(&str, &str, &str); 4] = [
     (".tau0", "torque_offset", "N m"),
 ];
 
+/// Which base parameters of `robot`'s fleet model (as [`fit_stats`] fits it) hold one of
+/// the last link's parameters: the payload's ([`drift_tests`]' `payload`).
+pub fn payload_params(robot: &crate::Robot, opts: &IdentifyOptions) -> Result<Vec<bool>> {
+    let (_, base) = fleet_model(robot, opts)?;
+    Ok(payload_mask(&base, robot.dof()))
+}
+
+/// Which base parameters hold one of the last link's parameters (of `dof` links). Base
+/// parameter `j` is `θ[independent[j]] + Σ_k K[j, k] θ[dependent[k]]`.
+fn payload_mask(base: &BaseParams, dof: usize) -> Vec<bool> {
+    let last = dof.saturating_sub(1) * LINK_PARAMS..dof * LINK_PARAMS;
+    (0..base.independent.len())
+        .map(|j| {
+            last.contains(&base.independent[j])
+                || base.dependent.iter().enumerate().any(|(k, d)| last.contains(d) && base.k[(j, k)].abs() > 1e-12)
+        })
+        .collect()
+}
+
 /// The tests of every effect between `reference` and `later` (fits of one model);
-/// `last_link` names the link whose inertials are the payload's.
-pub fn drift_tests(reference: &FleetFit, later: &FleetFit, last_link: &str) -> Result<Vec<DriftTest>> {
+/// `payload[j]`: base parameter `j` holds the last link's inertials ([`payload_params`]).
+pub fn drift_tests(reference: &FleetFit, later: &FleetFit, payload: &[bool]) -> Result<Vec<DriftTest>> {
     let (r0, r1) = (&reference.report, &later.report);
     let names: Vec<&str> = r0.base.iter().map(|b| b.name.as_str()).collect();
-    if names != r1.base.iter().map(|b| b.name.as_str()).collect::<Vec<_>>() {
+    if names != r1.base.iter().map(|b| b.name.as_str()).collect::<Vec<_>>() || payload.len() != names.len() {
         return Err(Error::Stats {
             what: "drift".into(),
             msg: "the two fits have different base parameters (another model)".into(),
@@ -71,12 +94,11 @@ pub fn drift_tests(reference: &FleetFit, later: &FleetFit, last_link: &str) -> R
     let excited = |i: &usize| f0.theta[*i].is_finite() && f1.theta[*i].is_finite();
     let mut groups: Vec<(String, Option<String>, Vec<usize>)> = vec![];
     let mut rest = vec![];
-    let payload_tag = format!("{last_link}.");
     for (i, name) in names.iter().enumerate().filter(|(i, _)| excited(i)) {
         if let Some((suffix, effect, _)) = DRIVE.iter().find(|(s, _, _)| name.ends_with(s) && !name.contains(' ')) {
             let joint = name.trim_end_matches(suffix).to_string();
             groups.push((effect.to_string(), Some(joint), vec![i]));
-        } else if name.contains(&payload_tag) {
+        } else if payload[i] {
             match groups.iter_mut().find(|g| g.0 == "payload") {
                 Some(g) => g.2.push(i),
                 None => groups.push(("payload".into(), None, vec![i])),
@@ -117,8 +139,8 @@ pub fn drift_of_stats(
     later: &LogStats,
     opts: &IdentifyOptions,
 ) -> Result<Vec<DriftTest>> {
-    let last = robot.link_names.last().cloned().unwrap_or_default();
-    drift_tests(&fit_stats(robot, reference, opts)?, &fit_stats(robot, later, opts)?, &last)
+    let payload = payload_params(robot, opts)?;
+    drift_tests(&fit_stats(robot, reference, opts)?, &fit_stats(robot, later, opts)?, &payload)
 }
 
 fn fit_of(f: &FleetFit) -> Result<&crate::ident::FitReport> {
@@ -155,9 +177,15 @@ pub fn benjamini_hochberg(p: &[f64], q: f64) -> Vec<bool> {
     out
 }
 
+/// Half-width of the two-sided 95 % normal confidence interval, in standard deviations.
+pub const CI95: f64 = 1.959_963_984_540_054;
+
 /// The change in words, e.g. "arm-07, shoulder_lift_joint: coulomb friction +38 % ± 6 %
-/// since 2026-11-02" (± one standard deviation; in the parameter's unit when the
-/// reference is within two standard deviations of zero, where a percentage says nothing).
+/// since 2026-11-02": the change against the reference with its 95 % confidence interval
+/// (± [`CI95`] standard deviations), in percent of the reference value, or in the
+/// parameter's unit when the reference is within two standard deviations of zero (where a
+/// percentage says nothing); `since` dates it (the reference period, or the change's
+/// onset: `ivdyn.fleet.changes`).
 pub fn describe(robot: &str, t: &DriftTest, since: &str) -> String {
     let what = t.effect.replace('_', " ");
     let head = match &t.joint {
@@ -165,18 +193,18 @@ pub fn describe(robot: &str, t: &DriftTest, since: &str) -> String {
         None => format!("{robot}: {what}"),
     };
     if t.change.len() != 1 {
-        return format!(
-            "{head} changed since {since} ({} parameters, chi2 {:.1}, p = {:.2e})",
-            t.dof, t.statistic, t.p_value
-        );
+        // below 1e-16 the p-value is rounding (or underflow) of the χ² tail
+        let p = if t.p_value < 1e-16 { "p < 1e-16".to_string() } else { format!("p = {:.2e}", t.p_value) };
+        return format!("{head} changed since {since} ({} parameters, chi2 {:.1}, {p})", t.dof, t.statistic);
     }
     let (r, d, s) = (t.reference[0], t.change[0], t.std[0]);
+    let ci = CI95 * s;
     if r.abs() > 2.0 * s {
-        let (pct, spct) = (100.0 * d / r.abs(), 100.0 * s / r.abs());
-        let digits = if spct < 1.0 { 1 } else { 0 };
-        format!("{head} {pct:+.digits$} % ± {spct:.digits$} % since {since}")
+        let (pct, cpct) = (100.0 * d / r.abs(), 100.0 * ci / r.abs());
+        let digits = if cpct < 1.0 { 1 } else { 0 };
+        format!("{head} {pct:+.digits$} % ± {cpct:.digits$} % since {since}")
     } else {
         let unit = DRIVE.iter().find(|x| x.1 == t.effect).map_or("", |x| x.2);
-        format!("{head} {d:+.3} ± {s:.3} {unit} since {since}")
+        format!("{head} {d:+.3} ± {ci:.3} {unit} since {since}")
     }
 }

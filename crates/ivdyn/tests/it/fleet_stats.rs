@@ -170,7 +170,7 @@ fn statistics_of_another_model_are_refused_naming_both() {
 /// share), and the change is ~10 standard deviations (fc is known to ~0.03 N m here).
 #[test]
 fn drift_flags_exactly_the_planted_friction_change() {
-    use ivdyn::app::fleet_drift::{benjamini_hochberg, describe, drift_tests};
+    use ivdyn::app::fleet_drift::{benjamini_hochberg, describe, drift_tests, payload_params};
     let robot = arm();
     let period = |arm: u64, p: u64, elbow_fc: f64| -> fleet::FleetFit {
         let parts: Vec<LogStats> = (0..3)
@@ -190,10 +190,11 @@ fn drift_flags_exactly_the_planted_friction_change() {
             .collect();
         fleet::fit_stats(&robot, &LogStats::merge_all(parts).unwrap(), &opts()).unwrap()
     };
+    let payload = payload_params(&robot, &opts()).unwrap();
     let mut all = vec![];
     for arm in 0..4u64 {
         let later_fc = if arm == 2 { 2.1 } else { 1.5 };
-        let tests = drift_tests(&period(arm, 0, 1.5), &period(arm, 1, later_fc), "forearm_link").unwrap();
+        let tests = drift_tests(&period(arm, 0, 1.5), &period(arm, 1, later_fc), &payload).unwrap();
         all.extend(tests.into_iter().map(|t| (arm, t)));
     }
     let p: Vec<f64> = all.iter().map(|(_, t)| t.p_value).collect();
