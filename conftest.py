@@ -27,6 +27,22 @@ def ivdyn_bin():
     return ivdyn_exe()
 
 
+@pytest.fixture(scope="session")
+def ray_runtime():
+    """One local Ray runtime of 2 CPUs for the session, in a short private directory (Ray's
+    socket paths must stay under ~107 characters; two xdist workers must not share a
+    session). The tests that use it are in the xdist group "ray", so one worker runs them
+    all and the runtime starts once."""
+    import tempfile
+
+    import ray
+
+    tmp = tempfile.mkdtemp(prefix="ivr", dir="/tmp")
+    ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tmp, log_to_driver=False)
+    yield ray
+    ray.shutdown()
+
+
 # `make test` skips nothing: a test that would skip (a missing package, a missing binary)
 # fails instead, with the reason, so that a suite never passes with a part of it unrun.
 @pytest.hookimpl(hookwrapper=True)

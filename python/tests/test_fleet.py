@@ -1,11 +1,10 @@
-"""ivdyn.fleet on a real local Ray runtime (started once for this module, in its own
-temporary directory; the module runs in one xdist group so that one runtime serves every
-test): the Ray run equals the in-process statistics merged in another order (1e-12
+"""ivdyn.fleet on a real local Ray runtime (the session's `ray_runtime` of conftest.py, in its
+own temporary directory; the Ray modules run in one xdist group so that one runtime serves
+every test): the Ray run equals the in-process statistics merged in another order (1e-12
 relative), a corrupt or missing log marks its row failed by name and the run goes on, a
 worker killed mid-run changes nothing, statistics of another model are refused."""
 import os
 import signal
-import tempfile
 import threading
 import time
 
@@ -15,7 +14,7 @@ import pytest
 import ivdyn
 from ivdyn import fleet
 
-import ray
+import ray  # noqa: F401  (Ray must be installed: the tests fail, never skip)
 pytestmark = pytest.mark.xdist_group("ray")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -42,16 +41,6 @@ def fleet_dir(tmp_path_factory):
                 entries.append(fleet.LogEntry(log=str(path), robot=f"arm-{a}", model=UR5, period=f"day{p}",
                                               base=BASE, tip=TIP))
     return d, entries
-
-
-@pytest.fixture(scope="module")
-def ray_runtime():
-    """A local Ray runtime of 2 CPUs in a short private directory (Ray's socket paths
-    must stay under ~107 characters; two xdist workers must not share a session)."""
-    tmp = tempfile.mkdtemp(prefix="ivr", dir="/tmp")
-    ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tmp, log_to_driver=False)
-    yield
-    ray.shutdown()
 
 
 def _theta_cov(f):
