@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test rust-build venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
+.PHONY: demo test test-wheel py-run smoke-run rust-build venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -36,16 +36,23 @@ demo:
 ## test: formatting and lints, the published crates' packaging, every Rust test, the
 ## no_std/no-alloc proof, the Python suites, and the wheel in a fresh venv.
 # Two stages of two jobs each, so that neither core idles: (1) the venv's packages install
-# while lint, packaging and the Rust test build run; (2) the Rust tests run (often on one
-# thread: a few long Monte Carlo tests) while the release wheel builds in its own target
-# dir, then the Python suites. -Otarget prints each step's output whole when it ends.
+# while lint, packaging and the Rust test build run, then the Python extension builds in the dev
+# profile in the same target dir, reusing that build (tools/feature_parity.py); (2) the Rust
+# tests run (often on one thread: a few long Monte Carlo tests) beside the Python suites and the
+# fresh-venv wheel check. -Otarget prints each step's output whole when it ends.
 test:
-	$(MAKE) -j2 venv rust-build
-	$(MAKE) -j2 -Otarget rust-test nostd py-test wheel-smoke
+	$(MAKE) -j2 test-wheel
+	$(MAKE) -j2 -Otarget rust-test nostd py-run smoke-run SMOKE_WHEELS=$(TEST_WHEELS)
 
+# The Rust tests: every crate's unit and integration tests, then the doctests (docs/*.md pages
+# with rust blocks are doctests too). Examples are not built here (`cargo test` would build
+# them all: clippy --all-targets checks them), except write_log, which a Python test runs;
+# ivdyn-py is tested from Python, and ivdyn-benches has no tests (criterion stays out).
+RUST_PKGS := --workspace --exclude ivdyn-py --exclude ivdyn-benches
 rust-build:
 	$(MAKE) -j1 lint package
-	$(CARGO) test --workspace --exclude ivdyn-py --no-run
+	$(CARGO) test $(RUST_PKGS) --lib --bins --tests --no-run
+	$(CARGO) build $(RUST_PKGS) --lib --bins --tests --example write_log
 
 ## lint: rustfmt (rustfmt.toml) and clippy with warnings as errors, on every target
 lint:
@@ -62,9 +69,9 @@ $(STAMP): python/requirements-dev.txt
 	$(VENV)/bin/pip install -q maturin==1.16.0
 	touch $(STAMP)
 
-# ivdyn-py is tested from Python (py-test, against the release wheel); clippy checks it
 rust-test:
-	$(CARGO) test --workspace --exclude ivdyn-py
+	$(CARGO) test $(RUST_PKGS) --lib --bins --tests
+	$(CARGO) test $(RUST_PKGS) --doc
 
 # The core must build for a bare-metal target, and a #![no_main] probe with no global
 # allocator must link: that fails if anything in ivdyn-core reaches `alloc`.
@@ -89,30 +96,49 @@ publish-check:
 
 # wheel: the abi3 wheel (crates/ivdyn-py via maturin, release) in target/wheels; py-install
 # installs that same wheel into the venv. It builds in its own target dir, target/wheel-build,
-# so that it never waits on the lock of a cargo command running beside it (make test).
+# so that it never waits on the lock of a cargo command running beside it.
 WHEELS := target/wheels
+MATURIN = PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/maturin build --quiet
 wheel: venv
 	@test -x $(VENV)/bin/maturin || $(VENV)/bin/pip install -q maturin==1.16.0
 	rm -f $(WHEELS)/ivdyn-*.whl
-	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/maturin build --release --out $(WHEELS) \
-	    --target-dir target/wheel-build --quiet
+	$(MATURIN) --release --out $(WHEELS) --target-dir target/wheel-build
 
 py-install: wheel
 	$(VENV)/bin/pip install -q --force-reinstall --no-deps $(WHEELS)/ivdyn-*.whl
 
+# test-wheel (make test): the same wheel in the dev profile, built in cargo test's target dir
+# right after the Rust test build, so that every crate they share compiles once (a release
+# build of them all took more CPU than the Python suites' difference in speed); installed into
+# the venv. Cargo shares a crate only when both builds enable the same features on it:
+# tools/feature_parity.py names any that differ (the build is then right, only slower).
+TEST_WHEELS := target/wheels-test
+test-wheel: venv rust-build
+	@$(PY) tools/feature_parity.py || echo "warning: the test wheel recompiles the crates above (make test is slower, not wrong)"
+	rm -f $(TEST_WHEELS)/ivdyn-*.whl
+	$(MATURIN) --profile dev --out $(TEST_WHEELS) --target-dir target
+	$(VENV)/bin/pip install -q --force-reinstall --no-deps $(TEST_WHEELS)/ivdyn-*.whl
+
 ## wheel-smoke: the wheel installed into a fresh venv (NumPy from the package index, nothing
 ## from this tree on the path) runs python/tools/wheel_smoke.py
 SMOKE_VENV := target/wheel-smoke-venv
+SMOKE_WHEELS ?= $(WHEELS)
 wheel-smoke: wheel
+	$(MAKE) smoke-run
+
+smoke-run:
 	rm -rf $(SMOKE_VENV)
 	python3 -m venv $(SMOKE_VENV)
-	$(SMOKE_VENV)/bin/pip install -q $(WHEELS)/ivdyn-*.whl
+	$(SMOKE_VENV)/bin/pip install -q $(SMOKE_WHEELS)/ivdyn-*.whl
 	cd $(SMOKE_VENV) && ./bin/python $(abspath python/tools/wheel_smoke.py) $(abspath fixtures)
 
 # py-test runs every pytest suite (python/reference, python/tests, python/tests_io), on
 # two workers (pytest-xdist; tests marked xdist_group run on one worker: the Ray tests share
-# one runtime).
+# one runtime), against the installed wheel (py-run: against whatever wheel is installed).
 py-test: py-install
+	$(MAKE) py-run
+
+py-run:
 	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q -n 2 --dist loadgroup python
 
 ## fuzz: every reader fuzzed for FUZZ_SECS seconds each, coverage-guided (cargo-fuzz on

@@ -11,8 +11,8 @@ ROOT = os.path.dirname(os.path.abspath(__file__))
 
 
 def ivdyn_exe():
-    """The `ivdyn` binary: $IVDYN_BIN (`make test` passes the one `cargo test --workspace`
-    built), else target/debug/ivdyn, built with cargo when missing."""
+    """The `ivdyn` binary: $IVDYN_BIN (`make test` passes the one its Rust test build
+    made), else target/debug/ivdyn, built with cargo when missing."""
     exe = os.environ.get("IVDYN_BIN") or os.path.join(ROOT, "target", "debug", "ivdyn")
     if not os.path.exists(exe):
         cargo = shutil.which("cargo")

@@ -1,7 +1,7 @@
 """`ivdyn identify --out-mcap` read by Python's mcap / mcap-ros2-support (an independent
 decoder), the prediction checked with the independent NumPy reference (python/reference).
 
-The binary is the one `make test` builds (`cargo test --workspace` first); otherwise it is
+The binary is the one `make test` builds (its Rust test build, first); otherwise it is
 built here. Checked: three JointState topics on the same stamps with the URDF joint names,
 residual == measured - predicted exactly, the measured copy equal to the input log, and
 predicted == rnea_ref(q, qd, qdd; theta) with theta from the reported parameter file, q

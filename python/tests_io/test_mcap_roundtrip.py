@@ -21,7 +21,7 @@ T0 = 1_700_000_000_000_000_000
 @pytest.fixture(scope="module")
 def written(tmp_path_factory):
     out = tmp_path_factory.mktemp("mcap") / "ivdyn_out.mcap"
-    # `make test` runs `cargo test --workspace` first, which builds the example; reuse it
+    # `make test` builds the example beside the Rust tests (Makefile, rust-build); reuse it
     # (a `cargo run -p ivdyn` here would rebuild with another feature set).
     exe = os.path.join(ROOT, "target", "debug", "examples", "write_log")
     if os.path.exists(exe):
