@@ -188,7 +188,7 @@ DRIVE_CASES = [
          "parameters": {"mu": [0.05, 0.08]}}]},
     {"name": "torque_gain", "seed": 304, "effects": [
         {"name": "torque_gain", "joints": ["shoulder_lift_joint", "elbow_joint"],
-         "parameters": {"k": [0.92, 1.08]}}]},
+         "parameters": {"k": [0.85, 1.15]}}]},
     {"name": "torque_ripple", "seed": 305, "effects": [
         {"name": "torque_ripple", "joints": ["shoulder_pan_joint", "wrist_1_joint"],
          "parameters": {"period": [2 * math.pi / 8, 2 * math.pi / 8], "a": [0.8, 0.15], "b": [0.6, -0.2]}}]},
