@@ -17,10 +17,14 @@ make_diagnose_cases.py, which this script imports; what it adds:
   case's error level. A mass and COM error is not a uniform scale of the link's 10
   inertial parameters: no per-link scale factor reproduces it exactly.
 * effects drawn per case (seeded): kinds without repetition from coulomb_friction,
-  viscous_friction, armature, torque_offset, joint_spring, payload, on 1-3 joints each, sized
-  so that each adds 5-15 noise standard deviations of RMS torque on its joint along the
-  reference motion (armature: 30-80 % of the nominal inertia on the joint, as reflected rotor
-  inertias are; payload: a part of 0.5-2 kg depending on the arm).
+  viscous_friction, armature, torque_offset, joint_spring, payload and (unless `--no-drives`)
+  the effects of real drives (asymmetric_coulomb_friction, smooth_coulomb_friction,
+  load_dependent_friction, torque_gain, torque_ripple, time_delay: make_diagnose_cases.py says
+  how each is injected), on 1-3 joints each, sized so that each adds 5-15 noise standard
+  deviations of RMS torque on its joint along the reference motion (armature: 30-80 % of the
+  nominal inertia on the joint, as reflected rotor inertias are; payload: a part of 0.5-2 kg
+  depending on the arm; a gain within 0.8-1.2 and a delay of at most 20 ms, on joints whose torque
+  allows that size).
 * `split.json`: a seeded permutation of all case ids ("robot/case"); every third is held out.
   Tune on "tune"; run "heldout" once, at the end (python/tools/score_diagnose_cases.py).
 
@@ -45,6 +49,10 @@ import ivdyn  # noqa: E402
 
 LEVELS = [0.05, 0.15, 0.30]
 KINDS = ["coulomb_friction", "viscous_friction", "armature", "torque_offset", "joint_spring", "payload"]
+# the effects of real drives (issue 15 item 2), drawn beside the others (`--no-drives`: without)
+DRIVE_KINDS = ["asymmetric_coulomb_friction", "smooth_coulomb_friction", "load_dependent_friction", "torque_gain",
+               "torque_ripple", "time_delay"]
+RIPPLE_N = [4, 6, 8, 12, 16]
 SPLIT_SEED = 15
 
 
@@ -133,7 +141,46 @@ def nominal_urdf(cfg, path_out, level, rng):
     return {k: list(v) for k, v in mdc.scale_inertials(cfg, path_out, draw).items()}
 
 
-def draw_effects(cfg, robot, names, seed, count, rng):
+def drive_parameters(kind, js, k, sig, q, qd, tau, rng):
+    """Parameters of a real-drive effect on joints `js`, each `k[i]` noise std of RMS torque
+    (`tau`: the rigid-body torque along the reference motion); None when no joint allows it."""
+    rms_of = lambda x: np.sqrt(np.mean(x ** 2, axis=0))  # noqa: E731
+    size = [float(k[i] * sig[j]) for i, j in enumerate(js)]
+    if kind == "asymmetric_coulomb_friction":
+        a = [float(rng.choice([-1, 1]) * rng.uniform(0.4, 0.7)) for _ in js]
+        return {"fc_pos": [s * (1 + x) for s, x in zip(size, a)], "fc_neg": [s * (1 - x) for s, x in zip(size, a)]}
+    if kind == "smooth_coulomb_friction":
+        return {"fc": size, "vs": [float(rng.uniform(0.2, 0.4) * rms_of(qd)[j]) for j in js]}
+    if kind == "load_dependent_friction":
+        return {"mu": [s / float(rms_of(tau)[j]) for s, j in zip(size, js)]}
+    if kind == "torque_gain":
+        return {"k": [1.0 + float(rng.choice([-1, 1])) * s / float(rms_of(tau)[j]) for s, j in zip(size, js)]}
+    if kind == "torque_ripple":
+        ph = rng.uniform(0, 2 * np.pi, len(js))
+        amp = [np.sqrt(2) * s for s in size]
+        return {"period": [float(2 * np.pi / rng.choice(RIPPLE_N)) for _ in js],
+                "a": [float(a * np.cos(p)) for a, p in zip(amp, ph)], "b": [float(a * np.sin(p)) for a, p in zip(amp, ph)]}
+    dtau = np.gradient(tau, mdc.DT, axis=0)
+    return {"delay_s": [s / float(rms_of(dtau)[j]) for s, j in zip(size, js)]}
+
+
+def drive_joints(kind, n, sig, tau, rng):
+    """The joints a drive effect of 5-15 noise std fits on: a gain within 0.8-1.2 needs a
+    rigid-body torque of at least 75 noise std RMS; a delay of at most 20 ms a torque rate of
+    at least 750 noise std per second."""
+    rms_of = lambda x: np.sqrt(np.mean(x ** 2, axis=0))  # noqa: E731
+    if kind == "torque_gain":
+        ok = [j for j in range(n) if rms_of(tau)[j] >= 75 * sig[j]]
+    elif kind == "time_delay":
+        ok = [j for j in range(n) if rms_of(np.gradient(tau, mdc.DT, axis=0))[j] >= 750 * sig[j]]
+    else:
+        ok = list(range(n))
+    if not ok:
+        return []
+    return sorted(int(j) for j in rng.choice(ok, size=min(len(ok), int(rng.integers(1, 4))), replace=False))
+
+
+def draw_effects(cfg, robot, names, seed, count, rng, kinds=KINDS):
     """`count` effects of distinct kinds on random joints, sized on the reference motion."""
     t = np.arange(int(round(2.0 / mdc.DT))) * mdc.DT
     q, qd, qdd = mdc.reference(cfg, seed, t)
@@ -141,7 +188,14 @@ def draw_effects(cfg, robot, names, seed, count, rng):
     m_diag = np.mean([np.diag(robot.mass_matrix(q[k])) for k in range(0, len(t), 50)], axis=0)
     n = len(names)
     effects = []
-    for kind in rng.choice(KINDS, size=count, replace=False):
+    for kind in rng.choice(kinds, size=count, replace=False):
+        if kind in DRIVE_KINDS:
+            tau = robot.rnea(q, qd, qdd)
+            js = drive_joints(kind, n, sig, tau, rng)
+            if js:
+                p = drive_parameters(kind, js, rng.uniform(5.0, 15.0, len(js)), sig, q, qd, tau, rng)
+                effects.append({"name": str(kind), "joints": [names[j] for j in js], "parameters": p})
+            continue
         if kind == "payload":
             lo, hi = cfg["payload_mass"]
             m = float(rng.uniform(lo, hi))
@@ -177,7 +231,7 @@ def rel(path):
     return path if r.startswith("..") else r
 
 
-def robot_cases(name, out, duration, seed0, only=None):
+def robot_cases(name, out, duration, seed0, only=None, kinds=KINDS):
     """Simulates every case of one arm into OUT/<name>/ and writes its cases.json; with
     `only` (ids "robot/case"), just those (the others are drawn all the same, so a case
     is the same whichever are written)."""
@@ -198,7 +252,7 @@ def robot_cases(name, out, duration, seed0, only=None):
         for count in range(4):
             seed = seed0 + 10 * li + count
             case = {"name": f"e{int(round(100 * level)):02d}_{count}fx", "seed": seed}
-            case["effects"] = draw_effects(cfg, robot, names, seed, count, rng)
+            case["effects"] = draw_effects(cfg, robot, names, seed, count, rng, kinds)
             nominal = os.path.join(out_r, f"{case['name']}_nominal.urdf")
             factors = nominal_urdf(cfg, nominal, level, rng)
             if only is not None and f"{name}/{case['name']}" not in only:
@@ -208,7 +262,7 @@ def robot_cases(name, out, duration, seed0, only=None):
             log = f"{case['name']}.mcap"
             size = mdc.write_mcap(os.path.join(out_r, log), names, sim["t"], q_meas, qd_meas, tau_meas)
             nom = ivdyn.Robot.from_urdf(nominal, base=cfg["base"], tip=cfg["tip"])
-            eff = mdc.effect_torque(case["effects"], names, sim["q"], sim["qd"], sim["qdd"], robot)
+            eff = mdc.effect_torque(case["effects"], names, sim["q"], sim["qd"], sim["qdd"], robot, sim["t"])
             tau_true = robot.rnea(sim["q"], sim["qd"], sim["qdd"])
             tau_nom = nom.rnea(sim["q"], sim["qd"], sim["qdd"])
             manifest["cases"].append({
@@ -232,12 +286,15 @@ def main(argv=None):
     ap.add_argument("--duration", type=float, default=2.0)
     ap.add_argument("--only", default=None, help="comma list of ids robot/case to write (default: all, "
                     "with split.json); fixtures/diagnose_cad holds a few cases of the tuning part")
+    ap.add_argument("--no-drives", action="store_true", help="only the basic effect kinds (the set of the "
+                    "first slices of issue 15, as it was drawn before the effects of real drives)")
     args = ap.parse_args(argv)
+    kinds = KINDS if args.no_drives else KINDS + DRIVE_KINDS
     ids = []
     only = None if args.only is None else set(args.only.split(","))
     for i, name in enumerate(["ur5", "panda", "ur3", "talos_arm"]):
         if only is None or any(x.startswith(name + "/") for x in only):
-            ids += robot_cases(name, args.out, args.duration, 1500 + 100 * i, only)
+            ids += robot_cases(name, args.out, args.duration, 1500 + 100 * i, only, kinds)
     if only is not None:
         return 0
     # the split is fixed before any diagnosis runs: every third id of a seeded permutation

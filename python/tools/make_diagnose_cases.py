@@ -16,6 +16,23 @@ MuJoCo's own mechanisms:
     payload           a body welded to the terminal link (exact rigid body)
     torque_offset     added on the sensor side to the logged effort
 
+The effects of real drives (issue 15; set `--robot ur5_drives`, fixtures/diagnose_drives/, and the
+CAD sets of make_cad_cases.py), each with MuJoCo's own mechanism where it has one, otherwise as a
+generalized force computed each step by its own formula (`qfrc_applied`, explicit in the state of
+the step), or as a sensor model applied to the recorded torque:
+
+    asymmetric_coulomb_friction  joint `frictionloss` = (fc_pos + fc_neg) / 2 (constraint force)
+                      plus the applied force -(fc_pos - fc_neg) / 2 min(1, |qd| / 1e-3 rad/s)
+                      (the direction-dependent part: a constant while the joint moves)
+    smooth_coulomb_friction  applied force -fc tanh(qd / vs)
+    load_dependent_friction  joint `frictionloss` set before every step to mu |tau_load|, the
+                      joint's rigid-body torque from MuJoCo's own `mj_rne` at the step's state
+                      and the previous step's acceleration (constraint force)
+    torque_ripple     applied force -(a sin(2 pi q / period) + b cos(2 pi q / period)) (cogging)
+    torque_gain       sensor: the logged effort is k x the applied joint torque
+    time_delay        sensor: the logged effort of sample k is the applied joint torque at
+                      t_k - delay_s (linear interpolation; the first sample's before the log)
+
 `stribeck_friction` is not generated: MuJoCo's joint friction loss has a constant magnitude and
 no velocity dependence, so MuJoCo cannot express it with its own mechanisms (see
 docs/diagnose-data.md).
@@ -156,6 +173,30 @@ PANDA_CASES = [
          "parameters": {"fc": [0.8, 0.3]}}]},
 ]
 
+# ----------------------------------------------------------------------------- UR5, drives
+# The effects of real drives (issue 15), one per case on two joints, each 5-15 noise std of RMS
+# torque on its joints along the motion (UR5 noise: 0.15, 0.15, 0.08, 0.03, 0.03, 0.02 N m).
+DRIVE_CASES = [
+    {"name": "asymmetric_coulomb", "seed": 301, "effects": [
+        {"name": "asymmetric_coulomb_friction", "joints": ["shoulder_lift_joint", "elbow_joint"],
+         "parameters": {"fc_pos": [4.0, 1.2], "fc_neg": [2.5, 2.0]}}]},
+    {"name": "smooth_coulomb", "seed": 302, "effects": [
+        {"name": "smooth_coulomb_friction", "joints": ["elbow_joint", "wrist_1_joint"],
+         "parameters": {"fc": [2.0, 0.6], "vs": [0.25, 0.3]}}]},
+    {"name": "load_dependent", "seed": 303, "effects": [
+        {"name": "load_dependent_friction", "joints": ["shoulder_lift_joint", "elbow_joint"],
+         "parameters": {"mu": [0.05, 0.08]}}]},
+    {"name": "torque_gain", "seed": 304, "effects": [
+        {"name": "torque_gain", "joints": ["shoulder_lift_joint", "elbow_joint"],
+         "parameters": {"k": [0.85, 1.15]}}]},
+    {"name": "torque_ripple", "seed": 305, "effects": [
+        {"name": "torque_ripple", "joints": ["shoulder_pan_joint", "wrist_1_joint"],
+         "parameters": {"period": [2 * math.pi / 8, 2 * math.pi / 8], "a": [0.8, 0.15], "b": [0.6, -0.2]}}]},
+    {"name": "time_delay", "seed": 306, "effects": [
+        {"name": "time_delay", "joints": ["shoulder_lift_joint", "elbow_joint"],
+         "parameters": {"delay_s": [0.015, 0.012]}}]},
+]
+
 # ----------------------------------------------------------------------------- robots
 ROBOTS = {
     "ur5": {
@@ -196,6 +237,8 @@ ROBOTS = {
         "cases": PANDA_CASES,
     },
 }
+ROBOTS["ur5_drives"] = dict(ROBOTS["ur5"], out=os.path.join(ROOT, "fixtures", "diagnose_drives"),
+                            cases=DRIVE_CASES, check_reference=False)
 
 
 def panda_arm_urdf(path_out):
@@ -251,6 +294,11 @@ def mujoco_model(cfg, effects, joint_names, dt=DT):
             elif e["name"] == "joint_spring":
                 j.stiffness = [p["k"][i], 0.0, 0.0]
                 j.springref = p["q0"][i]
+            elif e["name"] == "asymmetric_coulomb_friction":
+                j.frictionloss = 0.5 * (p["fc_pos"][i] + p["fc_neg"][i])
+                j.solref_friction = [2 * dt, 1.0]
+            elif e["name"] == "load_dependent_friction":
+                j.solref_friction = [2 * dt, 1.0]   # frictionloss itself is set every step
         if e["name"] == "payload":
             parent = spec.body(cfg["terminal_link"])
             b = parent.add_body(name="payload")
@@ -384,6 +432,37 @@ def check_reference(cfg, robot_urdf, case, qr, qdr, qddr):
                                f"{cfg['acc_limits'][i]} rad/s^2")
 
 
+def drive_force(effects, names, q, qd):
+    """The generalized force (N m per joint) the applied-force drive effects exert at the state
+    (q, qd): the passive force on the joint, opposite to the torque the drive must add."""
+    f = np.zeros(len(names))
+    for e in effects:
+        p = e["parameters"]
+        for i, jn in enumerate(e["joints"]):
+            j = names.index(jn)
+            if e["name"] == "asymmetric_coulomb_friction":
+                f[j] -= 0.5 * (p["fc_pos"][i] - p["fc_neg"][i]) * min(1.0, abs(qd[j]) / 1e-3)
+            elif e["name"] == "smooth_coulomb_friction":
+                f[j] -= p["fc"][i] * math.tanh(qd[j] / p["vs"][i])
+            elif e["name"] == "torque_ripple":
+                w = 2 * math.pi / p["period"][i]
+                f[j] -= p["a"][i] * math.sin(w * q[j]) + p["b"][i] * math.cos(w * q[j])
+    return f
+
+
+def load_friction(m, d, effects, names):
+    """Sets each load-dependent joint's `frictionloss` to mu |tau_load| (MuJoCo's rigid-body
+    torque `mj_rne` at the current state and the previous step's acceleration)."""
+    lf = [(names.index(jn), p_mu) for e in effects if e["name"] == "load_dependent_friction"
+          for jn, p_mu in zip(e["joints"], e["parameters"]["mu"])]
+    if not lf:
+        return
+    load = np.zeros(m.nv)
+    mujoco.mj_rne(m, d, 1, load)
+    for j, mu in lf:
+        m.dof_frictionloss[j] = mu * abs(load[j])
+
+
 def simulate(cfg, case, robot_nominal_ctrl, duration, dt=DT):
     names = robot_nominal_ctrl.joint_names
     n = len(names)
@@ -404,7 +483,8 @@ def simulate(cfg, case, robot_nominal_ctrl, duration, dt=DT):
         q[k], qd[k] = d.qpos, d.qvel
         e, ed = qr[k] - d.qpos, qdr[k] - d.qvel
         tau[k] = tau_ff[k] + Mr[k] @ (KP * e + KD * ed)
-        d.qfrc_applied[:] = tau[k]
+        d.qfrc_applied[:] = tau[k] + drive_force(case["effects"], names, d.qpos, d.qvel)
+        load_friction(m, d, case["effects"], names)
         mujoco.mj_step(m, d)
         friction[k] = d.qfrc_constraint       # the friction-loss force of this step (no other constraints)
         if not np.all(np.isfinite(d.qpos)):
@@ -433,18 +513,35 @@ def measured(cfg, case, robot, duration, dt=DT):
     noise_std = cfg["torque_noise"]
     case_noise = noise_std if "noise_scale" not in case else [case["noise_scale"] * s for s in noise_std]
     noise = rng.standard_normal((T, n)) * np.array(case_noise)
-    tau_meas = sim["tau"] + offset + noise
+    tau_meas = sensor_model(case["effects"], names, sim["t"], sim["tau"]) + offset + noise
     tau_meas = np.round(tau_meas / TAU_RES) * TAU_RES
     q_meas = np.round(sim["q"] / Q_RES) * Q_RES
     qd_meas = np.round(sim["qd"] / QD_RES) * QD_RES
     return sim, q_meas, qd_meas, tau_meas, case_noise
 
 
+def sensor_model(effects, names, t, tau):
+    """The torque sensor's view of the applied torque: gain (`torque_gain`) and lag (`time_delay`,
+    linear interpolation in time, the first sample held before the log)."""
+    out = np.array(tau, dtype=float)
+    for e in effects:
+        p = e["parameters"]
+        for i, jn in enumerate(e["joints"]):
+            j = names.index(jn)
+            if e["name"] == "torque_gain":
+                out[:, j] *= p["k"][i]
+            elif e["name"] == "time_delay":
+                out[:, j] = np.interp(t - p["delay_s"][i], t, out[:, j])
+    return out
+
+
 # ----------------------------------------------------------------------------- effects (oracle)
-def effect_torque(effects, names, q, qd, qdd, robot_true):
+def effect_torque(effects, names, q, qd, qdd, robot_true, t=None):
     """What the true effects add to the nominal rigid-body torque (T, N), evaluated as the
-    diagnosis model would: fc sign(qd), fv qd, ia qdd, k (q - q0), tau0, payload rnea."""
+    diagnosis model would: fc sign(qd), fv qd, ia qdd, k (q - q0), tau0, payload rnea, and the
+    drive effects (the sensor's gain and lag applied to the true torque, stamps `t`)."""
     out = np.zeros_like(q)
+    rigid = robot_true.rnea(q, qd, qdd)
     for e in effects:
         p = e["parameters"]
         for i, jn in enumerate(e["joints"]):
@@ -459,9 +556,21 @@ def effect_torque(effects, names, q, qd, qdd, robot_true):
                 out[:, j] += p["k"][i] * (q[:, j] - p["q0"][i])
             elif e["name"] == "torque_offset":
                 out[:, j] += p["tau0"][i]
+            elif e["name"] == "asymmetric_coulomb_friction":
+                out[:, j] += np.where(qd[:, j] > 0, p["fc_pos"][i], np.where(qd[:, j] < 0, -p["fc_neg"][i], 0.0))
+            elif e["name"] == "smooth_coulomb_friction":
+                out[:, j] += p["fc"][i] * np.tanh(qd[:, j] / p["vs"][i])
+            elif e["name"] == "load_dependent_friction":
+                out[:, j] += p["mu"][i] * np.abs(rigid[:, j]) * np.sign(qd[:, j])
+            elif e["name"] == "torque_ripple":
+                w = 2 * math.pi / p["period"][i]
+                out[:, j] += p["a"][i] * np.sin(w * q[:, j]) + p["b"][i] * np.cos(w * q[:, j])
         if e["name"] == "payload":
             out += payload_torque(robot_true, p, q, qd, qdd)
-    return out
+    # the sensor effects act on the whole true torque (rigid body + the effects above)
+    true = rigid + out
+    seen = sensor_model(effects, names, t if t is not None else np.arange(len(q)) * DT, true)
+    return out + (seen - true)
 
 
 def payload_torque(robot, p, q, qd, qdd):
@@ -582,7 +691,7 @@ def main(argv=None):
         nominal_robot = robot if nominal is None else ivdyn.Robot.from_urdf(
             os.path.join(out, nominal), base=base, tip=tip)
         tau_nom = nominal_robot.rnea(sim["q"], sim["qd"], sim["qdd"])
-        eff = effect_torque(case["effects"], names, sim["q"], sim["qd"], sim["qdd"], robot)
+        eff = effect_torque(case["effects"], names, sim["q"], sim["qd"], sim["qdd"], robot, sim["t"])
         entry = {
             "name": case["name"], "log": log, "bytes": size,
             "urdf": robot_urdf if nominal is None else os.path.relpath(os.path.join(out, nominal), ROOT),

@@ -2,7 +2,10 @@
 //! parameters, the evidence in words, the predictions after each step, what is left above
 //! the noise, and the verdict.
 
-use super::dictionary::{C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, Dictionary};
+use super::dictionary::{
+    C_DELAY, C_GAIN, C_LOAD, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_RIPPLE, C_SIGN, C_SIGN_POS, C_STRIBECK, C_TANH,
+    Dictionary, RIPPLE_N,
+};
 use super::model::{Fit, Model, effect_torque, fit, rss_joint};
 use super::prepare::Prepared;
 use super::refit::{self, RefitDecision};
@@ -132,7 +135,13 @@ fn report_effects(
         let joints: Vec<usize> = match kind {
             EffectKind::Payload => (0..n).collect(),
             // Stribeck replaces Coulomb on its joints
-            EffectKind::Coulomb => (0..n).filter(|&j| m.has(j, kind) && !m.has(j, EffectKind::Stribeck)).collect(),
+            EffectKind::Coulomb => (0..n)
+                .filter(|&j| m.has(j, kind))
+                .filter(|&j| {
+                    let refined = [EffectKind::Stribeck, EffectKind::SmoothCoulomb, EffectKind::AsymmetricCoulomb];
+                    !refined.iter().any(|&r| m.has(j, r))
+                })
+                .collect(),
             _ => (0..n).filter(|&j| m.has(j, kind)).collect(),
         };
         if kind != EffectKind::Payload && joints.is_empty() || kind == EffectKind::Payload && !m.payload {
@@ -204,8 +213,44 @@ fn effect_parameters(kind: EffectKind, joints: &[usize], f: &Fit, m: &Model, d: 
             params.insert("vs".into(), list(joints.iter().map(|&j| d.vs[j][m.stribeck_vs[j]]).collect()));
         }
         EffectKind::Payload => payload_parameters(f, n, &mut params),
+        _ => drive_parameters(kind, joints, f, m, d, &mut params),
     }
     params
+}
+
+/// The `parameters` of a real-drive effect (DESIGN.md), lists over `joints`.
+fn drive_parameters(kind: EffectKind, joints: &[usize], f: &Fit, m: &Model, d: &Dictionary, params: &mut Params) {
+    let list = |v: Vec<f64>| serde_json::Value::from(v);
+    let over = |g: &dyn Fn(usize) -> f64| list(joints.iter().map(|&j| g(j)).collect());
+    match kind {
+        EffectKind::AsymmetricCoulomb => {
+            // fc sign(qd) + d [qd > 0]: fc_neg = fc, fc_pos = fc + d
+            let fc = |j: usize| theta_of(f, j, EffectKind::Coulomb, C_SIGN);
+            params.insert("fc_pos".into(), over(&|j: usize| fc(j) + theta_of(f, j, kind, C_SIGN_POS)));
+            params.insert("fc_neg".into(), over(&|j: usize| fc(j)));
+        }
+        EffectKind::SmoothCoulomb => {
+            params.insert("fc".into(), over(&|j: usize| theta_of(f, j, kind, C_TANH + m.smooth_vs[j])));
+            params.insert("vs".into(), over(&|j: usize| d.smooth_vs[j][m.smooth_vs[j]]));
+        }
+        EffectKind::LoadDependent => {
+            params.insert("mu".into(), over(&|j: usize| theta_of(f, j, kind, C_LOAD)));
+        }
+        EffectKind::TorqueGain => {
+            // residual (k - 1) tau_nom
+            params.insert("k".into(), over(&|j: usize| 1.0 + theta_of(f, j, kind, C_GAIN)));
+        }
+        EffectKind::TorqueRipple => {
+            let col = |j: usize| C_RIPPLE + 2 * m.ripple_n[j];
+            params.insert("period".into(), over(&|j: usize| std::f64::consts::TAU / RIPPLE_N[m.ripple_n[j]]));
+            params.insert("a".into(), over(&|j: usize| theta_of(f, j, kind, col(j))));
+            params.insert("b".into(), over(&|j: usize| theta_of(f, j, kind, col(j) + 1)));
+        }
+        EffectKind::TimeDelay => {
+            params.insert("delay_s".into(), over(&|j: usize| theta_of(f, j, kind, C_DELAY)));
+        }
+        _ => {}
+    }
 }
 
 /// A payload's mass, centre of mass and inertia from its 10 fitted inertial parameters
@@ -325,7 +370,9 @@ fn next_command(kept: &[Step], refit: bool, opts: &DiagnoseOptions) -> Option<St
     }
     let has = |e: EffectKind| kept.iter().any(|st| st.effect == e);
     let mut friction = vec![];
-    if has(EffectKind::Coulomb) || has(EffectKind::Stribeck) {
+    let coulomb_like =
+        [EffectKind::Coulomb, EffectKind::Stribeck, EffectKind::SmoothCoulomb, EffectKind::AsymmetricCoulomb];
+    if coulomb_like.iter().any(|&e| has(e)) {
         friction.push("coulomb");
     }
     if has(EffectKind::Viscous) {
@@ -517,6 +564,43 @@ fn joint_evidence(effect: EffectKind, name: &str, r: &Regimes, get: impl Fn(&str
             get("q0")
         ),
         EffectKind::Payload => String::new(),
+        _ => drive_evidence(effect, name, r, get, tail),
+    }
+}
+
+/// The sentence for one joint of a real-drive effect.
+fn drive_evidence(effect: EffectKind, name: &str, r: &Regimes, get: impl Fn(&str) -> f64, tail: &str) -> String {
+    match effect {
+        EffectKind::AsymmetricCoulomb => format!(
+            "{name}: the friction level depends on the direction of motion: {:.3} N m moving forward, {:.3} N m backward (jump {:.3} N m at its {} reversals): direction-dependent Coulomb friction; {tail}",
+            get("fc_pos"),
+            get("fc_neg"),
+            r.reversal_jump,
+            r.reversals
+        ),
+        EffectKind::SmoothCoulomb => format!(
+            "{name}: the friction changes sign smoothly across zero velocity, {:.3} N m reached within about {:.3} rad/s: smooth Coulomb friction fc tanh(qd/vs); {tail}",
+            get("fc"),
+            get("vs")
+        ),
+        EffectKind::LoadDependent => format!(
+            "{name}: the friction grows with the torque the joint carries, {:.4} N m per N m of load: load-dependent friction; {tail}",
+            get("mu")
+        ),
+        EffectKind::TorqueGain => format!(
+            "{name}: the measured torque is the rigid-body torque times {:.4}: a torque-constant (gain) error; {tail}",
+            get("k")
+        ),
+        EffectKind::TorqueRipple => format!(
+            "{name}: the residual repeats every {:.3} rad of joint position (amplitude {:.3} N m): torque ripple; {tail}",
+            get("period"),
+            get("a").hypot(get("b"))
+        ),
+        EffectKind::TimeDelay => format!(
+            "{name}: the measured torque lags the model by {:.2} ms: a torque-to-motion delay; {tail}",
+            1e3 * get("delay_s")
+        ),
+        _ => String::new(),
     }
 }
 

@@ -24,7 +24,25 @@ pub(super) const C_QDD: usize = 4;
 /// Stribeck shapes `exp(-(qd/vs)^2) sign(qd)`, `vs` = these fractions of the joint's RMS speed.
 pub(super) const STRIBECK_VS: [f64; 5] = [0.02, 0.05, 0.1, 0.2, 0.4];
 pub(super) const C_STRIBECK: usize = 5;
-pub(super) const C_PAYLOAD: usize = C_STRIBECK + STRIBECK_VS.len();
+/// The positive-velocity indicator `[qd > 0]`: with `sign(qd)`, direction-dependent
+/// Coulomb friction `fc_pos [qd > 0] - fc_neg [qd < 0]`.
+pub(super) const C_SIGN_POS: usize = C_STRIBECK + STRIBECK_VS.len();
+/// Smooth Coulomb shapes `tanh(qd / vs)`, `vs` = these fractions of the joint's RMS speed: a
+/// sigmoid narrower than that is Coulomb friction seen through a stick phase or a
+/// differentiated velocity (both smear the sign over a few % of the speed).
+pub(super) const SMOOTH_VS: [f64; 5] = [0.15, 0.2, 0.3, 0.4, 0.6];
+pub(super) const C_TANH: usize = C_SIGN_POS + 1;
+/// Load-dependent friction `|tau_nom| sign(qd)` (the joint's nominal rigid-body torque as
+/// its load, as in a harmonic drive).
+pub(super) const C_LOAD: usize = C_TANH + SMOOTH_VS.len();
+/// Torque gain: the joint's nominal rigid-body torque (measured = k x true: `(k - 1) tau_nom`).
+pub(super) const C_GAIN: usize = C_LOAD + 1;
+/// Time delay, first order: `-d tau_nom / dt` (`tau(t - d) = tau(t) - d tau'(t) + ..`).
+pub(super) const C_DELAY: usize = C_GAIN + 1;
+/// Ripple harmonics `sin(n q), cos(n q)` (period `2 pi / n`) for these `n`.
+pub(super) const RIPPLE_N: [f64; 5] = [4.0, 6.0, 8.0, 12.0, 16.0];
+pub(super) const C_RIPPLE: usize = C_DELAY + 1;
+pub(super) const C_PAYLOAD: usize = C_RIPPLE + 2 * RIPPLE_N.len();
 /// Link-scale columns of the look-alike check and the nominal re-fit: link i's nominal
 /// torque on the joint split by the parts of its inertial parameters, `Y_i,g theta_i,g`
 /// for g = its mass, its first moment (mass times COM) and its rotational inertia, at
@@ -43,6 +61,8 @@ pub(super) struct Dictionary {
     pub(super) r0: Vec<Vec<f64>>,
     /// Stribeck `vs` values per joint (rad/s or m/s).
     pub(super) vs: Vec<[f64; 5]>,
+    /// Smooth Coulomb `vs` values per joint (rad/s or m/s).
+    pub(super) smooth_vs: Vec<[f64; 5]>,
     /// Mean position per joint (the spring's reference for conditioning).
     pub(super) q_mean: Vec<f64>,
 }
@@ -54,12 +74,16 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> R
     let p_full = robot.num_params();
     let mut cols = vec![vec![vec![0.0; t_len]; NCOLS]; n];
     let mut vs = vec![[0.0; 5]; n];
+    let mut smooth_vs = vec![[0.0; 5]; n];
     let mut q_mean = vec![0.0; n];
     for j in 0..n {
         let qd_rms = ((0..t_len).map(|k| s.qd[k * n + j].powi(2)).sum::<f64>() / t_len as f64).sqrt().max(1e-9);
         q_mean[j] = (0..t_len).map(|k| s.q[k * n + j]).sum::<f64>() / t_len as f64;
         for (g, f) in STRIBECK_VS.iter().enumerate() {
             vs[j][g] = f * qd_rms;
+        }
+        for (g, f) in SMOOTH_VS.iter().enumerate() {
+            smooth_vs[j][g] = f * qd_rms;
         }
         let c = &mut cols[j];
         for k in 0..t_len {
@@ -79,7 +103,9 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> R
             for g in 0..STRIBECK_VS.len() {
                 c[C_STRIBECK + g][k] = (-(qd / vs[j][g]).powi(2)).exp() * sg;
             }
+            drive_columns(c, k, q, qd, tau_nom[k * n + j], &smooth_vs[j]);
         }
+        delay_column(&mut c[C_DELAY], tau_nom, n, j, s.dt);
     }
     // the terminal link's 10 regressor columns, in blocks (the whole regressor would be
     // T x N x 14N doubles)
@@ -109,7 +135,37 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> R
         }
     }
     let r0 = (0..n).map(|j| (0..t_len).map(|k| s.tau[k * n + j] - tau_nom[k * n + j]).collect()).collect();
-    Ok(Dictionary { cols, r0, vs, q_mean })
+    Ok(Dictionary { cols, r0, vs, smooth_vs, q_mean })
+}
+
+/// Sample `k` of the real-drive columns of one joint (`tau`: its nominal rigid-body torque).
+fn drive_columns(c: &mut [Vec<f64>], k: usize, q: f64, qd: f64, tau: f64, smooth_vs: &[f64; 5]) {
+    let sg = c[C_SIGN][k];
+    c[C_SIGN_POS][k] = if qd > 0.0 { 1.0 } else { 0.0 };
+    for (g, v) in smooth_vs.iter().enumerate() {
+        c[C_TANH + g][k] = (qd / v).tanh();
+    }
+    c[C_LOAD][k] = tau.abs() * sg;
+    c[C_GAIN][k] = tau;
+    for (g, h) in RIPPLE_N.iter().enumerate() {
+        let (sn, cs) = (h * q).sin_cos();
+        c[C_RIPPLE + 2 * g][k] = sn;
+        c[C_RIPPLE + 2 * g + 1][k] = cs;
+    }
+}
+
+/// `-d tau_nom / dt` of joint `j` (central differences, one-sided at the ends): the
+/// first-order column of a torque that lags the motion.
+fn delay_column(out: &mut [f64], tau_nom: &[f64], n: usize, j: usize, dt: f64) {
+    let t_len = out.len();
+    if t_len < 2 {
+        return;
+    }
+    let at = |k: usize| tau_nom[k * n + j];
+    for (k, o) in out.iter_mut().enumerate() {
+        let (a, b) = (k.saturating_sub(1), (k + 1).min(t_len - 1));
+        *o = -(at(b) - at(a)) / ((b - a) as f64 * dt);
+    }
 }
 
 /// Gram matrices `[X r]^T [X r]` per joint and fold.

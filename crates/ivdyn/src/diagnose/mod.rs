@@ -25,6 +25,7 @@ use serde::{Deserialize, Serialize};
 
 mod assemble;
 mod dictionary;
+mod drive_rules;
 mod model;
 mod prepare;
 mod refit;
@@ -130,11 +131,32 @@ pub enum EffectKind {
     /// `k (q - q0)` per joint.
     #[serde(rename = "joint_spring")]
     JointSpring,
+    /// Direction-dependent Coulomb friction: `fc_pos` when `qd > 0`, `-fc_neg` when `qd < 0`
+    /// (a refinement of Coulomb friction found on the joint).
+    #[serde(rename = "asymmetric_coulomb_friction")]
+    AsymmetricCoulomb,
+    /// Smooth (sigmoid) Coulomb friction `fc tanh(qd / vs)`, `vs` fitted (replaces Coulomb
+    /// friction found on the joint when held-out data prefer it).
+    #[serde(rename = "smooth_coulomb_friction")]
+    SmoothCoulomb,
+    /// `mu |tau_load| sign(qd)`, the load torque being the joint's rigid-body torque
+    /// (harmonic drives).
+    #[serde(rename = "load_dependent_friction")]
+    LoadDependent,
+    /// A torque-constant (gain) error: measured = `k` x true torque.
+    #[serde(rename = "torque_gain")]
+    TorqueGain,
+    /// Position-periodic ripple (cogging) `a sin(2 pi q / period) + b cos(2 pi q / period)`.
+    #[serde(rename = "torque_ripple")]
+    TorqueRipple,
+    /// The measured torque lags the motion by `delay_s` (beyond the sub-sample alignment).
+    #[serde(rename = "time_delay")]
+    TimeDelay,
 }
 
 impl EffectKind {
     /// Every effect, in the vocabulary's order.
-    pub const ALL: [EffectKind; 7] = [
+    pub const ALL: [EffectKind; 13] = [
         EffectKind::Coulomb,
         EffectKind::Viscous,
         EffectKind::Stribeck,
@@ -142,6 +164,12 @@ impl EffectKind {
         EffectKind::Payload,
         EffectKind::TorqueOffset,
         EffectKind::JointSpring,
+        EffectKind::AsymmetricCoulomb,
+        EffectKind::SmoothCoulomb,
+        EffectKind::LoadDependent,
+        EffectKind::TorqueGain,
+        EffectKind::TorqueRipple,
+        EffectKind::TimeDelay,
     ];
 
     /// The vocabulary name (`"coulomb_friction"`, ...).
@@ -154,6 +182,12 @@ impl EffectKind {
             EffectKind::Payload => "payload",
             EffectKind::TorqueOffset => "torque_offset",
             EffectKind::JointSpring => "joint_spring",
+            EffectKind::AsymmetricCoulomb => "asymmetric_coulomb_friction",
+            EffectKind::SmoothCoulomb => "smooth_coulomb_friction",
+            EffectKind::LoadDependent => "load_dependent_friction",
+            EffectKind::TorqueGain => "torque_gain",
+            EffectKind::TorqueRipple => "torque_ripple",
+            EffectKind::TimeDelay => "time_delay",
         }
     }
 
@@ -167,6 +201,12 @@ impl EffectKind {
             EffectKind::Payload => "payload on the last link",
             EffectKind::TorqueOffset => "torque offset",
             EffectKind::JointSpring => "joint spring",
+            EffectKind::AsymmetricCoulomb => "direction-dependent Coulomb friction",
+            EffectKind::SmoothCoulomb => "smooth (sigmoid) Coulomb friction",
+            EffectKind::LoadDependent => "load-dependent friction",
+            EffectKind::TorqueGain => "torque gain (torque-constant) error",
+            EffectKind::TorqueRipple => "position-periodic torque ripple",
+            EffectKind::TimeDelay => "torque-to-motion time delay",
         }
     }
 }
@@ -181,7 +221,10 @@ pub struct EffectJson {
     pub joints: Vec<String>,
     /// Per DESIGN.md: coulomb `{"fc": [..]}`, viscous `{"fv": [..]}`, stribeck
     /// `{"fc","fs","vs"}`, armature `{"ia"}`, torque_offset `{"tau0"}`, joint_spring
-    /// `{"k","q0"}` (lists over `joints`), payload `{"mass","com","inertia"}`.
+    /// `{"k","q0"}` (lists over `joints`), payload `{"mass","com","inertia"}`;
+    /// asymmetric_coulomb_friction `{"fc_pos","fc_neg"}`, smooth_coulomb_friction
+    /// `{"fc","vs"}`, load_dependent_friction `{"mu"}`, torque_gain `{"k"}`, torque_ripple
+    /// `{"period","a","b"}`, time_delay `{"delay_s"}` (lists over `joints`).
     pub parameters: serde_json::Map<String, serde_json::Value>,
     /// Standard error of each parameter, same keys and shape as `parameters` (`null` where
     /// there is none: a shape chosen on a grid, a value that is not identifiable); from

@@ -5,7 +5,8 @@ use nalgebra::{DMatrix, DVector};
 
 use super::EffectKind;
 use super::dictionary::{
-    C_LINK, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STRIBECK, C_TARGET, Dictionary, Grams, LINK_GROUPS,
+    C_DELAY, C_GAIN, C_LINK, C_LOAD, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_RIPPLE, C_SIGN, C_SIGN_POS, C_STRIBECK,
+    C_TANH, C_TARGET, Dictionary, Grams, LINK_GROUPS, RIPPLE_N, SMOOTH_VS,
 };
 use super::residual::noise_and_tau;
 
@@ -25,7 +26,15 @@ pub(super) struct Param {
 pub(super) struct Model {
     pub(super) per_joint: Vec<Vec<EffectKind>>,
     pub(super) stribeck_vs: Vec<usize>,
+    /// Smooth Coulomb `vs` (index into `SMOOTH_VS`) per joint.
+    pub(super) smooth_vs: Vec<usize>,
+    /// Ripple harmonic (index into `RIPPLE_N`) per joint.
+    pub(super) ripple_n: Vec<usize>,
     pub(super) payload: bool,
+    /// Every shape of the grid effects (smooth friction, ripple) on every joint: the
+    /// all-candidates model only (its residual must hold no structure any candidate explains,
+    /// or the noise and autocorrelation estimated from it are those of a missing effect).
+    pub(super) all_shapes: bool,
     /// Per-link scale factors of the nominal inertials, every link (look-alike check).
     pub(super) link_scale: bool,
     /// The nominal re-fit (`refit`): per-link scale factors of the links before the
@@ -37,7 +46,16 @@ pub(super) struct Model {
 
 impl Model {
     pub(super) fn new(n: usize) -> Self {
-        Model { per_joint: vec![vec![]; n], stribeck_vs: vec![0; n], payload: false, link_scale: false, refit: false }
+        Model {
+            per_joint: vec![vec![]; n],
+            stribeck_vs: vec![0; n],
+            smooth_vs: vec![0; n],
+            ripple_n: vec![0; n],
+            payload: false,
+            all_shapes: false,
+            link_scale: false,
+            refit: false,
+        }
     }
 
     pub(super) fn has(&self, j: usize, e: EffectKind) -> bool {
@@ -73,22 +91,41 @@ impl Model {
             let mut kinds = effects.clone();
             kinds.sort();
             for e in kinds {
-                let cols: &[usize] = match e {
-                    EffectKind::Coulomb => &[C_SIGN],
-                    EffectKind::Viscous => &[C_QD],
-                    EffectKind::Armature => &[C_QDD],
-                    EffectKind::TorqueOffset => &[C_ONE],
+                let (tanh, rip) = (C_TANH + self.smooth_vs[j], C_RIPPLE + 2 * self.ripple_n[j]);
+                let cols: Vec<usize> = match e {
+                    // smooth Coulomb friction replaces the sign column by its tanh
+                    EffectKind::Coulomb if effects.contains(&EffectKind::SmoothCoulomb) => vec![],
+                    EffectKind::Coulomb => vec![C_SIGN],
+                    EffectKind::AsymmetricCoulomb => vec![C_SIGN_POS],
+                    EffectKind::SmoothCoulomb => vec![tanh],
+                    EffectKind::LoadDependent => vec![C_LOAD],
+                    EffectKind::TorqueGain => vec![C_GAIN],
+                    EffectKind::TimeDelay => vec![C_DELAY],
+                    EffectKind::TorqueRipple => vec![rip, rip + 1],
+                    EffectKind::Viscous => vec![C_QD],
+                    EffectKind::Armature => vec![C_QDD],
+                    EffectKind::TorqueOffset => vec![C_ONE],
                     // k (q - q0) = k q + c: the constant is the offset's column, so a
                     // spring and an offset on one joint share it (never both: see rules)
-                    EffectKind::JointSpring => &[C_Q, C_ONE],
-                    EffectKind::Stribeck => &[C_STRIBECK],
-                    EffectKind::Payload => &[],
+                    EffectKind::JointSpring => vec![C_Q, C_ONE],
+                    EffectKind::Stribeck => vec![C_STRIBECK],
+                    EffectKind::Payload => vec![],
                 };
-                for &c in cols {
+                for c in cols {
                     let c = if c == C_STRIBECK { C_STRIBECK + self.stribeck_vs[j] } else { c };
                     if !p.iter().any(|x: &Param| x.joint == Some(j) && x.col == c) {
                         p.push(Param { kind: Some(e), joint: Some(j), col: c });
                     }
+                }
+            }
+        }
+        if self.all_shapes {
+            for j in 0..self.per_joint.len() {
+                for c in C_TANH..C_TANH + SMOOTH_VS.len() {
+                    p.push(Param { kind: Some(EffectKind::SmoothCoulomb), joint: Some(j), col: c });
+                }
+                for c in C_RIPPLE..C_RIPPLE + 2 * RIPPLE_N.len() {
+                    p.push(Param { kind: Some(EffectKind::TorqueRipple), joint: Some(j), col: c });
                 }
             }
         }
@@ -125,6 +162,18 @@ pub(super) fn friction_model(n: usize) -> Model {
 /// The model with every candidate on every joint (and a payload): what is left after it
 /// is the noise plus what no effect of the vocabulary explains.
 pub(super) fn all_model(n: usize) -> Model {
+    let mut all = basic_all_model(n);
+    for effects in all.per_joint.iter_mut() {
+        effects.extend([EffectKind::LoadDependent, EffectKind::TorqueGain, EffectKind::TimeDelay]);
+    }
+    all.all_shapes = true;
+    all
+}
+
+/// The all-candidates model of the basic vocabulary (friction, armature, spring, payload):
+/// the differentiation cutoff is chosen with it (the smooth-friction shapes would absorb the
+/// smearing of the velocity's sign a too low cutoff makes).
+pub(super) fn basic_all_model(n: usize) -> Model {
     let mut all = Model::new(n);
     for j in 0..n {
         all.per_joint[j] =

@@ -4,7 +4,7 @@
 
 use super::DiagnoseOptions;
 use super::dictionary::{Dictionary, Grams, build_dictionary, grams};
-use super::model::{all_model, fit, noise_of_all_model, rss_joint};
+use super::model::{basic_all_model, fit, noise_of_all_model, rss_joint};
 use super::signals::{Signals, accel_step, condition};
 use crate::Robot;
 use crate::batch;
@@ -91,7 +91,7 @@ impl Prepared {
     fn log_rss_all(&self) -> f64 {
         let n = self.d.cols.len();
         let unit = vec![1.0; n];
-        let f = fit(&all_model(n).params(), &self.gr, &unit, &[0, 1]);
+        let f = fit(&basic_all_model(n).params(), &self.gr, &unit, &[0, 1]);
         (0..n).map(|j| rss_joint(&f, &self.gr, j, &[0, 1]).max(1e-300).ln()).sum()
     }
 

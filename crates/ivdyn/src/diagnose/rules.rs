@@ -23,7 +23,7 @@
 //! spring is named only when its position column is significant beyond the constant,
 //! otherwise an offset.
 
-use super::dictionary::{C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, Grams, STRIBECK_VS};
+use super::dictionary::{C_DELAY, C_LOAD, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, Grams, STRIBECK_VS};
 use super::model::{Fit, Model, Param, all_model, effect_rms, fit, joint_index, noise_of_all_model, rss_joint};
 use super::prepare::Prepared;
 use super::{CandidateScore, DiagnoseOptions, EffectKind, JointScore};
@@ -33,7 +33,7 @@ use crate::error::{Error, Result};
 use crate::ident::stats::f_sf;
 
 /// Smallest armature (payload) named, as a fraction of the nominal inertia on the joint
-/// (of the terminal link's nominal mass).
+/// (of the terminal link's nominal mass); smallest torque gain error `|k - 1|` named.
 const NOMINAL_UNCERTAINTY: f64 = 0.1;
 
 /// Largest relative error of the nominal link inertials still taken as a plausible
@@ -152,7 +152,7 @@ impl Ctx<'_> {
 
     /// The first statistical rule (F test, held-out share, size) a score fails on joint
     /// `j`, in words with its numbers.
-    fn statistical_rule(&self, sc: &JointScore, j: usize) -> Option<String> {
+    pub(super) fn statistical_rule(&self, sc: &JointScore, j: usize) -> Option<String> {
         let o = self.opts;
         if sc.p >= o.alpha {
             Some(format!("F test: F {:.3}, p {:.1e} >= alpha {:.0e}", sc.f, sc.p, o.alpha))
@@ -190,6 +190,15 @@ impl Ctx<'_> {
                     self.m_diag[j]
                 ));
             }
+            if p.joint == Some(j) && p.kind == Some(EffectKind::TorqueGain) && v.abs() < NOMINAL_UNCERTAINTY {
+                // measured = (1 + v) x true: a few % of the joint's rigid-body torque is what
+                // CAD inertial errors leave too
+                return Some(format!(
+                    "CAD-uncertainty margin: gain k {:.4} is within {:.0} % of 1",
+                    1.0 + v,
+                    100.0 * NOMINAL_UNCERTAINTY
+                ));
+            }
             let payload = p.kind == Some(EffectKind::Payload) && p.col == C_PAYLOAD;
             (payload && v < NOMINAL_UNCERTAINTY * self.terminal_mass).then(|| {
                 format!(
@@ -205,13 +214,20 @@ impl Ctx<'_> {
     /// when all have it): friction, armature and spring stiffness dissipate or store
     /// energy only when positive, and a payload has a positive mass. A negative fit is how
     /// differentiation lag or a model error imitates an effect, never the effect itself.
-    fn unphysical(f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> Option<String> {
+    pub(super) fn unphysical(f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> Option<String> {
         f.params.iter().zip(&f.theta).find_map(|(p, &v)| {
             if !added(p) || p.joint.is_some_and(|x| x != j) {
                 return None;
             }
+            if p.kind == Some(EffectKind::TorqueGain) {
+                // measured = k x true with k = 1 + theta: a sensor cannot flip the sign
+                return (v <= -1.0).then(|| format!("sign: gain k = {:.4} is not positive", 1.0 + v));
+            }
             let name = match (p.kind, p.col) {
                 (Some(EffectKind::Coulomb), C_SIGN) => "fc",
+                (Some(EffectKind::SmoothCoulomb), _) => "fc",
+                (Some(EffectKind::LoadDependent), C_LOAD) => "mu",
+                (Some(EffectKind::TimeDelay), C_DELAY) => "delay_s",
                 (Some(EffectKind::Viscous), C_QD) => "fv",
                 (Some(EffectKind::Armature), C_QDD) => "ia",
                 (Some(EffectKind::JointSpring), C_Q) => "k",
@@ -232,9 +248,17 @@ impl Ctx<'_> {
     }
 }
 
-/// The effects a wrong nominal link mass or inertia can imitate.
+/// The effects a wrong nominal link mass or inertia can imitate (a torque gain scales the
+/// joint's rigid-body torque as a link-mass error partly does).
 fn inertia_like(e: EffectKind) -> bool {
-    matches!(e, EffectKind::Payload | EffectKind::Armature | EffectKind::TorqueOffset | EffectKind::JointSpring)
+    matches!(
+        e,
+        EffectKind::Payload
+            | EffectKind::Armature
+            | EffectKind::TorqueOffset
+            | EffectKind::JointSpring
+            | EffectKind::TorqueGain
+    )
 }
 
 /// Look-alike check against the nominal model's own error: if scaling each link's nominal
@@ -266,7 +290,12 @@ fn propose(m: &Model, e: EffectKind, j: usize) -> Option<Model> {
     match e {
         EffectKind::Payload => None,
         EffectKind::Stribeck => None, // handled separately (needs Coulomb and a vs)
-        EffectKind::TorqueOffset if m.has(j, EffectKind::JointSpring) => None,
+        // refinements of Coulomb friction and the ripple's period grid: scored separately
+        EffectKind::SmoothCoulomb | EffectKind::AsymmetricCoulomb | EffectKind::TorqueRipple => None,
+        // an offset beside direction-dependent friction is the same column
+        EffectKind::TorqueOffset if m.has(j, EffectKind::JointSpring) || m.has(j, EffectKind::AsymmetricCoulomb) => {
+            None
+        }
         _ if m.has(j, e) => None,
         _ => Some(m.with(Some(j), e)),
     }
@@ -274,7 +303,7 @@ fn propose(m: &Model, e: EffectKind, j: usize) -> Option<Model> {
 
 /// The score of a candidate that cannot go on a joint (already there, or its
 /// precondition missing).
-fn not_scored(why: &str) -> JointScore {
+pub(super) fn not_scored(why: &str) -> JointScore {
     JointScore {
         f: 0.0,
         p: 1.0,
@@ -288,7 +317,7 @@ fn not_scored(why: &str) -> JointScore {
 /// One candidate effect scored on every joint: the scores, the model with it added where
 /// it is significant, and the joints where a link-scale error imitates it (with the
 /// largest scale).
-type Scored = (Vec<JointScore>, Model, Vec<(usize, f64)>);
+pub(super) type Scored = (Vec<JointScore>, Model, Vec<(usize, f64)>);
 
 /// Scores every candidate against the current model.
 pub(super) fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
@@ -299,6 +328,9 @@ pub(super) fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Mod
             EffectKind::Payload if m.payload => continue,
             EffectKind::Payload => score_payload(ctx, m),
             EffectKind::Stribeck => score_stribeck(ctx, m),
+            EffectKind::SmoothCoulomb | EffectKind::AsymmetricCoulomb | EffectKind::TorqueRipple => {
+                super::drive_rules::score_grid_effect(ctx, m, e)
+            }
             _ => score_joint_effect(ctx, m, e),
         };
         if inertia_like(e) && e != EffectKind::Payload {
@@ -338,7 +370,8 @@ fn score_stribeck(ctx: &Ctx, m: &Model) -> Scored {
     let mut per_joint = vec![];
     let mut larger = m.clone();
     for j in 0..ctx.n {
-        if !m.has(j, EffectKind::Coulomb) || m.has(j, EffectKind::Stribeck) {
+        let refined = [EffectKind::Stribeck, EffectKind::SmoothCoulomb, EffectKind::AsymmetricCoulomb];
+        if !m.has(j, EffectKind::Coulomb) || refined.iter().any(|&r| m.has(j, r)) {
             per_joint.push(not_scored("a refinement of Coulomb friction already found on the joint"));
             continue;
         }
@@ -384,6 +417,12 @@ fn score_joint_effect(ctx: &Ctx, m: &Model, e: EffectKind) -> Scored {
     let mut per_joint = vec![];
     let mut larger = m.clone();
     for j in 0..ctx.n {
+        if e == EffectKind::TorqueGain && j + 1 == ctx.n {
+            // the terminal joint's torque is the terminal link's alone: a gain there is a
+            // scale of that link's inertials, which a payload or its CAD error is
+            per_joint.push(not_scored("on the terminal joint a gain is a scale of the terminal link's inertials"));
+            continue;
+        }
         let Some(l) = propose(m, e, j) else {
             per_joint.push(not_scored("already in the model on this joint"));
             continue;
@@ -398,7 +437,10 @@ fn score_joint_effect(ctx: &Ctx, m: &Model, e: EffectKind) -> Scored {
             (m.clone(), &move |p: &Param| p.kind == Some(e))
         };
         let l = if e == EffectKind::JointSpring { l.without(Some(j), EffectKind::TorqueOffset) } else { l };
-        let sc = ctx.joint_score(&base, &l, j, &|p| p.joint == Some(j) && sel(p));
+        let mut sc = ctx.joint_score(&base, &l, j, &|p| p.joint == Some(j) && sel(p));
+        if sc.significant && e == EffectKind::TorqueOffset && m.has(j, EffectKind::Coulomb) {
+            super::drive_rules::offset_or_asymmetric(ctx, &l, j, &mut sc);
+        }
         if sc.significant {
             larger.per_joint[j] = l.per_joint[j].clone();
         }

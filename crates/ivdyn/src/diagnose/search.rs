@@ -148,6 +148,11 @@ fn backward(ctx: &Ctx, m: &Model) -> Model {
         let mut worst: Option<(f64, Option<usize>, EffectKind)> = None;
         for j in 0..ctx.n {
             for &e in &m.per_joint[j] {
+                // Coulomb friction refined (smooth, direction-dependent) stays with its refinement
+                let refined = m.has(j, EffectKind::SmoothCoulomb) || m.has(j, EffectKind::AsymmetricCoulomb);
+                if e == EffectKind::Coulomb && refined {
+                    continue;
+                }
                 let smaller = m.without(Some(j), e);
                 let sc = ctx.joint_score(&smaller, &m, j, &|p| p.joint == Some(j) && p.kind == Some(e));
                 if !sc.significant && worst.as_ref().is_none_or(|w| sc.f < w.0) {

@@ -17,12 +17,12 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-fn cases_in(set: &str) -> Value {
+pub(crate) fn cases_in(set: &str) -> Value {
     let p = root().join("fixtures").join(set).join("cases.json");
     serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
 }
 
-fn run_in(set: &str, case: &Value, m: &Value) -> DiagnosisJson {
+pub(crate) fn run_in(set: &str, case: &Value, m: &Value) -> DiagnosisJson {
     run_full(set, case, m).json
 }
 
@@ -37,7 +37,7 @@ fn run_full(set: &str, case: &Value, m: &Value) -> Diagnosis {
     diagnose(&robot, &log, &DiagnoseOptions::default()).unwrap()
 }
 
-fn f64s(v: &Value) -> Vec<f64> {
+pub(crate) fn f64s(v: &Value) -> Vec<f64> {
     v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
 }
 

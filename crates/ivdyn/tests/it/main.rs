@@ -11,6 +11,7 @@ mod closed_loop;
 mod consistent;
 mod coulomb_shape;
 mod diagnose_cases;
+mod diagnose_drives;
 mod diagnose_report;
 mod diagnose_uncertainty;
 mod drive_gains;
