@@ -441,7 +441,8 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
              ignore_log_velocity: bool = False, report: bool = True, out_json: Optional[PathLike] = None,
              velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
              exclude: Optional[Sequence[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
-             gear_ratio=None, motor_constant=None, progress: Progress = None) -> Dict[str, Any]:
+             gear_ratio=None, motor_constant=None, drives: bool = False,
+             progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
     ``effects`` [{name, joints, parameters, parameters_std, rms_before, rms_after}] in the
@@ -460,7 +461,9 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     data); ``alpha``: F-test level; ``min_effect``: smallest effect named, in noise
     standard deviations; ``out_json``: a second copy of diagnosis.json; ``velocity`` and
     ``window`` as in :func:`identify` (``ignore_log_velocity=True`` is
-    ``velocity="positions"``).
+    ``velocity="positions"``); ``drives``: also search the effects of real drives
+    (``--drives``: asymmetric, smooth and load-dependent friction, torque gain, torque
+    ripple, time delay; off by default, ``docs/diagnose.md``).
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
@@ -469,7 +472,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
                                None if cutoff is None else float(cutoff), float(alpha), float(min_effect),
                                bool(ignore_log_velocity), bool(report), _params(params),
                                json_out=_path(out_json), progress=cb, velocity=str(velocity),
-                               window=_window(window), exclude=_spans(exclude),
+                               window=_window(window), exclude=_spans(exclude), drives=bool(drives),
                                **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()

@@ -610,7 +610,8 @@ fn simulate<'py>(
 #[pyo3(signature = (robot, log, out=None, topic="/joint_states", log_time=false, cutoff=None, alpha=1e-3,
                     min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None, json_out=None, progress=None,
                     velocity="auto", window=None, exclude=None,
-                    current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None))]
+                    current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None,
+                    drives=false))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
@@ -635,6 +636,7 @@ fn diagnose(
     torque_constant: Option<&Bound<'_, PyAny>>,
     gear_ratio: Option<&Bound<'_, PyAny>>,
     motor_constant: Option<&Bound<'_, PyAny>>,
+    drives: bool,
 ) -> PyResult<String> {
     use ivdyn::diagnose::DiagnoseOptions;
     let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
@@ -646,6 +648,7 @@ fn diagnose(
         opts: DiagnoseOptions {
             alpha,
             min_effect,
+            drives,
             cutoff_hz: cutoff,
             velocity: if ignore_log_velocity {
                 ivdyn::prep::VelocitySource::Positions

@@ -41,6 +41,10 @@ pub struct DiagnoseArgs {
     /// Skip report.html (faster; diagnosis.json and residuals.mcap only).
     #[arg(long)]
     no_report: bool,
+    /// Also search the effects of real drives (asymmetric, smooth and load-dependent
+    /// friction, torque gain, torque ripple, time delay); off by default (docs/diagnose.md).
+    #[arg(long)]
+    drives: bool,
 }
 
 pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
@@ -50,6 +54,7 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
     let opts = DiagnoseOptions {
         alpha: a.alpha,
         min_effect: a.min_effect,
+        drives: a.drives,
         cutoff_hz: a.cutoff,
         velocity,
         window: cond.window,

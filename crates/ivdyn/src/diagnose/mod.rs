@@ -65,6 +65,11 @@ pub struct DiagnoseOptions {
     pub blocks_per_fold: usize,
     /// Most effects to add (default 10).
     pub max_steps: usize,
+    /// Also search the effects of real drives (direction-dependent, smooth and
+    /// load-dependent friction, torque gain, torque ripple, time delay). Off by default: on
+    /// logs whose nominal inertials are off (CAD models) the gain and ripple candidates
+    /// still take up rigid-body error the re-fit does not hold (docs/diagnose.md).
+    pub drives: bool,
     /// Log file name for the report (informational).
     pub log_name: String,
     /// URDF file name for the report (informational).
@@ -100,6 +105,7 @@ impl Default for DiagnoseOptions {
             exclude: vec![],
             blocks_per_fold: 8,
             max_steps: 10,
+            drives: false,
             log_name: String::new(),
             urdf_name: String::new(),
             next_args: vec![],
@@ -171,6 +177,19 @@ impl EffectKind {
         EffectKind::TorqueRipple,
         EffectKind::TimeDelay,
     ];
+
+    /// An effect of the real-drive vocabulary (searched only with `DiagnoseOptions::drives`).
+    pub fn is_drive(&self) -> bool {
+        matches!(
+            self,
+            EffectKind::AsymmetricCoulomb
+                | EffectKind::SmoothCoulomb
+                | EffectKind::LoadDependent
+                | EffectKind::TorqueGain
+                | EffectKind::TorqueRipple
+                | EffectKind::TimeDelay
+        )
+    }
 
     /// The vocabulary name (`"coulomb_friction"`, ...).
     pub fn name(&self) -> &'static str {

@@ -161,8 +161,11 @@ pub(super) fn friction_model(n: usize) -> Model {
 
 /// The model with every candidate on every joint (and a payload): what is left after it
 /// is the noise plus what no effect of the vocabulary explains.
-pub(super) fn all_model(n: usize) -> Model {
+pub(super) fn all_model(n: usize, drives: bool) -> Model {
     let mut all = basic_all_model(n);
+    if !drives {
+        return all;
+    }
     for effects in all.per_joint.iter_mut() {
         effects.extend([EffectKind::LoadDependent, EffectKind::TorqueGain, EffectKind::TimeDelay]);
     }
@@ -313,16 +316,18 @@ pub(super) fn effect_torque(f: &Fit, d: &Dictionary, n: usize, t_len: usize) -> 
 }
 
 /// Noise std and integrated autocorrelation time per joint from the residual of
-/// [`all_model`] (with the nominal re-fit when `refit`), and that residual.
+/// [`all_model`] (with the nominal re-fit when `refit`, the drive effects when `drives`), and
+/// that residual.
 pub(super) fn noise_of_all_model(
     d: &Dictionary,
     gr: &Grams,
     n: usize,
     t_len: usize,
     refit: bool,
+    drives: bool,
 ) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let unit = vec![1.0; n];
-    let mut all = all_model(n);
+    let mut all = all_model(n, drives);
     all.refit = refit;
     let f_all = fit(&all.params(), gr, &unit, &[0, 1]);
     let e_all = effect_torque(&f_all, d, n, t_len);

@@ -55,7 +55,7 @@ pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions
     }
     let p = best.expect("at least one cutoff").1;
     // torque-to-motion alignment (a fraction of a sample), then everything again
-    let alpha = p.alignment(robot)?;
+    let alpha = p.alignment(robot, opts.drives)?;
     prepare(robot, log, opts, p.s.cutoff_hz, Some(alpha))
 }
 
@@ -98,10 +98,10 @@ impl Prepared {
     /// The time alignment `a` (samples, clamped to +-1) between torque and motion that
     /// best explains the residual of the all-candidates model: the torque of the shift,
     /// `M(q) a accel_step`, regressed on it, weighted by the noise.
-    fn alignment(&self, robot: &Robot) -> Result<f64> {
+    fn alignment(&self, robot: &Robot, drives: bool) -> Result<f64> {
         let n = self.d.cols.len();
         let t_len = self.s.t.len();
-        let (sigma, _, r_all) = noise_of_all_model(&self.d, &self.gr, n, t_len, false);
+        let (sigma, _, r_all) = noise_of_all_model(&self.d, &self.gr, n, t_len, false, drives);
         let delta = accel_step(&self.s.qd, n, self.s.dt);
         let zero = vec![0.0; t_len * n];
         let (mut m_d, mut m_0) = (vec![0.0; t_len * n], vec![0.0; t_len * n]);

@@ -78,12 +78,12 @@ impl<'a> Ctx<'a> {
         let n = robot.dof();
         let (s, d, gr) = (&p.s, &p.d, &p.gr);
         let t_len = s.t.len();
-        let (sigma, rho, _) = noise_of_all_model(d, gr, n, t_len, refit);
+        let (sigma, rho, _) = noise_of_all_model(d, gr, n, t_len, refit, opts.drives);
         let w: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
         let m_diag = mean_mass_diag(robot, &s.q, n)?;
         let terminal_mass = robot.params()[10 * (n - 1)];
         let h_all: Vec<f64> = {
-            let mut all = all_model(n);
+            let mut all = all_model(n, opts.drives);
             all.refit = refit;
             let pa = all.params();
             let (f0, f1) = (fit(&pa, gr, &w, &[0]), fit(&pa, gr, &w, &[1]));
@@ -323,7 +323,7 @@ pub(super) type Scored = (Vec<JointScore>, Model, Vec<(usize, f64)>);
 pub(super) fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
     let n = ctx.n;
     let mut out = vec![];
-    for e in EffectKind::ALL {
+    for e in EffectKind::ALL.into_iter().filter(|e| ctx.opts.drives || !e.is_drive()) {
         let (mut per_joint, mut larger, mut lookalike) = match e {
             EffectKind::Payload if m.payload => continue,
             EffectKind::Payload => score_payload(ctx, m),

@@ -27,6 +27,11 @@ pub(crate) fn run_in(set: &str, case: &Value, m: &Value) -> DiagnosisJson {
 }
 
 fn run_full(set: &str, case: &Value, m: &Value) -> Diagnosis {
+    run_with(set, case, m, &DiagnoseOptions::default())
+}
+
+/// A fixture case diagnosed with `opts`.
+pub(crate) fn run_with(set: &str, case: &Value, m: &Value, opts: &DiagnoseOptions) -> Diagnosis {
     let urdf = root().join(case["urdf"].as_str().unwrap());
     let robot = Robot::from_urdf(urdf, m["base"].as_str(), m["tip"].as_str()).unwrap();
     let log = read_mcap(
@@ -34,7 +39,7 @@ fn run_full(set: &str, case: &Value, m: &Value) -> Diagnosis {
         &ReadOptions::new(&robot.joint_names),
     )
     .unwrap();
-    diagnose(&robot, &log, &DiagnoseOptions::default()).unwrap()
+    diagnose(&robot, &log, opts).unwrap()
 }
 
 pub(crate) fn f64s(v: &Value) -> Vec<f64> {

@@ -12,13 +12,15 @@
 //! effect); for the ripple, 10 % of its amplitude on `a` and `b`, and the period exactly (it is
 //! on the grid); for the smooth friction's `vs` a factor 2.5 (the grid's spacing).
 
-use super::diagnose_cases::{cases_in, f64s, run_in};
+use super::diagnose_cases::{cases_in, f64s, run_with};
+use ivdyn::diagnose::DiagnoseOptions;
 
 fn check(name: &str) {
     let set = "diagnose_drives";
     let m = cases_in(set);
     let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
-    let d = run_in(set, case, &m);
+    // the drive vocabulary is searched on request (`--drives`)
+    let d = run_with(set, case, &m, &DiagnoseOptions { drives: true, ..Default::default() }).json;
     let truth = &case["effects"].as_array().unwrap()[0];
     let named: Vec<(String, Vec<String>)> = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
     let tj: Vec<String> = truth["joints"].as_array().unwrap().iter().map(|j| j.as_str().unwrap().to_string()).collect();
