@@ -27,20 +27,21 @@ def ivdyn_bin():
     return ivdyn_exe()
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def ray_runtime():
-    """One local Ray runtime of 2 CPUs for the session, in a short private directory (Ray's
-    socket paths must stay under ~107 characters; two xdist workers must not share a
-    session). The tests that use it are in the xdist group "ray", so one worker runs them
-    all and the runtime starts once."""
+    """A local Ray runtime of 2 CPUs in a short private directory (Ray's socket paths must
+    stay under ~107 characters; two xdist workers must not share a session), started when
+    none is running and left running for the next module: the tests that use it are in the
+    xdist group "ray", so one worker runs them all and the runtime starts once (Ray shuts it
+    down at exit). A test that needs a runtime of its own shuts this one down first."""
     import tempfile
 
     import ray
 
-    tmp = tempfile.mkdtemp(prefix="ivr", dir="/tmp")
-    ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tmp, log_to_driver=False)
-    yield ray
-    ray.shutdown()
+    if not ray.is_initialized():
+        tmp = tempfile.mkdtemp(prefix="ivr", dir="/tmp")
+        ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tmp, log_to_driver=False)
+    return ray
 
 
 # `make test` skips nothing: a test that would skip (a missing package, a missing binary)

@@ -114,7 +114,7 @@ def ray_run(entries, cpus: int):
         # a worker that imported everything but ran no log: its peak is the baseline
         idle_pid = ray.get(idle.remote())
         before = worker_peaks_mb()
-        t, res = timed(lambda: fleet.run(entries, engine="ray"))
+        t, res = timed(lambda: fleet.run(entries, fleet.Options(stream=True), engine="ray"))
         peaks = worker_peaks_mb()
     finally:
         ray.shutdown()
@@ -138,7 +138,7 @@ def runs(entries):
         return t, "", ""
 
     def local(cpus):
-        t, res = timed(lambda: fleet.run(entries, engine="local", num_cpus=cpus))
+        t, res = timed(lambda: fleet.run(entries, fleet.Options(stream=True), engine="local", num_cpus=cpus))
         check(res, n)
         return t, "", ""
 

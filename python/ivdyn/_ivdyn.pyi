@@ -324,7 +324,7 @@ def identify(robot: Robot, log: Union[_Log, List[_Log]], method: str = "wls", va
 def fleet_log_stats(robot: Robot, log: _Log, name: str, topic: str = "/joint_states", log_time: bool = False,
                     cutoff: Optional[float] = None, decimate: int = 0, params_json: Optional[str] = None,
                     friction: Optional[List[str]] = None, armature: bool = True, offset: bool = True,
-                    method: str = "wls") -> bytes:
+                    method: str = "wls", stream: bool = False) -> bytes:
     """One log's fleet statistics (versioned bytes with the model's fingerprint)."""
 def fleet_merge(parts: List[bytes]) -> bytes:
     """The merge of fleet statistics."""

@@ -130,6 +130,8 @@ def test_s3_manifest_on_ray_equals_the_local_run(logs):
     import ray
     local, remote = logs
     tmp = tempfile.mkdtemp(prefix="ivs3", dir="/tmp")
+    if ray.is_initialized():  # the shared runtime (conftest) was started without the S3 variables
+        ray.shutdown()
     ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tmp, log_to_driver=False)
     try:
         got = fleet.run(remote, engine="ray")

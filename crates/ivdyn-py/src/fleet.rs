@@ -53,7 +53,7 @@ fn stats_of(stats: &[u8], what: &str) -> PyResult<LogStats> {
 /// takes) as versioned bytes; `name` names the log in the statistics and in errors.
 #[pyfunction]
 #[pyo3(signature = (robot, log, name, topic="/joint_states", log_time=false, cutoff=None, decimate=0,
-                    params_json=None, friction=None, armature=true, offset=true, method="wls"))]
+                    params_json=None, friction=None, armature=true, offset=true, method="wls", stream=false))]
 #[allow(clippy::too_many_arguments)]
 fn fleet_log_stats<'py>(
     py: Python<'py>,
@@ -69,12 +69,13 @@ fn fleet_log_stats<'py>(
     armature: bool,
     offset: bool,
     method: &str,
+    stream: bool,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let opts = fleet_opts(method, cutoff, decimate, friction, armature, offset)?;
     let r = robot_with_params(&robot.inner, params_json)?;
     let input = log_input(&r, log, name)?;
     let src = log_source(topic, None, log_time);
-    let bytes = run(py, None, |_| fleet::log_stats(&r, &input, &src, name, &opts)?.to_bytes())?;
+    let bytes = run(py, None, |_| fleet::log_stats(&r, &input, &src, name, &opts, stream)?.to_bytes())?;
     Ok(PyBytes::new(py, &bytes))
 }
 

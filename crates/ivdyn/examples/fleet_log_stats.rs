@@ -46,7 +46,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 ..Default::default()
             };
             let t = std::time::Instant::now();
-            let s = app::fleet::log_stats(&robot, &LogInput::File(log.into()), &LogSource::default(), log, &opts)?;
+            let s =
+                app::fleet::log_stats(&robot, &LogInput::File(log.into()), &LogSource::default(), log, &opts, true)?;
             let bytes = s.to_bytes()?;
             println!(
                 "{log}: {:.2} s, {} rows per joint, {} bytes of statistics",

@@ -39,7 +39,7 @@ fn opts() -> IdentifyOptions {
 }
 
 fn stats(robot: &Robot, l: &JointLog, name: &str) -> LogStats {
-    fleet::log_stats(robot, &LogInput::Arrays(l.clone()), &LogSource::default(), name, &opts()).unwrap()
+    fleet::log_stats(robot, &LogInput::Arrays(l.clone()), &LogSource::default(), name, &opts(), false).unwrap()
 }
 
 /// `‖a - b‖ / ‖b‖` over the finite entries (both must be finite at the same places).
@@ -83,7 +83,7 @@ fn merged_statistics_equal_one_pass_over_the_logs_in_any_order() {
     let names: Vec<String> = (0..5).map(|k| format!("day{k}.mcap")).collect();
     let inputs: Vec<LogInput> = logs.iter().map(|l| LogInput::Arrays(l.clone())).collect();
     let pairs: Vec<(&str, &LogInput)> = names.iter().map(|s| s.as_str()).zip(&inputs).collect();
-    let one_pass = fleet::logs_stats(&robot, &pairs, &LogSource::default(), &opts()).unwrap();
+    let one_pass = fleet::logs_stats(&robot, &pairs, &LogSource::default(), &opts(), false).unwrap();
     // each log's statistics through bytes, as an engine ships them
     let parts: Vec<LogStats> = logs
         .iter()
@@ -232,7 +232,7 @@ fn mcap_file(l: &JointLog, name: &str) -> PathBuf {
 
 fn file_stats(robot: &Robot, path: &std::path::Path) -> LogStats {
     let name = path.to_string_lossy();
-    fleet::log_stats(robot, &LogInput::File(path.to_path_buf()), &LogSource::default(), &name, &opts()).unwrap()
+    fleet::log_stats(robot, &LogInput::File(path.to_path_buf()), &LogSource::default(), &name, &opts(), true).unwrap()
 }
 
 /// An MCAP file is streamed, and its statistics are the streamed `identify`'s: the fit of
@@ -276,7 +276,7 @@ fn merged_streamed_statistics_equal_one_streamed_pass_over_the_files() {
     let names: Vec<String> = paths.iter().map(|p| p.to_string_lossy().into_owned()).collect();
     let inputs: Vec<LogInput> = paths.iter().map(|p| LogInput::File(p.clone())).collect();
     let pairs: Vec<(&str, &LogInput)> = names.iter().map(|s| s.as_str()).zip(&inputs).collect();
-    let one_pass = fleet::logs_stats(&robot, &pairs, &LogSource::default(), &opts()).unwrap();
+    let one_pass = fleet::logs_stats(&robot, &pairs, &LogSource::default(), &opts(), true).unwrap();
     assert!(one_pass.logs.iter().all(|l| l.streamed));
     let parts: Vec<LogStats> = paths.iter().map(|p| file_stats(&robot, p)).collect();
     let reversed = LogStats::merge_all(parts.into_iter().rev().collect()).unwrap();
