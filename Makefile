@@ -139,7 +139,7 @@ py-test: py-install
 	$(MAKE) py-run
 
 py-run:
-	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q -n 2 --dist loadgroup python
+	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q -n 2 --dist loadgroup --durations=15 python
 
 ## fuzz: every reader fuzzed for FUZZ_SECS seconds each, coverage-guided (cargo-fuzz on
 ## nightly, installed here; 1 GB memory and 20 s per input at most). `make test` runs the
