@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test test-wheel py-run smoke-run rust-build venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
+.PHONY: demo test test-wheel lint-then-test py-run smoke-run rust-build venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -35,22 +35,26 @@ demo:
 
 ## test: formatting and lints, the published crates' packaging, every Rust test, the
 ## no_std/no-alloc proof, the Python suites, and the wheel in a fresh venv.
-# Two stages of two jobs each, so that neither core idles: (1) the venv's packages install
-# while lint, packaging and the Rust test build run, then the Python extension builds in the dev
-# profile in the same target dir, reusing that build (tools/feature_parity.py); (2) the Rust
-# tests run (often on one thread: a few long Monte Carlo tests) beside the Python suites and the
-# fresh-venv wheel check. -Otarget prints each step's output whole when it ends.
+# Two stages, so that neither core idles: (1) the venv's packages install while packaging
+# and the Rust test build run, then the Python extension builds in the dev profile in the
+# same target dir, reusing that build (tools/feature_parity.py); (2) fmt and clippy, then the
+# Rust tests (both take cargo's lock on target/, so one after the other), beside the Python
+# suites, the fresh-venv wheel check and the no_std probe, which need only what stage 1 built.
+# -Otarget prints each step's output whole when it ends.
 test:
 	$(MAKE) -j2 test-wheel
-	$(MAKE) -j2 -Otarget rust-test nostd py-run smoke-run SMOKE_WHEELS=$(TEST_WHEELS)
+	$(MAKE) -j2 -Otarget lint-then-test py-run nostd smoke-run SMOKE_WHEELS=$(TEST_WHEELS)
+
+lint-then-test:
+	$(MAKE) lint
+	$(MAKE) rust-test
 
 # The Rust tests: every crate's unit and integration tests, then the doctests (docs/*.md pages
 # with rust blocks are doctests too). Examples are not built here (`cargo test` would build
 # them all: clippy --all-targets checks them), except write_log, which a Python test runs;
 # ivdyn-py is tested from Python, and ivdyn-benches has no tests (criterion stays out).
 RUST_PKGS := --workspace --exclude ivdyn-py --exclude ivdyn-benches
-rust-build:
-	$(MAKE) -j1 lint package
+rust-build: package
 	$(CARGO) test $(RUST_PKGS) --lib --bins --tests --no-run
 	$(CARGO) build $(RUST_PKGS) --lib --bins --tests --example write_log
 
