@@ -21,6 +21,7 @@ either always passes or always fails; it is deterministic).
 """
 import html.parser
 import json
+import tempfile
 import os
 
 import numpy as np
@@ -30,7 +31,7 @@ import ivdyn
 from ivdyn import fleet
 from ivdyn.fleet import report, synth
 
-import ray  # noqa: F401  (Ray must be installed: the tests fail, never skip)
+import ray  # Ray must be installed: the tests fail, never skip
 pytestmark = pytest.mark.xdist_group("ray")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -39,7 +40,9 @@ ARMS, DAYS, MINUTES, RATE = 12, 10, 1.0, 200.0
 Q = 0.001
 
 
-@pytest.fixture(scope="module")
+# Session-scoped (not module): xdist may run another module of the "ray" group between this
+# module's tests, and a module fixture would then generate and run the fleet twice.
+@pytest.fixture(scope="session")
 def synthetic(tmp_path_factory):
     d = tmp_path_factory.mktemp("synth")
     f = synth.generate(str(d), UR5, arms=ARMS, days=DAYS, minutes=MINUTES, rate=RATE, seed=7,
@@ -47,9 +50,12 @@ def synthetic(tmp_path_factory):
     return f, json.loads(open(f.truth).read())
 
 
-@pytest.fixture(scope="module")
-def fleet_run(synthetic, ray_runtime):
+@pytest.fixture(scope="session")
+def fleet_run(synthetic):
     f, _ = synthetic
+    if not ray.is_initialized():  # as conftest's ray_runtime starts it (module-scoped there)
+        ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tempfile.mkdtemp(prefix="ivr", dir="/tmp"),
+                 log_to_driver=False)
     res = fleet.run(f.manifest, engine="ray")
     return res, fleet.drift(res, q=Q)
 
