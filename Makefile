@@ -137,13 +137,16 @@ smoke-run:
 	cd $(SMOKE_VENV) && ./bin/python $(abspath python/tools/wheel_smoke.py) $(abspath fixtures)
 
 # py-test runs every pytest suite (python/reference, python/tests, python/tests_io), on
-# two workers (pytest-xdist; tests marked xdist_group run on one worker: the Ray tests share
-# one runtime), against the installed wheel (py-run: against whatever wheel is installed).
+# two workers (pytest-xdist), each file's tests on one worker (--dist loadfile: its
+# session and module fixtures, e.g. the synthetic fleet and a Ray runtime, are made once;
+# --dist loadgroup ignored the xdist_group marks with pytest 9.2 / xdist 3.8: the names got
+# no @group suffix and one file's tests ran on both workers), against the installed wheel
+# (py-run: against whatever wheel is installed).
 py-test: py-install
 	$(MAKE) py-run
 
 py-run:
-	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q -n 2 --dist loadgroup --durations=15 python
+	IVDYN_BIN=$(abspath target/debug/ivdyn) $(PY) -m pytest -q -n 2 --dist loadfile --durations=15 python
 
 ## fuzz: every reader fuzzed for FUZZ_SECS seconds each, coverage-guided (cargo-fuzz on
 ## nightly, installed here; 1 GB memory and 20 s per input at most). `make test` runs the
