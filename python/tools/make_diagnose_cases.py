@@ -615,33 +615,11 @@ def rms(x):
     return [float(v) for v in np.sqrt(np.mean(np.asarray(x) ** 2, axis=0))]
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--robot", choices=sorted(ROBOTS), default="ur5")
-    ap.add_argument("--out", default=None, help="output directory (default fixtures/diagnose for ur5, "
-                    "fixtures/diagnose_panda for panda)")
-    ap.add_argument("--duration", type=float, default=2.0, help="seconds per case")
-    args = ap.parse_args(argv)
-    cfg = robot_config(args.robot)
-    out = args.out if args.out is not None else cfg["out"]
-    os.makedirs(out, exist_ok=True)
-    cfg = robot_config(args.robot, out)
-    panda = args.robot == "panda"
+def _manifest(cfg, robot_urdf, names, duration, agreement, panda):
+    """The cases.json header: generator, versions, sensors, controller, integrator."""
+    err_tau, err_m = agreement
     base, tip = cfg["base"], cfg["tip"]
     noise_std = cfg["torque_noise"]
-    # the clean URDF as named in cases.json (path from the repository root)
-    robot_urdf = cfg["source_urdf"] if cfg["urdf"] is None else os.path.relpath(cfg["urdf_path"], ROOT)
-
-    robot = ivdyn.Robot.from_urdf(cfg["urdf_path"], base=base, tip=tip)
-    names = list(robot.joint_names)
-    n = len(names)
-    assert robot.link_names[-1] == cfg["terminal_link"], robot.link_names
-    err_tau, err_m = check_agreement(robot, cfg=cfg)
-    print(f"MuJoCo vs ivdyn on the clean model: tau {err_tau:.2e}, M {err_m:.2e} (max relative, 200 states)")
-    if err_tau > AGREEMENT_TOL or err_m > AGREEMENT_TOL:
-        sys.exit("MuJoCo and ivdyn disagree on the clean model; not writing anything")
-
-    factors = perturbed_urdf(cfg, os.path.join(out, cfg["perturbed"]), seed=5)
     manifest = {
         "generator": "python/tools/make_diagnose_cases.py",
         "versions": {"mujoco": mujoco.__version__, "numpy": np.__version__},
@@ -649,7 +627,7 @@ def main(argv=None):
         "terminal_link": cfg["terminal_link"],
         "joints": names,
         "topic": "/joint_states",
-        "rate_hz": 1000.0, "dt": DT, "duration_s": args.duration,
+        "rate_hz": 1000.0, "dt": DT, "duration_s": duration,
         "agreement": {"max_rel_tau": err_tau, "max_rel_mass_matrix": err_m, "states": 200,
                       "tolerance": AGREEMENT_TOL},
         "sensor": {"torque_noise_std": noise_std, "encoder_counts_per_rev": ENCODER_COUNTS,
@@ -674,11 +652,84 @@ def main(argv=None):
         manifest["rate_hz_note"] = ("rate_hz / dt are the default; a case with its own rate_hz / dt was "
                                     "simulated, controlled and logged at that rate")
         manifest["acc_limits_rad_s2"] = cfg["acc_limits"]
+    return manifest
+
+
+def _case_entry(case, cfg, robot, measurement, written, robot_urdf, out, factors, panda):
+    """The case's cases.json entry: its log, effects, sensors and the oracle's RMS."""
+    sim, tau_meas, case_noise = measurement
+    log, size = written
+    names = list(robot.joint_names)
+    nominal = case.get("nominal")
+    # oracle, on the exact simulated states and realised accelerations
+    nominal_robot = robot if nominal is None else ivdyn.Robot.from_urdf(
+        os.path.join(out, nominal), base=cfg["base"], tip=cfg["tip"])
+    tau_nom = nominal_robot.rnea(sim["q"], sim["qd"], sim["qdd"])
+    eff = effect_torque(case["effects"], names, sim["q"], sim["qd"], sim["qdd"], robot, sim["t"])
+    entry = {
+        "name": case["name"], "log": log, "bytes": size,
+        "urdf": robot_urdf if nominal is None else os.path.relpath(os.path.join(out, nominal), ROOT),
+        "samples": len(sim["t"]), "velocity_in_log": case.get("velocity", True), "seed": case["seed"],
+        "noise_seed": case["seed"] + 1000,
+        "effects": case["effects"],
+        "torque_noise_std": case_noise,
+        "tracking_max_err_rad": sim["tracking_max_err"],
+        "velocity_reversals": [int(v) for v in np.sum(np.diff(np.sign(sim["qd"]), axis=0) != 0, axis=0)],
+        "q_range": [[float(a), float(b)] for a, b in zip(sim["q"].min(0), sim["q"].max(0))],
+        "oracle": {
+            "adds": "tau_true = rnea_nominal(q, qd, qdd) + effects(q, qd, qdd): coulomb fc sign(qd), "
+                    "viscous fv qd, armature ia qdd, joint_spring k (q - q0), torque_offset tau0, "
+                    "payload rnea(payload body on terminal link)",
+            "effect_rms": rms(eff),
+            "baseline_rms_exact": rms(tau_meas - tau_nom),
+            "oracle_rms_exact": rms(tau_meas - tau_nom - eff),
+            "note": "RMS per joint (N m) with the exact simulated q, qd and realised qdd "
+                    "(qdd[k] = (qd[k+1] - qd[k]) / dt, semi-implicit Euler); a diagnosis that "
+                    "differentiates the logged q / qd gets slightly more. MuJoCo's implicit damping "
+                    "makes the viscous torque fv qd[k+1] = fv (qd[k] + dt qdd[k]) exactly; "
+                    "frictionloss is a constraint force, |f| < fc in stick phases",
+        },
+    }
+    if panda:
+        entry["rate_hz"] = case.get("rate_hz", 1000.0)
+        entry["dt"] = DT if "rate_hz" not in case else 1.0 / case["rate_hz"]
+        entry["qd_ref_max"] = [float(v) for v in np.abs(sim["qd_ref"]).max(0)]
+        entry["qdd_ref_max"] = [float(v) for v in np.abs(sim["qdd_ref"]).max(0)]
+    if nominal is not None:
+        entry["model_error"] = {"kind": "inertials scaled", "true_urdf": robot_urdf,
+                                "mass_and_inertia_factor": factors}
+    return entry
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--robot", choices=sorted(ROBOTS), default="ur5")
+    ap.add_argument("--out", default=None, help="output directory (default fixtures/diagnose for ur5, "
+                    "fixtures/diagnose_panda for panda)")
+    ap.add_argument("--duration", type=float, default=2.0, help="seconds per case")
+    args = ap.parse_args(argv)
+    cfg = robot_config(args.robot)
+    out = args.out if args.out is not None else cfg["out"]
+    os.makedirs(out, exist_ok=True)
+    cfg = robot_config(args.robot, out)
+    panda = args.robot == "panda"
+    base, tip = cfg["base"], cfg["tip"]
+    # the clean URDF as named in cases.json (path from the repository root)
+    robot_urdf = cfg["source_urdf"] if cfg["urdf"] is None else os.path.relpath(cfg["urdf_path"], ROOT)
+
+    robot = ivdyn.Robot.from_urdf(cfg["urdf_path"], base=base, tip=tip)
+    names = list(robot.joint_names)
+    assert robot.link_names[-1] == cfg["terminal_link"], robot.link_names
+    err_tau, err_m = check_agreement(robot, cfg=cfg)
+    print(f"MuJoCo vs ivdyn on the clean model: tau {err_tau:.2e}, M {err_m:.2e} (max relative, 200 states)")
+    if err_tau > AGREEMENT_TOL or err_m > AGREEMENT_TOL:
+        sys.exit("MuJoCo and ivdyn disagree on the clean model; not writing anything")
+
+    factors = perturbed_urdf(cfg, os.path.join(out, cfg["perturbed"]), seed=5)
+    manifest = _manifest(cfg, robot_urdf, names, args.duration, (err_tau, err_m), panda)
     total = 0
     for case in cfg["cases"]:
-        nominal = case.get("nominal")
-        rate = case.get("rate_hz", 1000.0)
-        dt = DT if "rate_hz" not in case else 1.0 / rate
+        dt = DT if "rate_hz" not in case else 1.0 / case["rate_hz"]
         sim, q_meas, qd_meas, tau_meas, case_noise = measured(cfg, case, robot, args.duration, dt)
         T = len(sim["t"])
         with_vel = case.get("velocity", True)
@@ -686,44 +737,8 @@ def main(argv=None):
         size = write_mcap(os.path.join(out, log), names, sim["t"], q_meas,
                           qd_meas if with_vel else None, tau_meas, dt)
         total += size
-
-        # oracle, on the exact simulated states and realised accelerations
-        nominal_robot = robot if nominal is None else ivdyn.Robot.from_urdf(
-            os.path.join(out, nominal), base=base, tip=tip)
-        tau_nom = nominal_robot.rnea(sim["q"], sim["qd"], sim["qdd"])
-        eff = effect_torque(case["effects"], names, sim["q"], sim["qd"], sim["qdd"], robot, sim["t"])
-        entry = {
-            "name": case["name"], "log": log, "bytes": size,
-            "urdf": robot_urdf if nominal is None else os.path.relpath(os.path.join(out, nominal), ROOT),
-            "samples": T, "velocity_in_log": with_vel, "seed": case["seed"],
-            "noise_seed": case["seed"] + 1000,
-            "effects": case["effects"],
-            "torque_noise_std": case_noise,
-            "tracking_max_err_rad": sim["tracking_max_err"],
-            "velocity_reversals": [int(v) for v in np.sum(np.diff(np.sign(sim["qd"]), axis=0) != 0, axis=0)],
-            "q_range": [[float(a), float(b)] for a, b in zip(sim["q"].min(0), sim["q"].max(0))],
-            "oracle": {
-                "adds": "tau_true = rnea_nominal(q, qd, qdd) + effects(q, qd, qdd): coulomb fc sign(qd), "
-                        "viscous fv qd, armature ia qdd, joint_spring k (q - q0), torque_offset tau0, "
-                        "payload rnea(payload body on terminal link)",
-                "effect_rms": rms(eff),
-                "baseline_rms_exact": rms(tau_meas - tau_nom),
-                "oracle_rms_exact": rms(tau_meas - tau_nom - eff),
-                "note": "RMS per joint (N m) with the exact simulated q, qd and realised qdd "
-                        "(qdd[k] = (qd[k+1] - qd[k]) / dt, semi-implicit Euler); a diagnosis that "
-                        "differentiates the logged q / qd gets slightly more. MuJoCo's implicit damping "
-                        "makes the viscous torque fv qd[k+1] = fv (qd[k] + dt qdd[k]) exactly; "
-                        "frictionloss is a constraint force, |f| < fc in stick phases",
-            },
-        }
-        if panda:
-            entry["rate_hz"] = rate
-            entry["dt"] = dt
-            entry["qd_ref_max"] = [float(v) for v in np.abs(sim["qd_ref"]).max(0)]
-            entry["qdd_ref_max"] = [float(v) for v in np.abs(sim["qdd_ref"]).max(0)]
-        if nominal is not None:
-            entry["model_error"] = {"kind": "inertials scaled", "true_urdf": robot_urdf,
-                                    "mass_and_inertia_factor": factors}
+        entry = _case_entry(case, cfg, robot, (sim, tau_meas, case_noise), (log, size), robot_urdf, out,
+                            factors, panda)
         manifest["cases"].append(entry)
         print(f"{case['name']:18s} {T:6d} samples {size:8d} bytes  track {sim['tracking_max_err']:.1e} rad  "
               f"oracle rms {np.round(entry['oracle']['oracle_rms_exact'], 3)}  "

@@ -197,6 +197,132 @@ def _link_inertial(link_elem):
     return inertial_from_urdf(mass, xyz, rpy, **vals)
 
 
+class _UrdfTree:
+    """The link tree of a URDF: links, joints and each link's child joints."""
+
+    def __init__(self, root):
+        self.links = {le.get("name"): le for le in root.findall("link")}
+        self.child_joint = {}  # child link -> joint element
+        self.children = {name: [] for name in self.links}  # link -> [joint elements]
+        for je in root.findall("joint"):
+            name = je.get("name")
+            parent = je.find("parent").get("link")
+            child = je.find("child").get("link")
+            if parent not in self.links or child not in self.links:
+                raise ValueError(f"joint '{name}' refers to an unknown link")
+            if child in self.child_joint:
+                raise ValueError(f"link '{child}' has two parent joints (joint '{name}')")
+            self.child_joint[child] = je
+            self.children[parent].append(je)
+
+    def root(self):
+        roots = [l for l in self.links if l not in self.child_joint]
+        if len(roots) != 1:
+            raise ValueError(f"URDF has {len(roots)} root links: {roots}")
+        return roots[0]
+
+    def subtree_has_movable(self, link):
+        return any(je.get("type") != "fixed" or self.subtree_has_movable(_child(je))
+                   for je in self.children[link])
+
+    def path(self, base, tip):
+        """Joint elements base -> tip; tip None: follow the only branch with movable joints."""
+        if tip is None:
+            path_joints, link = [], base
+            while True:
+                nxt = [je for je in self.children[link]
+                       if je.get("type") != "fixed" or self.subtree_has_movable(_child(je))]
+                if not nxt:
+                    return path_joints, link
+                if len(nxt) > 1:
+                    names = [je.get("name") for je in nxt]
+                    raise ValueError(
+                        f"link '{link}' branches into joints {names}: choose a tip link")
+                path_joints.append(nxt[0])
+                link = _child(nxt[0])
+        if tip not in self.links:
+            raise ValueError(f"tip link '{tip}' not in URDF")
+        path_joints, link = [], tip
+        while link != base:
+            if link not in self.child_joint:
+                raise ValueError(f"tip link '{tip}' is not below base link '{base}'")
+            je = self.child_joint[link]
+            path_joints.append(je)
+            link = je.find("parent").get("link")
+        return path_joints[::-1], tip
+
+
+def _child(je):
+    return je.find("child").get("link")
+
+
+def _check_type(je, on_chain):
+    t = je.get("type")
+    name = je.get("name")
+    if t in ("floating", "planar"):
+        raise ValueError(f"joint '{name}' has unsupported type '{t}'")
+    if t not in ("revolute", "continuous", "prismatic", "fixed"):
+        raise ValueError(f"joint '{name}' has unknown type '{t}'")
+    if on_chain and t != "fixed" and je.find("mimic") is not None:
+        raise ValueError(f"joint '{name}' is a mimic joint on the chain (unsupported)")
+
+
+def _movable_joint(je, R_o, p_o):
+    """The chain Joint of a movable URDF joint whose origin is at (R_o, p_o) in its body."""
+    t = je.get("type")
+    axis = _floats(je.find("axis").get("xyz") if je.find("axis") is not None else None,
+                   3, [1, 0, 0])
+    nrm = np.linalg.norm(axis)
+    if nrm == 0.0:
+        raise ValueError(f"joint '{je.get('name')}' has a zero axis")
+    lower, upper = -math.inf, math.inf
+    lim = je.find("limit")
+    if t in ("revolute", "prismatic") and lim is not None:
+        lower = float(lim.get("lower", "0"))
+        upper = float(lim.get("upper", "0"))
+    return Joint(name=je.get("name"), type="prismatic" if t == "prismatic" else "revolute",
+                 R0=R_o, p0=p_o, axis=axis / nrm, lower=lower, upper=upper,
+                 continuous=(t == "continuous"))
+
+
+def _walk_chain(tree, base, path_joints):
+    """Chain joints, per body the (link, R, p) fused into it, and the locked joints.
+
+    Body -1 (the base and what is fused into it) is dropped; body k is the k-th movable
+    joint's child with every fixed-joint successor and off-path subtree fused in.
+    """
+    path_names = {je.get("name") for je in path_joints}
+    chain, body_links, locked = [], [], []
+
+    def fuse_offchain(link, R, p, target, on_path_child):
+        """Attach `link` (at pose R, p in the body) and every off-path subtree below it."""
+        target.append((link, R, p))
+        for je in tree.children[link]:
+            if je.get("name") in path_names or je.get("name") == on_path_child:
+                continue
+            _check_type(je, False)
+            if je.get("type") != "fixed":
+                locked.append(je.get("name"))
+            Rj, pj = _origin(je)  # locked at q = 0: Motion is the identity
+            fuse_offchain(_child(je), R @ Rj, R @ pj + p, target, None)
+
+    R_acc, p_acc = np.eye(3), np.zeros(3)  # pose of the current link in the current body
+    cur_list, link = [], base
+    for je in path_joints:
+        fuse_offchain(link, R_acc, p_acc, cur_list, je.get("name"))
+        Rj, pj = _origin(je)
+        # pose of the joint origin (= child link frame at q = 0) in the current body
+        R_acc, p_acc = R_acc @ Rj, R_acc @ pj + p_acc
+        if je.get("type") != "fixed":
+            chain.append(_movable_joint(je, R_acc, p_acc))
+            cur_list = []
+            body_links.append(cur_list)
+            R_acc, p_acc = np.eye(3), np.zeros(3)
+        link = _child(je)
+    fuse_offchain(link, R_acc, p_acc, cur_list, None)
+    return chain, body_links, locked
+
+
 def from_urdf(path, base=None, tip=None, drive=None, gravity=None):
     """Load the serial chain base -> tip from a URDF file (xml.etree only).
 
@@ -206,145 +332,21 @@ def from_urdf(path, base=None, tip=None, drive=None, gravity=None):
     base=None: the URDF root. tip=None: follow the only branch holding movable joints.
     """
     root = ET.parse(path).getroot()
-    links = {}
-    for le in root.findall("link"):
-        links[le.get("name")] = le
-    joints = {}
-    child_joint = {}  # child link -> joint element
-    children = {name: [] for name in links}  # link -> [joint elements]
-    for je in root.findall("joint"):
-        name = je.get("name")
-        parent = je.find("parent").get("link")
-        child = je.find("child").get("link")
-        if parent not in links or child not in links:
-            raise ValueError(f"joint '{name}' refers to an unknown link")
-        if child in child_joint:
-            raise ValueError(f"link '{child}' has two parent joints (joint '{name}')")
-        joints[name] = je
-        child_joint[child] = je
-        children[parent].append(je)
-
-    if base is None:
-        roots = [l for l in links if l not in child_joint]
-        if len(roots) != 1:
-            raise ValueError(f"URDF has {len(roots)} root links: {roots}")
-        base = roots[0]
-    if base not in links:
+    tree = _UrdfTree(root)
+    base = tree.root() if base is None else base
+    if base not in tree.links:
         raise ValueError(f"base link '{base}' not in URDF")
-
-    def jtype(je):
-        return je.get("type")
-
-    def subtree_has_movable(link):
-        for je in children[link]:
-            if jtype(je) != "fixed" or subtree_has_movable(je.find("child").get("link")):
-                return True
-        return False
-
-    # --- the path base -> tip (list of joint elements)
-    if tip is None:
-        path_joints = []
-        link = base
-        while True:
-            nxt = [je for je in children[link]
-                   if jtype(je) != "fixed" or subtree_has_movable(je.find("child").get("link"))]
-            if not nxt:
-                break
-            if len(nxt) > 1:
-                names = [je.get("name") for je in nxt]
-                raise ValueError(
-                    f"link '{link}' branches into joints {names}: choose a tip link")
-            path_joints.append(nxt[0])
-            link = nxt[0].find("child").get("link")
-        tip = link
-    else:
-        if tip not in links:
-            raise ValueError(f"tip link '{tip}' not in URDF")
-        path_joints = []
-        link = tip
-        while link != base:
-            if link not in child_joint:
-                raise ValueError(f"tip link '{tip}' is not below base link '{base}'")
-            je = child_joint[link]
-            path_joints.append(je)
-            link = je.find("parent").get("link")
-        path_joints.reverse()
-
-    def check_type(je, on_chain):
-        t = jtype(je)
-        name = je.get("name")
-        if t in ("floating", "planar"):
-            raise ValueError(f"joint '{name}' has unsupported type '{t}'")
-        if t not in ("revolute", "continuous", "prismatic", "fixed"):
-            raise ValueError(f"joint '{name}' has unknown type '{t}'")
-        if on_chain and t != "fixed" and je.find("mimic") is not None:
-            raise ValueError(f"joint '{name}' is a mimic joint on the chain (unsupported)")
-
-    path_names = {je.get("name") for je in path_joints}
+    path_joints, tip = tree.path(base, tip)
     for je in path_joints:
-        check_type(je, True)
-
-    # --- walk the chain: body index -1 = base (ignored), k = k-th movable joint
-    chain = []
-    body_links = []  # per body: list of (link name, R, p) placing the link in the body
-    locked = []
-    R_acc, p_acc = np.eye(3), np.zeros(3)  # pose of the current link in the current body
-    body = -1
-    base_links = [(base, np.eye(3), np.zeros(3))]
-    cur_list = base_links
-
-    def fuse_offchain(link, R, p, target, on_path_child):
-        """Attach `link` (at pose R, p in the body) and every off-path subtree below it."""
-        target.append((link, R, p))
-        for je in children[link]:
-            if je.get("name") in path_names or je.get("name") == on_path_child:
-                continue
-            check_type(je, False)
-            if jtype(je) != "fixed":
-                locked.append(je.get("name"))
-            Rj, pj = _origin(je)  # locked at q = 0: Motion is the identity
-            fuse_offchain(je.find("child").get("link"), R @ Rj, R @ pj + p, target, None)
-
-    link = base
-    for je in path_joints:
-        fuse_offchain(link, R_acc, p_acc, cur_list, je.get("name"))
-        Rj, pj = _origin(je)
-        # pose of the joint origin (= child link frame at q = 0) in the current body
-        R_o, p_o = R_acc @ Rj, R_acc @ pj + p_acc
-        child = je.find("child").get("link")
-        t = jtype(je)
-        if t == "fixed":
-            R_acc, p_acc = R_o, p_o
-        else:
-            axis = _floats(je.find("axis").get("xyz") if je.find("axis") is not None else None,
-                           3, [1, 0, 0])
-            nrm = np.linalg.norm(axis)
-            if nrm == 0.0:
-                raise ValueError(f"joint '{je.get('name')}' has a zero axis")
-            axis = axis / nrm
-            lower, upper = -math.inf, math.inf
-            lim = je.find("limit")
-            if t in ("revolute", "prismatic") and lim is not None:
-                lower = float(lim.get("lower", "0"))
-                upper = float(lim.get("upper", "0"))
-            chain.append(Joint(name=je.get("name"),
-                               type="prismatic" if t == "prismatic" else "revolute",
-                               R0=R_o, p0=p_o, axis=axis, lower=lower, upper=upper,
-                               continuous=(t == "continuous")))
-            body += 1
-            body_links.append([])
-            cur_list = body_links[body]
-            R_acc, p_acc = np.eye(3), np.zeros(3)
-        link = child
-    fuse_offchain(link, R_acc, p_acc, cur_list, None)
-
+        _check_type(je, True)
+    chain, body_links, locked = _walk_chain(tree, base, path_joints)
     if not chain:
         raise ValueError(f"no movable joint between '{base}' and '{tip}'")
     n = len(chain)
     phis = np.zeros((n, 10))
     for k, lst in enumerate(body_links):
         for lname, R, p in lst:
-            phis[k] += transform_params(_link_inertial(links[lname]), R, p)
+            phis[k] += transform_params(_link_inertial(tree.links[lname]), R, p)
     if drive is None:
         drive = np.zeros((n, 4))
     return ChainModel(joints=chain, links=phis, drive=np.asarray(drive, float).reshape(n, 4),
