@@ -8,7 +8,7 @@ counts as one pair with no joint). Oracle RMS: `oracle_rms_exact` (the true effe
 nominal, wrong model) and `oracle_rms_true_model` (the true effects on the true rigid-body
 model: what a perfect diagnosis with a perfect re-fit leaves).
 
-    python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn]
+    python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn] [--drives]
 
 `--part heldout` runs the held-out third of split.json: run it once, at the end.
 """
@@ -37,10 +37,13 @@ def short(p):
     return ", ".join(f"{e}@{j.replace('_joint', '')}" if j else e for e, j in sorted(p)) or "none"
 
 
-def run_case(binary, manifest, case, tmp):
+def run_case(binary, manifest, case, tmp, extra=()):
+    """`ivdyn diagnose` on one case, with the options its log needs (`diagnose_args`: the
+    effort as motor current) and `extra`."""
     out = os.path.join(tmp, case["name"])
     cmd = [binary, "diagnose", "--urdf", case["urdf"], "--base", manifest["base"], "--tip", manifest["tip"],
-           "--log", os.path.join(manifest["_dir"], case["log"]), "--out", out, "--no-report"]
+           "--log", os.path.join(manifest["_dir"], case["log"]), "--out", out, "--no-report",
+           *case.get("diagnose_args", []), *extra]
     t0 = time.time()
     res = subprocess.run(cmd, capture_output=True, text=True)
     secs = time.time() - t0
@@ -55,6 +58,7 @@ def main(argv=None):
     ap.add_argument("root", help="directory written by make_cad_cases.py (split.json, <robot>/cases.json)")
     ap.add_argument("--part", choices=["tune", "heldout", "all"], default="tune")
     ap.add_argument("--bin", default=os.environ.get("IVDYN_BIN", "target/release/ivdyn"))
+    ap.add_argument("--drives", action="store_true", help="search the drive vocabulary too (diagnose --drives)")
     args = ap.parse_args(argv)
     with open(os.path.join(args.root, "split.json")) as f:
         split = json.load(f)
@@ -72,7 +76,7 @@ def main(argv=None):
                 manifests[robot]["_dir"] = os.path.join(args.root, robot)
             m = manifests[robot]
             case = next(c for c in m["cases"] if c["name"] == name)
-            d, secs, err = run_case(args.bin, m, case, os.path.join(tmp, robot))
+            d, secs, err = run_case(args.bin, m, case, os.path.join(tmp, robot), ["--drives"] if args.drives else [])
             truth = pairs(case["effects"])
             if d is None:
                 print(f"| {cid} | {short(truth)} | ERROR {err[0]} | | | | | | {secs:.2f} s |")
