@@ -356,8 +356,8 @@ def write_case(cfg, robot, case, nominal, duration):
     if sensor is not None:
         q_meas, qd_meas, tau_meas, repeats = sensor_variants.finish(sensor, ex["t"], q_meas, qd_meas, tau_meas, srng)
         stamps_ns = np.round(ex["t"] * 1e9).astype(np.int64)
-        entry.update(velocity_in_log=sensor["velocity"], duration_s=duration, diagnose_args=sensor_variants.diagnose_args(sensor),
-                     sensor=dict(sensor, republished=repeats))
+        entry.update(velocity_in_log=sensor["velocity"], duration_s=duration,
+                     diagnose_args=sensor_variants.diagnose_args(sensor), sensor=dict(sensor, republished=repeats))
         oracle["note"] = "exact states at the log's stamps, before re-publishing"
     entry["bytes"] = mdc.write_mcap(os.path.join(out_r, log), names, ex["t"], q_meas, qd_meas, tau_meas,
                                     stamps_ns=stamps_ns)
