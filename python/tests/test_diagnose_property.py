@@ -9,8 +9,9 @@ for ivdyn and as MJCF for MuJoCo; the same effect and sensor code as the scored 
 Whether the diagnosis names the right effects is not asserted here: that is a score
 (python/tools/score_diagnose_cases.py), not a property.
 
-Seeded. The regular suite runs PROPERTY_CASES cases of 2 s (dev build: ~4 CPU s each);
-`IVDYN_PROPERTY_CASES=200` runs more locally, `IVDYN_PROPERTY_SEED` shifts the seeds.
+Seeded. The regular suite runs PROPERTY_CASES cases of 2 s (dev build: 8 CPU s for the three,
+imports included); `IVDYN_PROPERTY_CASES=200` runs more locally, `IVDYN_PROPERTY_SEED` shifts
+the seeds.
 """
 import json
 import math
