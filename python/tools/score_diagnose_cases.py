@@ -15,6 +15,7 @@ model: what a perfect diagnosis with a perfect re-fit leaves).
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -65,6 +66,8 @@ def main(argv=None):
     ids = split["tune"] + split["heldout"] if args.part == "all" else split[args.part]
     manifests = {}
     rows, right, ratios, ratios_true, times, false_alarm_clean = [], 0, [], [], [], []
+    found = true_pairs = extra = 0
+    cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     print("| case | truth | named | missed | extra | refit | final/oracle | final/oracle (true model) | time |")
     print("|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
@@ -78,12 +81,15 @@ def main(argv=None):
             case = next(c for c in m["cases"] if c["name"] == name)
             d, secs, err = run_case(args.bin, m, case, os.path.join(tmp, robot), ["--drives"] if args.drives else [])
             truth = pairs(case["effects"])
+            true_pairs += len(truth)
             if d is None:
                 print(f"| {cid} | {short(truth)} | ERROR {err[0]} | | | | | | {secs:.2f} s |")
                 continue
             named = pairs(d["effects"])
             ok = named == truth
             right += ok
+            found += len(named & truth)
+            extra += len(named - truth)
             if not truth:
                 false_alarm_clean.append(bool(named))
             worst = max(a / b for a, b in zip(d["final_rms"], case["oracle"]["oracle_rms_exact"]))
@@ -96,12 +102,16 @@ def main(argv=None):
                   f"{short(named - truth) if named - truth else ''} | {refit} | {worst:.2f} | {worst_t:.2f} | "
                   f"{secs:.2f} s |")
     n = len(ratios)
+    cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = cpu1.ru_utime - cpu0.ru_utime + cpu1.ru_stime - cpu0.ru_stime
     if n:
         print(f"\n{args.part}: {right} of {len(ids)} cases named exactly right; "
               f"false alarms on {sum(false_alarm_clean)} of {len(false_alarm_clean)} effect-free logs; "
               f"median worst-joint final/oracle {statistics.median(ratios):.2f} "
               f"(true-model oracle {statistics.median(ratios_true):.2f}); "
-              f"median time {statistics.median(times):.2f} s (CLI end to end, --no-report)")
+              f"median time {statistics.median(times):.2f} s (CLI end to end, --no-report); "
+              f"true (effect, joint) pairs named {found} of {true_pairs}, extra pairs {extra}; "
+              f"CPU of the diagnoses {cpu / len(ids):.2f} s per case (user + sys)")
     return 0
 
 
