@@ -28,12 +28,21 @@ make_diagnose_cases.py, which this script imports; what it adds:
 * `split.json`: a seeded permutation of all case ids ("robot/case"); every third is held out.
   Tune on "tune"; run "heldout" once, at the end (python/tools/score_diagnose_cases.py).
 
+* `--set random`: the same 12 cases per arm on randomly generated serial arms (random_arm.py:
+  DH-like kinematics, 6 and 7 joints alternating, inertials within physical bounds), written
+  as URDF (ivdyn; the nominal models derive from it) and MJCF (MuJoCo simulates it; the
+  agreement check compares the two), torque noise 0.5 % of each joint's RMS torque, payloads
+  of 5-15 % of the arm's mass, and a sensor variant per case (sensor_variants.py: jittered
+  stamps with re-published samples, float32, no velocity, motor current; the options the
+  log needs are the case's `diagnose_args`). `--duration 20:60` draws each case's length.
+
 Writes OUT/<robot>/{<case>.mcap, <case>_nominal.urdf, cases.json} (cases.json in the format of
 make_diagnose_cases.py, URDF paths absolute; each case also has `oracle.oracle_rms_true_model`:
 what the true effects leave with the *true* rigid-body model) and OUT/split.json.
 
     .venv/bin/python python/tools/make_cad_cases.py --out /tmp/cad_cases [--duration 2]
     .venv/bin/python python/tools/make_cad_cases.py --out fixtures/diagnose_cad --only ur5/e15_0fx,...
+    .venv/bin/python python/tools/make_cad_cases.py --set random --out /tmp/random_cases [--arms 6] [--duration 20:60]
 """
 import argparse
 import json
@@ -45,6 +54,8 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import make_diagnose_cases as mdc  # noqa: E402
+import random_arm  # noqa: E402
+import sensor_variants  # noqa: E402
 import ivdyn  # noqa: E402
 
 LEVELS = [0.05, 0.15, 0.30]
@@ -120,9 +131,43 @@ CAD_ROBOTS = {
 }
 
 
+# The random arms (`--set random`): name -> (joints, seed); 6 and 7 joints alternate.
+RANDOM_ARMS = {f"rarm{i}_{6 + i % 2}j": (6 + i % 2, 15000 + i) for i in range(12)}
+NOISE_SHARE, NOISE_FLOOR = 0.005, 0.01   # torque noise std: 0.5 % of the joint's RMS torque, >= 0.01 N m
+
+
+def random_config(name, out, joints_seed=None):
+    """A random arm's settings (random_arm.py; `joints_seed` = (joints, seed), default the
+    one RANDOM_ARMS gives `name`): its URDF and MJCF written into `out`, the
+    reference motion's centres and amplitudes drawn from its seed, the torque noise std of
+    each joint NOISE_SHARE of its RMS rigid-body torque along a reference motion (at least
+    NOISE_FLOOR), payloads of 5-15 % of the arm's mass."""
+    n, seed = joints_seed or RANDOM_ARMS[name]
+    os.makedirs(out, exist_ok=True)
+    arm = random_arm.draw_arm(n, seed)
+    cfg = {"name": name, "out": out, "base": "base_link", "tip": f"link_{n}", "terminal_link": f"link_{n}",
+           "urdf_path": os.path.join(out, "arm.urdf"), "mjcf_path": os.path.join(out, "arm_mujoco.xml"),
+           "moving_links": [f"link_{i}" for i in range(1, n + 1)], "acc_limits": None, "check_reference": True,
+           "random_arm": {"joints": n, "seed": seed, "kinematics_a_alpha_d": [list(k) for k in arm["kinematics"]]}}
+    random_arm.write_urdf(arm, cfg["urdf_path"])
+    random_arm.write_mjcf(arm, cfg["mjcf_path"])
+    rng = np.random.default_rng(seed + 1)
+    cfg["centres"] = [float(v) for v in rng.uniform(-1.0, 1.0, n)]
+    cfg["amp_scale"] = rng.uniform(0.1, 0.2, n)
+    robot = ivdyn.Robot.from_urdf(cfg["urdf_path"], base=cfg["base"], tip=cfg["tip"])
+    t = np.arange(int(round(2.0 / mdc.DT))) * mdc.DT
+    tau = robot.rnea(*mdc.reference(cfg, seed, t))
+    cfg["torque_noise"] = [float(max(NOISE_FLOOR, round(NOISE_SHARE * v, 3))) for v in mdc.rms(tau)]
+    total = sum(lk["mass"] for lk in arm["links"])
+    cfg["payload_mass"] = (0.05 * total, 0.15 * total)
+    return cfg
+
+
 def cad_config(name, out):
     """The robot's settings with `urdf_path` (its clean URDF, written into `out` if derived)."""
     os.makedirs(out, exist_ok=True)
+    if name in RANDOM_ARMS:
+        return random_config(name, out)
     if name in ("ur5", "panda"):
         cfg = mdc.robot_config(name, out)
         cfg.update(payload_mass=CAD_ROBOTS[name]["payload_mass"])
@@ -234,7 +279,8 @@ def rel(path):
 def robot_cases(name, out, duration, seed0, only=None, kinds=KINDS):
     """Simulates every case of one arm into OUT/<name>/ and writes its cases.json; with
     `only` (ids "robot/case"), just those (the others are drawn all the same, so a case
-    is the same whichever are written)."""
+    is the same whichever are written). `duration`: seconds, or (lo, hi) to draw each case's
+    length from its own seed. A random arm's cases get sensor variants (sensor_variants.py)."""
     out_r = os.path.join(out, name)
     cfg = cad_config(name, out_r)
     robot = ivdyn.Robot.from_urdf(cfg["urdf_path"], base=cfg["base"], tip=cfg["tip"])
@@ -247,6 +293,10 @@ def robot_cases(name, out, duration, seed0, only=None, kinds=KINDS):
     manifest = {"generator": "python/tools/make_cad_cases.py", "robot_urdf": rel(cfg["urdf_path"]),
                 "base": cfg["base"], "tip": cfg["tip"], "terminal_link": cfg["terminal_link"], "joints": names,
                 "topic": "/joint_states", "duration_s": duration, "cases": []}
+    if "mjcf_path" in cfg:
+        manifest.update(mujoco_model=rel(cfg["mjcf_path"]), random_arm=cfg["random_arm"],
+                        agreement={"max_rel_tau": err_tau, "max_rel_mass_matrix": err_m, "states": 200},
+                        torque_noise_std=cfg["torque_noise"])
     rng = np.random.default_rng(seed0)
     for li, level in enumerate(LEVELS):
         for count in range(4):
@@ -258,52 +308,107 @@ def robot_cases(name, out, duration, seed0, only=None, kinds=KINDS):
             if only is not None and f"{name}/{case['name']}" not in only:
                 os.remove(nominal)
                 continue
-            sim, q_meas, qd_meas, tau_meas, noise = mdc.measured(cfg, case, robot, duration)
-            log = f"{case['name']}.mcap"
-            size = mdc.write_mcap(os.path.join(out_r, log), names, sim["t"], q_meas, qd_meas, tau_meas)
-            nom = ivdyn.Robot.from_urdf(nominal, base=cfg["base"], tip=cfg["tip"])
-            eff = mdc.effect_torque(case["effects"], names, sim["q"], sim["qd"], sim["qdd"], robot, sim["t"])
-            tau_true = robot.rnea(sim["q"], sim["qd"], sim["qdd"])
-            tau_nom = nom.rnea(sim["q"], sim["qd"], sim["qdd"])
-            manifest["cases"].append({
-                "name": case["name"], "log": log, "bytes": size, "urdf": rel(nominal), "samples": len(sim["t"]),
-                "velocity_in_log": True, "seed": seed, "effects": case["effects"], "torque_noise_std": noise,
-                "model_error": {"kind": "mass, inertia and COM scaled per link", "level": level,
-                                "true_urdf": rel(cfg["urdf_path"]), "mass_inertia_com_factor": factors},
-                "oracle": {"effect_rms": mdc.rms(eff), "baseline_rms_exact": mdc.rms(tau_meas - tau_nom),
-                           "oracle_rms_exact": mdc.rms(tau_meas - tau_nom - eff),
-                           "oracle_rms_true_model": mdc.rms(tau_meas - tau_true - eff)},
-            })
-            print(f"  {case['name']}: {[(e['name'], e['joints']) for e in case['effects']]}")
+            entry = write_case(cfg, robot, case, nominal, case_duration(duration, seed))
+            full = {k: entry.pop(k) for k in ENTRY_KEYS}
+            full["model_error"] = {"kind": "mass, inertia and COM scaled per link", "level": level,
+                                   "true_urdf": rel(cfg["urdf_path"]), "mass_inertia_com_factor": factors}
+            full.update(entry)
+            manifest["cases"].append(full)
+            print(f"  {case['name']}: {[(e['name'], e['joints']) for e in case['effects']]}"
+                  + (f" sensor {entry['sensor']}" if "sensor" in entry else ""))
     with open(os.path.join(out_r, "cases.json"), "w") as f:
         json.dump(manifest, f, indent=1)
     return [f"{name}/{c['name']}" for c in manifest["cases"]]
 
 
+# the first keys of a case in cases.json, in this order (then model_error, oracle, the rest)
+ENTRY_KEYS = ["name", "log", "bytes", "urdf", "samples", "velocity_in_log", "seed", "effects", "torque_noise_std"]
+
+
+def case_duration(duration, seed):
+    """A fixed duration, or one drawn from U(lo, hi) s (whole seconds) with the case's seed."""
+    if not isinstance(duration, tuple):
+        return duration
+    return float(np.random.default_rng(seed + 3000).integers(duration[0], duration[1] + 1))
+
+
+def write_case(cfg, robot, case, nominal, duration):
+    """Simulates and logs one case (its log next to `nominal`); returns its cases.json entry
+    (without `model_error`). Random arms: the sensor variant from the seed + 2000 stream."""
+    names = list(robot.joint_names)
+    out_r = os.path.dirname(nominal)
+    srng = np.random.default_rng(case["seed"] + 2000) if "mjcf_path" in cfg else None
+    sensor = sensor_variants.draw(len(names), srng) if srng is not None else None
+    times = sensor_variants.stamps(sensor, duration, mdc.DT, srng) if sensor else None
+    sim, q_meas, qd_meas, tau_meas, noise = mdc.measured(cfg, case, robot, duration, times=times)
+    ex = sim.get("log_states", sim)     # exact states at the log's stamps
+    log = f"{case['name']}.mcap"
+    eff = mdc.effect_torque(case["effects"], names, ex["q"], ex["qd"], ex["qdd"], robot, ex["t"])
+    tau_true = robot.rnea(ex["q"], ex["qd"], ex["qdd"])
+    tau_nom = ivdyn.Robot.from_urdf(nominal, base=cfg["base"], tip=cfg["tip"]).rnea(ex["q"], ex["qd"], ex["qdd"])
+    oracle = {"effect_rms": mdc.rms(eff), "baseline_rms_exact": mdc.rms(tau_meas - tau_nom),
+              "oracle_rms_exact": mdc.rms(tau_meas - tau_nom - eff),
+              "oracle_rms_true_model": mdc.rms(tau_meas - tau_true - eff)}
+    entry = {"name": case["name"], "log": log, "urdf": rel(nominal), "samples": len(ex["t"]),
+             "velocity_in_log": True, "seed": case["seed"], "effects": case["effects"], "torque_noise_std": noise,
+             "oracle": oracle}
+    stamps_ns = None
+    if sensor is not None:
+        q_meas, qd_meas, tau_meas, repeats = sensor_variants.finish(sensor, ex["t"], q_meas, qd_meas, tau_meas, srng)
+        stamps_ns = np.round(ex["t"] * 1e9).astype(np.int64)
+        entry.update(velocity_in_log=sensor["velocity"], duration_s=duration,
+                     diagnose_args=sensor_variants.diagnose_args(sensor), sensor=dict(sensor, republished=repeats))
+        oracle["note"] = "exact states at the log's stamps, before re-publishing"
+    entry["bytes"] = mdc.write_mcap(os.path.join(out_r, log), names, ex["t"], q_meas, qd_meas, tau_meas,
+                                    stamps_ns=stamps_ns)
+    return entry
+
+
+def write_split(ids, out):
+    """The split, fixed before any diagnosis runs: every third id of a seeded permutation is
+    held out. Writes OUT/split.json."""
+    perm = [ids[i] for i in np.random.default_rng(SPLIT_SEED).permutation(len(ids))]
+    split = {"seed": SPLIT_SEED, "tune": sorted(perm[i] for i in range(len(perm)) if i % 3 != 2),
+             "heldout": sorted(perm[i] for i in range(len(perm)) if i % 3 == 2)}
+    with open(os.path.join(out, "split.json"), "w") as f:
+        json.dump(split, f, indent=1)
+    print(f"{len(ids)} cases: {len(split['tune'])} to tune on, {len(split['heldout'])} held out")
+
+
+def parse_duration(text):
+    """`--duration`: seconds, or LO:HI (whole seconds, drawn per case)."""
+    if ":" in text:
+        lo, hi = (int(v) for v in text.split(":"))
+        return (lo, hi)
+    return float(text)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="/tmp/cad_cases")
-    ap.add_argument("--duration", type=float, default=2.0)
+    ap.add_argument("--set", choices=["cad", "random"], default="cad", help="the four arms of the CAD set, or "
+                    "randomly generated arms (random_arm.py) with sensor variants (sensor_variants.py)")
+    ap.add_argument("--arms", type=int, default=6, help="--set random: how many arms (6 and 7 joints alternate; "
+                    f"at most {len(RANDOM_ARMS)})")
+    ap.add_argument("--duration", type=parse_duration, default=2.0, help="seconds per case, or LO:HI to draw "
+                    "each case's length (whole seconds) from its seed, e.g. 20:60")
     ap.add_argument("--only", default=None, help="comma list of ids robot/case to write (default: all, "
                     "with split.json); fixtures/diagnose_cad holds a few cases of the tuning part")
     ap.add_argument("--no-drives", action="store_true", help="only the basic effect kinds (the set of the "
                     "first slices of issue 15, as it was drawn before the effects of real drives)")
     args = ap.parse_args(argv)
     kinds = KINDS if args.no_drives else KINDS + DRIVE_KINDS
+    if args.set == "cad":
+        arms = [(name, 1500 + 100 * i) for i, name in enumerate(["ur5", "panda", "ur3", "talos_arm"])]
+    else:
+        arms = [(name, 5000 + 100 * i) for i, name in enumerate(list(RANDOM_ARMS)[:args.arms])]
     ids = []
     only = None if args.only is None else set(args.only.split(","))
-    for i, name in enumerate(["ur5", "panda", "ur3", "talos_arm"]):
+    for name, seed0 in arms:
         if only is None or any(x.startswith(name + "/") for x in only):
-            ids += robot_cases(name, args.out, args.duration, 1500 + 100 * i, only, kinds)
-    if only is not None:
-        return 0
-    # the split is fixed before any diagnosis runs: every third id of a seeded permutation
-    perm = [ids[i] for i in np.random.default_rng(SPLIT_SEED).permutation(len(ids))]
-    split = {"seed": SPLIT_SEED, "tune": sorted(perm[i] for i in range(len(perm)) if i % 3 != 2),
-             "heldout": sorted(perm[i] for i in range(len(perm)) if i % 3 == 2)}
-    with open(os.path.join(args.out, "split.json"), "w") as f:
-        json.dump(split, f, indent=1)
-    print(f"{len(ids)} cases: {len(split['tune'])} to tune on, {len(split['heldout'])} held out")
+            ids += robot_cases(name, args.out, args.duration, seed0, only, kinds)
+    if only is None:
+        write_split(ids, args.out)
     return 0
 
 

@@ -272,8 +272,9 @@ def zero_dynamics(root):
 
 # ----------------------------------------------------------------------------- models
 def mujoco_model(cfg, effects, joint_names, dt=DT):
-    """MuJoCo model of the robot's clean URDF with the given effects (sensor-side ones ignored)."""
-    spec = mujoco.MjSpec.from_file(cfg["urdf_path"])
+    """MuJoCo model of the robot's clean URDF (or its own MJCF, `cfg["mjcf_path"]`, when it has
+    one: the random arms) with the given effects (sensor-side ones ignored)."""
+    spec = mujoco.MjSpec.from_file(cfg.get("mjcf_path") or cfg["urdf_path"])
     joints = {j.name: j for j in spec.joints}
     assert [j.name for j in spec.joints] == joint_names, [j.name for j in spec.joints]
     for j in spec.joints:   # the clean model has no passive joint terms
@@ -496,15 +497,24 @@ def simulate(cfg, case, robot_nominal_ctrl, duration, dt=DT):
             "tracking_max_err": float(track), "q_ref": qr[:T], "qd_ref": qdr[:T], "qdd_ref": qddr[:T]}
 
 
-def measured(cfg, case, robot, duration, dt=DT):
+def measured(cfg, case, robot, duration, dt=DT, times=None):
     """A case simulated, then measured: (sim, q, qd, tau, torque noise std per joint), with
     the sensor-side torque offset, Gaussian torque noise (seed + 1000) and the encoder,
-    velocity and torque quantisation of the manifest."""
+    velocity and torque quantisation of the manifest. With `times` (seconds from the start,
+    a jittered log's stamps), the sensors sample there: positions and velocities linearly
+    interpolated between the steps, the torque the one applied (and seen) during the step;
+    `sim["log_states"]` then holds the exact states at those stamps (t, q, qd, qdd)."""
     names = robot.joint_names
     n = len(names)
     sim = simulate(cfg, case, robot, duration, dt)
+    seen = sensor_model(case["effects"], names, sim["t"], sim["tau"])
+    q, qd = sim["q"], sim["qd"]
+    if times is not None:
+        sim["log_states"] = resample(sim, times, dt)
+        q, qd = sim["log_states"]["q"], sim["log_states"]["qd"]
+        seen = seen[step_of(times, dt, len(sim["t"]))]
     rng = np.random.default_rng(case["seed"] + 1000)
-    T = len(sim["t"])
+    T = len(q)
     offset = np.zeros(n)
     for e in case["effects"]:
         if e["name"] == "torque_offset":
@@ -513,11 +523,25 @@ def measured(cfg, case, robot, duration, dt=DT):
     noise_std = cfg["torque_noise"]
     case_noise = noise_std if "noise_scale" not in case else [case["noise_scale"] * s for s in noise_std]
     noise = rng.standard_normal((T, n)) * np.array(case_noise)
-    tau_meas = sensor_model(case["effects"], names, sim["t"], sim["tau"]) + offset + noise
+    tau_meas = seen + offset + noise
     tau_meas = np.round(tau_meas / TAU_RES) * TAU_RES
-    q_meas = np.round(sim["q"] / Q_RES) * Q_RES
-    qd_meas = np.round(sim["qd"] / QD_RES) * QD_RES
+    q_meas = np.round(q / Q_RES) * Q_RES
+    qd_meas = np.round(qd / QD_RES) * QD_RES
     return sim, q_meas, qd_meas, tau_meas, case_noise
+
+
+def step_of(times, dt, steps):
+    """The simulation step each instant falls in (its state at the start, its torque held)."""
+    return np.clip(np.floor(np.asarray(times) / dt + 1e-9).astype(int), 0, steps - 1)
+
+
+def resample(sim, times, dt):
+    """The exact simulated states at `times`: q and qd linearly interpolated between steps,
+    qdd (constant over a semi-implicit Euler step) that of the step."""
+    def interp(x):
+        return np.stack([np.interp(times, sim["t"], x[:, j]) for j in range(x.shape[1])], axis=1)
+    return {"t": np.asarray(times), "q": interp(sim["q"]), "qd": interp(sim["qd"]),
+            "qdd": sim["qdd"][step_of(times, dt, len(sim["t"]))]}
 
 
 def sensor_model(effects, names, t, tau):
@@ -593,13 +617,15 @@ def payload_torque(robot, p, q, qd, qdd):
 
 
 # ----------------------------------------------------------------------------- writing
-def write_mcap(path, names, t, q, qd, tau, dt=DT):
+def write_mcap(path, names, t, q, qd, tau, dt=DT, stamps_ns=None):
+    """A JointState MCAP log; stamps k dt apart, or `stamps_ns` (from the log's start) when
+    given (a jittered log)."""
     step_ns = int(round(dt * 1e9))
     with open(path, "wb") as f:
         w = Writer(output=f, chunk_size=256 * 1024, compression=CompressionType.ZSTD)
         js = w.register_msgdef("sensor_msgs/msg/JointState", JOINT_STATE)
         for k in range(len(t)):
-            stamp = T0_NS + k * step_ns
+            stamp = T0_NS + (k * step_ns if stamps_ns is None else int(stamps_ns[k]))
             sec, nsec = divmod(stamp, 1_000_000_000)
             msg = {"header": {"stamp": {"sec": sec, "nanosec": nsec}, "frame_id": ""},
                    "name": names,

@@ -63,7 +63,9 @@ def _sample(fine, times):
     return out
 
 
-def _jittered_times(t_end, dt, rng):
+def jittered_times(t_end, dt, rng):
+    """Sample instants in [0, t_end] of a nominal period `dt`: intervals U(0.7, 1.3) dt, 3 %
+    of them U(1.3, 9) dt."""
     n = int(t_end / dt * 1.2) + 10
     steps = dt * rng.uniform(0.7, 1.3, n)
     long = rng.random(n) < 0.03
@@ -78,18 +80,26 @@ def _messify(fine, rate, rng):
     sample) and the effort as the current through the true torque constants. Returns the
     log and the number of repeats."""
     t_end = fine["t"][-1]
-    messy = _sample(fine, _jittered_times(t_end, 1.0 / rate, rng))
+    messy = _sample(fine, jittered_times(t_end, 1.0 / rate, rng))
     t = messy["t"]
     g0 = 0.4 * t_end
     keep = (t < g0) | (t > g0 + GAP_S)
     messy = {k: v[keep] for k, v in messy.items()}
-    rep = np.flatnonzero(rng.random(len(messy["t"])) < REPEAT_SHARE)
+    repeats = republish(messy, ("q", "qd", "tau"), REPEAT_SHARE, rng)
+    messy["current"] = messy.pop("tau") / KT_TRUE
+    return messy, repeats
+
+
+def republish(log, keys, share, rng):
+    """About `share` of the samples (isolated ones, never the first) repeat the previous
+    message's `keys` under their own stamp, as a driver that re-publishes a stale state does.
+    In place; returns how many."""
+    rep = np.flatnonzero(rng.random(len(log["t"])) < share)
     rep = rep[rep > 0]
     rep = rep[np.concatenate([[True], np.diff(rep) > 1])]
-    for key in ("q", "qd", "tau"):
-        messy[key][rep] = messy[key][rep - 1]
-    messy["current"] = messy.pop("tau") / KT_TRUE
-    return messy, len(rep)
+    for key in keys:
+        log[key][rep] = log[key][rep - 1]
+    return len(rep)
 
 
 def make(robot, rate, seed, duration=30.0, payload=None):

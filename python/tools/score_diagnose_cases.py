@@ -8,13 +8,14 @@ counts as one pair with no joint). Oracle RMS: `oracle_rms_exact` (the true effe
 nominal, wrong model) and `oracle_rms_true_model` (the true effects on the true rigid-body
 model: what a perfect diagnosis with a perfect re-fit leaves).
 
-    python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn]
+    python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn] [--drives]
 
 `--part heldout` runs the held-out third of split.json: run it once, at the end.
 """
 import argparse
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
@@ -37,10 +38,13 @@ def short(p):
     return ", ".join(f"{e}@{j.replace('_joint', '')}" if j else e for e, j in sorted(p)) or "none"
 
 
-def run_case(binary, manifest, case, tmp):
+def run_case(binary, manifest, case, tmp, extra=()):
+    """`ivdyn diagnose` on one case, with the options its log needs (`diagnose_args`: the
+    effort as motor current) and `extra`."""
     out = os.path.join(tmp, case["name"])
     cmd = [binary, "diagnose", "--urdf", case["urdf"], "--base", manifest["base"], "--tip", manifest["tip"],
-           "--log", os.path.join(manifest["_dir"], case["log"]), "--out", out, "--no-report"]
+           "--log", os.path.join(manifest["_dir"], case["log"]), "--out", out, "--no-report",
+           *case.get("diagnose_args", []), *extra]
     t0 = time.time()
     res = subprocess.run(cmd, capture_output=True, text=True)
     secs = time.time() - t0
@@ -55,12 +59,15 @@ def main(argv=None):
     ap.add_argument("root", help="directory written by make_cad_cases.py (split.json, <robot>/cases.json)")
     ap.add_argument("--part", choices=["tune", "heldout", "all"], default="tune")
     ap.add_argument("--bin", default=os.environ.get("IVDYN_BIN", "target/release/ivdyn"))
+    ap.add_argument("--drives", action="store_true", help="search the drive vocabulary too (diagnose --drives)")
     args = ap.parse_args(argv)
     with open(os.path.join(args.root, "split.json")) as f:
         split = json.load(f)
     ids = split["tune"] + split["heldout"] if args.part == "all" else split[args.part]
     manifests = {}
     rows, right, ratios, ratios_true, times, false_alarm_clean = [], 0, [], [], [], []
+    found = true_pairs = extra = 0
+    cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     print("| case | truth | named | missed | extra | refit | final/oracle | final/oracle (true model) | time |")
     print("|---|---|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
@@ -72,14 +79,17 @@ def main(argv=None):
                 manifests[robot]["_dir"] = os.path.join(args.root, robot)
             m = manifests[robot]
             case = next(c for c in m["cases"] if c["name"] == name)
-            d, secs, err = run_case(args.bin, m, case, os.path.join(tmp, robot))
+            d, secs, err = run_case(args.bin, m, case, os.path.join(tmp, robot), ["--drives"] if args.drives else [])
             truth = pairs(case["effects"])
+            true_pairs += len(truth)
             if d is None:
                 print(f"| {cid} | {short(truth)} | ERROR {err[0]} | | | | | | {secs:.2f} s |")
                 continue
             named = pairs(d["effects"])
             ok = named == truth
             right += ok
+            found += len(named & truth)
+            extra += len(named - truth)
             if not truth:
                 false_alarm_clean.append(bool(named))
             worst = max(a / b for a, b in zip(d["final_rms"], case["oracle"]["oracle_rms_exact"]))
@@ -92,12 +102,16 @@ def main(argv=None):
                   f"{short(named - truth) if named - truth else ''} | {refit} | {worst:.2f} | {worst_t:.2f} | "
                   f"{secs:.2f} s |")
     n = len(ratios)
+    cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = cpu1.ru_utime - cpu0.ru_utime + cpu1.ru_stime - cpu0.ru_stime
     if n:
         print(f"\n{args.part}: {right} of {len(ids)} cases named exactly right; "
               f"false alarms on {sum(false_alarm_clean)} of {len(false_alarm_clean)} effect-free logs; "
               f"median worst-joint final/oracle {statistics.median(ratios):.2f} "
               f"(true-model oracle {statistics.median(ratios_true):.2f}); "
-              f"median time {statistics.median(times):.2f} s (CLI end to end, --no-report)")
+              f"median time {statistics.median(times):.2f} s (CLI end to end, --no-report); "
+              f"true (effect, joint) pairs named {found} of {true_pairs}, extra pairs {extra}; "
+              f"CPU of the diagnoses {cpu / len(ids):.2f} s per case (user + sys)")
     return 0
 
 
