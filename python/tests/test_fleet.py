@@ -1,6 +1,6 @@
 """ivdyn.fleet on a real local Ray runtime (the session's `ray_runtime` of conftest.py, in its
-own temporary directory; the Ray modules run in one xdist group so that one runtime serves
-every test): the Ray run equals the in-process statistics merged in another order (1e-12
+own temporary directory, started once per xdist worker and shared by the modules that worker
+runs): the Ray run equals the in-process statistics merged in another order (1e-12
 relative), a corrupt or missing log marks its row failed by name and the run goes on, a
 worker killed mid-run changes nothing, statistics of another model are refused."""
 import os
@@ -15,7 +15,6 @@ import ivdyn
 from ivdyn import fleet
 
 import ray  # noqa: F401  (Ray must be installed: the tests fail, never skip)
-pytestmark = pytest.mark.xdist_group("ray")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")

@@ -32,7 +32,6 @@ from ivdyn import fleet
 from ivdyn.fleet import report, synth
 
 import ray  # Ray must be installed: the tests fail, never skip
-pytestmark = pytest.mark.xdist_group("ray")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")
@@ -40,8 +39,8 @@ ARMS, DAYS, MINUTES, RATE = 12, 10, 1.0, 200.0
 Q = 0.001
 
 
-# Session-scoped (not module): xdist may run another module of the "ray" group between this
-# module's tests, and a module fixture would then generate and run the fleet twice.
+# Session-scoped: the fleet is generated and run once per process, whatever runs between this
+# module's tests (`make test` gives each file to one xdist worker: --dist loadfile).
 @pytest.fixture(scope="session")
 def synthetic(tmp_path_factory):
     d = tmp_path_factory.mktemp("synth")
