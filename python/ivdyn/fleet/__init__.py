@@ -38,7 +38,7 @@ from . import _s3
 
 __all__ = [
     "LogEntry", "Options", "FleetResult", "read_manifest", "manifest_from_glob",
-    "log_stats", "merge", "fit", "stats_info", "run", "drift", "changes", "write_report",
+    "log_stats", "merge", "fit", "stats_info", "run", "drift", "changes", "diagnose", "write_report",
 ]
 
 #: Progress callback: ``progress(done, total)`` after each log.
@@ -321,4 +321,5 @@ def drift(result: FleetResult, options: Options = Options(), *, q: float = 0.05,
 
 # the latest periods' changes in words, and the report (their own modules)
 from .changes import changes  # noqa: E402
+from .diagnosis import diagnose  # noqa: E402
 from .report import write as write_report  # noqa: E402
