@@ -198,8 +198,10 @@ def test_the_diagnosis_names_the_planted_effects_and_nothing_on_an_unchanged_arm
 
     d = by[calm]
     assert d["effects"] == [] and d["nominal_refit"] is None, d["words"]
-    assert d["words"] == [f"{calm}: the diagnosis of {last}.mcap names nothing the model of {_periods(truth)[0]} "
-                          "misses"]
+    assert d["words"] == [f"{calm}: the diagnosis of {last}.mcap against the model of {_periods(truth)[0]} names no "
+                          "effect: nothing significant missing: the model explains the log down to the noise."]
+    # and on no arm a residual left above the noise
+    assert all(x["left"] == [] for x in by.values()), [x["left"] for x in by.values()]
 
 
 def test_a_payload_taken_off_is_a_negative_change_never_a_negative_mass(synthetic, fleet_run):

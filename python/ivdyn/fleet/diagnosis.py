@@ -52,6 +52,9 @@ DRIFT_EFFECT = {
 UNITS = {"fc": "N m", "fv": "N m s/rad", "ia": "kg m^2", "tau0": "N m", "fs": "N m", "vs": "rad/s",
          "k": "N m/rad", "q0": "rad", "fc_pos": "N m", "fc_neg": "N m", "mu": "", "delay_s": "s"}
 OF_REFERENCE = {"fc": "fc", "fv": "fv", "ia": "ia", "fc_pos": "fc", "fc_neg": "fc"}
+#: How the diagnosis's details start a residual it left above the noise (and why it named
+#: nothing there).
+LEFT = "left above the noise: "
 
 
 @dataclasses.dataclass(frozen=True)
@@ -108,12 +111,13 @@ def run_job(job: Job, alpha: float = 1e-3, min_effect: float = 0.5) -> Diagnosis
     """The diagnosis of one :class:`Job` (and its payload), or ``{"error": ...}``."""
     try:
         d = _diagnose(job.model, job.log, base=job.base, tip=job.tip, params=job.params, report=False,
-                      alpha=alpha, min_effect=min_effect)
+                      alpha=alpha, min_effect=min_effect, verdict=True)
     except Exception as e:  # noqa: BLE001 -- one robot's failure must not stop the others
         return dict(robot=job.robot, period=job.period, log=job.log, error=f"{job.log}: diagnosis: {e}")
     out = dict(robot=job.robot, period=job.period, reference_period=job.reference_period, log=job.log,
                effects=d["effects"], nominal_refit=d.get("nominal_refit"), baseline_rms=d["baseline_rms"],
-               final_rms=d["final_rms"], payload=None)
+               final_rms=d["final_rms"], verdict=d["verdict"],
+               left=[x[len(LEFT):] for x in d["details"] if x.startswith(LEFT)], payload=None)
     if job.payload:
         out["payload"] = payload_change(job)
     return out
@@ -223,9 +227,12 @@ def words(d: Diagnosis, tests: Sequence[Dict[str, Any]], params: Dict[str, Any])
         out += effect_words(d["robot"], e, params, since, d["period"])
     if d.get("payload") is not None:
         out.append(payload_words(d["robot"], d["payload"], since, d["period"]))
-    if not out:
-        out.append(f"{d['robot']}: the diagnosis of {os.path.basename(d['log'])} names nothing the model of "
-                   f"{d['reference_period']} misses")
+    log = os.path.basename(d["log"])
+    if not d["effects"]:
+        v = d["verdict"].replace(" (details below)", "")  # the details follow, as sentences of their own
+        out.insert(0, f"{d['robot']}: the diagnosis of {log} against the model of {d['reference_period']} names "
+                      f"no effect: {v[:1].lower()}{v[1:]}")
+    out += [f"{d['robot']}: left above the noise in {log}: {x}" for x in d["left"]]
     return out
 
 
