@@ -130,12 +130,11 @@ def payload_change(job: Job) -> Dict[str, Any]:
     ``identifiable``, ``why`` (when not determined) and the payload report (``report``)."""
     if job.reference_log is None:
         return dict(identifiable=False, mass=None, mass_std=None, why="the reference period has no usable log")
-    kw = dict(base=job.base, tip=job.tip)
     try:
-        rep = _payload(job.model, job.log, before=job.reference_log, **kw)
+        rep = _payload(job.model, job.log, before=job.reference_log, base=job.base, tip=job.tip)
         sign = 1.0
         if rep["identifiable"] and rep["physical"]["ls_params"][0] < 0.0:
-            rep, sign = _payload(job.model, job.reference_log, before=job.log, **kw), -1.0
+            rep, sign = _payload(job.model, job.reference_log, before=job.log, base=job.base, tip=job.tip), -1.0
     except Exception as e:  # noqa: BLE001 -- said in the words
         return dict(identifiable=False, mass=None, mass_std=None, why=f"the payload estimate failed: {e}")
     if not rep["identifiable"]:
@@ -182,7 +181,8 @@ def effect_words(robot: str, e: Dict[str, Any], params: Dict[str, Any], since: D
         return [f"{robot}: payload {v} kg{'' if ci is None else f' ± {ci} kg'} {when} (diagnosis)"]
     lists = {k: v for k, v in e["parameters"].items() if isinstance(v, list)}
     for key, values in lists.items():
-        sds = std.get(key) if isinstance(std.get(key), list) else [None] * len(values)
+        given = std.get(key)
+        sds: List[Optional[float]] = list(given) if isinstance(given, list) else [None] * len(values)
         for j, (joint, x) in enumerate(zip(e["joints"], values)):
             if x is None:
                 continue
