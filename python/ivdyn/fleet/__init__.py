@@ -76,8 +76,9 @@ class Options:
     topic: str = "/joint_states"
     log_time: bool = False
     #: stream MCAP logs (memory bounded by the stream's buffers, whatever a log's length);
-    #: off by default: on the synthetic fleet the streamed pass's drift tests are not yet
-    #: calibrated (docs/fleet.md, "Memory")
+    #: off by default: the stream differentiates the positions, and on the synthetic fleet's
+    #: 18-bit encoder that miscalibrates the drift tests of the inertial parameters (the
+    #: in-memory pass takes the log's velocity; docs/fleet.md, "Memory")
     stream: bool = False
 
     def _fit_kwargs(self) -> Dict[str, Any]:
