@@ -31,8 +31,8 @@ def ivdyn_bin():
 def ray_runtime():
     """A local Ray runtime of 2 CPUs in a short private directory (Ray's socket paths must
     stay under ~107 characters; two xdist workers must not share a session), started when
-    none is running and left running for the next module: the tests that use it are in the
-    xdist group "ray", so one worker runs them all and the runtime starts once (Ray shuts it
+    none is running and left running for the next module: each xdist worker process starts
+    at most one (`make test` gives each file to one worker, --dist loadfile; Ray shuts it
     down at exit). A test that needs a runtime of its own shuts this one down first."""
     import tempfile
 

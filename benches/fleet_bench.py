@@ -2,13 +2,19 @@
 
     python benches/fleet_bench.py                          # 20 logs of 1 min, 2 rounds
     python benches/fleet_bench.py --logs 100 --minutes 5   # the issue's size (about an hour here)
+    python benches/fleet_bench.py --synthetic --arms 10 --days 10 --minutes 5 --rate 500
+                                                           # the synthetic fleet: 100 logs of 5 min
 
 Logs: simulated six-joint UR5 logs (base_link to tool0, Fourier excitation, friction,
 0.1 N m torque noise) at ``--rate`` Hz as MCAP, ``--per-robot`` logs per robot, made once
-into ``--dir`` (not timed). Each is then reduced to its fleet statistics (the streamed
-per-log pass), merged per robot and fitted, by:
+into ``--dir`` (not timed). With ``--synthetic``, the synthetic fleet of
+``ivdyn.fleet.synth`` instead (``--arms`` x ``--days`` logs, one per arm and day, grouped
+per arm and day; base_link to wrist_3_link; each arm's spread, the sensors' quantisation
+and the three planted events). Each log is then reduced to its fleet statistics (the
+streamed per-log pass; ``--in-memory``: the default pass of ``fleet.Options``, which holds
+the log, about 6 kB a sample), merged per group and fitted, by:
 
-* ``identify (streamed)``: ``ivdyn.identify(stream=True, holdout=0)`` on each log in turn,
+* ``identify``: ``ivdyn.identify(stream=True, holdout=0)`` (streamed, unless ``--in-memory``) on each log in turn,
   in this process: the single-log tool on the same logs (a fit per log, no merge);
 * ``in-process, 1 thread``: ``fleet.run(engine="local", num_cpus=1)``;
 * ``Ray, k workers``: ``fleet.run(engine="ray")`` on a local Ray runtime of ``k`` CPUs
@@ -39,6 +45,10 @@ from ivdyn import fleet
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")
 BASE, TIP = "base_link", "tool0"
+#: The per-log pass benched (``--in-memory`` sets ``stream`` to False).
+OPTIONS = fleet.Options(stream=True)
+#: The single-log tool on the same logs, one after another in this process.
+IDENTIFY = "identify, one log after another"
 
 
 def make_logs(d: str, count: int, minutes: float, rate: float, per_robot: int):
@@ -54,6 +64,18 @@ def make_logs(d: str, count: int, minutes: float, rate: float, per_robot: int):
         entries.append(fleet.LogEntry(log=path, robot=f"arm-{k // per_robot:03d}", model=UR5, period="day0",
                                       base=BASE, tip=TIP))
     return entries
+
+
+def make_synthetic(d: str, arms: int, days: int, minutes: float, rate: float):
+    """The synthetic fleet of ``ivdyn.fleet.synth`` in ``d`` (generated once: kept when its
+    manifest is there)."""
+    from ivdyn.fleet import synth
+
+    manifest = os.path.join(d, "fleet.csv")
+    if not os.path.exists(manifest):
+        synth.generate(d, UR5, arms=arms, days=days, minutes=minutes, rate=rate, seed=7, base="base_link",
+                       tip="wrist_3_link")
+    return fleet.read_manifest(manifest)
 
 
 def timed(f):
@@ -114,7 +136,7 @@ def ray_run(entries, cpus: int):
         # a worker that imported everything but ran no log: its peak is the baseline
         idle_pid = ray.get(idle.remote())
         before = worker_peaks_mb()
-        t, res = timed(lambda: fleet.run(entries, fleet.Options(stream=True), engine="ray"))
+        t, res = timed(lambda: fleet.run(entries, OPTIONS, engine="ray"))
         peaks = worker_peaks_mb()
     finally:
         ray.shutdown()
@@ -133,12 +155,12 @@ def runs(entries):
     n = len(entries)
 
     def identify():
-        t, _ = timed(lambda: [ivdyn.identify(UR5, e.log, base=BASE, tip=TIP, stream=True, holdout=0.0,
-                                             coulomb="sign") for e in entries])
-        return t, "", ""
+        t, _ = timed(lambda: [ivdyn.identify(e.model, e.log, base=e.base, tip=e.tip, stream=OPTIONS.stream,
+                                             holdout=0.0, coulomb="sign") for e in entries])
+        return t, "", "streamed" if OPTIONS.stream else "in memory"
 
     def local(cpus):
-        t, res = timed(lambda: fleet.run(entries, fleet.Options(stream=True), engine="local", num_cpus=cpus))
+        t, res = timed(lambda: fleet.run(entries, OPTIONS, engine="local", num_cpus=cpus))
         check(res, n)
         return t, "", ""
 
@@ -148,7 +170,7 @@ def runs(entries):
         return t, f"{peak:.0f} (idle {base:.0f})", f"Ray start {t_init:.1f} s, not counted"
 
     return {
-        "identify (streamed), one log after another": (1, identify),
+        IDENTIFY: (1, identify),
         "fleet in-process, 1 thread": (1, lambda: local(1)),
         "fleet on Ray, 1 worker": (1, lambda: on_ray(1)),
         "fleet on Ray, 2 workers": (2, lambda: on_ray(2)),
@@ -164,15 +186,33 @@ def main():
     ap.add_argument("--per-robot", type=int, default=5)
     ap.add_argument("--repeat", type=int, default=2,
                     help="rounds, in alternating order (forward, backward, ...); the fastest round counts")
-    ap.add_argument("--dir", default=os.path.join(tempfile.gettempdir(), "ivdyn-fleet-bench"))
+    ap.add_argument("--dir", help="where the logs are made (kept for the next run; default: a folder per "
+                    "size under the temporary directory)")
+    ap.add_argument("--synthetic", action="store_true",
+                    help="the synthetic fleet (ivdyn.fleet.synth): --arms x --days logs")
+    ap.add_argument("--days", type=int, default=10, help="days of the synthetic fleet")
+    ap.add_argument("--in-memory", action="store_true",
+                    help="the in-memory per-log pass (fleet.Options' default) instead of the streamed one")
     ap.add_argument("--hours-per-arm", type=float, default=8.0, help="logged hours per arm per day (projection)")
-    ap.add_argument("--arms", type=int, default=1000)
+    ap.add_argument("--arms", type=int, default=None,
+                    help="arms of the synthetic fleet (default 10); of the projection (default 1000)")
     ap.add_argument("--turnaround-min", type=float, default=10.0)
     a = ap.parse_args()
 
-    entries = make_logs(a.dir, a.logs, a.minutes, a.rate, a.per_robot)
+    global OPTIONS
+    OPTIONS = fleet.Options(stream=not a.in_memory)
+    tmp = tempfile.gettempdir()
+    if a.synthetic:
+        arms = a.arms or 10
+        d = a.dir or os.path.join(tmp, f"ivdyn-fleet-synth-{arms}x{a.days}-{a.minutes:g}min-{a.rate:g}hz")
+        entries = make_synthetic(d, arms, a.days, a.minutes, a.rate)
+        a.arms = 1000  # the projection's fleet
+    else:
+        entries = make_logs(a.dir or os.path.join(tmp, "ivdyn-fleet-bench"), a.logs, a.minutes, a.rate,
+                            a.per_robot)
+        a.arms = a.arms or 1000
     loads = [os.getloadavg()[0]]
-    hours = a.logs * a.minutes / 60.0
+    hours = len(entries) * a.minutes / 60.0
     configs = runs(entries)
     best = {}
     for r in range(a.repeat):
@@ -183,7 +223,10 @@ def main():
                 best[name] = (secs, peak, note)
             loads.append(os.getloadavg()[0])
 
-    print(f"\n{len(entries)} logs x {a.minutes:g} min at {a.rate:g} Hz, six joints = {hours:.2f} log-hours; "
+    what = "synthetic fleet, " if a.synthetic else ""
+    how = "streamed" if OPTIONS.stream else "in memory"
+    print(f"\n{what}{len(entries)} logs x {a.minutes:g} min at {a.rate:g} Hz, six joints = {hours:.2f} log-hours, "
+          f"per-log pass {how}; "
           f"{os.cpu_count()} cores; fastest of {a.repeat} round(s); load average {min(loads):.1f}-{max(loads):.1f}\n")
     print("| run | workers | seconds | log-hours / s | peak MB per worker | note |")
     print("|---|--:|--:|--:|--:|---|")
@@ -196,6 +239,9 @@ def main():
                                     (2, "fleet on Ray, 2 workers", "fleet in-process, 2 threads")):
         print(f"Ray overhead, {k} worker(s): {100.0 * (t[ray_name] / t[local_name] - 1.0):+.1f} % "
               f"against the in-process run with {k} thread(s)")
+    print(f"Ray, 1 worker, against the in-process {'streamed ' if OPTIONS.stream else ''}identify on the same logs: "
+          f"{100.0 * (t['fleet on Ray, 1 worker'] / t[IDENTIFY] - 1.0):+.1f} % (identify also builds its instrument and "
+          "DWH test, and fits each log)")
     per_core = hours / t["fleet on Ray, 2 workers"] / (os.cpu_count() or 2)
     day = a.arms * a.hours_per_arm
     cores = day / (per_core * 60.0 * a.turnaround_min)

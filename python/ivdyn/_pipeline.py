@@ -441,7 +441,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
              ignore_log_velocity: bool = False, report: bool = True, out_json: Optional[PathLike] = None,
              velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
              exclude: Optional[Sequence[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
-             gear_ratio=None, motor_constant=None, drives: bool = False,
+             gear_ratio=None, motor_constant=None, drives: bool = False, verdict: bool = False,
              progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
@@ -463,7 +463,9 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     ``window`` as in :func:`identify` (``ignore_log_velocity=True`` is
     ``velocity="positions"``); ``drives``: also search the effects of real drives
     (``--drives``: asymmetric, smooth and load-dependent friction, torque gain, torque
-    ripple, time delay; off by default, ``docs/diagnose.md``).
+    ripple, time delay; off by default, ``docs/diagnose.md``); ``verdict``: also return the
+    report's headline (``verdict``: one sentence) and the lines below it (``details``: each
+    effect, what is left above the noise and why nothing was named on it).
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
@@ -473,6 +475,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
                                bool(ignore_log_velocity), bool(report), _params(params),
                                json_out=_path(out_json), progress=cb, velocity=str(velocity),
                                window=_window(window), exclude=_spans(exclude), drives=bool(drives),
+                               verdict=bool(verdict),
                                **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()

@@ -1,9 +1,10 @@
 """ivdyn.fleet on a real local Ray runtime (the session's `ray_runtime` of conftest.py, in its
-own temporary directory; the Ray modules run in one xdist group so that one runtime serves
-every test): the Ray run equals the in-process statistics merged in another order (1e-12
+own temporary directory, started once per xdist worker and shared by the modules that worker
+runs): the Ray run equals the in-process statistics merged in another order (1e-12
 relative), a corrupt or missing log marks its row failed by name and the run goes on, a
 worker killed mid-run changes nothing, statistics of another model are refused."""
 import os
+import re
 import signal
 import threading
 import time
@@ -15,7 +16,6 @@ import ivdyn
 from ivdyn import fleet
 
 import ray  # noqa: F401  (Ray must be installed: the tests fail, never skip)
-pytestmark = pytest.mark.xdist_group("ray")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")
@@ -166,6 +166,28 @@ def test_statistics_of_another_model_are_refused_naming_both(fleet_dir):
         "shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint"]
 
 
+def test_a_payload_the_logs_cannot_weigh_is_said_why(tmp_path):
+    """A 1 kg payload on the upper arm of the UR5's first two joints: the drift flags the
+    payload, but two joints' motion does not separate the link's mass from its first moment
+    and Izz, so ``ivdyn payload`` (the reference day as the before-log) states no mass: the
+    words say so, with the combination the mass is hidden in, and give no number."""
+    entries = []
+    for p in range(2):
+        path = str(tmp_path / f"day{p}.mcap")
+        pay = dict(payload_mass=1.0, payload_com=[0.1, 0.0, 0.0]) if p else {}
+        ivdyn.simulate(UR5, path, base=BASE, tip="upper_arm_link", duration=6.0, rate=250.0, seed=p + 1,
+                       fc=[2.0, 2.0], fv=[0.8, 0.8], noise=0.1, **pay)
+        entries.append(fleet.LogEntry(log=path, robot="arm-0", model=UR5, period=f"day{p}", base=BASE,
+                                      tip="upper_arm_link"))
+    tests = fleet.drift(res := fleet.run(entries, engine="local"), q=0.01)
+    assert [t["effect"] for t in tests if t["flagged"]] == ["payload"]
+    [d] = fleet.diagnose(res, tests)
+    assert d["payload"]["identifiable"] is False and d["payload"]["mass"] is None
+    assert d["words"][-1].startswith("arm-0: payload changed since day1; its mass is not determined: the logs' "
+                                     "motion determines upper_arm_link.m only in the combination upper_arm_link.m + ")
+    assert not re.search(r"\bkg\b", d["words"][-1])
+
+
 def test_manifest_csv_and_json(tmp_path):
     (tmp_path / "m.csv").write_text("log,robot,model,time,payload\nlogs/a.mcap,arm-1,ur5.urdf,2026-11-02T10:00,box\n")
     (tmp_path / "m.json").write_text('{"logs": [{"log": "/x/b.mcap", "robot": "arm-2", "model": "/m/ur5.urdf",'
@@ -200,6 +222,14 @@ def test_fleet_command_writes_json_and_reloadable_params(fleet_dir, tmp_path, iv
     assert len(doc["rows"]) == len(entries) and len(doc["fits"]) == ROBOTS * PERIODS
     assert len(doc["flagged"]) == 1 and doc["flagged"][0].startswith("arm-2, elbow_joint: coulomb friction +")
     assert doc["flagged"][0] in r.stdout
+    # the changed arm's latest log diagnosed against its first day's model: the elbow's
+    # Coulomb friction, 0.6 N m more (within 4 std of the drift test's change)
+    [named] = doc["diagnoses"]
+    assert [(e["name"], e["joints"]) for e in named["effects"]] == [("coulomb_friction", ["elbow_joint"])]
+    t = next(t for t in doc["drift"] if t["flagged"])
+    assert abs(named["effects"][0]["parameters"]["fc"][0] - 0.6) < 4 * t["std"][0]
+    assert doc["named"] == named["words"] and named["words"][0].startswith("arm-2, elbow_joint: coulomb friction +")
+    assert f"named: {named['words'][0]}" in r.stdout
     params = out / "params" / "arm-2_day1.json"
     robot = ivdyn.Robot.from_urdf(UR5, base=BASE, tip=TIP)
     i = robot.param_names.index("elbow_joint.fc")

@@ -18,7 +18,6 @@ from ivdyn import fleet
 
 import boto3
 import moto.server  # noqa: F401  (the S3 server the tests start)
-pytestmark = pytest.mark.xdist_group("ray")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")

@@ -21,6 +21,7 @@ either always passes or always fails; it is deterministic).
 """
 import html.parser
 import json
+import re
 import tempfile
 import os
 
@@ -32,7 +33,6 @@ from ivdyn import fleet
 from ivdyn.fleet import report, synth
 
 import ray  # Ray must be installed: the tests fail, never skip
-pytestmark = pytest.mark.xdist_group("ray")
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 UR5 = os.path.join(ROOT, "fixtures", "ur5.urdf")
@@ -40,8 +40,8 @@ ARMS, DAYS, MINUTES, RATE = 12, 10, 1.0, 200.0
 Q = 0.001
 
 
-# Session-scoped (not module): xdist may run another module of the "ray" group between this
-# module's tests, and a module fixture would then generate and run the fleet twice.
+# Session-scoped: the fleet is generated and run once per process, whatever runs between this
+# module's tests (`make test` gives each file to one xdist worker: --dist loadfile).
 @pytest.fixture(scope="session")
 def synthetic(tmp_path_factory):
     d = tmp_path_factory.mktemp("synth")
@@ -58,6 +58,19 @@ def fleet_run(synthetic):
                  log_to_driver=False)
     res = fleet.run(f.manifest, engine="ray")
     return res, fleet.drift(res, q=Q)
+
+
+@pytest.fixture(scope="session")
+def named(synthetic, fleet_run):
+    """The diagnoses of the three changed arms and of the unchanged arm whose latest day
+    drifted most (its smallest p-value: the hardest case for "nothing named"), on Ray."""
+    _, truth = synthetic
+    res, tests = fleet_run
+    changed = [e["robot"] for e in truth["events"]]
+    last = _periods(truth)[-1]
+    calm = min((t for t in tests if t["robot"] not in changed and t["period"] == last),
+               key=lambda t: t["p_value"])["robot"]
+    return calm, {d["robot"]: d for d in fleet.diagnose(res, tests, robots=changed + [calm], engine="ray")}
 
 
 def _periods(truth):
@@ -144,6 +157,70 @@ def test_the_changes_agree_with_the_truth(synthetic, fleet_run):
     assert ch[2]["words"].endswith(f"since {bias['period']}")
 
 
+def test_the_diagnosis_names_the_planted_effects_and_nothing_on_an_unchanged_arm(synthetic, fleet_run, named):
+    """Each changed arm's latest log diagnosed against its first day's model: exactly the
+    planted effect, on the planted joint, its size within 4 standard deviations of the drift
+    test's change of the same effect (that std holds both days' estimation errors; the
+    diagnosis's own std is conditional on the reference model); the payload in kg within 4
+    of its std (noise and the before-log's model); nothing on the calmest unchanged arm."""
+    _, truth = synthetic
+    _, tests = fleet_run
+    calm, by = named
+    rise, payload, bias = truth["events"]
+    last = _periods(truth)[-1]
+    d = by[rise["robot"]]
+    assert [(e["name"], e["joints"]) for e in d["effects"]] == [("coulomb_friction", [rise["joint"]])], d["words"]
+    j = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint"].index(rise["joint"])
+    planted = synth.FC[j] * truth["spread"][rise["robot"]]["fc_scale"][j] * synth.FRICTION_RISE * (DAYS - rise["day"])
+    t = _test(tests, rise["robot"], "coulomb_friction", rise["joint"], last)
+    assert abs(d["effects"][0]["parameters"]["fc"][0] - planted) < 4 * t["std"][0], (d["effects"], planted)
+    since = next(c["since"] for c in fleet.changes(tests) if c["robot"] == rise["robot"])
+    assert d["words"] == [w for w in d["words"] if w.startswith(f"{rise['robot']}, elbow_joint: coulomb friction +")]
+    assert d["words"][0].endswith(f"since {since}") and len(d["words"]) == 1
+
+    d = by[bias["robot"]]
+    assert [(e["name"], e["joints"]) for e in d["effects"]] == [("torque_offset", [bias["joint"]])], d["words"]
+    t = _test(tests, bias["robot"], "torque_offset", bias["joint"], last)
+    assert abs(d["effects"][0]["parameters"]["tau0"][0] - synth.TORQUE_BIAS) < 4 * t["std"][0], d["effects"]
+    assert len(d["words"]) == 1 and d["words"][0].startswith(f"{bias['robot']}, shoulder_lift_joint: torque offset +")
+    assert d["words"][0].endswith(f" N m since {bias['period']}")
+
+    d = by[payload["robot"]]
+    assert [e["name"] for e in d["effects"]] == ["payload"], d["words"]
+    p = d["payload"]
+    assert p["identifiable"] and abs(p["mass"] - synth.PAYLOAD_MASS) < 4 * p["mass_std"], p
+    m = re.fullmatch(rf"{payload['robot']}: payload \+([\d.]+) kg ± ([\d.]+) kg since {payload['period']}",
+                     d["words"][0])
+    assert m and len(d["words"]) == 1, d["words"]
+    # the words round the mass and its 95 % interval (1.96 std) to the interval's second digit
+    ci = 1.96 * p["mass_std"]
+    assert abs(float(m.group(1)) - p["mass"]) <= 0.05 * ci and abs(float(m.group(2)) - ci) <= 0.05 * ci
+
+    d = by[calm]
+    assert d["effects"] == [] and d["nominal_refit"] is None, d["words"]
+    assert d["words"] == [f"{calm}: the diagnosis of {last}.mcap against the model of {_periods(truth)[0]} names no "
+                          "effect: nothing significant missing: the model explains the log down to the noise."]
+    # and on no arm a residual left above the noise
+    assert all(x["left"] == [] for x in by.values()), [x["left"] for x in by.values()]
+
+
+def test_a_payload_taken_off_is_a_negative_change_never_a_negative_mass(synthetic, fleet_run):
+    """The payload arm read backwards (its first day against its loaded latest day): the
+    payload is estimated the other way round, a physically possible 1.5 kg, stated as -1.5 kg."""
+    import dataclasses
+
+    from ivdyn.fleet import diagnosis
+
+    _, truth = synthetic
+    res, tests = fleet_run
+    job = diagnosis.jobs(res, tests, [truth["events"][1]["robot"]])[0]
+    assert job.payload
+    p = diagnosis.payload_change(dataclasses.replace(job, log=job.reference_log, reference_log=job.log))
+    assert p["identifiable"] and abs(p["mass"] + synth.PAYLOAD_MASS) < 4 * p["mass_std"], p["mass"]
+    rep = p["report"]
+    assert rep["mass"] > 0 and rep["physical"]["ls_params"][0] > 0 and rep["nominal"] == "before log"
+
+
 class _Page(html.parser.HTMLParser):
     """The page's start/end tags balanced (void elements aside), and the robots named by
     the changes list and by the robot sections, in order."""
@@ -151,12 +228,14 @@ class _Page(html.parser.HTMLParser):
 
     def __init__(self):
         super().__init__()
-        self.stack, self.changes, self.sections, self.cells = [], [], [], 0
+        self.stack, self.changes, self.sections, self.cells, self.named = [], [], [], 0, []
 
     def handle_starttag(self, tag, attrs):
         a = dict(attrs)
         if tag == "li" and a.get("class") == "change":
             self.changes.append(a["data-robot"])
+        if tag == "li" and a.get("class") == "named":
+            self.named.append(a["data-robot"])
         if tag == "section":
             self.sections.append(a["data-robot"])
         if tag == "td" and "data-z" in a:
@@ -174,10 +253,12 @@ class _Page(html.parser.HTMLParser):
         self.stack.pop()
 
 
-def test_report_parses_and_names_the_changed_arms_first(synthetic, fleet_run, tmp_path):
+def test_report_parses_and_names_the_changed_arms_first(synthetic, fleet_run, named, tmp_path):
     _, truth = synthetic
     res, tests = fleet_run
-    paths = fleet.write_report(res, tests, report=str(tmp_path / "rep"), fdr=Q)
+    calm, by = named
+    diagnoses = [by[e["robot"]] for e in truth["events"]]
+    paths = fleet.write_report(res, tests, report=str(tmp_path / "rep"), fdr=Q, diagnoses=diagnoses)
     assert sorted(os.path.relpath(p, tmp_path / "rep") for p in paths) == sorted(
         ["fleet.html", "report.json"] + [os.path.join("params", f"arm-{a:02d}.json") for a in range(ARMS)])
     p = _Page()
@@ -190,6 +271,9 @@ def test_report_parses_and_names_the_changed_arms_first(synthetic, fleet_run, tm
     assert set(doc["heatmap"]["robots"][:3]) == changed and p.cells == sum(
         z is not None for row in doc["heatmap"]["z"] for z in row)
     assert [c["words"] for c in doc["changes"]] == [c["words"] for c in fleet.changes(tests)]
+    assert p.named == [e["robot"] for e in truth["events"]]
+    assert doc["named"] == [w for d in diagnoses for w in d["words"]]
+    assert [d["robot"] for d in doc["diagnoses"]] == p.named and "report" not in doc["diagnoses"][1]["payload"]
     # the friction arm's file (its last day) reloads, with the risen friction
     rise = truth["events"][0]
     params = tmp_path / "rep" / "params" / f"{rise['robot']}.json"

@@ -611,7 +611,7 @@ fn simulate<'py>(
                     min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None, json_out=None, progress=None,
                     velocity="auto", window=None, exclude=None,
                     current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None,
-                    drives=false))]
+                    drives=false, verdict=false))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
@@ -637,6 +637,7 @@ fn diagnose(
     gear_ratio: Option<&Bound<'_, PyAny>>,
     motor_constant: Option<&Bound<'_, PyAny>>,
     drives: bool,
+    verdict: bool,
 ) -> PyResult<String> {
     use ivdyn::diagnose::DiagnoseOptions;
     let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
@@ -671,7 +672,16 @@ fn diagnose(
         json: json_out,
     };
     let done = run(py, progress, |p| app::diagnose_job(&r, &job, &p))?;
-    json(&done.report.json)
+    if !verdict {
+        return json(&done.report.json);
+    }
+    // diagnosis.json and, beside it, the report's headline and details (what is left above
+    // the noise and why no effect was named on it: words only the diagnosis has)
+    let mut doc = serde_json::to_value(&done.report.json)
+        .map_err(|e| PyRuntimeError::new_err(format!("internal error: report to JSON: {e}")))?;
+    doc["verdict"] = done.report.verdict.clone().into();
+    doc["details"] = done.report.details.clone().into();
+    json(&doc)
 }
 
 /// `ivdyn excite` -> (the `--json` report as a string, the trajectory as a dict of

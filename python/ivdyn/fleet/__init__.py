@@ -38,7 +38,7 @@ from . import _s3
 
 __all__ = [
     "LogEntry", "Options", "FleetResult", "read_manifest", "manifest_from_glob",
-    "log_stats", "merge", "fit", "stats_info", "run", "drift", "changes", "write_report",
+    "log_stats", "merge", "fit", "stats_info", "run", "drift", "changes", "diagnose", "write_report",
 ]
 
 #: Progress callback: ``progress(done, total)`` after each log.
@@ -76,8 +76,9 @@ class Options:
     topic: str = "/joint_states"
     log_time: bool = False
     #: stream MCAP logs (memory bounded by the stream's buffers, whatever a log's length);
-    #: off by default: on the synthetic fleet the streamed pass's drift tests are not yet
-    #: calibrated (docs/fleet.md, "Memory")
+    #: off by default: the stream differentiates the positions, and on the synthetic fleet's
+    #: 18-bit encoder that miscalibrates the drift tests of the inertial parameters (the
+    #: in-memory pass takes the log's velocity; docs/fleet.md, "Memory")
     stream: bool = False
 
     def _fit_kwargs(self) -> Dict[str, Any]:
@@ -321,4 +322,5 @@ def drift(result: FleetResult, options: Options = Options(), *, q: float = 0.05,
 
 # the latest periods' changes in words, and the report (their own modules)
 from .changes import changes  # noqa: E402
+from .diagnosis import diagnose  # noqa: E402
 from .report import write as write_report  # noqa: E402

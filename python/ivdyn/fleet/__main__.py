@@ -2,7 +2,8 @@
 :func:`ivdyn.fleet.run` and the drift of :func:`ivdyn.fleet.drift`, written by
 :func:`ivdyn.fleet.report.write`: ``--out``: ``fleet.json`` (rows, fits, drift tests,
 flagged changes in words, the latest changes, the heat map) and one parameter file per
-robot and period (``params/<robot>_<period>.json``, reloadable with ``--params``);
+robot and period (``params/<robot>_<period>.json``, reloadable with ``--params``), and what
+the diagnosis names on the changed robots' latest logs (:func:`ivdyn.fleet.diagnose`);
 ``--report``: ``fleet.html``, ``fleet.json`` and one parameter file per robot (its latest
 period). Every file is written to a temporary name first and moved in place once all are
 written."""
@@ -12,7 +13,7 @@ import argparse
 import sys
 from typing import List, Optional
 
-from . import Options, drift, manifest_from_glob, read_manifest, run
+from . import Options, diagnose, drift, manifest_from_glob, read_manifest, run
 from .report import write
 
 
@@ -33,6 +34,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--method", choices=("ols", "wls"), default="wls")
     p.add_argument("--stream", action="store_true",
                    help="stream MCAP logs (bounded memory; off by default: docs/fleet.md, Memory)")
+    p.add_argument("--no-diagnosis", action="store_true",
+                   help="do not diagnose the changed robots' latest logs against their reference models")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -64,13 +67,17 @@ def main(argv: Optional[List[str]] = None) -> int:
     res = run(_entries(a), opts, engine=a.engine, address=a.address, num_cpus=a.num_cpus,
               progress=None if a.quiet else _bar)
     tests = drift(res, opts, q=a.fdr)
-    for path in write(res, tests, out=a.out, report=a.report, fdr=a.fdr):
+    named = None if a.no_diagnosis else diagnose(res, tests, engine=a.engine, address=a.address,
+                                                 num_cpus=a.num_cpus)
+    for path in write(res, tests, out=a.out, report=a.report, fdr=a.fdr, diagnoses=named):
         print(f"written to {path}")
     for r in res.failed:
         print(f"failed: {r['error']}", file=sys.stderr)
     for t in tests:
         if t["flagged"]:
             print(t["words"])
+    for w in [w for d in named or [] for w in d["words"]]:
+        print(f"named: {w}")
     return 1 if res.failed else 0
 
 

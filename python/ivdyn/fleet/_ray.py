@@ -49,6 +49,15 @@ def start(address: Optional[str] = None, num_cpus: Optional[int] = None) -> None
                  runtime_env={"env_vars": WORKER_ENV})
 
 
+def map_ray(fn: Any, items: Sequence[Any], address: Optional[str], num_cpus: Optional[int], *args: Any
+            ) -> List[Any]:
+    """``[fn(x, *args) for x in items]``, one Ray task per item (retried as the statistics
+    are): the diagnoses of :func:`ivdyn.fleet.diagnose`."""
+    start(address, num_cpus)
+    task = ray.remote(max_retries=MAX_RETRIES)(fn)
+    return ray.get([task.remote(x, *args) for x in items])
+
+
 def run_ray(entries: Sequence[LogEntry], options: Options, address: Optional[str], num_cpus: Optional[int],
             progress: Progress, fan_in: int) -> Tuple[List[Tuple[str, Any]], Dict, Dict]:
     start(address, num_cpus)

@@ -2,7 +2,8 @@
 people, and a parameter file per robot, written whole or not at all (:func:`write`).
 
 ``fleet.html`` is one self-contained page (inline style sheet and SVG figures, no script,
-nothing loaded from elsewhere): the changes in words (flagged robots first), a heat map
+nothing loaded from elsewhere): the changes in words (flagged robots first), what the diagnosis names (with
+:func:`ivdyn.fleet.diagnose`), a heat map
 of robots x parameters (the standardised drift of each robot's latest period against its
 reference: ``change / std`` for one parameter, the normal score of the Wald statistic for
 a group), and per robot the trends of its changed parameters (the estimate per period
@@ -109,12 +110,25 @@ def _slim(f: Dict[str, Any]) -> Dict[str, Any]:
     return {"base": base, "long_run": f["long_run"], "params": f["report"]["params"], "logs": len(f["logs"])}
 
 
-def fleet_doc(result, tests: Sequence[Dict[str, Any]], fdr: float, slim: bool = False) -> Dict[str, Any]:
+def _slim_diagnosis(d: Dict[str, Any]) -> Dict[str, Any]:
+    """A diagnosis without the payload's full report (its mass, std and why stay)."""
+    if not d.get("payload"):
+        return d
+    return dict(d, payload={k: v for k, v in d["payload"].items() if k != "report"})
+
+
+def fleet_doc(result, tests: Sequence[Dict[str, Any]], fdr: float, slim: bool = False,
+              diagnoses: Optional[Sequence[Dict[str, Any]]] = None) -> Dict[str, Any]:
     """``fleet.json``: the manifest rows, the fits (``slim``: without covariances), every
-    drift test, the flagged tests in words, the changes of the latest periods and the
-    heat map."""
+    drift test, the flagged tests in words, the changes of the latest periods, the heat
+    map, and with ``diagnoses`` (:func:`ivdyn.fleet.diagnose`) what the diagnosis names
+    (``diagnoses``, ``named``: their words)."""
     robots = sorted({r for r, _ in result.fits})
     ch = latest_changes(tests)
+    named = {} if diagnoses is None else {
+        "diagnoses": [_slim_diagnosis(d) if slim else d for d in diagnoses],
+        "named": [w for d in diagnoses for w in d["words"]],
+    }
     return _nan_to_none({
         "rows": result.rows,
         "fits": [dict(robot=r, period=p, **(_slim(f) if slim else f)) for (r, p), f in sorted(result.fits.items())],
@@ -123,6 +137,7 @@ def fleet_doc(result, tests: Sequence[Dict[str, Any]], fdr: float, slim: bool = 
         "changes": [{k: v for k, v in c.items() if k != "test"} for c in ch],
         "heatmap": heatmap(tests, robots, _joints(result)),
         "fdr": fdr,
+        **named,
     })
 
 
@@ -269,6 +284,14 @@ def page(result, tests: Sequence[Dict[str, Any]], doc: Dict[str, Any]) -> str:
         o.append("</ol>")
     else:
         o.append('<p id="changes-list">No change flagged on any robot\'s latest period.</p>')
+    if "diagnoses" in doc:
+        o += ['<h2 id="named">What the diagnosis names</h2>',
+              "<p class=\"note\">Each changed robot's latest log diagnosed against its reference period's model "
+              "(the effects it misses, 95 % intervals), and the payload's mass when its drift is flagged.</p>"]
+        o.append('<ul id="named-list">')
+        o += [f'<li class="named" data-robot="{e(d["robot"])}">{e(w)}</li>'
+              for d in doc["diagnoses"] for w in d["words"]]
+        o.append("</ul>")
     o += ['<h2 id="heatmap">Standardised drift of the latest period</h2>',
           '<p class="note">Each robot\'s latest period against its reference: change / std for one parameter '
           "(red: up, blue: down), the normal score of the Wald statistic for a group; outlined: flagged.</p>",
@@ -319,20 +342,21 @@ def _json(doc: Any) -> str:
 
 
 def write(result, tests: Sequence[Dict[str, Any]], *, out: Optional[str] = None, report: Optional[str] = None,
-          fdr: float = 0.05) -> List[str]:
+          fdr: float = 0.05, diagnoses: Optional[Sequence[Dict[str, Any]]] = None) -> List[str]:
     """Writes the fleet's outputs, all or nothing. ``out``: ``fleet.json`` and a parameter
     file per robot and period (``params/<robot>_<period>.json``); ``report``: ``fleet.html``,
     ``report.json`` (``fleet.json`` with the fits slimmed: no covariances) and a parameter
     file per robot, its latest period's
-    (``params/<robot>.json``). Parameter files reload with ``--params`` / ``params=``."""
+    (``params/<robot>.json``). Parameter files reload with ``--params`` / ``params=``.
+    ``diagnoses`` (:func:`ivdyn.fleet.diagnose`): what the diagnosis names, in both."""
     files: Dict[str, str] = {}
     if out is not None:
-        files[os.path.join(out, "fleet.json")] = _json(fleet_doc(result, tests, fdr))
+        files[os.path.join(out, "fleet.json")] = _json(fleet_doc(result, tests, fdr, diagnoses=diagnoses))
         for (robot, period), f in result.fits.items():
             if "report" in f:
                 files[os.path.join(out, "params", f"{robot}_{period}.json")] = _json(f["report"]["params"])
     if report is not None:
-        doc = fleet_doc(result, tests, fdr, slim=True)
+        doc = fleet_doc(result, tests, fdr, slim=True, diagnoses=diagnoses)
         order = {r: i for i, r in enumerate(doc["heatmap"]["robots"])}
         doc_html = dict(doc, changes_ordered=sorted(doc["changes"], key=lambda c: order[c["robot"]]))
         files[os.path.join(report, "fleet.html")] = page(result, tests, doc_html)
