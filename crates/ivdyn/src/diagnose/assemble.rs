@@ -56,14 +56,14 @@ pub(super) fn assemble(
     let cov = uncertainty::covariance(&f, ctx.gr, &ctx.w, &r_final);
     let nominal_refit = match &refit {
         Some(dec) => {
-            // the re-fit's own part of the final fit (its scales, no effect)
+            // the re-fit's own part of the final fit (its base corrections, no effect)
             let only = Fit {
                 params: f.params.clone(),
                 theta: f.params.iter().zip(&f.theta).map(|(p, &v)| if p.kind.is_none() { v } else { 0.0 }).collect(),
             };
             let e_refit = effect_torque(&only, d, n, t_len);
             let r: Vec<f64> = (0..t_len * n).map(|i| r_nom[i] - e_refit[i]).collect();
-            Some(refit::report(robot, dec, &f, baseline_rms.clone(), rms_per_joint(&r, n), names)?)
+            Some(refit::report(robot, d, dec, &f, baseline_rms.clone(), rms_per_joint(&r, n), names)?)
         }
         None => None,
     };

@@ -15,6 +15,7 @@ use super::signals::Signals;
 use crate::Robot;
 use crate::batch;
 use crate::error::{Error, Result};
+use crate::ident::base::BaseParams;
 
 pub(super) const C_ONE: usize = 0;
 pub(super) const C_Q: usize = 1;
@@ -51,8 +52,12 @@ pub(super) const C_LINK: usize = C_PAYLOAD + 10;
 /// Parts of a link's 10 inertial parameters that are scaled separately: `[lo, hi)`.
 pub(super) const LINK_GROUPS: [(usize, usize); 3] = [(0, 1), (1, 4), (4, 10)];
 const NCOLS: usize = C_LINK + LINK_GROUPS.len() * crate::MAX_DOF;
-/// The target (the nominal residual) is the last Gram column.
+/// The target (the nominal residual) is the Gram column after the fixed dictionary.
 pub(super) const C_TARGET: usize = NCOLS;
+/// Base-parameter columns of the nominal re-fit (`refit`), after the target: the base
+/// regressor of the links before the terminal one, `Y_b` with `tau = Y_b theta_b`
+/// (`Dictionary::base` says which combinations of inertial parameters they are).
+pub(super) const C_BASE: usize = C_TARGET + 1;
 
 /// Per joint: the dictionary columns over the log (`NCOLS` vectors of length `T`).
 pub(super) struct Dictionary {
@@ -65,6 +70,28 @@ pub(super) struct Dictionary {
     pub(super) smooth_vs: Vec<[f64; 5]>,
     /// Mean position per joint (the spring's reference for conditioning).
     pub(super) q_mean: Vec<f64>,
+    /// The rigid-body base parameters of the links before the terminal one (the columns
+    /// from `C_BASE` on; the terminal link's are left out: a change there is a payload).
+    pub(super) base: BaseParams,
+}
+
+impl Dictionary {
+    /// Number of base-parameter columns of the nominal re-fit.
+    pub(super) fn nbase(&self) -> usize {
+        self.base.base_count()
+    }
+}
+
+/// Random states for the base parameters of the re-fit (the rank settles within a few
+/// hundred; seeded, so the columns and their names do not depend on the log).
+const BASE_SAMPLES: usize = 200;
+
+/// The rigid-body base parameters of every link but the terminal one (whose 10 columns
+/// are zeroed, so no base parameter contains them).
+pub(super) fn refit_base(robot: &Robot) -> Result<BaseParams> {
+    let n = robot.dof();
+    let terminal: Vec<usize> = (10 * (n - 1)..10 * n).collect();
+    crate::ident::base::robot_base_params_excluding(robot, BASE_SAMPLES, 15, true, &terminal)
 }
 
 /// The dictionary over the conditioned log `s`, and the nominal residual `tau - tau_nom`.
@@ -72,7 +99,12 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> R
     let n = robot.dof();
     let t_len = s.t.len();
     let p_full = robot.num_params();
-    let mut cols = vec![vec![vec![0.0; t_len]; NCOLS]; n];
+    let base = refit_base(robot)?;
+    let nb = base.base_count();
+    // the target's slot stays empty (the residual is `r0`)
+    let mut cols: Vec<Vec<Vec<f64>>> = (0..n)
+        .map(|_| (0..C_BASE + nb).map(|c| if c == C_TARGET { vec![] } else { vec![0.0; t_len] }).collect())
+        .collect();
     let mut vs = vec![[0.0; 5]; n];
     let mut smooth_vs = vec![[0.0; 5]; n];
     let mut q_mean = vec![0.0; n];
@@ -131,11 +163,14 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> R
                             (lo..hi).map(|c| row[10 * i + c] * theta_nom[10 * i + c]).sum();
                     }
                 }
+                for (b, &c) in base.independent.iter().enumerate() {
+                    cols[j][C_BASE + b][k0 + kk] = row[c];
+                }
             }
         }
     }
     let r0 = (0..n).map(|j| (0..t_len).map(|k| s.tau[k * n + j] - tau_nom[k * n + j]).collect()).collect();
-    Ok(Dictionary { cols, r0, vs, smooth_vs, q_mean })
+    Ok(Dictionary { cols, r0, vs, smooth_vs, q_mean, base })
 }
 
 /// Sample `k` of the real-drive columns of one joint (`tau`: its nominal rigid-body torque).
@@ -190,18 +225,18 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
     let n = d.cols.len();
     let mut g = Vec::with_capacity(n);
     let mut rows = vec![[0usize; 2]; n];
+    let size = C_BASE + d.nbase();
+    // the columns in use (the link columns of links beyond the robot's stay zero)
+    let used: Vec<usize> = (0..C_LINK + LINK_GROUPS.len() * n).chain(C_TARGET..size).collect();
     for j in 0..n {
-        let mut gj = [DMatrix::<f64>::zeros(NCOLS + 1, NCOLS + 1), DMatrix::<f64>::zeros(NCOLS + 1, NCOLS + 1)];
-        let mut x = [0.0; NCOLS + 1];
-        // the columns in use (the link columns of links beyond the robot's stay zero)
-        let used: Vec<usize> = (0..C_LINK + LINK_GROUPS.len() * n).chain([C_TARGET]).collect();
+        let mut gj = [DMatrix::<f64>::zeros(size, size), DMatrix::<f64>::zeros(size, size)];
+        let mut x = vec![0.0; size];
         for k in 0..t_len {
             let f = fold_of(k, t_len, blocks_per_fold);
             rows[j][f] += 1;
-            for c in 0..NCOLS {
-                x[c] = d.cols[j][c][k];
+            for &c in &used {
+                x[c] = if c == C_TARGET { d.r0[j][k] } else { d.cols[j][c][k] };
             }
-            x[C_TARGET] = d.r0[j][k];
             let m = &mut gj[f];
             for (ia, &a) in used.iter().enumerate() {
                 let xa = x[a];
@@ -214,7 +249,7 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
             }
         }
         for m in gj.iter_mut() {
-            for a in 0..=NCOLS {
+            for a in 0..size {
                 for b in 0..a {
                     m[(a, b)] = m[(b, a)];
                 }

@@ -5,8 +5,8 @@ use nalgebra::{DMatrix, DVector};
 
 use super::EffectKind;
 use super::dictionary::{
-    C_DELAY, C_GAIN, C_LINK, C_LOAD, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_RIPPLE, C_SIGN, C_SIGN_POS, C_STRIBECK,
-    C_TANH, C_TARGET, Dictionary, Grams, LINK_GROUPS, RIPPLE_N, SMOOTH_VS,
+    C_BASE, C_DELAY, C_GAIN, C_LINK, C_LOAD, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_RIPPLE, C_SIGN, C_SIGN_POS,
+    C_STRIBECK, C_TANH, C_TARGET, Dictionary, Grams, LINK_GROUPS, RIPPLE_N, SMOOTH_VS,
 };
 use super::residual::noise_and_tau;
 
@@ -37,11 +37,11 @@ pub(super) struct Model {
     pub(super) all_shapes: bool,
     /// Per-link scale factors of the nominal inertials, every link (look-alike check).
     pub(super) link_scale: bool,
-    /// The nominal re-fit (`refit`): per-link scale factors of the links before the
-    /// terminal one, ridge-regularised toward the nominal (`Grams::ridge`). The terminal
-    /// link is left out: a change there is what a payload is, and the payload candidate
-    /// and its rules decide it.
-    pub(super) refit: bool,
+    /// The nominal re-fit (`refit`): this many base-parameter columns (`C_BASE..`; 0: off),
+    /// the rigid-body base parameters of the links before the terminal one, ridge-regularised
+    /// toward the nominal (`Grams::ridge`). The terminal link is left out: a change there is
+    /// what a payload is, and the payload candidate and its rules decide it.
+    pub(super) refit: usize,
 }
 
 impl Model {
@@ -54,7 +54,7 @@ impl Model {
             payload: false,
             all_shapes: false,
             link_scale: false,
-            refit: false,
+            refit: 0,
         }
     }
 
@@ -134,15 +134,9 @@ impl Model {
                 p.push(Param { kind: Some(EffectKind::Payload), joint: None, col: C_PAYLOAD + k });
             }
         }
-        let n = self.per_joint.len();
-        let links = if self.link_scale {
-            n
-        } else if self.refit {
-            n - 1
-        } else {
-            0
-        };
-        for c in C_LINK..C_LINK + LINK_GROUPS.len() * links {
+        let links = if self.link_scale { self.per_joint.len() } else { 0 };
+        let link_cols = C_LINK..C_LINK + LINK_GROUPS.len() * links;
+        for c in link_cols.chain(C_BASE..C_BASE + self.refit) {
             p.push(Param { kind: None, joint: None, col: c });
         }
         p
@@ -316,14 +310,14 @@ pub(super) fn effect_torque(f: &Fit, d: &Dictionary, n: usize, t_len: usize) -> 
 }
 
 /// Noise std and integrated autocorrelation time per joint from the residual of
-/// [`all_model`] (with the nominal re-fit when `refit`, the drive effects when `drives`), and
+/// [`all_model`] (with the nominal re-fit's `refit` base columns, the drive effects when `drives`), and
 /// that residual.
 pub(super) fn noise_of_all_model(
     d: &Dictionary,
     gr: &Grams,
     n: usize,
     t_len: usize,
-    refit: bool,
+    refit: usize,
     drives: bool,
 ) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let unit = vec![1.0; n];

@@ -6,189 +6,286 @@
 //! share of a real effect (friction) until nothing is named. So when the log says the
 //! rigid-body model is off, the search runs on top of a re-fitted one:
 //!
-//! * **What is re-fitted**: three scale factors per link on its nominal inertial
-//!   parameters, one each for its mass, its first moment (mass times COM) and its
-//!   rotational inertia (the torque of each part, `Y_i,g theta_i,g`, as a column, `1 + s`
-//!   times it), every link but the terminal one: a change of the terminal link is what a
-//!   payload is, and the payload candidate with its own rules (size beyond the CAD
-//!   margin, held-out share, look-alike check) decides it.
-//! * **Regularised toward the nominal**: a ridge on the scales (unit-diagonal normal
-//!   equations), the largest on a grid whose two-fold held-out residual, with friction
-//!   on every joint fitted jointly, is within 1 % of the best; grid values that leave a
-//!   re-fitted link physically inconsistent are skipped. In a joint fit the ridge leaves
-//!   to an effect's (unpenalised) column what it and a scale explain alike (armature on a
-//!   vertical first joint and that link's inertia).
-//! * **Turned on** when, on top of friction (Coulomb and viscous) on every joint, the
-//!   effects a link inertial cannot imitate, it removes on some joint at least
-//!   `REFIT_MIN_SHARE` of the held-out residual above the noise, with a torque of at least
-//!   `min_effect` noise standard deviations RMS. (No F test: a rigid-body error leaves a
-//!   smooth residual whose effective sample count is too small for one; the held-out
-//!   test is the validation.) The look-alikes (offset, spring, armature, payload) are not
-//!   in that base: they would absorb the error the re-fit is for.
+//! * **What is re-fitted**: the rigid-body base parameters (eqs 11-13 of the paper: the
+//!   identifiable combinations of the inertial parameters) of every link but the terminal
+//!   one, as corrections to their nominal values (`Dictionary::base`): a change of the
+//!   terminal link is what a payload is, and the payload candidate with its own rules
+//!   (size beyond the CAD margin, held-out share, look-alike check) decides it.
+//! * **Regularised toward the nominal**: a ridge on the corrections (unit-diagonal normal
+//!   equations), the largest on a grid whose two-fold held-out residual (friction on every
+//!   joint in) is within 1 % of the best, among the grid values whose corrected links are
+//!   physically consistent if there are any (`corrected`: the full parameters closest to
+//!   the nominal in its own scales with those base parameters; mass, inertia about the COM
+//!   and its triangle inequalities). When none is, the held-out choice stands and
+//!   `nominal_refit.why` says that the links need a consistent identify.
+//! * **Turned on** when it removes on some joint at least `REFIT_MIN_SHARE` of the held-out
+//!   residual above the noise, and at least `min_effect` noise standard deviations of RMS
+//!   torque held-out, on top of the decision's base (`decision_base`): friction (Coulomb
+//!   and viscous) on every joint, and the look-alikes where they are the simpler
+//!   explanation: on each joint the offset, spring or armature that explains more of that
+//!   joint's held-out residual than the re-fit does, and a payload if it explains more of
+//!   the whole log's. On an exact model with an offset, an armature (on a vertical first
+//!   joint its column *is* that link's inertia) or a payload, the look-alike wins its
+//!   joints and the re-fit adds nothing, so it stays off and cannot absorb them; on a CAD
+//!   model the error is spread over every joint's pose- and acceleration-dependent torque
+//!   in the pattern of the base regressor, which no per-joint look-alike holds as well.
+//!   Putting every look-alike on every joint instead was tried: they absorb the CAD error
+//!   and the re-fit never fires (1 of 32 tuning cases right). (No F test: a rigid-body
+//!   error leaves a smooth residual whose effective sample count is too small for one; the
+//!   held-out test is the validation.)
 //!
 //! The effects are then searched with the re-fit in every model, so a look-alike the
 //! re-fit explains on held-out data is not significant, and `effects` keeps only what the
 //! model lacks.
 
-use super::dictionary::{C_LINK, Grams, LINK_GROUPS};
-use super::model::{Fit, Model, effect_rms, fit, friction_model, rss_joint};
+use super::EffectKind;
+use super::dictionary::{C_BASE, Dictionary, Grams};
+use super::model::{Fit, Model, fit, friction_model, rss_joint};
 use super::rules::Ctx;
 use super::{BaseParamsJson, NominalRefitJson};
 use crate::Robot;
 use crate::error::Result;
+use crate::ident::consistent;
+use nalgebra::{DMatrix, DVector};
 
-/// Ridges tried (unit-diagonal normal equations: 1 weighs a scale as much as all the
+/// Ridges tried (unit-diagonal normal equations: 1 weighs a correction as much as all the
 /// data on its column).
 const RIDGE_GRID: [f64; 7] = [1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0];
 
-/// Share of the held-out residual above the noise (friction in) the re-fit must remove
-/// on a joint to be turned on.
+/// Share of the held-out residual above the noise (decision base in) the re-fit must
+/// remove on a joint to be turned on.
 const REFIT_MIN_SHARE: f64 = 0.5;
 
 /// A held-out residual within this fraction of the best counts as as good (the largest
 /// such ridge, the one closest to the nominal, is kept).
 const RIDGE_TOLERANCE: f64 = 0.01;
 
-/// Random states for the base parameters of the report.
-const BASE_SAMPLES: usize = 200;
-
 /// The re-fit the search runs on, and why.
 #[derive(Debug, Clone)]
 pub(super) struct RefitDecision {
     /// Ridge chosen (unit-diagonal normal equations).
     pub(super) ridge: f64,
-    /// Share of the held-out residual above the noise it removes per joint (friction in).
+    /// Whether the corrected links are physically consistent at that ridge (`corrected`).
+    pub(super) consistent: bool,
+    /// The look-alikes it was decided against (beside friction): those that explained more
+    /// than it on some joint.
+    pub(super) against: Vec<EffectKind>,
+    /// Share of the held-out residual above the noise it removes per joint.
     pub(super) share: Vec<f64>,
     /// Joints where it is significant.
     pub(super) joints: Vec<usize>,
 }
 
-/// The scales of a fit's link-scale parameters: (link, part of `LINK_GROUPS`, scale).
-pub(super) fn link_scales(f: &Fit) -> Vec<(usize, usize, f64)> {
-    let g = LINK_GROUPS.len();
-    f.params
-        .iter()
-        .zip(&f.theta)
-        .filter(|(p, _)| p.kind.is_none())
-        .map(|(p, &v)| ((p.col - C_LINK) / g, (p.col - C_LINK) % g, v))
-        .collect()
-}
-
-/// The nominal inertial parameters with each link's parts scaled by `1 + s`.
-fn scaled(nominal: &[f64], scales: &[(usize, usize, f64)]) -> Vec<f64> {
-    let mut theta = nominal.to_vec();
-    for &(i, g, s) in scales {
-        let (lo, hi) = LINK_GROUPS[g];
-        for v in &mut theta[10 * i + lo..10 * i + hi] {
-            *v *= 1.0 + s;
+/// The corrections of a fit's base parameters (in `Dictionary::base` order; 0 where the
+/// fit has none).
+pub(super) fn base_corrections(f: &Fit, nbase: usize) -> Vec<f64> {
+    let mut delta = vec![0.0; nbase];
+    for (p, &v) in f.params.iter().zip(&f.theta) {
+        if p.kind.is_none() && p.col >= C_BASE {
+            delta[p.col - C_BASE] = v;
         }
     }
-    theta
+    delta
+}
+
+/// The full inertial parameters closest to the nominal, in the nominal's own scales `S`
+/// (per link: `m`, `m L`, `m L^2`, `ident::consistent`), whose base parameters are
+/// corrected by `delta`: `theta = theta_nom + S^2 P^T (P S^2 P^T)^-1 delta` with
+/// `theta_b = P theta`. The correction is spread over every parameter of each
+/// combination in proportion to its size, not put on one of them (which would move, say,
+/// a link's whole first moment onto one coordinate and break its inertia).
+fn corrected(d: &Dictionary, nominal: &[f64], delta: &[f64]) -> Option<Vec<f64>> {
+    let p = d.base.full_cols;
+    let n = p / 10;
+    let s2: Vec<f64> = consistent::scales(nominal, n)[..p].iter().map(|s| s * s).collect();
+    let pm = consistent::base_map(&d.base, p);
+    let ps2 = DMatrix::from_fn(pm.nrows(), p, |r, c| pm[(r, c)] * s2[c]);
+    let gram = &ps2 * pm.transpose();
+    let y = gram.cholesky()?.solve(&DVector::from_column_slice(delta));
+    let dtheta = ps2.transpose() * y;
+    Some(nominal[..p].iter().zip(dtheta.iter()).map(|(t, d)| t + d).collect())
 }
 
 /// Whether every re-fitted link of `theta` is physically consistent (positive mass,
-/// inertia about the COM positive definite with the triangle inequalities).
-fn consistent(theta: &[f64], scales: &[(usize, usize, f64)]) -> bool {
-    scales.iter().all(|&(i, _, _)| {
-        let p: [f64; 10] = theta[10 * i..10 * i + 10].try_into().expect("10 parameters");
+/// inertia about the COM positive definite with the triangle inequalities); a link whose
+/// nominal is not is not held against the re-fit.
+fn consistent(theta: &[f64], nominal: &[f64], links: usize) -> bool {
+    let ok = |t: &[f64], i: usize| {
+        let p: [f64; 10] = t[10 * i..10 * i + 10].try_into().expect("10 parameters");
         ivdyn_core::LinkInertia(p).is_physically_consistent(0.0)
-    })
+    };
+    (0..links).all(|i| ok(theta, i) || !ok(nominal, i))
 }
 
-/// Weighted held-out RSS (both folds) of the model `m`, and its scales fitted on all data.
-fn heldout(ctx: &Ctx, gr: &Grams, m: &Model) -> (f64, Vec<(usize, usize, f64)>) {
+/// Weighted held-out RSS (both folds) of the model `m`, and its fit on all data.
+fn heldout(ctx: &Ctx, gr: &Grams, m: &Model) -> (f64, Fit) {
     let ps = m.params();
     let (f0, f1) = (fit(&ps, gr, &ctx.w, &[0]), fit(&ps, gr, &ctx.w, &[1]));
     let h = (0..ctx.n).map(|j| ctx.w[j] * (rss_joint(&f0, gr, j, &[1]) + rss_joint(&f1, gr, j, &[0]))).sum();
-    (h, link_scales(&fit(&ps, gr, &ctx.w, &[0, 1])))
+    (h, fit(&ps, gr, &ctx.w, &[0, 1]))
 }
 
-/// The ridge of the re-fit on top of friction (module docs), or `None` when no grid value
-/// keeps every link physically consistent.
-fn choose_ridge(ctx: &Ctx, with: &Model, nominal: &[f64]) -> Option<f64> {
+/// The ridge of the re-fit on top of the decision base (module docs) and whether its
+/// corrected links are physically consistent: the ridges whose links are, if any; else all
+/// (the corrected base parameters are then reported as such, `report`).
+fn choose_ridge(ctx: &Ctx, d: &Dictionary, with: &Model, nominal: &[f64]) -> Option<(f64, bool)> {
     let mut tried = vec![];
     for &ridge in &RIDGE_GRID {
         let mut gr = ctx.gr.clone();
         gr.ridge = ridge;
-        let (h, scales) = heldout(ctx, &gr, with);
-        if consistent(&scaled(nominal, &scales), &scales) {
-            tried.push((ridge, h));
+        let (h, f) = heldout(ctx, &gr, with);
+        let ok = corrected(d, nominal, &base_corrections(&f, d.nbase()))
+            .is_some_and(|theta| consistent(&theta, nominal, ctx.n - 1));
+        tried.push((ridge, h, ok));
+    }
+    let any_ok = tried.iter().any(|x| x.2);
+    let pool: Vec<(f64, f64)> = tried.iter().filter(|x| x.2 || !any_ok).map(|x| (x.0, x.1)).collect();
+    let best = pool.iter().map(|x| x.1).fold(f64::INFINITY, f64::min);
+    let ridge = pool.iter().filter(|x| x.1 <= best * (1.0 + RIDGE_TOLERANCE)).map(|x| x.0).reduce(f64::max)?;
+    Some((ridge, any_ok))
+}
+
+/// A look-alike explaining at least this fraction of what the re-fit explains on a joint's
+/// held-out residual takes that joint in the decision's base (`decision_base`).
+const LOOK_ALIKE_PARITY: f64 = 1.0;
+
+/// The look-alikes the re-fit competes with (module docs), each on every joint.
+const LOOK_ALIKES: [EffectKind; 4] =
+    [EffectKind::TorqueOffset, EffectKind::JointSpring, EffectKind::Armature, EffectKind::Payload];
+
+/// `m` with the effect `e` on every joint (a payload: once).
+fn with_everywhere(m: &Model, e: EffectKind) -> Model {
+    if e == EffectKind::Payload {
+        return m.with(None, e);
+    }
+    (0..m.per_joint.len()).fold(m.clone(), |acc, j| acc.with(Some(j), e))
+}
+
+/// Held-out RSS per joint (two folds, each fitted on the other) of the model `m`.
+fn heldout_rss(ctx: &Ctx, gr: &Grams, m: &Model) -> Vec<f64> {
+    let ps = m.params();
+    let (f0, f1) = (fit(&ps, gr, &ctx.w, &[0]), fit(&ps, gr, &ctx.w, &[1]));
+    (0..ctx.n).map(|j| rss_joint(&f0, gr, j, &[1]) + rss_joint(&f1, gr, j, &[0])).collect()
+}
+
+/// Noise-weighted held-out reduction of `larger` against `base` (held-out RSS `h0`).
+fn gain(ctx: &Ctx, h0: &[f64], h1: &[f64]) -> f64 {
+    (0..ctx.n).map(|j| ctx.w[j] * (h0[j] - h1[j])).sum()
+}
+
+/// The base the re-fit is decided on: friction on every joint, plus on each joint the
+/// per-joint look-alike (offset, spring, armature) that explains more of that joint's
+/// held-out residual than the re-fit does (the best such), plus a payload if it explains
+/// more of the whole log's than the re-fit does. There the log is that effect's, and the
+/// re-fit must add to it; elsewhere the look-alikes stay out of the base (put on every
+/// joint, they would absorb the rigid-body error the re-fit is for).
+fn decision_base(ctx: &Ctx, gr: &Grams, refit: usize) -> (Model, Vec<EffectKind>) {
+    let mut base = friction_model(ctx.n);
+    let h0 = heldout_rss(ctx, gr, &base);
+    let mut with = base.clone();
+    with.refit = refit;
+    let h_refit = heldout_rss(ctx, gr, &with);
+    // a look-alike (one or two parameters) that explains nearly as much as the re-fit
+    // (dozens) on a joint is the simpler explanation there
+    let mut best: Vec<(f64, Option<EffectKind>)> =
+        (0..ctx.n).map(|j| (h_refit[j] + (1.0 - LOOK_ALIKE_PARITY) * (h0[j] - h_refit[j]).max(0.0), None)).collect();
+    let mut against = vec![];
+    for e in LOOK_ALIKES {
+        let h = heldout_rss(ctx, gr, &with_everywhere(&friction_model(ctx.n), e));
+        if e == EffectKind::Payload {
+            if gain(ctx, &h0, &h) > gain(ctx, &h0, &h_refit) {
+                base.payload = true;
+                against.push(e);
+            }
+            continue;
+        }
+        for (j, b) in best.iter_mut().enumerate() {
+            if h[j] < b.0 && h[j] < h0[j] {
+                *b = (h[j], Some(e));
+            }
         }
     }
-    let best = tried.iter().map(|x| x.1).fold(f64::INFINITY, f64::min);
-    tried
-        .iter()
-        .filter(|x| x.1 <= best * (1.0 + RIDGE_TOLERANCE))
-        .map(|x| x.0)
-        .fold(None, |a, r| Some(a.map_or(r, |a: f64| a.max(r))))
+    for (j, b) in best.iter().enumerate() {
+        if let Some(e) = b.1 {
+            base = base.with(Some(j), e);
+            if !against.contains(&e) {
+                against.push(e);
+            }
+        }
+    }
+    (base, against)
 }
 
 /// Whether the log calls for the re-fit, and with which ridge (module docs).
-pub(super) fn decide(ctx: &Ctx, robot: &Robot) -> Option<RefitDecision> {
+pub(super) fn decide(ctx: &Ctx, d: &Dictionary, robot: &Robot) -> Option<RefitDecision> {
     let n = ctx.n;
-    if n < 2 {
+    if n < 2 || d.nbase() == 0 {
         return None; // one link: its change is a payload's business
     }
-    let base = friction_model(n);
-    let mut with = base.clone();
-    with.refit = true;
-    let ridge = choose_ridge(ctx, &with, &robot.params())?;
+    let mut with = friction_model(n);
+    with.refit = d.nbase();
+    let (ridge, consistent) = choose_ridge(ctx, d, &with, &robot.params())?;
     let mut gr = ctx.gr.clone();
     gr.ridge = ridge;
-    let (pb, pw) = (base.params(), with.params());
-    let f_all = fit(&pw, &gr, &ctx.w, &[0, 1]);
+    let (base, against) = decision_base(ctx, &gr, d.nbase());
+    let mut with = base.clone();
+    with.refit = d.nbase();
+    let (h0, h1) = (heldout_rss(ctx, &gr, &base), heldout_rss(ctx, &gr, &with));
     let mut share = vec![0.0; n];
     let mut joints = vec![];
     for (j, sh) in share.iter_mut().enumerate() {
-        let (mut h0, mut h1) = (0.0, 0.0);
-        for (train, test) in [(0usize, 1usize), (1, 0)] {
-            h0 += rss_joint(&fit(&pb, &gr, &ctx.w, &[train]), &gr, j, &[test]);
-            h1 += rss_joint(&fit(&pw, &gr, &ctx.w, &[train]), &gr, j, &[test]);
-        }
         let rows = (gr.rows[j][0] + gr.rows[j][1]) as f64;
-        let above = h0 - rows * ctx.sigma[j].powi(2);
-        *sh = if above > 0.0 { (h0 - h1) / above } else { 0.0 };
-        let size = effect_rms(&f_all, &gr, j, &|p| p.kind.is_none());
+        let above = h0[j] - rows * ctx.sigma[j].powi(2);
+        *sh = if above > 0.0 { (h0[j] - h1[j]) / above } else { 0.0 };
+        // the RMS torque it explains held-out (not its own part of the joint fit, which a
+        // look-alike of the base can offset)
+        let size = ((h0[j] - h1[j]).max(0.0) / rows).sqrt();
         if *sh >= REFIT_MIN_SHARE && size >= ctx.opts.min_effect * ctx.sigma[j] {
             joints.push(j);
         }
     }
-    if joints.is_empty() { None } else { Some(RefitDecision { ridge, share, joints }) }
+    if joints.is_empty() { None } else { Some(RefitDecision { ridge, consistent, against, share, joints }) }
 }
 
-/// `nominal_refit` of `diagnosis.json`: the base parameters of the nominal model and of
-/// the re-fitted one (the final fit's scales), the RMS before and after the re-fit alone
-/// (`rms_after`: the nominal residual minus the re-fit's part of the final fit), and why.
+/// `nominal_refit` of `diagnosis.json`: the base parameters of the links before the
+/// terminal one, nominal and re-fitted (the final fit's corrections), the RMS before and
+/// after the re-fit alone (`rms_after`: the nominal residual minus the re-fit's part of the
+/// final fit), and why.
 pub(super) fn report(
     robot: &Robot,
+    d: &Dictionary,
     dec: &RefitDecision,
     f: &Fit,
     rms_before: Vec<f64>,
     rms_after: Vec<f64>,
     names: &[String],
 ) -> Result<NominalRefitJson> {
-    let scales = link_scales(f);
     let nominal = robot.params();
-    let theta = scaled(&nominal, &scales);
-    let bp = crate::ident::base::robot_base_params_with(robot, BASE_SAMPLES, 15, true)?;
-    // the rigid-body base parameters are over the 10 N inertial parameters only
-    let k = bp.full_cols.min(theta.len());
-    let base_params = BaseParamsJson {
-        names: bp.names.clone(),
-        nominal: bp.project(&nominal[..k])?,
-        values: bp.project(&theta[..k])?,
-    };
-    let (worst, part, s) =
-        scales.iter().copied().fold((0usize, 0usize, 0.0f64), |a, x| if x.2.abs() > a.2.abs() { x } else { a });
-    let link = robot.link_names.get(worst).cloned().unwrap_or_else(|| format!("link {}", worst + 1));
-    let part = ["mass", "first moment (mass x COM)", "rotational inertia"][part];
+    let p = d.base.full_cols;
+    let nom_base = d.base.project(&nominal[..p])?;
+    let delta = base_corrections(f, d.nbase());
+    let values: Vec<f64> = nom_base.iter().zip(&delta).map(|(a, b)| a + b).collect();
+    // the largest correction relative to the base parameter's own size (or its column's
+    // torque when the nominal value is zero)
+    let rel = |b: usize| delta[b].abs() / nom_base[b].abs().max(1e-9);
+    let worst = (0..delta.len()).max_by(|&a, &b| rel(a).total_cmp(&rel(b))).unwrap_or(0);
     let on: Vec<String> =
         dec.joints.iter().map(|&j| format!("{} ({:.0} %)", names[j], 100.0 * dec.share[j].min(1.0))).collect();
+    let largest = match d.base.names.get(worst) {
+        Some(name) => format!("; largest change: {name} {:.4} -> {:.4}", nom_base[worst], values[worst]),
+        None => String::new(),
+    };
+    let realised = if dec.consistent {
+        ""
+    } else {
+        "; no ridge of the grid leaves the corrected links physically consistent near the nominal (a consistent identify, `ivdyn identify --consistent`, is needed for the links themselves)"
+    };
+    let against: String = dec.against.iter().map(|e| format!(", {}", e.label())).collect();
     let why = format!(
-        "the nominal rigid-body model is off: on top of friction on every joint, per-link scale factors of the nominal inertials (all links but the terminal one, ridge {:.0e} toward the nominal chosen on held-out data) still remove this share of the held-out residual above the noise on {}; largest change: {link} {part} x{:.2}",
+        "the nominal rigid-body model is off: beside friction on every joint{against} where they explain more, a re-fit of the base parameters of all links but the terminal one (ridge {:.0e} toward the nominal, chosen on held-out data) removes this share of the held-out residual above the noise on {}{largest}{realised}",
         dec.ridge,
         on.join(", "),
-        1.0 + s
     );
+    let base_params = BaseParamsJson { names: d.base.names.clone(), nominal: nom_base, values };
     Ok(NominalRefitJson { base_params, rms_before, rms_after, why })
 }

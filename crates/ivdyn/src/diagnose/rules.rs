@@ -73,8 +73,9 @@ fn mean_mass_diag(robot: &Robot, q: &[f64], n: usize) -> Result<Vec<f64>> {
 
 impl<'a> Ctx<'a> {
     /// The noise (weights), autocorrelation times, held-out floor and nominal inertias of
-    /// the prepared log; `refit`: the search runs on top of the nominal re-fit.
-    pub(super) fn new(robot: &Robot, p: &'a Prepared, opts: &'a DiagnoseOptions, refit: bool) -> Result<Self> {
+    /// the prepared log; `refit`: the search runs on top of the nominal re-fit (this many
+    /// base columns, 0: without).
+    pub(super) fn new(robot: &Robot, p: &'a Prepared, opts: &'a DiagnoseOptions, refit: usize) -> Result<Self> {
         let n = robot.dof();
         let (s, d, gr) = (&p.s, &p.d, &p.gr);
         let t_len = s.t.len();

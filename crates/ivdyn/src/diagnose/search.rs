@@ -33,16 +33,17 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     let mut p = prepare_best(robot, log, opts)?;
     // the nominal model's own error first: with every candidate in, does a re-fit of it
     // still explain held-out residual? Then every model of the search contains it.
-    let refit = refit::decide(&Ctx::new(robot, &p, opts, false)?, robot);
+    let refit = refit::decide(&Ctx::new(robot, &p, opts, 0)?, &p.d, robot);
     if let Some(r) = &refit {
         p.gr.ridge = r.ridge;
     }
-    let ctx = Ctx::new(robot, &p, opts, refit.is_some())?;
+    let nbase = if refit.is_some() { p.d.nbase() } else { 0 };
+    let ctx = Ctx::new(robot, &p, opts, nbase)?;
     let t_len = p.s.t.len();
     let r_nom: Vec<f64> = (0..t_len * n).map(|i| p.d.r0[i % n][i / n]).collect();
     let baseline_rms = rms_per_joint(&r_nom, n);
     let mut start = Model::new(n);
-    start.refit = refit.is_some();
+    start.refit = nbase;
     let found = search(&ctx, &p.d, t_len, opts.max_steps, start, refit);
     assemble(robot, opts, &p, &ctx, found, baseline_rms, &r_nom)
 }

@@ -253,7 +253,7 @@ fn jac_theta(x: &[f64], n: usize, margins: &[Matrix4<f64>]) -> DMatrix<f64> {
 }
 
 /// Parameter scales `S` (module docs) from the nominal parameters.
-fn scales(theta_nom: &[f64], n: usize) -> Vec<f64> {
+pub(crate) fn scales(theta_nom: &[f64], n: usize) -> Vec<f64> {
     let masses: Vec<f64> = (0..n).map(|i| theta_nom[link_col(i, 0)]).collect();
     let pos: Vec<f64> = masses.iter().copied().filter(|m| *m > 0.0).collect();
     let mean = if pos.is_empty() { 1.0 } else { pos.iter().sum::<f64>() / pos.len() as f64 };
@@ -378,7 +378,7 @@ fn check_inputs(
 
 /// `P` (`b x p`) with `theta_b = P theta`: the identity on the independent columns plus the
 /// dependent columns' combinations ([`BaseParams::project`] as a matrix).
-fn base_map(base: &BaseParams, p: usize) -> DMatrix<f64> {
+pub(crate) fn base_map(base: &BaseParams, p: usize) -> DMatrix<f64> {
     let mut pm = DMatrix::zeros(base.base_count(), p);
     for (row, &i) in base.independent.iter().enumerate() {
         pm[(row, i)] = 1.0;
