@@ -94,12 +94,25 @@ pub(super) fn refit_base(robot: &Robot) -> Result<BaseParams> {
     crate::ident::base::robot_base_params_excluding(robot, BASE_SAMPLES, 15, true, &terminal)
 }
 
-/// The dictionary over the conditioned log `s`, and the nominal residual `tau - tau_nom`.
-pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64]) -> Result<Dictionary> {
+/// No base-parameter columns (the passes that only choose the conditioning).
+fn no_base(n: usize) -> BaseParams {
+    BaseParams {
+        full_cols: 10 * n,
+        independent: vec![],
+        dependent: vec![],
+        k: DMatrix::zeros(0, 0),
+        zero_columns: vec![],
+        names: vec![],
+    }
+}
+
+/// The dictionary over the conditioned log `s`, and the nominal residual `tau - tau_nom`;
+/// the re-fit's base-parameter columns only `with_base`.
+pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64], with_base: bool) -> Result<Dictionary> {
     let n = robot.dof();
     let t_len = s.t.len();
     let p_full = robot.num_params();
-    let base = refit_base(robot)?;
+    let base = if with_base { refit_base(robot)? } else { no_base(n) };
     let nb = base.base_count();
     // the target's slot stays empty (the residual is `r0`)
     let mut cols: Vec<Vec<Vec<f64>>> = (0..n)
@@ -220,7 +233,13 @@ fn fold_of(k: usize, t_len: usize, blocks_per_fold: usize) -> usize {
     (k * nb / t_len) % 2
 }
 
-/// The Gram matrices of `d` (and its target), per joint and fold.
+/// Samples per block of the Gram accumulation (`X^T X` of a block by one matrix product).
+const GRAM_BLOCK: usize = 256;
+
+/// The Gram matrices of `d` (and its target), per joint and fold: per block of samples of
+/// one fold, `G_f += X^T X` with `X` the block's used columns, by the matrix product
+/// (blocked and vectorised: the search's whole cost on a long log was this sum, sample by
+/// sample).
 pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Grams {
     let n = d.cols.len();
     let mut g = Vec::with_capacity(n);
@@ -228,33 +247,39 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
     let size = C_BASE + d.nbase();
     // the columns in use (the link columns of links beyond the robot's stay zero)
     let used: Vec<usize> = (0..C_LINK + LINK_GROUPS.len() * n).chain(C_TARGET..size).collect();
+    let u = used.len();
+    let mut x = DMatrix::<f64>::zeros(GRAM_BLOCK, u);
     for j in 0..n {
-        let mut gj = [DMatrix::<f64>::zeros(size, size), DMatrix::<f64>::zeros(size, size)];
-        let mut x = vec![0.0; size];
-        for k in 0..t_len {
-            let f = fold_of(k, t_len, blocks_per_fold);
-            rows[j][f] += 1;
-            for &c in &used {
-                x[c] = if c == C_TARGET { d.r0[j][k] } else { d.cols[j][c][k] };
+        let mut gu = [DMatrix::<f64>::zeros(u, u), DMatrix::<f64>::zeros(u, u)];
+        let mut k0 = 0;
+        while k0 < t_len {
+            let f = fold_of(k0, t_len, blocks_per_fold);
+            let mut k1 = k0 + 1;
+            while k1 < t_len && k1 - k0 < GRAM_BLOCK && fold_of(k1, t_len, blocks_per_fold) == f {
+                k1 += 1;
             }
-            let m = &mut gj[f];
+            let m = k1 - k0;
+            for (i, &c) in used.iter().enumerate() {
+                let src = if c == C_TARGET { &d.r0[j][k0..k1] } else { &d.cols[j][c][k0..k1] };
+                x.view_mut((0, i), (m, 1)).copy_from_slice(src);
+            }
+            let xb = x.rows(0, m);
+            // `gemm` of a transposed copy: nalgebra's `gemm` runs the blocked, vectorised
+            // kernel (matrixmultiply) for f64, `gemm_tr` a dot product per entry
+            let xt = xb.transpose();
+            gu[f].gemm(1.0, &xt, &xb, 1.0);
+            rows[j][f] += m;
+            k0 = k1;
+        }
+        let gj = gu.map(|gf| {
+            let mut full = DMatrix::<f64>::zeros(size, size);
             for (ia, &a) in used.iter().enumerate() {
-                let xa = x[a];
-                if xa == 0.0 {
-                    continue;
-                }
-                for &b in &used[ia..] {
-                    m[(a, b)] += xa * x[b];
+                for (ib, &b) in used.iter().enumerate() {
+                    full[(a, b)] = gf[(ia, ib)];
                 }
             }
-        }
-        for m in gj.iter_mut() {
-            for a in 0..size {
-                for b in 0..a {
-                    m[(a, b)] = m[(b, a)];
-                }
-            }
-        }
+            full
+        });
         g.push(gj);
     }
     Grams { g, rows, ridge: 0.0 }

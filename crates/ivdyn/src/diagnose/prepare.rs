@@ -24,7 +24,7 @@ pub(super) struct Prepared {
 }
 
 /// The log prepared at the best cutoff, then again with the acceleration aligned to the
-/// torque.
+/// torque (and the re-fit's base-parameter columns, which choosing the cutoff does not use).
 pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result<Prepared> {
     let dt = log.median_dt().ok_or_else(|| Error::ShortLog {
         what: "the log".into(),
@@ -47,7 +47,7 @@ pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions
     let cutoffs = if cutoffs.is_empty() { vec![dsp::default_cutoff(fs)] } else { cutoffs };
     let mut best: Option<(f64, Prepared)> = None;
     for &c in &cutoffs {
-        let p = prepare(robot, log, opts, c, None)?;
+        let p = prepare(robot, log, opts, c, None, false)?;
         let score = p.log_rss_all();
         if best.as_ref().is_none_or(|b| score < b.0) {
             best = Some((score, p));
@@ -56,7 +56,7 @@ pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions
     let p = best.expect("at least one cutoff").1;
     // torque-to-motion alignment (a fraction of a sample), then everything again
     let alpha = p.alignment(robot, opts.drives)?;
-    prepare(robot, log, opts, p.s.cutoff_hz, Some(alpha))
+    prepare(robot, log, opts, p.s.cutoff_hz, Some(alpha), true)
 }
 
 fn prepare(
@@ -65,6 +65,7 @@ fn prepare(
     opts: &DiagnoseOptions,
     cutoff_hz: f64,
     align: Option<f64>,
+    with_base: bool,
 ) -> Result<Prepared> {
     let n = robot.dof();
     let mut s = condition(log, opts, cutoff_hz)?;
@@ -74,7 +75,7 @@ fn prepare(
     let t_len = s.t.len();
     let mut tau_nom = vec![0.0; t_len * n];
     batch::rnea_batch(robot, &s.q, &s.qd, &s.qdd, &mut tau_nom).map_err(|e| Error::during("nominal model", e))?;
-    let d = build_dictionary(robot, &s, &tau_nom)?;
+    let d = build_dictionary(robot, &s, &tau_nom, with_base)?;
     let gr = grams(&d, t_len, opts.blocks_per_fold.max(1));
     // every fit of the search decomposes these sums: a non-finite one would not converge
     if let Some(j) = gr.g.iter().position(|g| g.iter().any(|m| m.iter().any(|x| !x.is_finite()))) {
