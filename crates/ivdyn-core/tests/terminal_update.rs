@@ -219,3 +219,52 @@ fn skipped_rows_and_refused_input_as_in_the_full_update() {
     assert_eq!(a.update(&q, &qd, &qdd, &qdd, &bad), b.update_full(&q, &qd, &qdd, &qdd, &bad));
     assert_eq!(a.theta(), &before);
 }
+
+/// The same code in `f32` (a small controller's build): the rows agree with `f64` to the
+/// precision of `f32` (a few ulps per operation over a few hundred operations: 1e-4 of the
+/// rows' scale), and the estimator runs.
+#[test]
+fn f32_rows_match_f64_and_the_estimator_runs() {
+    use nalgebra::{Const, SVector};
+    let paper = paper::robot();
+    let spec = TerminalSpec::PAPER;
+    let mut needed = Needed::<6> { first_row: spec.k, ..Needed::NONE };
+    for row in spec.k..6 {
+        for l in row..6 {
+            needed.link[row][l] = (1 << LINK_PARAMS) - 1;
+        }
+        needed.drive[row] = [true; 4];
+    }
+    let (mut o64, mut o32) = (TerminalRows::<6>::new(), TerminalRows::<6, f32>::new());
+    let mut rng = Rng(77);
+    for _ in 0..50 {
+        let (q, qd, qdd) = state::<6>(&mut rng);
+        let c = |v: &VecN<6>| v.map(|x| x as f32);
+        terminal_rows(&paper, &needed, &mut o64, &q, &qd, &qdd, None);
+        terminal_rows(&paper, &needed, &mut o32, &c(&q), &c(&qd), &c(&qdd), None);
+        for row in spec.k..6 {
+            let scale = (row..6).flat_map(|l| o64.y.link[row][l]).fold(0.0f64, |a, x| a.max(x.abs()));
+            for l in row..6 {
+                let a: Vec<f64> = o32.y.link[row][l].iter().map(|&x| x as f64).collect();
+                assert_close(&a, &o64.y.link[row][l], 0.0, 1e-4 * scale, "f32 block");
+            }
+            assert_close(&[o32.tau[row] as f64], &[o64.tau[row]], 1e-4, 1e-4 * o64.tau.amax(), "f32 tau");
+        }
+    }
+    let cols = SVector::<usize, 18>::from_iterator(independent_columns(&paper, &spec, 1));
+    let z = SVector::<f32, 18>::zeros();
+    let mut tl = TerminalLink::<6, Const<18>, f32>::new(
+        paper.clone(),
+        spec,
+        cols,
+        [0.0, 0.0, 0.0, 0.0, 0.01, 1.0],
+        Method::Ls(Rls::new(z, 1e4)),
+    );
+    for _ in 0..100 {
+        let (q, qd, qdd) = state::<6>(&mut rng);
+        let c = |v: &VecN<6>| v.map(|x| x as f32);
+        tl.update(&c(&q), &c(&qd), &c(&qdd), &c(&rng.vecn::<6>(-1.0, 1.0)), &c(&qdd)).unwrap();
+    }
+    assert_eq!(tl.rows_used, 200);
+    assert!(tl.theta().iter().all(|x| x.is_finite()));
+}

@@ -229,9 +229,10 @@ where
                 self.rows_skipped += 1;
                 continue;
             }
-            // the row's structural support: links outside row, and its own drive only
+            // the row's structural support: links outside row, and its own drive only, minus
+            // the entries the model's structure makes zero
             for (b, &(l, e)) in self.col_map.iter().enumerate() {
-                let on = l >= row && (e < LINK_PARAMS || l == row);
+                let on = l >= row && if e < LINK_PARAMS { self.rows.nz[row][l] & (1 << e) != 0 } else { l == row };
                 self.support[b] = on;
                 self.phi[b] = if on { entry(&self.rows.y, row, l, e) } else { T::zero() };
                 if iv {

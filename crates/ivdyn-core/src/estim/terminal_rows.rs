@@ -30,7 +30,7 @@
 use crate::model::{JointKind, Model};
 use crate::params::{CoulombShape, DRIVE_PARAMS, DriveParams, LINK_PARAMS};
 use crate::regressor_matrix::Regressor;
-use crate::scalar::RealScalar;
+use crate::scalar::{RealScalar, Sum};
 use crate::types::Vec3;
 use nalgebra::SVector;
 
@@ -297,6 +297,10 @@ pub struct TerminalRows<const N: usize, T = f64> {
     pub y_z: Regressor<N, T>,
     /// Nominal torque (drive terms included) of the rows used; the others are not set.
     pub tau: SVector<T, N>,
+    /// Bit `e` of `nz[row][link]`: entry `e` of that block is not a structural zero (the
+    /// model's structure makes the others exactly zero at every state); set for the
+    /// needed entries.
+    pub nz: [[u16; N]; N],
 }
 
 impl<const N: usize, T: RealScalar> TerminalRows<N, T> {
@@ -304,7 +308,7 @@ impl<const N: usize, T: RealScalar> TerminalRows<N, T> {
     pub fn new() -> Self {
         let z = T::zero();
         let y = Regressor { link: [[[z; LINK_PARAMS]; N]; N], drive: [[z; DRIVE_PARAMS]; N] };
-        Self { y: y.clone(), y_z: y, tau: SVector::from_element(z) }
+        Self { y: y.clone(), y_z: y, tau: SVector::from_element(z), nz: [[0; N]; N] }
     }
 }
 
@@ -329,10 +333,25 @@ pub fn terminal_rows<const N: usize, T: RealScalar>(
     let frames: [Frame<T>; N] = core::array::from_fn(|i| Frame::new(model, i, q[i]));
     let m = outward(model, &frames, qd, qdd, qdd_instr);
     let r0 = needed.first_row;
+    // the nominal torque from the blocks when every block of the rows is formed anyway
+    // (rows k..N: Y_il pi_l costs a few products more per block), else by the inward recursion
+    let by_blocks = (r0..N).all(|i| (i..N).all(|l| needed.link[i][l] != 0));
     for i in r0..N {
+        let mut tau = Sum::new();
         for l in i..N {
-            if needed.link[i][l] != 0 {
-                blocks(model, &frames, &m, i, l, needed.link[i][l], qdd_instr.is_some(), out);
+            let need = needed.link[i][l];
+            if need == 0 {
+                continue;
+            }
+            let y = blocks(model, &frames, &m, i, l, need, by_blocks, qdd_instr.is_some(), out);
+            if by_blocks {
+                // tau_i += Y_il . pi_l                                              (eq 21)
+                let pi = &model.inertia[l].0;
+                for (e, &v) in y.iter().enumerate() {
+                    if let Some(v) = v {
+                        tau.add(v * T::from_f64(pi[e]));
+                    }
+                }
             }
         }
         let d = &model.drive[i];
@@ -342,8 +361,13 @@ pub fn terminal_rows<const N: usize, T: RealScalar>(
         if let Some(qz) = qdd_instr {
             drive_row(&mut out.y_z.drive[i], dn, c, qd[i], qz[i]);
         }
+        if by_blocks {
+            out.tau[i] = tau.get() + drive_torque(d, qd[i], qdd[i]);
+        }
     }
-    inward(model, &frames, &m, r0, qd, qdd, &mut out.tau);
+    if !by_blocks {
+        inward(model, &frames, &m, r0, qd, qdd, &mut out.tau);
+    }
 }
 
 /// The drive regressor entries `[c(qd), qd, qdd, 1]` that are needed.
@@ -445,7 +469,8 @@ fn sym_entry<T: RealScalar>(u: &V3<T>, v: &V3<T>, (a, b): (usize, usize)) -> Sz<
 }
 
 /// The needed entries of block `(i, l)` (bits of `need`) at the measured accelerations
-/// into `out.y`, and at the instrumental ones into `out.y_z` when `instr`.
+/// into `out.y`, and at the instrumental ones into `out.y_z` when `instr`; their
+/// structure into `out.nz`. Returns the measured block, all ten entries when `full`.
 #[allow(clippy::too_many_arguments)]
 fn blocks<const N: usize, T: RealScalar>(
     model: &Model<N>,
@@ -454,9 +479,10 @@ fn blocks<const N: usize, T: RealScalar>(
     i: usize,
     l: usize,
     need: u16,
+    full: bool,
     instr: bool,
     out: &mut TerminalRows<N, T>,
-) {
+) -> [Sz<T>; LINK_PARAMS] {
     // joint i's unit motion (sw, sv), carried to link l: sv' = R^T (sv + sw x p), sw' = R^T sw
     let a = &model.joints[i].axis;
     let none: V3<T> = [None; 3];
@@ -468,8 +494,9 @@ fn blocks<const N: usize, T: RealScalar>(
         sv = frames[j].in_child(&vadd(&sv, &cross(&sw, &frames[j].p)));
         sw = frames[j].in_child(&sw);
     }
+    let need_y = if full { (1 << LINK_PARAMS) - 1 } else { need };
     let w = &m.w[l];
-    let has = |e: usize| need & (1 << e) != 0;
+    let has = |e: usize| need_y & (1 << e) != 0;
     // velocity parts: Y[h] <- w x (w x sv); Y[I] <- (sw x w)^T I w
     let mut vel: [Sz<T>; LINK_PARAMS] = [None; LINK_PARAMS];
     if has(1) || has(2) || has(3) {
@@ -484,41 +511,53 @@ fn blocks<const N: usize, T: RealScalar>(
             }
         }
     }
-    accel_part(&mut out.y.link[i][l], &vel, need, &sw, &sv, &m.wd[l], &m.acc[l]);
-    if instr {
-        accel_part(&mut out.y_z.link[i][l], &vel, need, &sw, &sv, &m.wd_z[l], &m.acc_z[l]);
+    let y = accel_part(&vel, need_y, &sw, &sv, &m.wd[l], &m.acc[l]);
+    let mut nz = 0u16;
+    for e in (0..LINK_PARAMS).filter(|e| need & (1 << e) != 0) {
+        out.y.link[i][l][e] = or0(y[e]);
+        nz |= u16::from(y[e].is_some()) << e;
     }
+    if instr {
+        let y_z = accel_part(&vel, need, &sw, &sv, &m.wd_z[l], &m.acc_z[l]);
+        for e in (0..LINK_PARAMS).filter(|e| need & (1 << e) != 0) {
+            out.y_z.link[i][l][e] = or0(y_z[e]);
+            nz |= u16::from(y_z[e].is_some()) << e;
+        }
+    }
+    out.nz[i][l] = nz;
+    y
 }
 
-/// Adds the parts linear in `(wd, acc)`: `Y[m] = sv . acc`, `Y[h] += acc x sw + sv x wd`,
-/// `Y[I] += sw^T I wd`; writes the needed entries.
+/// Adds the parts linear in `(wd, acc)` to the velocity parts: `Y[m] = sv . acc`,
+/// `Y[h] += acc x sw + sv x wd`, `Y[I] += sw^T I wd`; the entries of `need`.
 #[inline(always)]
 fn accel_part<T: RealScalar>(
-    out: &mut [T; LINK_PARAMS],
     vel: &[Sz<T>; LINK_PARAMS],
     need: u16,
     sw: &V3<T>,
     sv: &V3<T>,
     wd: &V3<T>,
     acc: &V3<T>,
-) {
+) -> [Sz<T>; LINK_PARAMS] {
     let has = |e: usize| need & (1 << e) != 0;
+    let mut out = [None; LINK_PARAMS];
     if has(0) {
-        out[0] = or0(dot(sv, acc));
+        out[0] = dot(sv, acc);
     }
     if has(1) || has(2) || has(3) {
         let ya = vadd(&cross(acc, sw), &cross(sv, wd));
         for k in 0..3 {
             if has(1 + k) {
-                out[1 + k] = or0(add(ya[k], vel[1 + k]));
+                out[1 + k] = add(ya[k], vel[1 + k]);
             }
         }
     }
     for (k, &pair) in I_PAIRS.iter().enumerate() {
         if has(4 + k) {
-            out[4 + k] = or0(add(sym_entry(sw, wd, pair), vel[4 + k]));
+            out[4 + k] = add(sym_entry(sw, wd, pair), vel[4 + k]);
         }
     }
+    out
 }
 
 /// Inward recursion (eqs 6-8) over links `N-1 .. r0`: the nominal torque of rows `r0..N`,
