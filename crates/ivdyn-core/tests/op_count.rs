@@ -222,6 +222,14 @@ fn dynamics_ops(iv: bool) -> Ops {
     count(|| terminal_rows(&paper::robot(), &needed, &mut out, &q, &qd, &qdd, iv.then_some(&qz)))
 }
 
+/// The outward recursion alone (no rows: `first_row = N`), with the instrumental pass.
+fn outward_ops() -> Ops {
+    let needed = Needed::<6> { first_row: 6, ..Needed::NONE };
+    let mut out = TerminalRows::<6, Counted>::new();
+    let (q, qd, qdd, _, qz) = sample(3);
+    count(|| terminal_rows(&paper::robot(), &needed, &mut out, &q, &qd, &qdd, Some(&qz)))
+}
+
 fn report(what: &str, o: &Ops) {
     println!(
         "{what}: {} multiplications ({} of them divisions), {} additions, {} sin_cos/tanh, {} sqrt",
@@ -240,6 +248,7 @@ fn iv_update_operation_count() {
     let dynamics = dynamics_ops(true);
     report("IV terminal-link update, paper robot, k = 5, D = 18", &ops);
     report("  of which the dynamics (rows' regressor entries x2, nominal torque)", &dynamics);
+    report("    of which the outward recursion (both accelerations)", &outward_ops());
     // the count does not depend on the state (no data-dependent branches on this path)
     assert_eq!(ops, update_ops(true, 17));
     // regression guard: the figure reached (module docs), not the paper's 1800 / 1500
