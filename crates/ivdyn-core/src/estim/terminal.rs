@@ -207,6 +207,8 @@ where
 
     /// One sample: measured `q, qd, qdd` and torque `tau`, and the instrumental
     /// acceleration `qdd_instr` (ignored by least squares). Eqs (41), (46), (52).
+    /// Computes only what the rows need ([`super::terminal_rows`]) and skips the rows'
+    /// structural zeros in the estimator; equal to [`Self::update_full`] up to rounding.
     pub fn update(
         &mut self,
         q: &SVector<T, N>,

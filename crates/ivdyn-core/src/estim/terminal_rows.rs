@@ -196,10 +196,10 @@ impl<T: RealScalar> Frame<T> {
         match self.rot {
             Plane { a, b, s, c } => {
                 // Rot^T: (u_a, u_b) -> (c u_a + s u_b, c u_b - s u_a)
-                let (sa, sb) = (Some(s), Some(c));
+                let (s, c) = (Some(s), Some(c));
                 let mut out = u;
-                out[a] = add(mul(u[a], sb), mul(u[b], sa));
-                out[b] = sub(mul(u[b], sb), mul(u[a], sa));
+                out[a] = add(mul(u[a], c), mul(u[b], s));
+                out[b] = sub(mul(u[b], c), mul(u[a], s));
                 out
             }
             Full(m) => mat_t(&m, &u, true),
@@ -212,10 +212,11 @@ impl<T: RealScalar> Frame<T> {
     fn in_parent(&self, v: &V3<T>) -> V3<T> {
         let u = match self.rot {
             Plane { a, b, s, c } => {
-                let (sa, sb) = (Some(s), Some(c));
+                // Rot: (v_a, v_b) -> (c v_a - s v_b, s v_a + c v_b)
+                let (s, c) = (Some(s), Some(c));
                 let mut out = *v;
-                out[a] = sub(mul(v[a], sb), mul(v[b], sa));
-                out[b] = add(mul(v[a], sa), mul(v[b], sb));
+                out[a] = sub(mul(v[a], c), mul(v[b], s));
+                out[b] = add(mul(v[a], s), mul(v[b], c));
                 out
             }
             Full(m) => mat_t(&m, v, false),
