@@ -1,5 +1,6 @@
 //! Estimation hot paths: one recursive update of the paper's terminal-link problem
-//! (k = 5, 18 base columns, rows of joints 5 and 6: dynamics + estimator), one scalar-row
+//! (k = 5, 18 base columns, rows of joints 5 and 6: dynamics + estimator; the reduced
+//! update and the full-dynamics reference), one scalar-row
 //! update of RLS and RIV over the paper robot's full base set, and a batch fit of 100 000
 //! UR5 samples (regressor + streaming QR least squares).
 
@@ -36,6 +37,17 @@ fn terminal_link(c: &mut Criterion) {
             let s = &samples[k];
             tl.update(&s.q, &s.qd, &s.qdd_meas, &s.tau, &instr[k]).unwrap();
             black_box(tl.theta()[0])
+        })
+    });
+    // the same update from the full dynamics (full RNEA, two full regressors, dense rows):
+    // the implementation before issue 19, kept as the reference of tests/terminal_update.rs
+    let mut full = tl.clone();
+    c.bench_function("terminal_link_iv_update_full/paper_k5_18cols", |b| {
+        b.iter(|| {
+            k = (k + 1) % samples.len();
+            let s = &samples[k];
+            full.update_full(&s.q, &s.qd, &s.qdd_meas, &s.tau, &instr[k]).unwrap();
+            black_box(full.theta()[0])
         })
     });
     let mut ls = TerminalLink::<6, Const<18>>::new(

@@ -66,6 +66,7 @@ pub mod regressor;
 pub mod regressor_matrix;
 pub mod rnea;
 pub mod rng;
+pub mod scalar;
 pub mod sim;
 pub mod spatial;
 pub mod trajectory;

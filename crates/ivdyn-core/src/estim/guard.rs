@@ -18,6 +18,7 @@
 //! change (a grasped payload) the large innovations are the signal to track.
 
 use crate::error::Error;
+use crate::scalar::RealScalar;
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OVector};
 
@@ -26,7 +27,12 @@ pub const MAX_INFORMATION_RATIO: f64 = 1.0 / (f64::EPSILON * f64::EPSILON);
 
 /// Non-finite `y` or a weight outside `(0, inf)`: degenerate; non-finite `v[index]`:
 /// [`Error::NonFinite`] naming `what`.
-pub(crate) fn check_inputs<D: Dim>(what: &'static str, v: &OVector<f64, D>, y: f64, w: f64) -> Result<(), Error>
+pub(crate) fn check_inputs<D: Dim, T: RealScalar>(
+    what: &'static str,
+    v: &OVector<T, D>,
+    y: T,
+    w: f64,
+) -> Result<(), Error>
 where
     DefaultAllocator: Allocator<D>,
 {
@@ -41,18 +47,22 @@ where
 
 /// The row guard: `ratio = w s` (at most [`MAX_INFORMATION_RATIO`], finite), and the
 /// normalised innovation `|e| / sqrt(1 / w + s)` at most `gate` (infinity = no gate).
-pub(crate) fn check_row(w: f64, s: f64, innovation: f64, gate: f64) -> Result<(), Error> {
-    let ratio = w * s;
-    if !(ratio <= MAX_INFORMATION_RATIO) {
-        return Err(Error::RowOutOfRange { ratio });
+/// `w` enters as `w_t` (the same weight in `T`); with no gate (`gate` infinite, the
+/// default) the normalised innovation is not computed.
+pub(crate) fn check_row<T: RealScalar>(w: f64, w_t: T, s: T, innovation: T, gate: f64) -> Result<(), Error> {
+    let ratio = w_t * s;
+    if !(ratio <= T::from_f64(MAX_INFORMATION_RATIO)) {
+        return Err(Error::RowOutOfRange { ratio: ratio.to_f64() });
     }
     if !innovation.is_finite() {
         return Err(Error::NonFinite { what: "innovation y - phi . theta", index: 0 });
     }
-    // nu = |e| / sqrt(1 / w + s)
-    let nu = innovation.abs() / libm::sqrt(1.0 / w + s);
-    if nu > gate {
-        return Err(Error::Outlier { innovation: nu, gate });
+    if gate.is_finite() {
+        // nu = |e| / sqrt(1 / w + s)
+        let nu = innovation.abs() / (T::from_f64(1.0 / w) + s).sqrt();
+        if nu > T::from_f64(gate) {
+            return Err(Error::Outlier { innovation: nu.to_f64(), gate });
+        }
     }
     Ok(())
 }
@@ -61,6 +71,6 @@ pub(crate) fn check_row(w: f64, s: f64, innovation: f64, gate: f64) -> Result<()
 /// enters the information matrix, `R <- R + eps phi phi^T`, `eps = w - (1 - lambda) / s`
 /// (forget the fraction `1 - lambda` of the information along `phi`, then add the row's
 /// `w`). `lambda = 1` or `s = 0` (no direction): `eps = w` exactly.
-pub(crate) fn directional_weight(lambda: f64, w: f64, s: f64) -> f64 {
-    if lambda < 1.0 && s > 0.0 { w - (1.0 - lambda) / s } else { w }
+pub(crate) fn directional_weight<T: RealScalar>(lambda: f64, w: T, s: T) -> T {
+    if lambda < 1.0 && s > T::zero() { w - T::from_f64(1.0 - lambda) / s } else { w }
 }

@@ -10,6 +10,7 @@ pub mod instrument;
 pub mod riv;
 pub mod rls;
 pub mod terminal;
+pub mod terminal_rows;
 
 pub use guard::MAX_INFORMATION_RATIO;
 pub use instrument::InstrumentModel;

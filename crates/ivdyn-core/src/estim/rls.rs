@@ -42,21 +42,23 @@
 
 use super::guard;
 use crate::error::Error;
+use crate::scalar::{RealScalar, Sum};
 use nalgebra::allocator::Allocator;
 use nalgebra::{DefaultAllocator, Dim, OMatrix, OVector};
 
-/// Recursive least squares `y = phi^T theta + e`, `var(e) = 1 / w`.
+/// Recursive least squares `y = phi^T theta + e`, `var(e) = 1 / w`. `T` is the scalar
+/// ([`RealScalar`]: `f64` by default).
 #[derive(Debug, Clone)]
-pub struct Rls<D: Dim>
+pub struct Rls<D: Dim, T: RealScalar = f64>
 where
     DefaultAllocator: Allocator<D, D> + Allocator<D>,
 {
     /// Current estimate.
-    pub theta: OVector<f64, D>,
+    pub theta: OVector<T, D>,
     /// Unit upper-triangular factor of the covariance.
-    u: OMatrix<f64, D, D>,
+    u: OMatrix<T, D, D>,
     /// Diagonal factor of the covariance.
-    d: OVector<f64, D>,
+    d: OVector<T, D>,
     /// Forgetting factor `lambda` in (0, 1]; 1 = none. Directional (module docs).
     pub forgetting: f64,
     /// Upper bound on each `d_j` when `forgetting < 1` (anti-windup); default `p0`.
@@ -66,23 +68,27 @@ where
     pub outlier_gate: f64,
     /// Rows processed.
     pub count: u64,
-    f: OVector<f64, D>,
-    g: OVector<f64, D>,
+    f: OVector<T, D>,
+    g: OVector<T, D>,
 }
 
-impl<D: Dim> Rls<D>
+impl<D: Dim, T: RealScalar> Rls<D, T>
 where
     DefaultAllocator: Allocator<D, D> + Allocator<D>,
 {
     /// Starts from `theta0` with covariance `p0 * I` (a large `p0` = little prior knowledge);
     /// no forgetting, `max_variance = p0`, no outlier gate.
-    pub fn new(theta0: OVector<f64, D>, p0: f64) -> Self {
+    pub fn new(theta0: OVector<T, D>, p0: f64) -> Self {
         let (dim, _) = theta0.shape_generic();
+        let mut u = OMatrix::from_element_generic(dim, dim, T::zero());
+        for i in 0..u.nrows() {
+            u[(i, i)] = T::one();
+        }
         Self {
-            u: OMatrix::identity_generic(dim, dim),
-            d: OVector::from_element_generic(dim, nalgebra::Const::<1>, p0),
-            f: OVector::zeros_generic(dim, nalgebra::Const::<1>),
-            g: OVector::zeros_generic(dim, nalgebra::Const::<1>),
+            u,
+            d: OVector::from_element_generic(dim, nalgebra::Const::<1>, T::from_f64(p0)),
+            f: OVector::from_element_generic(dim, nalgebra::Const::<1>, T::zero()),
+            g: OVector::from_element_generic(dim, nalgebra::Const::<1>, T::zero()),
             theta: theta0,
             forgetting: 1.0,
             max_variance: p0,
@@ -91,6 +97,132 @@ where
         }
     }
 
+    /// Variance of each parameter (diagonal of the covariance), `O(P^2)`.
+    pub fn variances(&self, out: &mut OVector<T, D>) {
+        let n = self.d.len();
+        for i in 0..n {
+            let mut s = T::zero();
+            for j in i..n {
+                s += self.u[(i, j)] * self.u[(i, j)] * self.d[j];
+            }
+            out[i] = s;
+        }
+    }
+
+    /// The diagonal factor `D` of `P = U D U^T` (every entry `> 0`).
+    pub fn d(&self) -> &OVector<T, D> {
+        &self.d
+    }
+
+    /// One scalar row: `y = phi . theta + e` with weight `w > 0` (inverse noise variance).
+    /// Errors leave the state untouched: non-finite input, a weight outside `(0, inf)`,
+    /// a row out of numerical range ([`Error::RowOutOfRange`]) or above the outlier gate
+    /// ([`Error::Outlier`]).
+    pub fn update(&mut self, phi: &OVector<T, D>, y: T, w: f64) -> Result<(), Error> {
+        self.update_on(phi, None, y, w)
+    }
+
+    /// [`Self::update`] for a row known to be zero outside `support` (entries outside it
+    /// are not read): the products with those zeros are skipped, which is all the
+    /// difference (the terminal-link rows).
+    pub fn update_sparse(
+        &mut self,
+        phi: &OVector<T, D>,
+        support: &OVector<bool, D>,
+        y: T,
+        w: f64,
+    ) -> Result<(), Error> {
+        self.update_on(phi, Some(support), y, w)
+    }
+
+    fn update_on(
+        &mut self,
+        phi: &OVector<T, D>,
+        support: Option<&OVector<bool, D>>,
+        y: T,
+        w: f64,
+    ) -> Result<(), Error> {
+        guard::check_inputs("phi", phi, y, w)?;
+        let on = |j: usize| support.is_none_or(|s| s[j]);
+        let (n, lambda) = (self.d.len(), self.forgetting);
+        // f = U^T phi (U unit upper triangular: f_j = phi_j + sum_{i<j} U_ij phi_i), g = D f,
+        // and phi . theta, over the support only
+        let mut pred = Sum::new();
+        for j in 0..n {
+            let mut fj = Sum::new();
+            if on(j) {
+                fj.add(phi[j]);
+                pred.add(phi[j] * self.theta[j]);
+            }
+            for i in (0..j).filter(|&i| on(i)) {
+                fj.add(self.u[(i, j)] * phi[i]);
+            }
+            let fj = fj.get();
+            self.f[j] = fj;
+            self.g[j] = self.d[j] * fj;
+        }
+        let pred = pred.get();
+        // s = phi^T P phi
+        let mut s = Sum::new();
+        for j in 0..n {
+            s.add(self.f[j] * self.g[j]);
+        }
+        let s = s.get();
+        let innovation = y - pred;
+        let w_t = T::from_f64(w);
+        guard::check_row(w, w_t, s, innovation, self.outlier_gate)?;
+        let den = T::from_f64(lambda / w) + s;
+        if !(lambda > 0.0 && lambda <= 1.0 && den > T::zero() && den.is_finite()) {
+            return Err(Error::DegenerateUpdate);
+        }
+        // R <- R + eps phi phi^T, i.e. Bierman's update with r = 1 / eps
+        let eps = guard::directional_weight(lambda, w_t, s);
+        let alpha = self.bierman(T::one() / eps);
+        // gain K = P phi / (lambda / w + s); with lambda = 1, eps = w and that is alpha
+        let step = innovation / if lambda < 1.0 { den } else { alpha };
+        for j in 0..n {
+            self.theta[j] += step * self.g[j];
+        }
+        if lambda < 1.0 {
+            // anti-windup: d_j <= max_variance
+            let cap = T::from_f64(self.max_variance);
+            for j in 0..n {
+                if !(self.d[j] <= cap) {
+                    self.d[j] = cap;
+                }
+            }
+        }
+        self.count += 1;
+        Ok(())
+    }
+
+    /// Bierman's measurement update `P <- P - P phi phi^T P / (r + s)` on the factors,
+    /// from `f = U^T phi` and `g = D f`; leaves `g = P phi` (old `P`) and returns `r + s`.
+    /// `r` infinite (`eps = 0`): `P` unchanged.
+    fn bierman(&mut self, r: T) -> T {
+        let mut alpha = r;
+        for j in 0..self.d.len() {
+            let alpha_prev = alpha;
+            alpha += self.f[j] * self.g[j];
+            let mu = -self.f[j] / alpha_prev;
+            if r.is_finite() {
+                self.d[j] *= alpha_prev / alpha;
+            }
+            let gj = self.g[j];
+            for i in 0..j {
+                let beta = self.u[(i, j)];
+                self.u[(i, j)] = beta + self.g[i] * mu;
+                self.g[i] += gj * beta;
+            }
+        }
+        alpha
+    }
+}
+
+impl<D: Dim> Rls<D, f64>
+where
+    DefaultAllocator: Allocator<D, D> + Allocator<D>,
+{
     /// Starts from a batch solution: `info = sum w phi phi^T` (must be positive definite)
     /// and `rhs = sum w phi y`, so that the recursion continues the batch estimate exactly.
     /// `max_variance` is the largest batch variance (the diagonal of `info^-1`).
@@ -141,80 +273,5 @@ where
             ud.column_mut(j).scale_mut(dj);
         }
         &ud * self.u.transpose()
-    }
-
-    /// Variance of each parameter (diagonal of the covariance), `O(P^2)`.
-    pub fn variances(&self, out: &mut OVector<f64, D>) {
-        let n = self.d.len();
-        for i in 0..n {
-            let mut s = 0.0;
-            for j in i..n {
-                s += self.u[(i, j)] * self.u[(i, j)] * self.d[j];
-            }
-            out[i] = s;
-        }
-    }
-
-    /// The diagonal factor `D` of `P = U D U^T` (every entry `> 0`).
-    pub fn d(&self) -> &OVector<f64, D> {
-        &self.d
-    }
-
-    /// One scalar row: `y = phi . theta + e` with weight `w > 0` (inverse noise variance).
-    /// Errors leave the state untouched: non-finite input, a weight outside `(0, inf)`,
-    /// a row out of numerical range ([`Error::RowOutOfRange`]) or above the outlier gate
-    /// ([`Error::Outlier`]).
-    pub fn update(&mut self, phi: &OVector<f64, D>, y: f64, w: f64) -> Result<(), Error> {
-        guard::check_inputs("phi", phi, y, w)?;
-        let (n, lambda) = (self.d.len(), self.forgetting);
-        // f = U^T phi, g = D f
-        self.u.tr_mul_to(phi, &mut self.f);
-        for j in 0..n {
-            self.g[j] = self.d[j] * self.f[j];
-        }
-        // s = phi^T P phi
-        let s = self.f.dot(&self.g);
-        let innovation = y - phi.dot(&self.theta);
-        guard::check_row(w, s, innovation, self.outlier_gate)?;
-        let den = lambda / w + s;
-        if !(lambda > 0.0 && lambda <= 1.0 && den > 0.0 && den.is_finite()) {
-            return Err(Error::DegenerateUpdate);
-        }
-        // R <- R + eps phi phi^T, i.e. Bierman's update with r = 1 / eps
-        let eps = guard::directional_weight(lambda, w, s);
-        let alpha = self.bierman(1.0 / eps);
-        // gain K = P phi / (lambda / w + s); with lambda = 1, eps = w and that is alpha
-        let step = innovation / if lambda < 1.0 { den } else { alpha };
-        self.theta.axpy(step, &self.g, 1.0);
-        if lambda < 1.0 {
-            // anti-windup: d_j <= max_variance
-            for j in 0..n {
-                self.d[j] = self.d[j].min(self.max_variance);
-            }
-        }
-        self.count += 1;
-        Ok(())
-    }
-
-    /// Bierman's measurement update `P <- P - P phi phi^T P / (r + s)` on the factors,
-    /// from `f = U^T phi` and `g = D f`; leaves `g = P phi` (old `P`) and returns `r + s`.
-    /// `r` infinite (`eps = 0`): `P` unchanged.
-    fn bierman(&mut self, r: f64) -> f64 {
-        let mut alpha = r;
-        for j in 0..self.d.len() {
-            let alpha_prev = alpha;
-            alpha += self.f[j] * self.g[j];
-            let mu = -self.f[j] / alpha_prev;
-            if r.is_finite() {
-                self.d[j] *= alpha_prev / alpha;
-            }
-            let gj = self.g[j];
-            for i in 0..j {
-                let beta = self.u[(i, j)];
-                self.u[(i, j)] = beta + self.g[i] * mu;
-                self.g[i] += gj * beta;
-            }
-        }
-        alpha
     }
 }
