@@ -119,10 +119,8 @@ fn consistent(theta: &[f64], nominal: &[f64], links: usize) -> bool {
 
 /// Weighted held-out RSS (both folds) of the model `m`, and its fit on all data.
 fn heldout(ctx: &Ctx, gr: &Grams, m: &Model) -> (f64, Fit) {
-    let ps = m.params();
-    let (f0, f1) = (fit(&ps, gr, &ctx.w, &[0]), fit(&ps, gr, &ctx.w, &[1]));
-    let h = (0..ctx.n).map(|j| ctx.w[j] * (rss_joint(&f0, gr, j, &[1]) + rss_joint(&f1, gr, j, &[0]))).sum();
-    (h, fit(&ps, gr, &ctx.w, &[0, 1]))
+    let h = heldout_rss(ctx, gr, m).iter().zip(&ctx.w).map(|(h, w)| w * h).sum();
+    (h, fit(&m.params(), gr, &ctx.w, &[0, 1]))
 }
 
 /// The ridge of the re-fit on top of the decision base (module docs) and whether its
