@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 cargo build -q --profile bench -p ivdyn-benches --example kernel_loop
-EXE=target/release/examples/kernel_loop
+EXE="${CARGO_TARGET_DIR:-target}/release/examples/kernel_loop"
 count() {
   valgrind --tool=callgrind --callgrind-out-file=/dev/null "$EXE" "$@" 2>&1 \
     | sed -n 's/.*Collected : \([0-9]*\).*/\1/p'

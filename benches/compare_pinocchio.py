@@ -74,7 +74,7 @@ def run_ivdyn(core):
     res = {}
     for g, _ in ROBOTS:
         for a, _ in ALGOS:
-            d = os.path.join(ROOT, "target", "criterion", g, a)
+            d = os.path.join(os.environ.get("CARGO_TARGET_DIR") or os.path.join(ROOT, "target"), "criterion", g, a)
             sub = [s for s in os.listdir(d) if s.isdigit()][0]
             with open(os.path.join(d, sub, "new", "estimates.json")) as f:
                 res[(g, a)] = json.load(f)["median"]["point_estimate"]

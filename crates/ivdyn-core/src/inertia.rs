@@ -98,7 +98,7 @@ impl LinkInertia {
     /// The same body described in the parent frame, given the body frame's placement `x`
     /// in the parent: `h' = R h + m p`,
     /// `I' = R I R^T - [p]x [R h]x - [R h]x [p]x - m [p]x [p]x`.
-    #[inline]
+    #[inline(always)]
     pub fn transformed(&self, x: &Transform) -> Self {
         // with [a]x [b]x = b a^T - (a.b) 1 and u = R h + m p / 2:
         // I' = R I R^T + 2 (p.u) 1 - (u p^T + p u^T)
