@@ -192,7 +192,7 @@ def main():
                     help="the synthetic fleet (ivdyn.fleet.synth): --arms x --days logs")
     ap.add_argument("--days", type=int, default=10, help="days of the synthetic fleet")
     ap.add_argument("--in-memory", action="store_true",
-                    help="the in-memory per-log pass (fleet.Options' default) instead of the streamed one")
+                    help="the in-memory per-log pass (fleet.Options(stream=False)) instead of the streamed one (the default)")
     ap.add_argument("--hours-per-arm", type=float, default=8.0, help="logged hours per arm per day (projection)")
     ap.add_argument("--arms", type=int, default=None,
                     help="arms of the synthetic fleet (default 10); of the projection (default 1000)")

@@ -1,12 +1,13 @@
 """Drift calibration of the fleet's per-log passes on the synthetic fleet (docs/fleet.md,
 "Memory"): the p-values of the drift tests of the arms with no planted event, per pass.
 
-    python benches/fleet_calibration.py memory positions stream
+    python benches/fleet_calibration.py stream memory positions
     python benches/fleet_calibration.py positions --exact-encoder
 
-Passes: ``memory`` (the default: read into memory, the log's velocity where it agrees with
-the positions), ``positions`` (read into memory with the log's velocity dropped: the
-positions differentiated, as the stream does), ``stream`` (``Options(stream=True)``).
+Passes: ``stream`` (the default, ``Options(stream=True)``: streamed, the log's velocity where
+it agrees with the positions), ``memory`` (``Options(stream=False)``: read into memory, the
+same velocity rule), ``positions`` (read into memory with the log's velocity dropped: the
+positions differentiated, as the stream did before 2026-12-03).
 ``--exact-encoder``: the same fleet simulated without the encoder's quantisation. The
 fleet (12 arms x 10 days of 1-minute 200 Hz logs, seed 7: the test's) is generated once
 into ``--dir``. A calibrated test has 1 % of its p-values below 0.01 and 0.1 % below 0.001.

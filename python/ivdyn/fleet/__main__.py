@@ -32,8 +32,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--num-cpus", type=int, help="CPUs of a local runtime (default: the machine's)")
     p.add_argument("--fdr", type=float, default=0.05, help="false-discovery rate of the drift flags")
     p.add_argument("--method", choices=("ols", "wls"), default="wls")
-    p.add_argument("--stream", action="store_true",
-                   help="stream MCAP logs (bounded memory; off by default: docs/fleet.md, Memory)")
+    p.add_argument("--in-memory", action="store_true",
+                   help="read every log into memory instead of streaming MCAP logs (docs/fleet.md, Memory)")
     p.add_argument("--no-diagnosis", action="store_true",
                    help="do not diagnose the changed robots' latest logs against their reference models")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -63,7 +63,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     a = _parser().parse_args(argv)
     if a.out is None and a.report is None:
         raise SystemExit("ivdyn fleet: give --out DIR, --report DIR or both")
-    opts = Options(method=a.method, stream=a.stream)
+    opts = Options(method=a.method, stream=not a.in_memory)
     res = run(_entries(a), opts, engine=a.engine, address=a.address, num_cpus=a.num_cpus,
               progress=None if a.quiet else _bar)
     tests = drift(res, opts, q=a.fdr)

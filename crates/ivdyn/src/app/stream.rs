@@ -11,6 +11,10 @@
 //!    [`Streamed::Unsupported`] (the caller reads it into memory instead);
 //! 3. `q` is smoothed with the zero-phase Butterworth and differentiated
 //!    ([`crate::prep::stream::StreamCondition`], block-wise `filtfilt`, see [`crate::prep::filtfilt`]);
+//!    on the joints where the log's velocity is consistent with the positions' derivative
+//!    the log's velocity is smoothed and differentiated instead, as in memory
+//!    ([`crate::prep::velocity`]), the choice made on the probe's samples (the in-memory
+//!    path makes it on the whole log);
 //! 4. base regressor rows (and the instrument rows: the nominal model tracking the
 //!    measured motion, [`crate::ident::instrument::Tracker`], state carried across blocks) are stacked with
 //!    the torque and parallel-filtered and decimated by [`crate::prep::filtfilt::StreamFiltfilt`] on two
@@ -89,9 +93,6 @@ pub fn unsupported(opts: &IdentifyOptions, read: &ReadOptions) -> Option<String>
     }
     if opts.condition.window.is_some() {
         return Some("a time window".into());
-    }
-    if opts.condition.velocity == prep::VelocitySource::Log {
-        return Some("the log's velocity (velocity: log)".into());
     }
     if !matches!(opts.condition.diff, DiffMethod::Butterworth { .. }) {
         return Some("Savitzky-Golay differentiation".into());
@@ -177,6 +178,9 @@ struct Front {
     file: PathBuf,
     max_jitter: f64,
     diff: (usize, Option<f64>),
+    /// Where the velocity comes from (`--velocity`), and the choice per joint once made.
+    policy: prep::VelocitySource,
+    velocity: Vec<prep::VelocityChoice>,
     /// Samples kept until the sample time is known.
     probe: Vec<RawBatch>,
     probed: usize,
@@ -215,6 +219,8 @@ impl Front {
             file: file.to_path_buf(),
             max_jitter: opts.condition.max_jitter,
             diff,
+            policy: opts.condition.velocity,
+            velocity: vec![],
             probe: vec![],
             probed: 0,
             t0: None,
@@ -286,7 +292,9 @@ impl Front {
         let fs = 1.0 / dt;
         let (order, cutoff) = self.diff;
         let f = Butterworth::zero_phase(order, dsp::resolve_cutoff(cutoff, fs)?, fs)?;
-        self.cond = Some(StreamCondition::new(&f, self.n, dt, FILTER_BLOCK));
+        self.velocity = self.decide_velocity(dt)?;
+        let log = self.velocity.iter().map(|c| c.source == "log").collect();
+        self.cond = Some(StreamCondition::with_log_velocity(&f, self.n, dt, FILTER_BLOCK, log));
         for b in std::mem::take(&mut self.probe) {
             if let Err(why) = self.feed(b, out)? {
                 return Ok(Err(why));
@@ -295,11 +303,55 @@ impl Front {
         Ok(Ok(()))
     }
 
+    /// The velocity per joint ([`prep::velocity::decide`]), decided on the probe's samples
+    /// (duplicated stamps dropped) as the in-memory path decides it on the whole log.
+    fn decide_velocity(&self, dt: f64) -> Result<Vec<prep::VelocityChoice>> {
+        let n = self.n;
+        let (mut q, mut qd, mut last) = (vec![], Some(vec![]), None);
+        for b in &self.probe {
+            for (k, &s) in b.stamps.iter().enumerate() {
+                if last.replace(s) == Some(s) {
+                    continue;
+                }
+                q.extend_from_slice(&b.q[k * n..(k + 1) * n]);
+                match (&mut qd, &b.qd) {
+                    (Some(v), Some(src)) => v.extend_from_slice(&src[k * n..(k + 1) * n]),
+                    _ => qd = None,
+                }
+            }
+        }
+        let method = DiffMethod::Butterworth { order: self.diff.0, cutoff_hz: self.diff.1 };
+        let lv = match (&qd, self.policy) {
+            (Some(v), prep::VelocitySource::Auto | prep::VelocitySource::Log) => Some(
+                prep::velocity::LogVelocity::new(v, &self.joints, dt, &method)
+                    .map_err(|e| self.log_err(e.to_string()))?,
+            ),
+            _ => None,
+        };
+        let d = match &lv {
+            Some(_) => dsp::differentiate(&q, n, dt, &method).map_err(|e| self.log_err(e.to_string()))?,
+            None => dsp::Derivatives::default(),
+        };
+        let mut choices = prep::velocity::decide(&[(&d, lv.as_ref())], &self.joints, self.policy)?;
+        for c in choices.iter_mut().filter(|c| c.gain.is_some()) {
+            c.why = format!("{} (checked on the first {} samples: streamed)", c.why, q.len() / n.max(1));
+        }
+        Ok(choices)
+    }
+
     fn feed(&mut self, b: RawBatch, out: &mut Block) -> Result<std::result::Result<(), String>> {
         let n = self.n;
         let (t0, dt) = (self.t0.expect("started"), self.dt.expect("started"));
         let tau = b.tau.as_ref().expect("checked");
+        let log_qd = self.cond.as_ref().expect("started").needs_velocity();
+        if log_qd && b.qd.is_none() {
+            return Ok(Err(format!(
+                "the log's velocity, taken on some joints, is missing from the messages after sample {}",
+                self.samples + self.duplicates
+            )));
+        }
         let mut q = Vec::with_capacity(b.q.len());
+        let mut qd_log = Vec::with_capacity(if log_qd { b.q.len() } else { 0 });
         for (k, &s) in b.stamps.iter().enumerate() {
             if let Some(prev) = self.last {
                 if s == prev {
@@ -327,6 +379,14 @@ impl Front {
             self.last = Some(s);
             self.samples += 1;
             q.extend_from_slice(&b.q[k * n..(k + 1) * n]);
+            if log_qd {
+                let v = &b.qd.as_ref().expect("checked")[k * n..(k + 1) * n];
+                if let Some(j) = v.iter().position(|x| !x.is_finite()) {
+                    let k = self.samples + self.duplicates - 1;
+                    return Err(self.log_err(format!("sample {k}, joint '{}': velocity is {}", self.joints[j], v[j])));
+                }
+                qd_log.extend_from_slice(v);
+            }
             self.fifo_tau.extend(&tau[k * n..(k + 1) * n]);
             self.fifo_stamp.push_back(s);
             self.fifo_q.extend(&b.q[k * n..(k + 1) * n]);
@@ -335,7 +395,7 @@ impl Front {
             }
         }
         let cond = self.cond.as_mut().expect("started");
-        cond.push(&q, &mut out.c);
+        cond.push(&q, log_qd.then_some(&qd_log[..]), &mut out.c);
         self.drain(out);
         Ok(Ok(()))
     }
@@ -373,28 +433,14 @@ impl Front {
     }
 }
 
-/// What streaming did to a log: duplicated stamps dropped, velocities differentiated
-/// from positions (the log's velocity is checked against them only in memory).
-fn streamed_summary(robot: &Robot, info: &PassInfo) -> prep::ConditionSummary {
-    let why =
-        "streamed: velocities are differentiated from positions (the log's velocity is checked and used in memory)";
+/// What streaming did to a log: duplicated stamps dropped, the velocity per joint.
+fn streamed_summary(info: &PassInfo) -> prep::ConditionSummary {
     prep::ConditionSummary {
         hygiene: prep::Hygiene::default(),
         duplicate_stamps: info.duplicates,
         resampled: false,
         dt: info.dt,
-        velocity: robot
-            .joint_names
-            .iter()
-            .map(|j| prep::VelocityChoice {
-                joint: j.clone(),
-                source: "positions".into(),
-                gain: None,
-                lag_s: None,
-                r2: None,
-                why: why.into(),
-            })
-            .collect(),
+        velocity: info.velocity.clone(),
     }
 }
 
@@ -407,6 +453,8 @@ struct PassInfo {
     truncated: bool,
     /// Stamps of the first and the last sample kept (ns).
     span_ns: (i64, i64),
+    /// The velocity per joint.
+    velocity: Vec<prep::VelocityChoice>,
 }
 
 /// Reads and conditions the log at `path` block by block, calling `sink` with each
@@ -472,6 +520,7 @@ fn conditioned_pass(
         duplicates: front.duplicates,
         truncated: summary.truncated,
         span_ns: (front.t0.expect("finished"), front.last.expect("finished")),
+        velocity: std::mem::take(&mut front.velocity),
     }))
 }
 
@@ -1005,7 +1054,7 @@ pub fn identify_mcap(
         cutoff_hz: main.dec.filter.cutoff_hz,
         idim: None,
         notes,
-        conditioning: streamed_summary(robot, &main.info),
+        conditioning: streamed_summary(&main.info),
     };
     let mut rep = super::identify::finish_identify(robot, &base, opts, data)?;
     rep.streamed = true;

@@ -461,7 +461,7 @@ impl Default for DiffMethod {
 }
 
 /// Filtered positions and their derivatives, `T x N` each.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Derivatives {
     /// Smoothed positions.
     pub q: Vec<f64>,

@@ -83,7 +83,7 @@ fn streamed_conditioning_matches_differentiate() {
     let mut c = StreamCondition::new(&f, n, dt, 4096);
     let mut out = CondRows::default();
     for chunk in q.chunks(3 * 1111) {
-        c.push(chunk, &mut out);
+        c.push(chunk, None, &mut out);
     }
     c.finish(&mut out);
     for (what, a, b) in [("q", &out.q, &whole.q), ("qd", &out.qd, &whole.qd), ("qdd", &out.qdd, &whole.qdd)] {
@@ -91,6 +91,49 @@ fn streamed_conditioning_matches_differentiate() {
         let d = max_rel_diff(a, b);
         eprintln!("{what}: max relative difference {d:.2e}");
         assert!(d < 1e-10, "{what}: {d}");
+    }
+}
+
+/// With the log's velocity on some joints, the streamed rows are the in-memory ones:
+/// `dsp::differentiate` on the positions, then `prep::velocity::apply` (the smoothed log
+/// velocity and its central difference) on those joints; also for logs shorter than the
+/// four rows the stream's window needs.
+#[test]
+fn streamed_conditioning_with_log_velocity_matches_in_memory() {
+    let (n, dt) = (3, 1e-3);
+    let names: Vec<String> = (0..n).map(|j| format!("j{j}")).collect();
+    let method = dsp::DiffMethod::default();
+    let f = Butterworth::default_for(1.0 / dt).unwrap();
+    let log = vec![true, false, true];
+    for t in [25_000, 3, 2] {
+        let (q, qd) = (signal(t, n, 5), signal(t, n, 6));
+        let mut whole = dsp::differentiate(&q, n, dt, &method).unwrap();
+        let lv = ivdyn::prep::velocity::LogVelocity::new(&qd, &names, dt, &method).unwrap();
+        let choices: Vec<_> = names
+            .iter()
+            .zip(&log)
+            .map(|(j, &l)| ivdyn::prep::VelocityChoice {
+                joint: j.clone(),
+                source: if l { "log" } else { "positions" }.into(),
+                gain: None,
+                lag_s: None,
+                r2: None,
+                why: String::new(),
+            })
+            .collect();
+        ivdyn::prep::velocity::apply(&mut whole, Some(&lv), &choices);
+        let mut c = StreamCondition::with_log_velocity(&f, n, dt, 4096, log.clone());
+        let mut out = CondRows::default();
+        for (cq, cv) in q.chunks(3 * 1111).zip(qd.chunks(3 * 1111)) {
+            c.push(cq, Some(cv), &mut out);
+        }
+        c.finish(&mut out);
+        for (what, a, b) in [("q", &out.q, &whole.q), ("qd", &out.qd, &whole.qd), ("qdd", &out.qdd, &whole.qdd)] {
+            assert_eq!(a.len(), b.len(), "{t} samples, {what}");
+            let d = max_rel_diff(a, b);
+            eprintln!("{t} samples, {what}: max relative difference {d:.2e}");
+            assert!(d < 1e-10, "{t} samples, {what}: {d}");
+        }
     }
 }
 
@@ -117,21 +160,16 @@ fn ur5_log(dir: &std::path::Path) -> (ivdyn::Robot, std::path::PathBuf) {
     (robot, path)
 }
 
-#[test]
-fn streamed_identify_matches_in_memory_identify() {
-    let dir = std::env::temp_dir().join(format!("ivdyn-stream-id-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let (robot, path) = ur5_log(&dir);
+/// The streamed `identify` against the in-memory one on the log at `path`: the same rows,
+/// estimates to 1e-6 of a standard deviation, the same velocity source per joint.
+fn assert_stream_matches_memory(robot: &ivdyn::Robot, path: &std::path::Path, opts: &IdentifyOptions) -> Vec<String> {
     let read = ivdyn::log::ReadOptions::new(&robot.joint_names);
-    let log = ivdyn::log::read_mcap(&path, &read).unwrap();
-    // streaming differentiates positions; in memory the log's velocity would be checked
-    // and taken
-    let mut opts = IdentifyOptions::default();
-    opts.condition.velocity = ivdyn::prep::VelocitySource::Positions;
-    let mem = app::identify(&robot, &log, &opts).unwrap();
-    let Streamed::Done(s) = st::identify_mcap(&robot, &path, None, &read, &opts).unwrap() else {
-        panic!("not streamed")
-    };
+    let log = ivdyn::log::read_mcap(path, &read).unwrap();
+    let mem = app::identify(robot, &log, opts).unwrap();
+    let Streamed::Done(s) = st::identify_mcap(robot, path, None, &read, opts).unwrap() else { panic!("not streamed") };
+    let sources =
+        |r: &app::IdentifyReport| r.conditioning.velocity.iter().map(|c| c.source.clone()).collect::<Vec<_>>();
+    assert_eq!(sources(&s), sources(&mem), "velocity per joint: {:?}", s.conditioning.velocity);
     assert_eq!(s.base.len(), mem.base.len());
     assert_eq!((s.rows, s.rank, s.decimation), (mem.rows, mem.rank, mem.decimation));
     let mut worst: f64 = 0.0;
@@ -159,6 +197,30 @@ fn streamed_identify_matches_in_memory_identify() {
     for (a, b) in s.params.theta.iter().zip(&mem.params.theta) {
         assert!((a - b).abs() <= 1e-7 * b.abs().max(1e-3), "{a} vs {b}");
     }
+    sources(&s)
+}
+
+#[test]
+fn streamed_identify_matches_in_memory_identify() {
+    let dir = std::env::temp_dir().join(format!("ivdyn-stream-id-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (robot, path) = ur5_log(&dir);
+    // velocities differentiated from the positions
+    let mut opts = IdentifyOptions::default();
+    opts.condition.velocity = ivdyn::prep::VelocitySource::Positions;
+    assert_eq!(assert_stream_matches_memory(&robot, &path, &opts), vec!["positions"; 6]);
+    // the log's velocity where it is consistent (`auto`): a log whose joint 3 reports
+    // degrees/s keeps the positions' derivative there, in memory and streamed
+    let read = ivdyn::log::ReadOptions::new(&robot.joint_names);
+    let mut log = ivdyn::log::read_mcap(&path, &read).unwrap();
+    for row in log.qd.as_mut().unwrap().chunks_exact_mut(6) {
+        row[2] = row[2].to_degrees();
+    }
+    let deg = dir.join("degrees.mcap");
+    ivdyn::log::write_mcap(&deg, &log, &[]).unwrap();
+    let mut want = vec!["log"; 6];
+    want[2] = "positions";
+    assert_eq!(assert_stream_matches_memory(&robot, &deg, &IdentifyOptions::default()), want);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
