@@ -971,7 +971,8 @@ pub(crate) fn fit_rows_mcap(
             Streamed::Unsupported(w) => return Ok(Streamed::Unsupported(w)),
         };
     }
-    let notes = pass_notes(&a);
+    let mut notes = pass_notes(&a);
+    notes.extend(super::identify::conditioning_notes(&streamed_summary(&a.info)));
     Ok(Streamed::Done(StreamedRows {
         dt: a.info.dt * a.dec.factor as f64,
         factor: a.dec.factor,
