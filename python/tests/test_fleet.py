@@ -238,3 +238,30 @@ def test_fleet_command_writes_json_and_reloadable_params(fleet_dir, tmp_path, iv
     tp = sim["true_params"]
     fc = tp["theta"][tp["names"].index("elbow_joint.fc")]
     assert abs(robot.params[i] - 2.1) > 0.5 and abs(fc - 2.1) < 0.1, fc
+
+
+def test_logs_are_streamed_by_default_with_the_logs_velocity(fleet_dir):
+    """``Options()`` streams an MCAP log and takes its velocity where it agrees with the
+    positions (the in-memory rule, with its notes); ``stream=False`` and ``ivdyn fleet
+    --in-memory`` read it into memory. The two give the same fit to about 1e-6 of a
+    standard deviation (the streamed filters run block by block)."""
+    from ivdyn.fleet.__main__ import _parser
+
+    _, entries = fleet_dir
+    e = entries[0]
+    infos = {}
+    fits = {}
+    for stream in (True, False):
+        stats = fleet.log_stats(e, fleet.Options(stream=stream))
+        [info] = fleet.stats_info(stats)["logs"]
+        infos[stream] = info
+        fits[stream] = fleet.fit(e.model, stats, base=e.base, tip=e.tip)
+    assert infos[True]["streamed"] and not infos[False]["streamed"]
+    for info in infos.values():
+        assert "velocity from the log on 3 of 3 joints" in info["notes"], info["notes"]
+    (t1, _), (t0, c0) = _theta_cov(fits[True]), _theta_cov(fits[False])
+    ok = np.isfinite(t0)
+    assert np.all(np.abs(t1[ok] - t0[ok]) <= 1e-6 * np.sqrt(np.diag(c0)[ok]))
+    assert fleet.Options().stream
+    assert _parser().parse_args(["m.csv", "--out", "o", "--in-memory"]).in_memory
+    assert _parser().parse_args(["m.csv", "--out", "o"]).in_memory is False
