@@ -115,11 +115,15 @@ impl Ctx<'_> {
         let k_small = joint_index(&ps, j).len();
         let k_large = joint_index(&pl, j).len();
         let d1 = (k_large.saturating_sub(k_small)).max(1) as f64;
+        let rows = (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64;
         let n_eff = self.n_eff(j);
         let d2 = (n_eff - k_large as f64).max(1.0);
-        // RSS scaled to the effective count: the F statistic of an AR(1) residual
-        let f_stat = ((r0 - r1).max(0.0) / d1) / (r1 / d2).max(1e-300)
-            * (n_eff / (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64);
+        // a correlated residual inflates the explained sum by its autocorrelation time
+        // (r0 - r1 ~ tau sigma^2 chi2(d1)) but not the per-sample variance r1 / (rows - k):
+        // the former divided by tau = rows / n_eff over the latter is the F statistic, its
+        // denominator on d2 effective degrees of freedom (dividing both by tau, as before
+        // 2026-12-03, divided the statistic by tau once too often)
+        let f_stat = ((r0 - r1).max(0.0) / d1) / (r1 / (rows - k_large as f64).max(1.0)).max(1e-300) * (n_eff / rows);
         let p = f_sf(f_stat, d1, d2);
         // two-fold cross-validation
         let mut h0 = 0.0;
