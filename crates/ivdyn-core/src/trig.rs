@@ -36,6 +36,10 @@ const REDUCE_MAX: f64 = 1.0e5;
 /// for `|y| < 2^51`, with two additions instead of a library call.
 const ROUND: f64 = 6_755_399_441_055_744.0;
 
+/// Per quadrant `n mod 4`: whether sine and cosine swap, and the sign of both.
+const ODD: [f64; 4] = [0.0, 1.0, 0.0, 1.0];
+const NEG: [f64; 4] = [1.0, 1.0, -1.0, -1.0];
+
 const S1: f64 = -1.666_666_666_666_663_243_48e-1;
 const S2: f64 = 8.333_333_333_322_489_461_24e-3;
 const S3: f64 = -1.984_126_982_985_794_931_34e-4;
@@ -56,7 +60,8 @@ const C6: f64 = -1.135_964_755_778_819_482_65e-11;
 pub fn sin_cos<T: Lanes>(x: T) -> (T, T) {
     let s = T::splat;
     // x = n pi/2 + r, |r| <= pi/4 (a little more at ties: the kernels are fine there)
-    let n = (x * s(INV_PIO2) + s(ROUND)) - s(ROUND);
+    let y = x * s(INV_PIO2) + s(ROUND);
+    let n = y - s(ROUND);
     let r = ((x - n * s(P1)) - n * s(P2)) - n * s(P3) - n * s(P3T);
     // fdlibm __kernel_sin(r, 0) and __kernel_cos(r, 0)
     let z = r * r;
@@ -69,10 +74,13 @@ pub fn sin_cos<T: Lanes>(x: T) -> (T, T) {
     // by 0/1 factors are exact
     let (mut odd, mut neg) = (x, x);
     for k in 0..T::LANES {
-        let q = (n.extract(k) as i64) & 3;
-        // no branches: the quadrant is random from sample to sample
-        odd.replace(k, (q & 1) as f64);
-        neg.replace(k, 1.0 - 2.0 * (q >> 1) as f64);
+        // y = 1.5 * 2^52 + n has a unit last place, so its low mantissa bits are those of
+        // n (two's complement, |n| < 2^51): n mod 4 without a float-to-integer conversion
+        // (Rust's saturating `as` adds compares and selects; lanes out of range are
+        // replaced below). No branches: the quadrant is random from sample to sample.
+        let q = (y.extract(k).to_bits() & 3) as usize;
+        odd.replace(k, ODD[q]);
+        neg.replace(k, NEG[q]);
     }
     let even = s(1.0) - odd;
     let mut sin = neg * (ks * even + kc * odd);
