@@ -22,17 +22,20 @@ pub fn splat3<T: Lanes>(v: &Vec3) -> Vector3<T> {
 #[inline(always)]
 pub fn joint_transforms<T: Lanes, const N: usize>(model: &Model<N>, kin: &mut Kinematics<T, N>, q: &SVector<T, N>) {
     for i in 0..N {
-        let x = &model.x_tree[i];
-        let j = &model.joints[i];
-        match j.kind {
-            JointKind::Revolute => {
-                kin.rot[i] = rotate_about(&x.rot, &j.axis, q[i]);
-                kin.pos[i] = splat3(&x.trans);
-            }
-            JointKind::Prismatic => {
-                kin.rot[i] = x.rot.map(T::splat);
-                kin.pos[i] = splat3::<T>(&x.trans) + x.rot.map(T::splat) * (splat3::<T>(&j.axis) * q[i]);
-            }
+        (kin.rot[i], kin.pos[i]) = joint_transform(model, i, q[i]);
+    }
+}
+
+/// Placement `(R_i, p_i)` of link `i` in link `i-1` at `q_i = qi`.
+#[inline(always)]
+fn joint_transform<T: Lanes, const N: usize>(model: &Model<N>, i: usize, qi: T) -> (Matrix3<T>, Vector3<T>) {
+    let x = &model.x_tree[i];
+    let j = &model.joints[i];
+    match j.kind {
+        JointKind::Revolute => (rotate_about(&x.rot, &j.axis, qi), splat3(&x.trans)),
+        JointKind::Prismatic => {
+            let p = splat3::<T>(&x.trans) + x.rot.map(T::splat) * (splat3::<T>(&j.axis) * qi);
+            (x.rot.map(T::splat), p)
         }
     }
 }
@@ -82,35 +85,37 @@ pub fn forward_pass<T: Lanes, const N: usize>(
     qd: &SVector<T, N>,
     qdd: &SVector<T, N>,
 ) {
-    let mut w = Vector3::<T>::zeros();
-    let mut wd = Vector3::<T>::zeros();
-    let mut acc = splat3::<T>(&-model.gravity);
+    let mut s = (Vector3::<T>::zeros(), Vector3::<T>::zeros(), splat3::<T>(&-model.gravity));
     for i in 0..N {
-        let r = &kin.rot[i];
-        let p = &kin.pos[i];
-        let a = splat3::<T>(&model.joints[i].axis);
-        // acc of the new origin, in parent coords: acc + wd x p + w x (w x p)   (eq 4)
-        let acc_p = acc + wd.cross(p) + w.cross(&w.cross(p));
-        let w_p = r.tr_mul(&w);
-        let wd_p = r.tr_mul(&wd);
-        acc = r.tr_mul(&acc_p);
-        match model.joints[i].kind {
-            JointKind::Revolute => {
-                // w_i = R^T w_{i-1} + a qd                        (eq 2)
-                // wd_i = R^T wd_{i-1} + a qdd + (R^T w_{i-1}) x a qd (eq 3)
-                w = w_p + a * qd[i];
-                wd = wd_p + a * qdd[i] + w_p.cross(&a) * qd[i];
-            }
-            JointKind::Prismatic => {
-                // the joint adds a qdd and the Coriolis term 2 w x a qd to the origin
-                w = w_p;
-                wd = wd_p;
-                acc += a * qdd[i] + w.cross(&a) * (T::splat(2.0) * qd[i]);
-            }
-        }
-        kin.w[i] = w;
-        kin.wd[i] = wd;
-        kin.acc[i] = acc;
+        s = forward_step(model, i, &kin.rot[i], &kin.pos[i], s, qd[i], qdd[i]);
+        (kin.w[i], kin.wd[i], kin.acc[i]) = s;
+    }
+}
+
+/// One step of the forward recursion: link `i`'s `(w, wd, acc)` from link `i-1`'s and
+/// the joint placement `(r, p)`.
+#[inline(always)]
+fn forward_step<T: Lanes, const N: usize>(
+    model: &Model<N>,
+    i: usize,
+    r: &Matrix3<T>,
+    p: &Vector3<T>,
+    (w, wd, acc): (Vector3<T>, Vector3<T>, Vector3<T>),
+    qd: T,
+    qdd: T,
+) -> (Vector3<T>, Vector3<T>, Vector3<T>) {
+    let a = splat3::<T>(&model.joints[i].axis);
+    // acc of the new origin, in parent coords: acc + wd x p + w x (w x p)   (eq 4)
+    let acc_p = acc + wd.cross(p) + w.cross(&w.cross(p));
+    let w_p = r.tr_mul(&w);
+    let wd_p = r.tr_mul(&wd);
+    let acc = r.tr_mul(&acc_p);
+    match model.joints[i].kind {
+        // w_i = R^T w_{i-1} + a qd                        (eq 2)
+        // wd_i = R^T wd_{i-1} + a qdd + (R^T w_{i-1}) x a qd (eq 3)
+        JointKind::Revolute => (w_p + a * qd, wd_p + a * qdd + w_p.cross(&a) * qd, acc),
+        // the joint adds a qdd and the Coriolis term 2 w x a qd to the origin
+        JointKind::Prismatic => (w_p, wd_p, acc + (a * qdd + w_p.cross(&a) * (T::splat(2.0) * qd))),
     }
 }
 
