@@ -45,13 +45,19 @@ fn joint_transform<T: Lanes, const N: usize>(model: &Model<N>, i: usize, qi: T) 
 #[inline(always)]
 pub fn rotate_about<T: Lanes>(e: &Mat3, axis: &Vec3, angle: T) -> Matrix3<T> {
     let (s, c) = crate::trig::sin_cos(angle);
-    // Rot(+-k, q) = Rot(k, +-q): fold the axis sign into the sine
-    let (k, s) = if axis.x == 0.0 && axis.y == 0.0 {
-        (2, s * T::splat(axis.z.signum()))
-    } else if axis.x == 0.0 && axis.z == 0.0 {
-        (1, s * T::splat(axis.y.signum()))
-    } else if axis.y == 0.0 && axis.z == 0.0 {
-        (0, s * T::splat(axis.x.signum()))
+    // Rot(+-k, q) = Rot(k, +-q): fold the axis sign into the sine. Both tests run per joint
+    // and call: on the bit patterns, `(a | b) << 1 == 0` is `a == 0.0 && b == 0.0` (either
+    // zero, not NaN) in three integer instructions instead of two compares and four
+    // branches; `copysign(1, a)` is `signum(a)` for the finite axes `Model::new` accepts,
+    // without signum's NaN test (callgrind, paper RNEA: 52 fewer instructions per call)
+    let zeros = |a: f64, b: f64| (a.to_bits() | b.to_bits()) << 1 == 0;
+    let sign = |a: f64| T::splat(1.0f64.copysign(a));
+    let (k, s) = if zeros(axis.x, axis.y) {
+        (2, s * sign(axis.z))
+    } else if zeros(axis.x, axis.z) {
+        (1, s * sign(axis.y))
+    } else if zeros(axis.y, axis.z) {
+        (0, s * sign(axis.x))
     } else {
         return e.map(T::splat) * axis_angle_sc(axis, s, c);
     };

@@ -83,10 +83,10 @@ pub fn sin_cos<T: Lanes>(x: T) -> (T, T) {
         neg.replace(k, NEG[q]);
     }
     let even = s(1.0) - odd;
-    let mut sin = neg * (ks * even + kc * odd);
-    let mut cos = neg * (kc * even - ks * odd);
+    let sin = neg * (ks * even + kc * odd);
+    let cos = neg * (kc * even - ks * odd);
     if (0..T::LANES).any(|k| !(x.extract(k).abs() <= REDUCE_MAX)) {
-        library_lanes(x, &mut sin, &mut cos);
+        return library_lanes(x, sin, cos);
     }
     (sin, cos)
 }
@@ -98,7 +98,9 @@ pub fn sin_cos<T: Lanes>(x: T) -> (T, T) {
 /// moved here, issue 19).
 #[cold]
 #[inline(never)]
-fn library_lanes<T: Lanes>(x: T, sin: &mut T, cos: &mut T) {
+fn library_lanes<T: Lanes>(x: T, mut sin: T, mut cos: T) -> (T, T) {
+    // by value, not through `&mut`: the results of the common path stay in registers
+    // (through references they were stored to the stack for every angle)
     for k in 0..T::LANES {
         let xk = x.extract(k);
         if !(xk.abs() <= REDUCE_MAX) {
@@ -107,6 +109,7 @@ fn library_lanes<T: Lanes>(x: T, sin: &mut T, cos: &mut T) {
             cos.replace(k, ck);
         }
     }
+    (sin, cos)
 }
 
 #[cfg(test)]
