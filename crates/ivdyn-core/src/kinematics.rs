@@ -102,8 +102,19 @@ pub fn forward_pass<T: Lanes, const N: usize>(
     qd: &SVector<T, N>,
     qdd: &SVector<T, N>,
 ) {
-    let mut s = (Vector3::<T>::zeros(), Vector3::<T>::zeros(), splat3::<T>(&-model.gravity));
-    for i in 0..N {
+    if N == 0 {
+        return;
+    }
+    // link 0 moves from the base at rest: with w = wd = 0 eq (4)'s cross products, R^T w and
+    // R^T wd are zeros, left out (the same values; a zero may change sign)
+    let acc = kin.rot[0].tr_mul(&splat3::<T>(&-model.gravity));
+    let a = splat3::<T>(&model.joints[0].axis);
+    let mut s = match model.joints[0].kind {
+        JointKind::Revolute => (a * qd[0], a * qdd[0], acc),
+        JointKind::Prismatic => (Vector3::zeros(), Vector3::zeros(), acc + a * qdd[0]),
+    };
+    (kin.w[0], kin.wd[0], kin.acc[0]) = s;
+    for i in 1..N {
         s = forward_step(model, i, &kin.rot[i], &kin.pos[i], s, qd[i], qdd[i]);
         (kin.w[i], kin.wd[i], kin.acc[i]) = s;
     }
