@@ -36,9 +36,11 @@ const REDUCE_MAX: f64 = 1.0e5;
 /// for `|y| < 2^51`, with two additions instead of a library call.
 const ROUND: f64 = 6_755_399_441_055_744.0;
 
-/// Per quadrant `n mod 4`: whether sine and cosine swap, and the sign of both.
-const ODD: [f64; 4] = [0.0, 1.0, 0.0, 1.0];
-const NEG: [f64; 4] = [1.0, 1.0, -1.0, -1.0];
+/// Per quadrant `n mod 4`, the factors of the kernels' results: `sin x = ks KS + kc KC`,
+/// `cos x = kc KS - ks KC` (`KS = +-1` when the quadrant is even, `KC = +-1` when odd; the
+/// other factor is a zero of the same sign, so the sum is the signed kernel exactly).
+const KS: [f64; 4] = [1.0, 0.0, -1.0, -0.0];
+const KC: [f64; 4] = [0.0, 1.0, -0.0, -1.0];
 
 const S1: f64 = -1.666_666_666_666_663_243_48e-1;
 const S2: f64 = 8.333_333_333_322_489_461_24e-3;
@@ -71,20 +73,23 @@ pub fn sin_cos<T: Lanes>(x: T) -> (T, T) {
     let w = s(1.0) - hz;
     let kc = w + (((s(1.0) - w) - hz) + z * poly);
     // quadrant n mod 4: odd swaps (sin, cos) -> (cos, -sin), >= 2 negates both; blends
-    // by 0/1 factors are exact
-    let (mut odd, mut neg) = (x, x);
+    // by 0 / +-1 factors are exact
+    let (mut fs, mut fc) = (x, x);
     for k in 0..T::LANES {
         // y = 1.5 * 2^52 + n has a unit last place, so its low mantissa bits are those of
         // n (two's complement, |n| < 2^51): n mod 4 without a float-to-integer conversion
         // (Rust's saturating `as` adds compares and selects; lanes out of range are
         // replaced below). No branches: the quadrant is random from sample to sample.
         let q = (y.extract(k).to_bits() & 3) as usize;
-        odd.replace(k, ODD[q]);
-        neg.replace(k, NEG[q]);
+        fs.replace(k, KS[q]);
+        fc.replace(k, KC[q]);
     }
-    let even = s(1.0) - odd;
-    let sin = neg * (ks * even + kc * odd);
-    let cos = neg * (kc * even - ks * odd);
+    // the signs folded into the tables: two products fewer than `neg * (ks even + kc odd)`,
+    // the same bits (a sign flip and a product by +-1 are exact; the zeros' signs could
+    // differ only for ks = 0 with n != 0, and r = 0 needs n = 0: no double lies that close
+    // to a nonzero multiple of pi/2)
+    let sin = ks * fs + kc * fc;
+    let cos = kc * fs - ks * fc;
     if (0..T::LANES).any(|k| !(x.extract(k).abs() <= REDUCE_MAX)) {
         return library_lanes(x, sin, cos);
     }
