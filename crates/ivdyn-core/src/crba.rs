@@ -1,10 +1,14 @@
 //! Joint-space mass matrix by the composite-rigid-body algorithm [RBDA, Table 6.2].
 //!
-//! Written in link frames with 3-vectors, like the RNEA: each composite inertia is
-//! carried to the parent with one rotation of a symmetric tensor
-//! ([`LinkInertia::transformed`]), each column's wrench `IC_i S_i` is carried inward with
-//! one rotation of a force and a moment, and a joint about a coordinate axis (the usual
-//! case: DH and most URDF arms) reads one entry instead of taking a dot product.
+//! Written in link frames with 3-vectors, like the RNEA. Each composite inertia is
+//! carried to the parent by [`LinkInertia::transformed`]: the rotation `R I R^T` of a
+//! symmetric tensor (upper triangle only) plus the parallel-axis terms of the translation.
+//! Each column's wrench `IC_i S_i` is carried inward one link at a time (the force and the
+//! moment rotated, `p x f` added to the moment) down to link 1; row 0 is projected from
+//! link 1's frame, without a last step. For a revolute joint about a coordinate axis (the
+//! usual case: DH and most URDF arms) `IC_i S_i` reads a column of the composite inertia
+//! instead of multiplying it by the axis; the projections on the joints stay dot products
+//! with the axis (a one-entry projection was slower: `benches/README.md`, issue 19 item 3).
 
 use crate::data::Data;
 use crate::inertia::LinkInertia;
@@ -77,9 +81,9 @@ fn proj<const N: usize>(model: &Model<N>, j: usize, n: &Vec3, f: &Vec3) -> f64 {
     }
 }
 
-/// A joint's motion as the mass matrix uses it. For a unit axis `±e_k` the dot products
-/// with it are one signed entry: exact (the zero products add nothing), and about a
-/// quarter of CRBA's multiplications on a 6R arm.
+/// A joint's motion as the mass matrix uses it. For a revolute joint about `±e_k`, `I_o a` is a
+/// signed column of `I_o` (the same values: the zero products add nothing), 9 products
+/// fewer per column; `a x h` and the projections still multiply by the whole axis.
 #[derive(Clone, Copy)]
 enum Axis {
     /// Revolute (`true`) or prismatic joint along `sign * e_k`.

@@ -82,6 +82,11 @@ impl CoulombShape {
     /// `c(qd)`, the Coulomb regressor entry. With the default shape it is exactly `sign(qd)`.
     #[inline]
     pub fn value(&self, qd: f64) -> f64 {
+        // the paper's sign first, on its own: the shape is a model constant, so the branch
+        // is predicted, whereas the two tests below compiled to a select computing both arms
+        if *self == Self::SIGN {
+            return sign(qd);
+        }
         // s(v) = tanh(v / v_s) or sign(v);  c = s + asym |s|
         let s = if self.v_scale > 0.0 { libm::tanh(qd / self.v_scale) } else { sign(qd) };
         if self.asym != 0.0 { s + self.asym * s.abs() } else { s }
@@ -146,11 +151,8 @@ impl DriveParams {
 /// `sign(x)` with `sign(0) = 0` (the Coulomb model's convention).
 #[inline]
 pub fn sign(x: f64) -> f64 {
-    if x > 0.0 {
-        1.0
-    } else if x < 0.0 {
-        -1.0
-    } else {
-        0.0
-    }
+    // two compares, no branch: a joint velocity's sign changes at random from one sample
+    // to the next, and a mispredicted branch costs more than the compares (same values:
+    // exactly 1, -1 or +0, and 0 for NaN)
+    (x > 0.0) as u8 as f64 - (x < 0.0) as u8 as f64
 }

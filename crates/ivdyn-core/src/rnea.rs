@@ -82,7 +82,11 @@ pub fn backward_pass_in<T: Lanes, const N: usize>(
             JointKind::Revolute => a.dot(&n),
             JointKind::Prismatic => a.dot(&f),
         };
-        // express this link's force and moment in the parent's frame
+        // express this link's force and moment in the parent's frame; not for link 0,
+        // whose parent is the base (a rotation and a cross product nobody reads)
+        if i == 0 {
+            break;
+        }
         let r = &kin.rot[i];
         f_c = r * f;
         n_c = r * n + kin.pos[i].cross(&f_c);

@@ -36,6 +36,12 @@ const REDUCE_MAX: f64 = 1.0e5;
 /// for `|y| < 2^51`, with two additions instead of a library call.
 const ROUND: f64 = 6_755_399_441_055_744.0;
 
+/// Per quadrant `n mod 4`, the factors of the kernels' results: `sin x = ks KS + kc KC`,
+/// `cos x = kc KS - ks KC` (`KS = +-1` when the quadrant is even, `KC = +-1` when odd; the
+/// other factor is a zero of the same sign, so the sum is the signed kernel exactly).
+const KS: [f64; 4] = [1.0, 0.0, -1.0, -0.0];
+const KC: [f64; 4] = [0.0, 1.0, -0.0, -1.0];
+
 const S1: f64 = -1.666_666_666_666_663_243_48e-1;
 const S2: f64 = 8.333_333_333_322_489_461_24e-3;
 const S3: f64 = -1.984_126_982_985_794_931_34e-4;
@@ -56,7 +62,8 @@ const C6: f64 = -1.135_964_755_778_819_482_65e-11;
 pub fn sin_cos<T: Lanes>(x: T) -> (T, T) {
     let s = T::splat;
     // x = n pi/2 + r, |r| <= pi/4 (a little more at ties: the kernels are fine there)
-    let n = (x * s(INV_PIO2) + s(ROUND)) - s(ROUND);
+    let y = x * s(INV_PIO2) + s(ROUND);
+    let n = y - s(ROUND);
     let r = ((x - n * s(P1)) - n * s(P2)) - n * s(P3) - n * s(P3T);
     // fdlibm __kernel_sin(r, 0) and __kernel_cos(r, 0)
     let z = r * r;
@@ -66,19 +73,25 @@ pub fn sin_cos<T: Lanes>(x: T) -> (T, T) {
     let w = s(1.0) - hz;
     let kc = w + (((s(1.0) - w) - hz) + z * poly);
     // quadrant n mod 4: odd swaps (sin, cos) -> (cos, -sin), >= 2 negates both; blends
-    // by 0/1 factors are exact
-    let (mut odd, mut neg) = (x, x);
+    // by 0 / +-1 factors are exact
+    let (mut fs, mut fc) = (x, x);
     for k in 0..T::LANES {
-        let q = (n.extract(k) as i64) & 3;
-        // no branches: the quadrant is random from sample to sample
-        odd.replace(k, (q & 1) as f64);
-        neg.replace(k, 1.0 - 2.0 * (q >> 1) as f64);
+        // y = 1.5 * 2^52 + n has a unit last place, so its low mantissa bits are those of
+        // n (two's complement, |n| < 2^51): n mod 4 without a float-to-integer conversion
+        // (Rust's saturating `as` adds compares and selects; lanes out of range are
+        // replaced below). No branches: the quadrant is random from sample to sample.
+        let q = (y.extract(k).to_bits() & 3) as usize;
+        fs.replace(k, KS[q]);
+        fc.replace(k, KC[q]);
     }
-    let even = s(1.0) - odd;
-    let mut sin = neg * (ks * even + kc * odd);
-    let mut cos = neg * (kc * even - ks * odd);
+    // the signs folded into the tables: two products fewer than `neg * (ks even + kc odd)`,
+    // the same bits (a sign flip and a product by +-1 are exact; the zeros' signs could
+    // differ only for ks = 0 with n != 0, and r = 0 needs n = 0: no double lies that close
+    // to a nonzero multiple of pi/2)
+    let sin = ks * fs + kc * fc;
+    let cos = kc * fs - ks * fc;
     if (0..T::LANES).any(|k| !(x.extract(k).abs() <= REDUCE_MAX)) {
-        library_lanes(x, &mut sin, &mut cos);
+        return library_lanes(x, sin, cos);
     }
     (sin, cos)
 }
@@ -90,7 +103,9 @@ pub fn sin_cos<T: Lanes>(x: T) -> (T, T) {
 /// moved here, issue 19).
 #[cold]
 #[inline(never)]
-fn library_lanes<T: Lanes>(x: T, sin: &mut T, cos: &mut T) {
+fn library_lanes<T: Lanes>(x: T, mut sin: T, mut cos: T) -> (T, T) {
+    // by value, not through `&mut`: the results of the common path stay in registers
+    // (through references they were stored to the stack for every angle)
     for k in 0..T::LANES {
         let xk = x.extract(k);
         if !(xk.abs() <= REDUCE_MAX) {
@@ -99,6 +114,7 @@ fn library_lanes<T: Lanes>(x: T, sin: &mut T, cos: &mut T) {
             cos.replace(k, ck);
         }
     }
+    (sin, cos)
 }
 
 #[cfg(test)]
