@@ -113,14 +113,17 @@ def test_identify_matches_cli(ur5, logs, cli, tmp_path, method):
 
 def test_identify_from_arrays_equals_file(ur5, logs):
     log = ivdyn.read_joint_states(logs / "before.mcap", ur5)
-    a = ivdyn.identify(ur5, log, velocity="positions", coulomb="sign")
-    b = ivdyn.identify(ur5, logs / "before.mcap", stream=True, coulomb="sign")
-    # arrays are identified in memory, a streamed MCAP path differentiates positions too
-    # and keeps the Coulomb sign (it cannot choose a shape): the same numbers
-    assert a.pop("streamed") is False and b.pop("streamed") is True
-    ca, cb = a.pop("conditioning"), b.pop("conditioning")
-    assert [v["source"] for v in ca["velocity"]] == [v["source"] for v in cb["velocity"]] == ["positions"] * 6
-    same(a, b)
+    # arrays are identified in memory, a streamed MCAP path the same way (the Coulomb sign
+    # kept: the stream cannot choose a shape): the same numbers, with the velocity
+    # differentiated from the positions and with the log's velocity taken where it agrees
+    # (the stream checks it on its first samples, the in-memory path on the whole log)
+    for velocity, sources in (("positions", ["positions"] * 6), ("auto", ["log"] * 6)):
+        a = ivdyn.identify(ur5, log, velocity=velocity, coulomb="sign")
+        b = ivdyn.identify(ur5, logs / "before.mcap", stream=True, velocity=velocity, coulomb="sign")
+        assert a.pop("streamed") is False and b.pop("streamed") is True
+        ca, cb = a.pop("conditioning"), b.pop("conditioning")
+        assert [v["source"] for v in ca["velocity"]] == [v["source"] for v in cb["velocity"]] == sources
+        same(a, b)
     # by default a small MCAP log is read whole and its velocity checked
     c = ivdyn.identify(ur5, logs / "before.mcap")
     assert c["streamed"] is False and len(c["conditioning"]["velocity"]) == 6

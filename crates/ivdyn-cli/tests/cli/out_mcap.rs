@@ -61,17 +61,7 @@ fn identify_out_mcap_measured_predicted_residual() {
     assert_eq!(json(&rep)["streamed"], true);
     ok(&run(ur5_cmd(
         "identify",
-        &[
-            "--log",
-            log.to_str().unwrap(),
-            "--in-memory",
-            "--velocity",
-            "positions",
-            "--coulomb",
-            "sign",
-            "--out-mcap",
-            pred_m.to_str().unwrap(),
-        ],
+        &["--log", log.to_str().unwrap(), "--in-memory", "--coulomb", "sign", "--out-mcap", pred_m.to_str().unwrap()],
     )));
     // only the finished files, no staging folder
     assert_eq!(files_in(&d), ["log.mcap", "params.json", "pred_memory.mcap", "pred_stream.mcap", "rep.json"]);
@@ -99,10 +89,9 @@ fn identify_out_mcap_measured_predicted_residual() {
     }
     // predicted = Y(q, qd, qdd) theta from the parameter file, at the conditioned state
     let pf: ivdyn::report::ParamsFile = serde_json::from_str(&std::fs::read_to_string(&params).unwrap()).unwrap();
-    // (streamed: the velocity is the differentiated positions')
-    let copts =
-        ivdyn::prep::ConditionOptions { velocity: ivdyn::prep::VelocitySource::Positions, ..Default::default() };
-    let c = ivdyn::prep::condition(&orig, &copts).unwrap();
+    // (streamed: the log's velocity where it agrees with the positions, as in memory)
+    let c = ivdyn::prep::condition(&orig, &ivdyn::prep::ConditionOptions::default()).unwrap();
+    assert!(c.velocity.iter().all(|v| v.source == "log"), "{:?}", c.velocity);
     let p = robot0.num_params();
     let mut y = vec![0.0; t * n * p];
     ivdyn::batch::regressor_batch(&robot0, &c.d.q, &c.d.qd, &c.d.qdd, &mut y, false).unwrap();
@@ -128,9 +117,8 @@ fn identify_out_mcap_measured_predicted_residual() {
         eprintln!("joint {j}: residual rms {rms:.4} N m");
         assert!(rms > 0.0475 && rms < 0.0525 + 0.005, "joint {j}: residual rms {rms}");
     }
-    // the in-memory path with the streamed path's velocity and Coulomb sign writes the same
-    // file content
-    // (to rounding)
+    // the in-memory path with the streamed path's Coulomb sign (and the same velocity rule)
+    // writes the same file content (to rounding)
     let mem = read_out(&pred_m, &names);
     assert_eq!(
         (&mem.measured.t, &mem.measured.q, &mem.measured.qd, &mem.measured.tau),

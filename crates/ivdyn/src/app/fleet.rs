@@ -7,15 +7,15 @@
 //!
 //! A log's statistics are those of `identify` on that log alone, with no held-out tail
 //! (every row is fitted) and Coulomb friction as `sign(qd)` (the shape is not chosen per
-//! log: every log of a fleet must share one parameter layout). On request (`stream`), an
-//! MCAP file is streamed as
+//! log: every log of a fleet must share one parameter layout). With `stream` (the Python
+//! default), an MCAP file is streamed as
 //! the streamed `identify` streams it ([`super::stream`]: the same hygiene, conditioning,
 //! parallel filter, decimation and dropped edge rows, in memory bounded by the stream's
 //! buffers whatever the log's length); CSV files, arrays and files the stream cannot take
 //! (uneven stamps, motor currents) are prepared in memory as `identify --in-memory` does
-//! ([`super::prepare`]); the two agree to about 1e-6 of a standard deviation when both
-//! differentiate the positions (the stream always does; in memory the log's own velocity
-//! may be chosen). The statistics
+//! ([`super::prepare`]); the two agree to about 1e-6 of a standard deviation (both take the
+//! log's velocity where it agrees with the positions; the stream checks it on its first
+//! 10 000 samples, the in-memory path on the whole log). The statistics
 //! of several logs are those of their rows concatenated, each log conditioned on its own
 //! (a log boundary is a segment break: no filter and no lagged product spans it).
 
@@ -254,12 +254,10 @@ pub(crate) fn fleet_model(robot: &Robot, opts: &IdentifyOptions) -> Result<(Robo
 /// `name` names the log. With `stream`, an MCAP file is streamed ([`stream::fit_rows_mcap`]:
 /// bounded memory, the rows of the streamed `identify`); otherwise, and for CSV, arrays, and
 /// a file the stream cannot take (uneven stamps, motor currents, ...), the log is read into
-/// memory ([`add_in_memory`]). Streaming is not the default: on the synthetic fleet
-/// (docs/fleet.md) its drift tests' p-values of unchanged arms went down to 1e-13, where the
-/// in-memory pass's smallest was 1.9e-3 of 2,592: the stream differentiates the 18-bit
-/// encoder positions (the in-memory pass from the positions gives the same p-values; with
-/// exact positions it is calibrated), the in-memory pass takes the log's velocity.
-/// `robot` and `base` as [`fleet_model`] makes them.
+/// memory ([`add_in_memory`]). Both take the log's velocity where it agrees with the
+/// positions: differentiated 18-bit encoder positions miscalibrate the drift tests of the
+/// inertial parameters (docs/fleet.md, "Memory"). `robot` and `base` as [`fleet_model`]
+/// makes them.
 #[allow(clippy::too_many_arguments)]
 fn add_log(
     acc: &mut Option<JointAccs>,

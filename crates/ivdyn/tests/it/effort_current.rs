@@ -51,8 +51,9 @@ fn identify(robot: &Robot, log: &Path, source: LogSource) -> ivdyn::error::Resul
     run(robot, log, source, false)
 }
 
-/// `stream`: stream the MCAP log. Velocities are differentiated positions in every run, as
-/// streaming makes them, so that streamed and in-memory runs compare to rounding.
+/// `stream`: stream the MCAP log. Velocities are differentiated positions in every run, so
+/// that streamed and in-memory runs compare to rounding whatever the velocity check decides
+/// (the stream checks the log's velocity on its first samples, memory on the whole log).
 fn run(robot: &Robot, log: &Path, source: LogSource, stream: bool) -> ivdyn::error::Result<IdentifyReport> {
     let mut opts = ivdyn::app::IdentifyOptions::default();
     opts.condition.velocity = ivdyn::prep::VelocitySource::Positions;
