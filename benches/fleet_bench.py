@@ -24,9 +24,12 @@ the log, about 6 kB a sample), merged per group and fitted, by:
 Every configuration runs ``--repeat`` times, the rounds in alternating order (a load that
 drifts favours none), and the fastest round counts. Ray's overhead is its time over the
 in-process run's with as many workers. The peak memory
-per worker is the largest peak resident set (``VmHWM``) of the Ray worker processes that
-ran statistics, beside that of an idle worker (Python, NumPy, Ray, ivdyn imported). The
-projection to a cluster scales the per-core rate of the 2-worker Ray run.
+per worker is given twice: the largest peak resident set (``VmHWM``) of the Ray worker
+processes, which also counts the shared libraries' pages and the pages of Ray's
+shared-memory object store the worker wrote its results into (about 1 MB per log, shared,
+not the worker's own), and the largest private memory (``RssAnon``: heap and stacks)
+sampled every 50 ms during the run; each beside that of an idle worker (Python, NumPy,
+Ray, ivdyn imported). The projection to a cluster scales the per-core rate of the 2-worker Ray run.
 
 Each per-log pass runs its parallel filter on two threads and reads on a third, so on
 this 2-core machine one worker already uses more than one core: "per core" below divides
@@ -37,6 +40,7 @@ from __future__ import annotations
 import argparse
 import os
 import tempfile
+import threading
 import time
 
 import ivdyn
@@ -100,7 +104,10 @@ def _descends_from_us(pid: int) -> bool:
 
 
 def worker_peaks_mb():
-    """Peak and current resident memory (MB) of this runtime's Ray worker processes."""
+    """Peak and current resident memory (MB) of this runtime's Ray worker processes, and
+    their private memory now (``RssAnon``: the heap and stacks, without the shared
+    libraries' pages and the pages of Ray's shared-memory object store that ``VmHWM``
+    also counts)."""
     out = {}
     for pid in os.listdir("/proc"):
         if not pid.isdigit() or not _descends_from_us(int(pid)):
@@ -112,10 +119,44 @@ def worker_peaks_mb():
                 continue
             with open(f"/proc/{pid}/status") as f:
                 st = dict(line.split(":", 1) for line in f if ":" in line)
-            out[int(pid)] = (cmd, int(st["VmHWM"].split()[0]) / 1024, int(st["VmRSS"].split()[0]) / 1024)
+            mb = {k: int(st[k].split()[0]) / 1024 for k in ("VmHWM", "VmRSS", "RssAnon")}
+            out[int(pid)] = (cmd, mb["VmHWM"], mb["VmRSS"], mb["RssAnon"])
         except (OSError, KeyError, ValueError):
             continue
     return out
+
+
+class AnonSampler:
+    """The largest private memory (``RssAnon``, MB) of any Ray worker of this runtime,
+    sampled every ``period`` seconds while it runs (the kernel keeps no peak of it). The
+    workers are looked up once a second, their status files read at every sample: a few
+    file reads, so the sampling costs the timed run next to nothing."""
+
+    def __init__(self, period: float = 0.05):
+        self.period, self.peak, self._stop = period, 0.0, threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def _run(self):
+        pids, found = [], 0.0
+        while not self._stop.is_set():
+            if time.monotonic() - found > 1.0:
+                pids, found = list(worker_peaks_mb()), time.monotonic()
+            for pid in pids:
+                try:
+                    with open(f"/proc/{pid}/status") as f:
+                        anon = next(line for line in f if line.startswith("RssAnon:"))
+                    self.peak = max(self.peak, int(anon.split()[1]) / 1024)
+                except (OSError, StopIteration, ValueError):
+                    continue
+            self._stop.wait(self.period)
+
+    def __enter__(self):
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
 
 
 def ray_run(entries, cpus: int):
@@ -136,12 +177,15 @@ def ray_run(entries, cpus: int):
         # a worker that imported everything but ran no log: its peak is the baseline
         idle_pid = ray.get(idle.remote())
         before = worker_peaks_mb()
-        t, res = timed(lambda: fleet.run(entries, OPTIONS, engine="ray"))
+        with AnonSampler() as anon:
+            t, res = timed(lambda: fleet.run(entries, OPTIONS, engine="ray"))
         peaks = worker_peaks_mb()
     finally:
         ray.shutdown()
-    baseline = before.get(idle_pid, (None, float("nan"), float("nan")))[1]
-    return t, t_init, res, max((hwm for _, hwm, _ in peaks.values()), default=float("nan")), baseline
+    nan = (None, float("nan"), float("nan"), float("nan"))
+    baseline = before.get(idle_pid, nan)[1], before.get(idle_pid, nan)[3]
+    hwm = max((v[1] for v in peaks.values()), default=float("nan"))
+    return t, t_init, res, (hwm, anon.peak), baseline
 
 
 def check(res, n):
@@ -165,9 +209,9 @@ def runs(entries):
         return t, "", ""
 
     def on_ray(cpus):
-        t, t_init, res, peak, base = ray_run(entries, cpus)
+        t, t_init, res, (hwm, anon), (base_hwm, base_anon) = ray_run(entries, cpus)
         check(res, n)
-        return t, f"{peak:.0f} (idle {base:.0f})", f"Ray start {t_init:.1f} s, not counted"
+        return t, f"{hwm:.0f} / {anon:.0f} (idle {base_hwm:.0f} / {base_anon:.0f})", f"Ray start {t_init:.1f} s, not counted"
 
     return {
         IDENTIFY: (1, identify),
@@ -228,7 +272,7 @@ def main():
     print(f"\n{what}{len(entries)} logs x {a.minutes:g} min at {a.rate:g} Hz, six joints = {hours:.2f} log-hours, "
           f"per-log pass {how}; "
           f"{os.cpu_count()} cores; fastest of {a.repeat} round(s); load average {min(loads):.1f}-{max(loads):.1f}\n")
-    print("| run | workers | seconds | log-hours / s | peak MB per worker | note |")
+    print("| run | workers | seconds | log-hours / s | peak MB per worker: resident / private | note |")
     print("|---|--:|--:|--:|--:|---|")
     for name, (w, _) in configs.items():
         secs, peak, note = best[name]
