@@ -10,7 +10,7 @@ use super::model::{Fit, Model, effect_torque, fit, rss_joint};
 use super::prepare::Prepared;
 use super::refit::{self, RefitDecision};
 use super::residual::{regimes, rms_per_joint};
-use super::rules::{Ctx, LINK_SCALE_MAX};
+use super::score::{Ctx, LINK_SCALE_MAX};
 use super::signals::Signals;
 use super::uncertainty;
 use super::{

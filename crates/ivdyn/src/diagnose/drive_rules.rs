@@ -22,7 +22,7 @@ use super::EffectKind;
 use super::JointScore;
 use super::dictionary::{C_ONE, C_SIGN, C_SIGN_POS, C_TANH, RIPPLE_N, SMOOTH_VS};
 use super::model::{Fit, Model, Param, effect_rms, fit};
-use super::rules::{Ctx, Scored, not_scored};
+use super::score::{Ctx, Scored, not_scored};
 
 /// The fitted value of joint `j`'s parameter in column `col` (0 if absent).
 fn theta_at(f: &Fit, j: usize, col: usize) -> f64 {

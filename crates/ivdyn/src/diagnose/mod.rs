@@ -32,6 +32,7 @@ mod refit;
 pub mod report;
 mod residual;
 mod rules;
+mod score;
 pub mod search;
 mod signals;
 mod uncertainty;

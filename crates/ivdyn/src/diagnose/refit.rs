@@ -41,7 +41,7 @@
 use super::EffectKind;
 use super::dictionary::{C_BASE, Dictionary, Grams};
 use super::model::{Fit, Model, fit, friction_model, rss_joint};
-use super::rules::Ctx;
+use super::score::Ctx;
 use super::{BaseParamsJson, NominalRefitJson};
 use crate::Robot;
 use crate::error::Result;

@@ -1,0 +1,252 @@
+//! What a candidate is compared with, and its score on one joint: the F test, the held-out
+//! share, the size and the physical sign of rules 1-4 of [`super::rules`] (docs/diagnose.md,
+//! Method item 4). The look-alike rules and the candidates themselves are in
+//! [`super::rules`] and [`super::drive_rules`], which both build on this.
+
+use super::dictionary::{C_DELAY, C_LOAD, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, Grams};
+use super::model::{Fit, Model, Param, all_model, effect_rms, fit, joint_index, noise_of_all_model, rss_joint};
+use super::prepare::Prepared;
+use super::{DiagnoseOptions, EffectKind, JointScore};
+use crate::Robot;
+use crate::batch;
+use crate::error::{Error, Result};
+use crate::ident::stats::f_sf;
+
+/// Smallest armature (payload) named, as a fraction of the nominal inertia on the joint
+/// (of the terminal link's nominal mass); smallest torque gain error `|k - 1|` named.
+const NOMINAL_UNCERTAINTY: f64 = 0.1;
+
+/// Largest relative error of the nominal link inertials still taken as a plausible
+/// explanation of a residual (CAD masses and inertias are rarely off by more).
+pub(super) const LINK_SCALE_MAX: f64 = 0.25;
+
+/// What the rules compare a candidate with: the Gram matrices, the noise, the nominal
+/// inertias, and the options' thresholds.
+#[derive(Clone)]
+pub(super) struct Ctx<'a> {
+    pub(super) gr: &'a Grams,
+    /// Mean diagonal of the nominal mass matrix over the log (kg m^2 or kg).
+    m_diag: Vec<f64>,
+    /// Nominal mass of the terminal link (kg).
+    terminal_mass: f64,
+    pub(super) w: Vec<f64>,
+    pub(super) sigma: Vec<f64>,
+    /// Held-out RSS per joint of the all-candidates model (two-fold; with the nominal
+    /// re-fit when there is one).
+    h_all: Vec<f64>,
+    /// Integrated autocorrelation time of the residual per joint (samples).
+    tau: Vec<f64>,
+    pub(super) n: usize,
+    pub(super) opts: &'a DiagnoseOptions,
+}
+
+/// Mean over (a subsample of) the log of the nominal mass matrix's diagonal.
+fn mean_mass_diag(robot: &Robot, q: &[f64], n: usize) -> Result<Vec<f64>> {
+    let t_len = q.len() / n;
+    let step = (t_len / 200).max(1);
+    let qs: Vec<f64> = (0..t_len).step_by(step).flat_map(|k| q[k * n..(k + 1) * n].to_vec()).collect();
+    let m = qs.len() / n;
+    let mut out = vec![0.0; m * n * n];
+    batch::mass_matrix_batch(robot, &qs, &mut out).map_err(|e| Error::during("mass matrix", e))?;
+    Ok((0..n).map(|j| (0..m).map(|k| out[k * n * n + j * n + j]).sum::<f64>() / m as f64).collect())
+}
+
+impl<'a> Ctx<'a> {
+    /// The noise (weights), autocorrelation times, held-out floor and nominal inertias of
+    /// the prepared log; `refit`: the search runs on top of the nominal re-fit (this many
+    /// base columns, 0: without).
+    pub(super) fn new(robot: &Robot, p: &'a Prepared, opts: &'a DiagnoseOptions, refit: usize) -> Result<Self> {
+        let n = robot.dof();
+        let (s, d, gr) = (&p.s, &p.d, &p.gr);
+        let t_len = s.t.len();
+        let (sigma, rho, _) = noise_of_all_model(d, gr, n, t_len, refit, opts.drives);
+        let w: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
+        let m_diag = mean_mass_diag(robot, &s.q, n)?;
+        let terminal_mass = robot.params()[10 * (n - 1)];
+        let h_all: Vec<f64> = {
+            let mut all = all_model(n, opts.drives);
+            all.refit = refit;
+            let pa = all.params();
+            let (f0, f1) = (fit(&pa, gr, &w, &[0]), fit(&pa, gr, &w, &[1]));
+            (0..n).map(|j| rss_joint(&f0, gr, j, &[1]) + rss_joint(&f1, gr, j, &[0])).collect()
+        };
+        Ok(Ctx { gr, m_diag, terminal_mass, w, sigma, h_all, tau: rho, n, opts })
+    }
+}
+
+impl Ctx<'_> {
+    fn n_eff(&self, j: usize) -> f64 {
+        let rows = (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64;
+        (rows / self.tau[j]).max(10.0)
+    }
+
+    /// Scores `larger` against `smaller` (nested) on joint `j`; `added` selects the new
+    /// parameters (for the effect's RMS).
+    pub(super) fn joint_score(
+        &self,
+        smaller: &Model,
+        larger: &Model,
+        j: usize,
+        added: &dyn Fn(&Param) -> bool,
+    ) -> JointScore {
+        let (ps, pl) = (smaller.params(), larger.params());
+        let (fs, fl) = (fit(&ps, self.gr, &self.w, &[0, 1]), fit(&pl, self.gr, &self.w, &[0, 1]));
+        let (r0, r1) = (rss_joint(&fs, self.gr, j, &[0, 1]), rss_joint(&fl, self.gr, j, &[0, 1]));
+        let k_small = joint_index(&ps, j).len();
+        let k_large = joint_index(&pl, j).len();
+        let d1 = (k_large.saturating_sub(k_small)).max(1) as f64;
+        let rows = (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64;
+        let n_eff = self.n_eff(j);
+        let d2 = (n_eff - k_large as f64).max(1.0);
+        // a correlated residual inflates the explained sum by its autocorrelation time
+        // (r0 - r1 ~ tau sigma^2 chi2(d1)) but not the per-sample variance r1 / (rows - k):
+        // the former divided by tau = rows / n_eff over the latter is the F statistic, its
+        // denominator on d2 effective degrees of freedom (dividing both by tau, as before
+        // 2026-12-03, divided the statistic by tau once too often)
+        let f_stat = ((r0 - r1).max(0.0) / d1) / (r1 / (rows - k_large as f64).max(1.0)).max(1e-300) * (n_eff / rows);
+        let p = f_sf(f_stat, d1, d2);
+        // two-fold cross-validation
+        let mut h0 = 0.0;
+        let mut h1 = 0.0;
+        for (train, test) in [(0usize, 1usize), (1, 0)] {
+            let a = fit(&ps, self.gr, &self.w, &[train]);
+            let b = fit(&pl, self.gr, &self.w, &[train]);
+            h0 += rss_joint(&a, self.gr, j, &[test]);
+            h1 += rss_joint(&b, self.gr, j, &[test]);
+        }
+        // the share of the held-out residual *above the noise* the candidate removes: a
+        // missing effect explains (nearly) all of the structure it leaves on its joint; a
+        // look-alike (e.g. an offset standing in for a wrong link mass) only part of it
+        let n_test = (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64;
+        // "structure" = what is above the noise, or what the vocabulary can explain at all
+        // (held-out residual of the all-candidates model) when that is less, e.g. when a
+        // friction model leaves stick-slip bursts at reversals that nothing explains
+        let explainable = (h0 - self.h_all[j]).min(h0 - n_test * self.sigma[j].powi(2));
+        let structure = explainable.max(0.05 * h0);
+        let heldout_gain = if h0 > 0.0 { ((h0 - h1) / structure).min(1.0) } else { 0.0 };
+        let e_rms = effect_rms(&fl, self.gr, j, added);
+        let mut sc =
+            JointScore { f: f_stat, p, heldout_gain, effect_rms: e_rms, significant: false, rejected_by: None };
+        sc.rejected_by = self
+            .statistical_rule(&sc, j)
+            .or_else(|| Self::unphysical(&fl, j, added))
+            .or_else(|| self.within_nominal_uncertainty(&fl, j, added));
+        sc.significant = sc.rejected_by.is_none();
+        sc
+    }
+
+    /// The first statistical rule (F test, held-out share, size) a score fails on joint
+    /// `j`, in words with its numbers.
+    pub(super) fn statistical_rule(&self, sc: &JointScore, j: usize) -> Option<String> {
+        let o = self.opts;
+        if sc.p >= o.alpha {
+            Some(format!("F test: F {:.3}, p {:.1e} >= alpha {:.0e}", sc.f, sc.p, o.alpha))
+        } else if sc.heldout_gain < o.min_share {
+            Some(format!(
+                "held-out share: removes {:.0} % of the explainable held-out residual, needs {:.0} %",
+                100.0 * sc.heldout_gain,
+                100.0 * o.min_share
+            ))
+        } else if sc.effect_rms < o.min_effect * self.sigma[j] {
+            Some(format!(
+                "size: adds {:.3} N m RMS, {:.2} noise std, needs {:.2}",
+                sc.effect_rms,
+                sc.effect_rms / self.sigma[j],
+                o.min_effect
+            ))
+        } else {
+            None
+        }
+    }
+
+    /// An armature below `NOMINAL_UNCERTAINTY` of the inertia the nominal model already
+    /// puts on the joint, or a payload lighter than that share of the terminal link, is
+    /// indistinguishable from an error of the links' own (CAD) inertias, which are rarely
+    /// better than that: not named as a missing effect (the rule, in words, when it applies).
+    fn within_nominal_uncertainty(&self, f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> Option<String> {
+        f.params.iter().zip(&f.theta).find_map(|(p, &v)| {
+            if !added(p) {
+                return None;
+            }
+            if p.joint == Some(j) && p.kind == Some(EffectKind::Armature) && v < NOMINAL_UNCERTAINTY * self.m_diag[j] {
+                return Some(format!(
+                    "CAD-uncertainty margin: ia {v:.4} kg m^2 is below {:.0} % of the nominal inertia on the joint ({:.4})",
+                    100.0 * NOMINAL_UNCERTAINTY,
+                    self.m_diag[j]
+                ));
+            }
+            if p.joint == Some(j) && p.kind == Some(EffectKind::TorqueGain) && v.abs() < NOMINAL_UNCERTAINTY {
+                // measured = (1 + v) x true: a few % of the joint's rigid-body torque is what
+                // CAD inertial errors leave too
+                return Some(format!(
+                    "CAD-uncertainty margin: gain k {:.4} is within {:.0} % of 1",
+                    1.0 + v,
+                    100.0 * NOMINAL_UNCERTAINTY
+                ));
+            }
+            let payload = p.kind == Some(EffectKind::Payload) && p.col == C_PAYLOAD;
+            (payload && v < NOMINAL_UNCERTAINTY * self.terminal_mass).then(|| {
+                format!(
+                    "CAD-uncertainty margin: payload mass {v:.3} kg is below {:.0} % of the terminal link's {:.3} kg",
+                    100.0 * NOMINAL_UNCERTAINTY,
+                    self.terminal_mass
+                )
+            })
+        })
+    }
+
+    /// The added parameter touching joint `j` without its physical sign, in words (none
+    /// when all have it): friction, armature and spring stiffness dissipate or store
+    /// energy only when positive, and a payload has a positive mass. A negative fit is how
+    /// differentiation lag or a model error imitates an effect, never the effect itself.
+    pub(super) fn unphysical(f: &Fit, j: usize, added: &dyn Fn(&Param) -> bool) -> Option<String> {
+        f.params.iter().zip(&f.theta).find_map(|(p, &v)| {
+            if !added(p) || p.joint.is_some_and(|x| x != j) {
+                return None;
+            }
+            if p.kind == Some(EffectKind::TorqueGain) {
+                // measured = k x true with k = 1 + theta: a sensor cannot flip the sign
+                return (v <= -1.0).then(|| format!("sign: gain k = {:.4} is not positive", 1.0 + v));
+            }
+            let name = match (p.kind, p.col) {
+                (Some(EffectKind::Coulomb), C_SIGN) => "fc",
+                (Some(EffectKind::SmoothCoulomb), _) => "fc",
+                (Some(EffectKind::LoadDependent), C_LOAD) => "mu",
+                (Some(EffectKind::TimeDelay), C_DELAY) => "delay_s",
+                (Some(EffectKind::Viscous), C_QD) => "fv",
+                (Some(EffectKind::Armature), C_QDD) => "ia",
+                (Some(EffectKind::JointSpring), C_Q) => "k",
+                (Some(EffectKind::Payload), C_PAYLOAD) => "payload mass",
+                _ => return None,
+            };
+            (v <= 0.0).then(|| format!("sign: {name} = {v:.4} is not positive"))
+        })
+    }
+
+    /// Noise-weighted RSS reduction of `larger` over `smaller` (all joints, all data).
+    pub(super) fn gain(&self, smaller: &Model, larger: &Model) -> f64 {
+        let (fs, fl) =
+            (fit(&smaller.params(), self.gr, &self.w, &[0, 1]), fit(&larger.params(), self.gr, &self.w, &[0, 1]));
+        (0..self.n)
+            .map(|j| self.w[j] * (rss_joint(&fs, self.gr, j, &[0, 1]) - rss_joint(&fl, self.gr, j, &[0, 1])))
+            .sum()
+    }
+}
+
+/// The score of a candidate that cannot go on a joint (already there, or its
+/// precondition missing).
+pub(super) fn not_scored(why: &str) -> JointScore {
+    JointScore {
+        f: 0.0,
+        p: 1.0,
+        heldout_gain: 0.0,
+        effect_rms: 0.0,
+        significant: false,
+        rejected_by: Some(format!("not tried: {why}")),
+    }
+}
+
+/// One candidate effect scored on every joint: the scores, the model with it added where
+/// it is significant, and the joints where a link-scale error imitates it (with the
+/// largest scale).
+pub(super) type Scored = (Vec<JointScore>, Model, Vec<(usize, f64)>);
