@@ -51,7 +51,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     c.effect.name(),
                     c.per_joint
                         .iter()
-                        .map(|s| format!("[F {:.0} p {:.0e} g {:.2} e {:.3}]", s.f, s.p, s.heldout_gain, s.effect_rms))
+                        .map(|s| {
+                            let why = s.rejected_by.as_deref().unwrap_or("significant");
+                            format!("[F {:.0} p {:.0e} g {:.2} e {:.3}: {why}]", s.f, s.p, s.heldout_gain, s.effect_rms)
+                        })
                         .collect::<Vec<_>>()
                         .join(" ")
                 );

@@ -68,7 +68,7 @@ def finite_list(x, n, what):
     assert all(isinstance(v, (int, float)) and math.isfinite(v) for v in x), f"{what}: {x!r}"
 
 
-def check_effect(e, joints):
+def check_effect(e, joints, refit=False):
     n = len(joints)
     assert set(e) == {"name", "joints", "parameters", "parameters_std", "rms_before", "rms_after"}, e.keys()
     name = e["name"]
@@ -80,9 +80,14 @@ def check_effect(e, joints):
     if name == "payload":
         assert e["joints"] == []
         p = e["parameters"]
-        assert isinstance(p["mass"], float) and math.isfinite(p["mass"])
-        finite_list(p["com"], 3, "payload com")
-        finite_list(p["inertia"], 6, "payload inertia")
+        if p["mass"] is None:
+            # on top of the nominal re-fit a mass not separable from the previous link's CAD
+            # mass: no mass, no centre of mass, no inertia about it (docs/diagnose.md)
+            assert refit and p["com"] is None and p["inertia"] is None, p
+        else:
+            assert isinstance(p["mass"], float) and math.isfinite(p["mass"]) and p["mass"] > 0, p
+            finite_list(p["com"], 3, "payload com")
+            finite_list(p["inertia"], 6, "payload inertia")
     else:
         assert e["joints"], f"{name} on no joint"
         for k, v in e["parameters"].items():
@@ -109,7 +114,7 @@ def check_diagnosis(d, joints):
         finite_list(d[key], n, key)
         assert min(d[key]) >= 0, (key, d[key])
     for e in d["effects"]:
-        check_effect(e, joints)
+        check_effect(e, joints, refit=d.get("nominal_refit") is not None)
     if "nominal_refit" in d:
         r = d["nominal_refit"]
         assert set(r) == {"base_params", "rms_before", "rms_after", "why"}, r.keys()

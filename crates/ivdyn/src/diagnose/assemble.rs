@@ -147,10 +147,13 @@ fn report_effects(
         if kind != EffectKind::Payload && joints.is_empty() || kind == EffectKind::Payload && !m.payload {
             continue;
         }
-        let params = effect_parameters(kind, &joints, f, m, d, n);
-        let parameters_std = cov
+        let mut params = effect_parameters(kind, &joints, f, m, d, n);
+        let mut parameters_std = cov
             .map(|c| uncertainty::parameters_std(f, c, &|g| effect_parameters(kind, &joints, g, m, d, n)))
             .unwrap_or_default();
+        if kind == EffectKind::Payload && super::score::has_refit(f) {
+            payload_on_refit(&mut params, &mut parameters_std, ctx.prev_link_mass);
+        }
         st.joints = joints.clone();
         st.evidence = evidence(st, &params, names, regimes_before, ctx);
         effects.push(EffectJson {
@@ -280,6 +283,26 @@ fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
     }
 }
 
+/// A payload on top of the nominal re-fit: its mass regroups into the previous link's
+/// parameters, which the re-fit holds, so the fitted mass is the payload's plus that link's
+/// CAD mass error. Kept, with that error (`LINK_SCALE_MAX` of the link's nominal mass `m_prev`,
+/// taken as 2 standard errors) added to its standard error, when it stays positive beyond 2
+/// standard errors; otherwise mass, centre of mass (`m c / m`) and inertia about it are
+/// not separable and set to null (docs/diagnose.md, "Payload on top of the re-fit").
+fn payload_on_refit(params: &mut Params, std: &mut Params, m_prev: f64) {
+    let mass = params.get("mass").and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+    let s_fit = std.get("mass").and_then(|v| v.as_f64()).unwrap_or(0.0);
+    let s = s_fit.hypot(0.5 * super::score::LINK_SCALE_MAX * m_prev);
+    if mass - 2.0 * s > 0.0 {
+        std.insert("mass".into(), s.into());
+        return;
+    }
+    for k in ["mass", "com", "inertia"] {
+        params.insert(k.into(), serde_json::Value::Null);
+        std.insert(k.into(), serde_json::Value::Null);
+    }
+}
+
 /// Longest headline (characters): one sentence a person reads first.
 pub(super) const HEADLINE_MAX: usize = 200;
 
@@ -306,6 +329,10 @@ fn verdict(
     let mut details: Vec<String> = kept
         .iter()
         .map(|st| match effects.iter().find(|e| e.name == st.effect.name()) {
+            Some(e) if e.parameters.values().all(|v| v.is_null()) => format!(
+                "missing: {}: its mass and centre of mass are not separable from the re-fitted links' inertials (weigh it, or estimate it with `ivdyn payload` on logs before and after it was attached)",
+                on(st, true)
+            ),
             Some(e) if !e.parameters_std.is_empty() => format!(
                 "missing: {}: {} (\u{b1} 2 standard errors)",
                 on(st, true),
@@ -626,8 +653,13 @@ fn payload_evidence(
         })
         .unwrap_or_else(|| "(not identifiable)".into());
     let js: Vec<&str> = cand.map(|c| c.joints.iter().map(|&j| names[j].as_str()).collect()).unwrap_or_default();
+    let body = if m.is_nan() {
+        "a payload, whose mass and centre of mass are not separable from the re-fitted links' inertials (weigh it, or estimate it with `ivdyn payload` on logs before and after it was attached)".to_string()
+    } else {
+        format!("a payload of {m:.3} kg with its centre of mass at {com} m (terminal link frame)")
+    };
     out.push(format!(
-        "the residuals of {} follow pose and acceleration together, as the torques of one rigid body on the last link would: a payload of {m:.3} kg with its centre of mass at {com} m (terminal link frame)",
+        "the residuals of {} follow pose and acceleration together, as the torques of one rigid body on the last link would: {body}",
         js.join(", ")
     ));
     for &j in &st.joints {

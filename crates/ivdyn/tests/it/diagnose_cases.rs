@@ -197,6 +197,39 @@ fn cad_nominal_model_is_refitted() {
     }
 }
 
+/// Issue 15: a 0.66 kg payload on a CAD model whose links are up to 30 % off
+/// (`diagnose_cad/talos_arm/e30_2fx`, tuning part; armatures on three joints beside it). On
+/// top of the nominal re-fit a payload's mass regroups into the previous link's parameters,
+/// which the re-fit holds: the payload is decided by its torque against the terminal link's
+/// CAD margin, named, and its mass reported only where it is separable from that link's CAD
+/// error (then within 3 of its standard errors of the truth), else null with its centre of
+/// mass: never a centre of mass metres from the flange. Before 2026-12-03 the payload was
+/// rejected by its unidentifiable fitted mass (0.017 kg) and joint 7 kept 17x its oracle RMS.
+#[test]
+fn payload_on_a_cad_model() {
+    let (set, name) = ("diagnose_cad/talos_arm", "e30_2fx");
+    let m = cases_in(set);
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
+    let d = run_in(set, case, &m);
+    assert!(d.nominal_refit.is_some(), "{name}: no nominal_refit");
+    let p = d.effects.iter().find(|e| e.name == "payload").unwrap_or_else(|| panic!("{name}: {:?}", d.effects));
+    let truth = case["effects"].as_array().unwrap().iter().find(|e| e["name"] == "payload").unwrap();
+    match p.parameters["mass"].as_f64() {
+        None => assert!(p.parameters["com"].is_null() && p.parameters["inertia"].is_null(), "{p:?}"),
+        Some(mass) => {
+            let (t, s) = (truth["parameters"]["mass"].as_f64().unwrap(), p.parameters_std["mass"].as_f64().unwrap());
+            assert!((mass - t).abs() <= 3.0 * s, "{name}: mass {mass} +- {s}, truth {t}");
+        }
+    }
+    // what is left is what the true effects leave with the true model, within the issue's 1.2x
+    // (the armatures are 2.7e-4 kg m^2 on the wrist, below the noise, and on the chain's first
+    // joint, where an armature is that link's inertia about its fixed axis: the re-fit's)
+    let oracle = f64s(&case["oracle"]["oracle_rms_true_model"]);
+    for (j, (f, o)) in d.final_rms.iter().zip(&oracle).enumerate() {
+        assert!(*f <= 1.2 * o, "{name}: joint {j} final RMS {f} vs oracle {o}");
+    }
+}
+
 /// Issue 15 item 3: the headline is one sentence of at most 200 characters; every
 /// candidate row not named on a joint says which rule rejected it, with its numbers.
 #[test]
