@@ -27,6 +27,7 @@ mod assemble;
 mod dictionary;
 mod drive_rules;
 mod model;
+mod pairs;
 mod prepare;
 mod refit;
 pub mod report;

@@ -31,7 +31,7 @@ use super::{CandidateScore, EffectKind, JointScore};
 
 /// The effects a wrong nominal link mass or inertia can imitate (a torque gain scales the
 /// joint's rigid-body torque as a link-mass error partly does).
-fn inertia_like(e: EffectKind) -> bool {
+pub(super) fn inertia_like(e: EffectKind) -> bool {
     matches!(
         e,
         EffectKind::Payload
@@ -46,7 +46,7 @@ fn inertia_like(e: EffectKind) -> bool {
 /// inertials (by at most `LINK_SCALE_MAX`) explains the residual and the candidate is no
 /// longer significant on joint `j` once those scales are free, the candidate is imitated
 /// by a model error. Returns the largest scale (as a fraction) when it is.
-fn model_error_lookalike(
+pub(super) fn model_error_lookalike(
     ctx: &Ctx,
     m: &Model,
     larger: &Model,

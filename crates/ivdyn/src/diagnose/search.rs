@@ -3,7 +3,8 @@
 //!
 //! Among the candidates with significant joints (`rules`), the one that removes most of
 //! the (noise-weighted) residual is added; all parameters are refit; effects that stopped
-//! being significant are dropped again (backward step); repeat until none is left.
+//! being significant are dropped again (backward step); when no single candidate is left,
+//! two effects on one joint are tried as one (`pairs`); repeat until none is left.
 
 pub use super::DiagnoseOptions;
 use super::assemble::{Found, assemble};
@@ -73,16 +74,27 @@ fn search(
     let mut final_candidates = vec![];
     for _ in 0..max_steps {
         let mut cands = score_candidates(ctx, &m);
-        let Some(bi) = best_candidate(&cands) else {
-            final_candidates = none_significant(cands);
-            break;
+        let bi = match best_candidate(&cands) {
+            Some(bi) => bi,
+            // no single effect passes: two on one joint may (`pairs`); first in the list,
+            // so that the step's evidence finds its scores, not its first effect's alone
+            None => match super::pairs::best_pair(ctx, &m) {
+                Some((pair, l, _)) => {
+                    cands.insert(0, (pair, l));
+                    0
+                }
+                None => {
+                    final_candidates = none_significant(cands);
+                    break;
+                }
+            },
         };
         explain_choice(&mut cands, bi);
         let effect = cands[bi].0.effect;
         let joints = cands[bi].0.joints.clone();
         let m_new = backward(ctx, &cands[bi].1);
         let rms_after = model_rms(ctx, d, t_len, &m_new);
-        let step = Step {
+        let mut step = Step {
             effect,
             joints,
             evidence: vec![],
@@ -94,8 +106,10 @@ fn search(
         if m_new == m {
             break; // the backward step undid it: nothing new
         }
+        let companions = companion_steps(&mut step, &m, &m_new);
         m = m_new;
         steps.push((step, m.clone()));
+        steps.extend(companions.into_iter().map(|st| (st, m.clone())));
     }
     Found { steps, final_candidates, model: m, refit }
 }
@@ -141,6 +155,41 @@ fn explain_choice(cands: &mut [(CandidateScore, Model)], bi: usize) {
             )
         };
     }
+}
+
+/// The steps of the effects a candidate brought in beside its own (the second effect of a
+/// pair, `pairs`), each on the joints it went to, with the pair's scores relabelled and a
+/// reason saying so (the report names every effect of the model through a step of its own).
+fn companion_steps(step: &mut Step, m: &Model, m_new: &Model) -> Vec<Step> {
+    let mut kinds: Vec<EffectKind> = vec![];
+    for j in 0..m.per_joint.len() {
+        for &e in &m_new.per_joint[j] {
+            if e != step.effect && !m.has(j, e) && !kinds.contains(&e) {
+                kinds.push(e);
+            }
+        }
+    }
+    let n = m.per_joint.len();
+    let Some(accepted) = step.candidates.iter_mut().find(|c| c.accepted) else { return vec![] };
+    for &e in &kinds {
+        let on: Vec<String> =
+            (0..n).filter(|&j| m_new.has(j, e) && !m.has(j, e)).map(|j| (j + 1).to_string()).collect();
+        accepted.reason += &format!("; with {} on joint(s) {} as one candidate", e.label(), on.join(", "));
+    }
+    let accepted = accepted.clone();
+    kinds
+        .into_iter()
+        .map(|e| {
+            let joints: Vec<usize> = (0..n).filter(|&j| m_new.has(j, e) && !m.has(j, e)).collect();
+            let mut cand = accepted.clone();
+            cand.effect = e;
+            cand.reason = format!(
+                "named with {} as one candidate (together they pass every rule; neither alone did)",
+                step.effect.label()
+            );
+            Step { effect: e, joints, evidence: vec![], candidates: vec![cand], ..step.clone() }
+        })
+        .collect()
 }
 
 /// Removes effects that are no longer significant given the others (backward step).

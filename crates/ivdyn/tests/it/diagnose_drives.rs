@@ -50,10 +50,10 @@ fn check(name: &str) {
     }
 }
 
-/// Known miss (docs/diagnose.md, Results): on the elbow (fc_pos 1.2, fc_neg 2.0 N m) the
-/// diagnosis names plain Coulomb friction; the shoulder's (4.0 / 2.5 N m) is named right.
+/// Shoulder (fc_pos 4.0, fc_neg 2.5 N m) and elbow (1.2 / 2.0 N m). Marked a known miss
+/// (the elbow's came out as plain Coulomb friction) until 2026-12-03, when it was found
+/// passing on `bd7e8ed` (after the corrected F statistic) and un-ignored.
 #[test]
-#[ignore = "known miss: the elbow's direction-dependent friction is named plain Coulomb friction"]
 fn asymmetric_coulomb_friction() {
     check("asymmetric_coulomb");
 }
