@@ -84,9 +84,14 @@ impl CoulombShape {
     pub fn value(&self, qd: f64) -> f64 {
         // the paper's sign first, on its own: the shape is a model constant, so the branch
         // is predicted, whereas the two tests below compiled to a select computing both arms
-        if *self == Self::SIGN {
+        if (self.v_scale.to_bits() | self.asym.to_bits()) == 0 {
             return sign(qd);
         }
+        self.shaped(qd)
+    }
+
+    #[inline(never)]
+    fn shaped(&self, qd: f64) -> f64 {
         // s(v) = tanh(v / v_s) or sign(v);  c = s + asym |s|
         let s = if self.v_scale > 0.0 { libm::tanh(qd / self.v_scale) } else { sign(qd) };
         if self.asym != 0.0 { s + self.asym * s.abs() } else { s }
