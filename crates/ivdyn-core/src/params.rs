@@ -95,7 +95,7 @@ impl CoulombShape {
 
     /// [`Self::value`] for a shape other than the paper's sign. Out of line: inlined, its
     /// operands were loaded on every call and rnea's drive loop was too large to unroll
-    /// (callgrind, Panda RNEA: 61 instructions per call more).
+    /// (callgrind, Panda RNEA: 47 instructions per call more).
     #[inline(never)]
     fn shaped(&self, qd: f64) -> f64 {
         // s(v) = tanh(v / v_s) or sign(v);  c = s + asym |s|
