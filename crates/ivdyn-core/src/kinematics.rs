@@ -107,7 +107,7 @@ pub fn forward_pass<T: Lanes, const N: usize>(
     }
     // link 0 moves from the base at rest: with w = wd = 0 eq (4)'s cross products, R^T w and
     // R^T wd are zeros, left out (the same values; a zero may change sign)
-    let acc = kin.rot[0].tr_mul(&splat3::<T>(&-model.gravity));
+    let acc = base_gravity_in(&kin.rot[0], &model.gravity);
     let a = splat3::<T>(&model.joints[0].axis);
     let mut s = match model.joints[0].kind {
         JointKind::Revolute => (a * qd[0], a * qdd[0], acc),
@@ -118,6 +118,18 @@ pub fn forward_pass<T: Lanes, const N: usize>(
         s = forward_step(model, i, &kin.rot[i], &kin.pos[i], s, qd[i], qdd[i]);
         (kin.w[i], kin.wd[i], kin.acc[i]) = s;
     }
+}
+
+/// Link 0's origin acceleration `R_0^T (-g)` (gravity as base acceleration). Gravity along
+/// the base z axis (the usual `(0, 0, -9.81)`) needs only `R_0`'s last row: the products by
+/// `g`'s zero entries are left out (the same values; a zero may change sign).
+#[inline(always)]
+fn base_gravity_in<T: Lanes>(r: &Matrix3<T>, g: &Vec3) -> Vector3<T> {
+    if (g.x.to_bits() | g.y.to_bits()) << 1 == 0 {
+        let gz = T::splat(-g.z);
+        return Vector3::new(r[(2, 0)] * gz, r[(2, 1)] * gz, r[(2, 2)] * gz);
+    }
+    r.tr_mul(&splat3::<T>(&-g))
 }
 
 /// One step of the forward recursion: link `i`'s `(w, wd, acc)` from link `i-1`'s and
