@@ -16,7 +16,10 @@
 //!   joint (both refine Coulomb friction; the one that explains more is added first and
 //!   the other is then not tried there).
 //! * **torque ripple**: the harmonic pair `sin(n q), cos(n q)` on a grid of `n`, the one
-//!   removing most of the held-out residual.
+//!   removing most of the held-out residual, among the harmonics of which the joint sweeps
+//!   at least half a period (over less, a harmonic is a smooth trend in `q`); and, as gravity
+//!   is periodic in `q` too, it must pass the look-alike check against the nominal model's
+//!   own error (`rules::model_error_lookalike`).
 
 use super::EffectKind;
 use super::JointScore;
@@ -46,26 +49,47 @@ pub(super) fn offset_or_asymmetric(ctx: &Ctx, l: &Model, j: usize, sc: &mut Join
 }
 
 /// Whether the grid effect `e` can go on joint `j` of `m` (why not, when it cannot).
-fn precondition(m: &Model, e: EffectKind, j: usize) -> Option<&'static str> {
+fn precondition(ctx: &Ctx, m: &Model, e: EffectKind, j: usize) -> Option<String> {
     let refined = [EffectKind::Stribeck, EffectKind::SmoothCoulomb, EffectKind::AsymmetricCoulomb];
-    match e {
-        EffectKind::TorqueRipple if m.has(j, e) => Some("already in the model on this joint"),
-        EffectKind::TorqueRipple => None,
-        _ if !m.has(j, EffectKind::Coulomb) => Some("a refinement of Coulomb friction already found on the joint"),
-        _ if refined.iter().any(|&r| m.has(j, r)) => Some("Coulomb friction on the joint is already refined"),
-        EffectKind::AsymmetricCoulomb if m.has(j, EffectKind::TorqueOffset) || m.has(j, EffectKind::JointSpring) => {
-            Some("an offset on the joint already spans its column")
+    let why = match e {
+        EffectKind::TorqueRipple if m.has(j, e) => "already in the model on this joint",
+        EffectKind::TorqueRipple if ripple_grid(ctx, j).is_empty() => {
+            return Some(format!(
+                "the joint moves over {:.3} rad, less than half a period of every ripple harmonic ({:.3} rad the longest): a periodic torque is not told from a position-dependent trend there",
+                ctx.q_span[j],
+                std::f64::consts::TAU / RIPPLE_N[0]
+            ));
         }
-        _ => None,
-    }
+        EffectKind::TorqueRipple => return None,
+        _ if !m.has(j, EffectKind::Coulomb) => "a refinement of Coulomb friction already found on the joint",
+        _ if refined.iter().any(|&r| m.has(j, r)) => "Coulomb friction on the joint is already refined",
+        EffectKind::AsymmetricCoulomb if m.has(j, EffectKind::TorqueOffset) || m.has(j, EffectKind::JointSpring) => {
+            "an offset on the joint already spans its column"
+        }
+        _ => return None,
+    };
+    Some(why.to_string())
 }
 
-/// The grid of the effect's shape (one entry for the asymmetric friction).
-fn grid_len(e: EffectKind) -> usize {
+/// The share of a ripple harmonic's period a joint must sweep for it to be tried: over half a
+/// period `sin(n q)` passes an extremum between two zeros, a shape no slow trend has; over
+/// less it is a monotone or parabolic trend in `q`. (On the tuning parts, 1.0 also dropped
+/// true ripples of the UR5 drive fixture; 0 named ripples on 44 of the random arms' joints
+/// where there was none; docs/diagnose.md.)
+const RIPPLE_MIN_PERIODS: f64 = 0.5;
+
+/// The ripple harmonics (indices into `RIPPLE_N`) of which joint `j` sweeps at least
+/// `RIPPLE_MIN_PERIODS` of a period.
+fn ripple_grid(ctx: &Ctx, j: usize) -> Vec<usize> {
+    (0..RIPPLE_N.len()).filter(|&g| RIPPLE_MIN_PERIODS * std::f64::consts::TAU / RIPPLE_N[g] <= ctx.q_span[j]).collect()
+}
+
+/// The grid of the effect's shape on joint `j` (one entry for the asymmetric friction).
+fn grid(ctx: &Ctx, e: EffectKind, j: usize) -> Vec<usize> {
     match e {
-        EffectKind::SmoothCoulomb => SMOOTH_VS.len(),
-        EffectKind::TorqueRipple => RIPPLE_N.len(),
-        _ => 1,
+        EffectKind::SmoothCoulomb => (0..SMOOTH_VS.len()).collect(),
+        EffectKind::TorqueRipple => ripple_grid(ctx, j),
+        _ => vec![0],
     }
 }
 
@@ -86,12 +110,12 @@ pub(super) fn score_grid_effect(ctx: &Ctx, m: &Model, e: EffectKind) -> Scored {
     let mut per_joint = vec![];
     let mut larger = m.clone();
     for j in 0..ctx.n {
-        if let Some(why) = precondition(m, e, j) {
-            per_joint.push(not_scored(why));
+        if let Some(why) = precondition(ctx, m, e, j) {
+            per_joint.push(not_scored(&why));
             continue;
         }
         let mut best: Option<(JointScore, Model)> = None;
-        for g in 0..grid_len(e) {
+        for g in grid(ctx, e, j) {
             let l = with_shape(m, e, j, g);
             let mut sc = ctx.joint_score(m, &l, j, &|p: &Param| p.joint == Some(j) && p.kind == Some(e));
             match e {

@@ -14,8 +14,9 @@
 //!    a model with every candidate in, which slow structure barely moves);
 //! 4. its parameters have their physical sign, and an armature or payload is larger than
 //!    the uncertainty of the nominal (CAD) inertials;
-//! 5. inertia-like effects (payload, armature, offset, spring) are not imitated as well by
-//!    per-link scale errors of at most 25 % of the nominal inertials.
+//! 5. inertia-like effects (payload, armature, offset, spring, gain, ripple) are not imitated
+//!    as well by per-link scale errors of at most 50 % of the nominal inertials (CAD's range)
+//!    nor, on top of the nominal re-fit, by the terminal link's own CAD error.
 //!
 //! Look-alikes: viscous vs armature vs payload compete on how much they explain (their
 //! columns are `qd`, `qdd` and rigid-body terms, which a moving log separates); Stribeck
@@ -26,11 +27,12 @@
 
 use super::dictionary::{C_Q, STRIBECK_VS};
 use super::model::{Model, Param, fit};
-use super::score::{Ctx, LINK_SCALE_MAX, Scored, not_scored};
+use super::score::{CAD_ERROR_MAX, Ctx, Scored, not_scored};
 use super::{CandidateScore, EffectKind, JointScore};
 
 /// The effects a wrong nominal link mass or inertia can imitate (a torque gain scales the
-/// joint's rigid-body torque as a link-mass error partly does).
+/// joint's rigid-body torque as a link-mass error partly does; gravity is periodic in `q`, as
+/// a ripple is).
 pub(super) fn inertia_like(e: EffectKind) -> bool {
     matches!(
         e,
@@ -39,20 +41,32 @@ pub(super) fn inertia_like(e: EffectKind) -> bool {
             | EffectKind::TorqueOffset
             | EffectKind::JointSpring
             | EffectKind::TorqueGain
+            | EffectKind::TorqueRipple
     )
 }
 
-/// Look-alike check against the nominal model's own error: if scaling each link's nominal
-/// inertials (by at most `LINK_SCALE_MAX`) explains the residual and the candidate is no
-/// longer significant on joint `j` once those scales are free, the candidate is imitated
-/// by a model error. Returns the largest scale (as a fraction) when it is.
+/// Look-alike check against the nominal model's own error, on joint `j`: what imitates the
+/// candidate as well (a phrase for the rule's message), or `None`.
+/// * Per-link scales of the nominal inertials, each within `CAD_ERROR_MAX`: if they explain
+///   the residual and the candidate is no longer significant once they are free.
+/// * On top of the re-fit, the terminal link's CAD error: the re-fit leaves that link out
+///   (a change there is what a payload is), so its error stays in the residual; if a change
+///   of its 10 inertial parameters making less torque than the CAD margin on every joint
+///   (as the payload rule asks of a payload) leaves the candidate no longer significant.
 pub(super) fn model_error_lookalike(
     ctx: &Ctx,
     m: &Model,
     larger: &Model,
     j: usize,
     added: &dyn Fn(&Param) -> bool,
-) -> Option<f64> {
+) -> Option<String> {
+    link_scale_lookalike(ctx, m, larger, j, added)
+        .map(|s| format!("the nominal link inertials off by up to {:.0} %", 100.0 * s))
+        .or_else(|| terminal_error_lookalike(ctx, m, larger, j, added))
+}
+
+/// Per-link scales within `CAD_ERROR_MAX` imitate the candidate: the largest scale.
+fn link_scale_lookalike(ctx: &Ctx, m: &Model, larger: &Model, j: usize, added: &dyn Fn(&Param) -> bool) -> Option<f64> {
     let mut base = m.clone();
     base.link_scale = true;
     let mut l = larger.clone();
@@ -60,10 +74,34 @@ pub(super) fn model_error_lookalike(
     let fb = fit(&base.params(), ctx.gr, &ctx.w, &[0, 1]);
     let smax =
         fb.params.iter().zip(&fb.theta).filter(|(p, _)| p.kind.is_none()).map(|(_, v)| v.abs()).fold(0.0, f64::max);
-    if smax > LINK_SCALE_MAX {
+    if smax > CAD_ERROR_MAX {
         return None;
     }
     if ctx.joint_score(&base, &l, j, added).significant { None } else { Some(smax) }
+}
+
+/// On top of the re-fit, a terminal-link change within the CAD margin imitates the
+/// candidate (never asked of the payload itself): the phrase, with that change's size.
+fn terminal_error_lookalike(
+    ctx: &Ctx,
+    m: &Model,
+    larger: &Model,
+    j: usize,
+    added: &dyn Fn(&Param) -> bool,
+) -> Option<String> {
+    if !ctx.has_refit() || m.payload || larger.payload {
+        return None;
+    }
+    let (base, l) = (m.with(None, EffectKind::Payload), larger.with(None, EffectKind::Payload));
+    let fb = fit(&base.params(), ctx.gr, &ctx.w, &[0, 1]);
+    let share = (0..ctx.n).map(|i| ctx.terminal_share(&fb, i)).fold(0.0, f64::max);
+    if share >= super::score::CAD_TERMINAL_MARGIN || ctx.joint_score(&base, &l, j, added).significant {
+        return None;
+    }
+    Some(format!(
+        "the terminal link's own CAD error (a change of its inertials making at most {:.0} % of its nominal torque)",
+        100.0 * share
+    ))
 }
 
 /// The model with effect `e` added where it can go, for scoring on joint `j`.
@@ -117,10 +155,11 @@ fn score_payload(ctx: &Ctx, m: &Model) -> Scored {
     for j in 0..ctx.n {
         let mut sc = ctx.joint_score(m, &l, j, &is_payload);
         if sc.significant
-            && let Some(s) = model_error_lookalike(ctx, m, &l, j, &is_payload)
+            && let Some(s) = link_scale_lookalike(ctx, m, &l, j, &is_payload)
         {
-            reject_as_lookalike(&mut sc, s);
-            lookalike.push((j, s));
+            let why = format!("the nominal link inertials off by up to {:.0} %", 100.0 * s);
+            reject_as_lookalike(&mut sc, &why);
+            lookalike.push((j, why));
         }
         per_joint.push(sc);
     }
@@ -222,7 +261,7 @@ fn reject_link_scale_lookalikes(
     e: EffectKind,
     per_joint: &mut [JointScore],
     larger: &mut Model,
-) -> Vec<(usize, f64)> {
+) -> Vec<(usize, String)> {
     let mut lookalike = vec![];
     for j in 0..ctx.n {
         if !per_joint[j].significant {
@@ -235,9 +274,9 @@ fn reject_link_scale_lookalikes(
         } else {
             Box::new(move |p: &Param| p.joint == Some(j) && p.kind == Some(e))
         };
-        if let Some(sc) = model_error_lookalike(ctx, &base, larger, j, &*sel) {
-            reject_as_lookalike(&mut per_joint[j], sc);
-            lookalike.push((j, sc));
+        if let Some(why) = model_error_lookalike(ctx, &base, larger, j, &*sel) {
+            reject_as_lookalike(&mut per_joint[j], &why);
+            lookalike.push((j, why));
         }
     }
     for &(j, _) in &lookalike {
@@ -246,22 +285,18 @@ fn reject_link_scale_lookalikes(
     lookalike
 }
 
-/// Marks a score rejected by the look-alike rule (link scales of at most `scale` imitate it).
-fn reject_as_lookalike(sc: &mut JointScore, scale: f64) {
+/// Marks a score rejected by the look-alike rule (`why`: what imitates it).
+fn reject_as_lookalike(sc: &mut JointScore, why: &str) {
     sc.significant = false;
-    sc.rejected_by =
-        Some(format!("look-alike: the nominal link inertials off by up to {:.0} % explain it as well", 100.0 * scale));
+    sc.rejected_by = Some(format!("look-alike: {why} explain(s) it as well"));
 }
 
-/// Why a candidate was not named on joints where link-scale errors imitate it (empty if
-/// none).
-fn lookalike_reason(lookalike: &[(usize, f64)]) -> String {
-    if lookalike.is_empty() {
-        return String::new();
-    }
-    format!(
-        "on joint(s) {} it is imitated as well by the nominal link inertials being off by up to {:.0} % (not named)",
-        lookalike.iter().map(|(j, _)| (j + 1).to_string()).collect::<Vec<_>>().join(", "),
-        100.0 * lookalike.iter().map(|x| x.1).fold(0.0, f64::max)
-    )
+/// Why a candidate was not named on joints where the nominal model's error imitates it
+/// (empty if none).
+fn lookalike_reason(lookalike: &[(usize, String)]) -> String {
+    lookalike
+        .iter()
+        .map(|(j, why)| format!("on joint {} it is imitated as well by {why} (not named)", j + 1))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
