@@ -156,14 +156,13 @@ impl OutputSet {
         let abs = std::path::absolute(dir).map_err(io)?;
         let missing: Vec<&Path> = abs.ancestors().take_while(|a| std::fs::symlink_metadata(a).is_err()).collect();
         for d in missing.into_iter().rev() {
-            match std::fs::create_dir(d) {
-                Ok(()) => {
-                    register(d, false).map_err(io)?;
-                    self.created.push(d.to_path_buf());
-                }
-                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {}
-                Err(e) => return Err(io(e)),
-            }
+            let made = create_listed(false, || match std::fs::create_dir(d) {
+                Ok(()) => Ok(Some(d.to_path_buf())),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => Ok(None),
+                Err(e) => Err(e),
+            })
+            .map_err(io)?;
+            self.created.extend(made);
         }
         // an existing non-directory at `dir` fails here
         std::fs::create_dir_all(&abs).map_err(io)
@@ -199,18 +198,15 @@ impl OutputSet {
         if let Some((_, s)) = self.staging.iter().find(|(d, _)| *d == dir) {
             return Ok(s.clone());
         }
-        let base = dir.clone().unwrap_or_else(std::env::temp_dir);
+        let base = std::path::absolute(dir.clone().unwrap_or_else(std::env::temp_dir))?;
         // random name, mode 0700, mkdir fails (and retries another name) on any existing entry
         let mut b = tempfile::Builder::new();
         b.prefix(".ivdyn-");
         #[cfg(unix)]
         b.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o700));
-        let made = b.tempdir_in(&base).map_err(|e| staging_error(e, &base))?.keep();
-        let made = std::path::absolute(made)?;
-        if let Err(e) = register(&made, true) {
-            let _ = std::fs::remove_dir_all(&made);
-            return Err(e);
-        }
+        let made =
+            create_listed(true, || b.tempdir_in(&base).map(|t| Some(t.keep())).map_err(|e| staging_error(e, &base)))?
+                .expect("a staging folder is always new");
         self.staging.push((dir, made.clone()));
         Ok(made)
     }
@@ -240,14 +236,23 @@ fn staging_error(e: std::io::Error, base: &Path) -> std::io::Error {
     std::io::Error::new(e.kind(), format!("cannot create a staging folder in {}: {cause}", base.display()))
 }
 
-/// Lists `dir` for [`remove_staged`]; refused once a signal handler has run.
-fn register(dir: &Path, staging: bool) -> std::io::Result<()> {
+/// Creates a directory with `make` (its path, or `None` when it already existed) and lists
+/// it for [`remove_staged`], both under the registry's lock: a signal handler's
+/// `remove_staged` then either sees it or ran first, and it is not created (created first
+/// and listed after, a signal in between left it behind). Refused once a handler has run.
+fn create_listed(
+    staging: bool,
+    make: impl FnOnce() -> std::io::Result<Option<PathBuf>>,
+) -> std::io::Result<Option<PathBuf>> {
     let mut r = registry();
     if r.closed {
         return Err(std::io::Error::new(std::io::ErrorKind::Interrupted, "the process is stopping"));
     }
-    r.dirs.push((dir.to_path_buf(), staging));
-    Ok(())
+    let made = make()?;
+    if let Some(d) = &made {
+        r.dirs.push((d.clone(), staging));
+    }
+    Ok(made)
 }
 
 /// `target`'s directory (`.` for a bare file name).
