@@ -42,6 +42,9 @@ pub(super) struct Model {
     /// toward the nominal (`Grams::ridge`). The terminal link is left out: a change there is
     /// what a payload is, and the payload candidate and its rules decide it.
     pub(super) refit: usize,
+    /// The terminal link's 10 inertial parameters free on this joint's row alone (the
+    /// look-alike check of the terminal joint, whose torque is that link's alone).
+    pub(super) terminal_row: Option<usize>,
 }
 
 impl Model {
@@ -55,6 +58,7 @@ impl Model {
             all_shapes: false,
             link_scale: false,
             refit: 0,
+            terminal_row: None,
         }
     }
 
@@ -132,6 +136,10 @@ impl Model {
         if self.payload {
             for k in 0..10 {
                 p.push(Param { kind: Some(EffectKind::Payload), joint: None, col: C_PAYLOAD + k });
+            }
+        } else if let Some(j) = self.terminal_row {
+            for k in 0..10 {
+                p.push(Param { kind: Some(EffectKind::Payload), joint: Some(j), col: C_PAYLOAD + k });
             }
         }
         let links = if self.link_scale { self.per_joint.len() } else { 0 };

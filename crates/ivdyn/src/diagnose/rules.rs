@@ -92,9 +92,22 @@ fn terminal_error_lookalike(
     if !ctx.has_refit() || m.payload || larger.payload {
         return None;
     }
-    let (base, l) = (m.with(None, EffectKind::Payload), larger.with(None, EffectKind::Payload));
+    // on the terminal joint, whose torque is the terminal link's alone, that link's
+    // parameters on its row alone (the other rows carry the other links' errors too)
+    let terminal = j + 1 == ctx.n;
+    let with_terminal = |x: &Model| {
+        let mut x = x.clone();
+        if terminal {
+            x.terminal_row = Some(j)
+        } else {
+            x.payload = true
+        }
+        x
+    };
+    let (base, l) = (with_terminal(m), with_terminal(larger));
     let fb = fit(&base.params(), ctx.gr, &ctx.w, &[0, 1]);
-    let share = (0..ctx.n).map(|i| ctx.terminal_share(&fb, i)).fold(0.0, f64::max);
+    let rows = if terminal { j..j + 1 } else { 0..ctx.n };
+    let share = rows.map(|i| ctx.terminal_share(&fb, i)).fold(0.0, f64::max);
     if share >= super::score::CAD_TERMINAL_MARGIN || ctx.joint_score(&base, &l, j, added).significant {
         return None;
     }
