@@ -52,7 +52,8 @@ pub(super) fn inertia_like(e: EffectKind) -> bool {
 /// * On top of the re-fit, the terminal link's CAD error: the re-fit leaves that link out
 ///   (a change there is what a payload is), so its error stays in the residual; if a change
 ///   of its 10 inertial parameters making less torque than the CAD margin on every joint
-///   (as the payload rule asks of a payload) leaves the candidate no longer significant.
+///   (as the payload rule asks of a payload) leaves the candidate no longer significant;
+///   on the terminal joint that change is fitted to the joint's own row.
 pub(super) fn model_error_lookalike(
     ctx: &Ctx,
     m: &Model,
