@@ -27,7 +27,7 @@
 
 use super::dictionary::{C_Q, STRIBECK_VS};
 use super::model::{Model, Param, fit};
-use super::score::{CAD_ERROR_MAX, Ctx, Scored, not_scored};
+use super::score::{CAD_ERROR_MAX, CAD_TERMINAL_MARGIN, Ctx, Scored, not_scored};
 use super::{CandidateScore, EffectKind, JointScore};
 
 /// The effects a wrong nominal link mass or inertia can imitate (a torque gain scales the
@@ -51,9 +51,10 @@ pub(super) fn inertia_like(e: EffectKind) -> bool {
 ///   the residual and the candidate is no longer significant once they are free.
 /// * On top of the re-fit, the terminal link's CAD error: the re-fit leaves that link out
 ///   (a change there is what a payload is), so its error stays in the residual; if a change
-///   of its 10 inertial parameters making less torque than the CAD margin on every joint
-///   (as the payload rule asks of a payload) leaves the candidate no longer significant;
-///   on the terminal joint that change is fitted to the joint's own row.
+///   of its 10 inertial parameters making less torque than `CAD_ERROR_MAX` of its nominal
+///   torque on every joint (what a link-scale error of that size makes) leaves the
+///   candidate no longer significant; on the terminal joint that change is fitted to the
+///   joint's own row and may make up to `CAD_TERMINAL_MARGIN`, the payload's margin.
 pub(super) fn model_error_lookalike(
     ctx: &Ctx,
     m: &Model,
@@ -109,7 +110,10 @@ fn terminal_error_lookalike(
     let fb = fit(&base.params(), ctx.gr, &ctx.w, &[0, 1]);
     let rows = if terminal { j..j + 1 } else { 0..ctx.n };
     let share = rows.map(|i| ctx.terminal_share(&fb, i)).fold(0.0, f64::max);
-    if share >= super::score::CAD_TERMINAL_MARGIN || ctx.joint_score(&base, &l, j, added).significant {
+    // on its own row the terminal link's CAD error is bounded as the payload's is; on the
+    // others, where the re-fit holds its regrouped mass, as a link scale
+    let margin = if terminal { CAD_TERMINAL_MARGIN } else { CAD_ERROR_MAX };
+    if share >= margin || ctx.joint_score(&base, &l, j, added).significant {
         return None;
     }
     Some(format!(
