@@ -16,7 +16,7 @@
 //!    the uncertainty of the nominal (CAD) inertials;
 //! 5. inertia-like effects (payload, armature, offset, spring, gain, ripple) are not imitated
 //!    as well by per-link scale errors of at most 50 % of the nominal inertials (CAD's range)
-//!    nor, on top of the nominal re-fit, by the terminal link's own CAD error.
+//!    nor by the terminal link's own CAD error, which the nominal re-fit leaves out.
 //!
 //! Look-alikes: viscous vs armature vs payload compete on how much they explain (their
 //! columns are `qd`, `qdd` and rigid-body terms, which a moving log separates); Stribeck
@@ -49,8 +49,10 @@ pub(super) fn inertia_like(e: EffectKind) -> bool {
 /// candidate as well (a phrase for the rule's message), or `None`.
 /// * Per-link scales of the nominal inertials, each within `CAD_ERROR_MAX`: if they explain
 ///   the residual and the candidate is no longer significant once they are free.
-/// * On top of the re-fit, the terminal link's CAD error: the re-fit leaves that link out
-///   (a change there is what a payload is), so its error stays in the residual; if a change
+/// * The terminal link's CAD error: the re-fit leaves that link out (a change there is what
+///   a payload is), and without the re-fit no link is re-fitted, so its error stays in the
+///   residual either way (the per-link scales hold it only roughly: its mass, COM and
+///   inertia are off independently); if a change
 ///   of its 10 inertial parameters making less torque than `CAD_ERROR_MAX` of its nominal
 ///   torque on every joint (what a link-scale error of that size makes) leaves the
 ///   candidate no longer significant; on the terminal joint that change is fitted to the
@@ -82,8 +84,8 @@ fn link_scale_lookalike(ctx: &Ctx, m: &Model, larger: &Model, j: usize, added: &
     if ctx.joint_score(&base, &l, j, added).significant { None } else { Some(smax) }
 }
 
-/// On top of the re-fit, a terminal-link change within the CAD margin imitates the
-/// candidate (never asked of the payload itself): the phrase, with that change's size.
+/// A terminal-link change within the CAD margin imitates the candidate (never asked of the
+/// payload itself): the phrase, with that change's size.
 fn terminal_error_lookalike(
     ctx: &Ctx,
     m: &Model,
@@ -91,7 +93,7 @@ fn terminal_error_lookalike(
     j: usize,
     added: &dyn Fn(&Param) -> bool,
 ) -> Option<String> {
-    if !ctx.has_refit() || m.payload || larger.payload {
+    if m.payload || larger.payload {
         return None;
     }
     // on the terminal joint, whose torque is the terminal link's alone, that link's

@@ -285,11 +285,6 @@ impl Ctx<'_> {
         })
     }
 
-    /// The search runs on top of the nominal re-fit.
-    pub(super) fn has_refit(&self) -> bool {
-        self.refit
-    }
-
     /// The payload part of `f`'s torque on joint `j` as a share of the terminal link's
     /// nominal torque there.
     pub(super) fn terminal_share(&self, f: &Fit, j: usize) -> f64 {

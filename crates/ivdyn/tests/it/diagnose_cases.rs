@@ -256,6 +256,27 @@ fn cad_error_of_the_terminal_link_is_no_payload() {
     check_case_in("diagnose_cad/panda", "e30_0fx");
 }
 
+/// Issue 15: without the nominal re-fit too, the terminal link's own CAD error is a
+/// look-alike (`diagnose_cad/ur3/e15_2fx`, tuning part, inertials 15 % off: springs on
+/// `shoulder_pan_joint` and `elbow_joint`, an offset on `wrist_1_joint`). Before
+/// 2026-12-03 that check ran only on top of the re-fit, and an offset was also named on
+/// `shoulder_lift_joint`, which the terminal link's error imitates.
+/// (Names only: the offset's `tau0`, -0.202 N m against -0.229, is 12 % off with the
+/// inertials 15 % off and no re-fit; the parameters' accuracy is in docs/diagnose.md.)
+#[test]
+fn cad_error_of_the_terminal_link_without_the_refit() {
+    let (set, name) = ("diagnose_cad/ur3", "e15_2fx");
+    let m = cases_in(set);
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
+    let d = run_in(set, case, &m);
+    let mut named: Vec<(&str, Vec<&str>)> =
+        d.effects.iter().map(|e| (e.name.as_str(), e.joints.iter().map(|j| j.as_str()).collect())).collect();
+    named.sort();
+    let want =
+        vec![("joint_spring", vec!["shoulder_pan_joint", "elbow_joint"]), ("torque_offset", vec!["wrist_1_joint"])];
+    assert_eq!(named, want, "{name}");
+}
+
 /// Issue 15 item 3: the headline is one sentence of at most 200 characters; every
 /// candidate row not named on a joint says which rule rejected it, with its numbers.
 #[test]
