@@ -462,8 +462,9 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     standard deviations; ``out_json``: a second copy of diagnosis.json; ``velocity`` and
     ``window`` as in :func:`identify` (``ignore_log_velocity=True`` is
     ``velocity="positions"``); ``drives``: also search the effects of real drives
-    (``--drives``: asymmetric, smooth and load-dependent friction, torque gain, torque
-    ripple, time delay; off by default, ``docs/diagnose.md``); ``verdict``: also return the
+    (``--drives``: smooth and load-dependent friction, torque gain, torque ripple, time
+    delay; off by default, ``docs/diagnose.md``; direction-dependent friction, a refinement
+    of Coulomb friction found on a joint, is searched either way); ``verdict``: also return the
     report's headline (``verdict``: one sentence) and the lines below it (``details``: each
     effect, what is left above the noise and why nothing was named on it).
     """

@@ -41,8 +41,9 @@ pub struct DiagnoseArgs {
     /// Skip report.html (faster; diagnosis.json and residuals.mcap only).
     #[arg(long)]
     no_report: bool,
-    /// Also search the effects of real drives (asymmetric, smooth and load-dependent
-    /// friction, torque gain, torque ripple, time delay); off by default (docs/diagnose.md).
+    /// Also search the effects of real drives (smooth and load-dependent friction, torque
+    /// gain, torque ripple, time delay); off by default (docs/diagnose.md). Direction-dependent
+    /// friction, a refinement of Coulomb friction found on a joint, is searched either way.
     #[arg(long)]
     drives: bool,
 }

@@ -67,10 +67,11 @@ pub struct DiagnoseOptions {
     pub blocks_per_fold: usize,
     /// Most effects to add (default 10).
     pub max_steps: usize,
-    /// Also search the effects of real drives (direction-dependent, smooth and
-    /// load-dependent friction, torque gain, torque ripple, time delay). Off by default: on
-    /// logs whose nominal inertials are off (CAD models) the gain and ripple candidates
-    /// still take up rigid-body error the re-fit does not hold (docs/diagnose.md).
+    /// Also search the effects of real drives (smooth and load-dependent friction, torque
+    /// gain, torque ripple, time delay; direction-dependent friction is searched either
+    /// way, `EffectKind::needs_drives`). Off by default: on logs whose nominal inertials
+    /// are off (CAD models) the gain and ripple candidates still take up rigid-body error
+    /// the re-fit does not hold (docs/diagnose.md).
     pub drives: bool,
     /// Log file name for the report (informational).
     pub log_name: String,
@@ -180,7 +181,15 @@ impl EffectKind {
         EffectKind::TimeDelay,
     ];
 
-    /// An effect of the real-drive vocabulary (searched only with `DiagnoseOptions::drives`).
+    /// Searched only with `DiagnoseOptions::drives`: the real-drive effects but
+    /// direction-dependent Coulomb friction. That one only refines Coulomb friction found on
+    /// a joint, so it never names a joint the basic search leaves alone, and a small offset
+    /// beside Coulomb friction is already read as it (`drive_rules::offset_or_asymmetric`).
+    pub fn needs_drives(&self) -> bool {
+        self.is_drive() && *self != EffectKind::AsymmetricCoulomb
+    }
+
+    /// An effect of the real-drive vocabulary (DESIGN.md).
     pub fn is_drive(&self) -> bool {
         matches!(
             self,

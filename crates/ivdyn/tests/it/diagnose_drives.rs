@@ -16,11 +16,15 @@ use super::diagnose_cases::{cases_in, f64s, run_with};
 use ivdyn::diagnose::DiagnoseOptions;
 
 fn check(name: &str) {
+    // the drive vocabulary is searched on request (`--drives`)
+    check_with(name, &DiagnoseOptions { drives: true, ..Default::default() });
+}
+
+fn check_with(name: &str, opts: &DiagnoseOptions) {
     let set = "diagnose_drives";
     let m = cases_in(set);
     let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
-    // the drive vocabulary is searched on request (`--drives`)
-    let d = run_with(set, case, &m, &DiagnoseOptions { drives: true, ..Default::default() }).json;
+    let d = run_with(set, case, &m, opts).json;
     let truth = &case["effects"].as_array().unwrap()[0];
     let named: Vec<(String, Vec<String>)> = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
     let tj: Vec<String> = truth["joints"].as_array().unwrap().iter().map(|j| j.as_str().unwrap().to_string()).collect();
@@ -56,6 +60,15 @@ fn check(name: &str) {
 #[test]
 fn asymmetric_coulomb_friction() {
     check("asymmetric_coulomb");
+}
+
+/// Direction-dependent friction only refines Coulomb friction found on a joint, so the
+/// basic search tries it too (`EffectKind::needs_drives`): the same log, default options.
+/// Before 2026-12-03 the basic search named Coulomb friction there and rejected the offset
+/// beside it as direction-dependent friction, which it could not name.
+#[test]
+fn asymmetric_coulomb_friction_without_drives() {
+    check_with("asymmetric_coulomb", &DiagnoseOptions::default());
 }
 
 #[test]
