@@ -52,11 +52,11 @@ pub(super) fn inertia_like(e: EffectKind) -> bool {
 /// * The terminal link's CAD error: the re-fit leaves that link out (a change there is what
 ///   a payload is), and without the re-fit no link is re-fitted, so its error stays in the
 ///   residual either way (the per-link scales hold it only roughly: its mass, COM and
-///   inertia are off independently); if a change
-///   of its 10 inertial parameters making less torque than `CAD_ERROR_MAX` of its nominal
-///   torque on every joint (what a link-scale error of that size makes) leaves the
-///   candidate no longer significant; on the terminal joint that change is fitted to the
-///   joint's own row and may make up to `CAD_TERMINAL_MARGIN`, the payload's margin.
+///   inertia are off independently). It imitates the candidate if a change of its 10
+///   inertial parameters making less torque than `CAD_ERROR_MAX` of its nominal torque on
+///   every joint (what a link-scale error of that size makes) leaves the candidate no
+///   longer significant; on the terminal joint that change is fitted to the joint's own row
+///   and may make up to `CAD_TERMINAL_MARGIN`, the payload's margin.
 pub(super) fn model_error_lookalike(
     ctx: &Ctx,
     m: &Model,
@@ -112,8 +112,9 @@ fn terminal_error_lookalike(
     let fb = fit(&base.params(), ctx.gr, &ctx.w, &[0, 1]);
     let rows = if terminal { j..j + 1 } else { 0..ctx.n };
     let share = rows.map(|i| ctx.terminal_share(&fb, i)).fold(0.0, f64::max);
-    // on its own row the terminal link's CAD error is bounded as the payload's is; on the
-    // others, where the re-fit holds its regrouped mass, as a link scale
+    // on its own row the terminal link's CAD error is bounded as the payload's is (mass, COM
+    // and inertia each off); on all rows at once, as a link scale (125 % there took true
+    // armatures on the CAD set, docs/diagnose.md)
     let margin = if terminal { CAD_TERMINAL_MARGIN } else { CAD_ERROR_MAX };
     if share >= margin || ctx.joint_score(&base, &l, j, added).significant {
         return None;
