@@ -321,3 +321,26 @@ def test_oracle_numbers_match_the_log(robot_name, name):
     if not any(e["name"] == "payload" for e in case["effects"]):
         rest = [j for j in range(len(b)) if j not in idx]
         np.testing.assert_array_equal(r[rest], b[rest])
+
+
+def test_a_long_reference_is_scaled_into_the_velocity_limit():
+    """Over a long log the reference's harmonics line up to the sum of their peak speeds; the
+    generator then scales that joint's motion about its centre to 89 % of the URDF velocity
+    limit (Panda joint 7: 2.61 rad/s) and leaves a joint below 90 % bit-identical."""
+    import make_diagnose_cases as gen
+    urdf = os.path.join(ROOT, "fixtures", "diagnose_cad", "panda", "panda_arm.urdf")
+    names = [f"panda_joint{i}" for i in range(1, 8)]
+    centres = [0.3, -0.4, -0.3, -2.0, 0.4, 1.9, 0.7]
+    t = np.arange(0, 4.0, 1e-3)
+    w = 2 * np.pi * 0.5
+    amp = np.array([1.0, 0.2, 0.2, 0.2, 0.2, 0.2, 2.6]) / w   # peak speeds 1.0 ... 2.6 rad/s
+    qr = np.array(centres) + amp * np.sin(w * t)[:, None]
+    qdr = amp * w * np.cos(w * t)[:, None]
+    qddr = -amp * w * w * np.sin(w * t)[:, None]
+    q2, qd2, qdd2 = gen.within_velocity_limits({"centres": centres}, urdf, names, qr, qdr, qddr)
+    k = 0.89 * 2.61 / 2.6
+    assert np.abs(qd2[:, 6]).max() == pytest.approx(0.89 * 2.61, rel=1e-12)
+    np.testing.assert_allclose(q2[:, 6] - centres[6], k * (qr[:, 6] - centres[6]), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(qdd2[:, 6], k * qddr[:, 6], rtol=1e-12)
+    assert np.array_equal(q2[:, :6], qr[:, :6]) and np.array_equal(qd2[:, :6], qdr[:, :6])
+    gen.check_reference({"acc_limits": None}, urdf, {"name": "long", "joint_names": names}, q2, qd2, qdd2)
