@@ -441,7 +441,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
              ignore_log_velocity: bool = False, report: bool = True, out_json: Optional[PathLike] = None,
              velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
              exclude: Optional[Sequence[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
-             gear_ratio=None, motor_constant=None, drives: bool = False, verdict: bool = False,
+             gear_ratio=None, motor_constant=None, drives: Optional[bool] = None, verdict: bool = False,
              progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
@@ -461,10 +461,11 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     data); ``alpha``: F-test level; ``min_effect``: smallest effect named, in noise
     standard deviations; ``out_json``: a second copy of diagnosis.json; ``velocity`` and
     ``window`` as in :func:`identify` (``ignore_log_velocity=True`` is
-    ``velocity="positions"``); ``drives``: also search the effects of real drives
-    (``--drives``: smooth and load-dependent friction, torque gain, torque ripple, time
-    delay; off by default, ``docs/diagnose.md``; direction-dependent friction, a refinement
-    of Coulomb friction found on a joint, is searched either way); ``verdict``: also return the
+    ``velocity="positions"``); ``drives``: search the effects of real drives
+    (smooth and load-dependent friction, torque gain, torque ripple, time delay): ``True``
+    (``--drives``), ``False`` (``--no-drives``), or ``None`` (default): on logs of at least
+    15 s with white torque noise, ``docs/diagnose.md``; direction-dependent friction, a refinement of Coulomb
+    friction found on a joint, is searched either way; ``verdict``: also return the
     report's headline (``verdict``: one sentence) and the lines below it (``details``: each
     effect, what is left above the noise and why nothing was named on it).
     """
@@ -475,7 +476,8 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
                                None if cutoff is None else float(cutoff), float(alpha), float(min_effect),
                                bool(ignore_log_velocity), bool(report), _params(params),
                                json_out=_path(out_json), progress=cb, velocity=str(velocity),
-                               window=_window(window), exclude=_spans(exclude), drives=bool(drives),
+                               window=_window(window), exclude=_spans(exclude),
+                               drives=None if drives is None else bool(drives),
                                verdict=bool(verdict),
                                **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:

@@ -142,7 +142,7 @@ def check_report(path, d):
 def run_diagnose(ivdyn_bin, cfg, entry, nominal, drives, out):
     log = os.path.join(os.path.dirname(nominal), entry["log"])
     cmd = [ivdyn_bin, "--quiet", "diagnose", "--urdf", nominal, "--base", cfg["base"], "--tip", cfg["tip"],
-           "--log", log, "--out", out] + entry["diagnose_args"] + (["--drives"] if drives else [])
+           "--log", log, "--out", out] + entry["diagnose_args"] + (["--drives"] if drives else ["--no-drives"])
     return cmd, subprocess.run(cmd, capture_output=True, text=True)
 
 

@@ -8,7 +8,7 @@ counts as one pair with no joint). Oracle RMS: `oracle_rms_exact` (the true effe
 nominal, wrong model) and `oracle_rms_true_model` (the true effects on the true rigid-body
 model: what a perfect diagnosis with a perfect re-fit leaves).
 
-    python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn] [--drives]
+    python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn] [--drives | --no-drives]
 
 `--part heldout` runs the held-out third of split.json: run it once, at the end.
 """
@@ -54,12 +54,21 @@ def run_case(binary, manifest, case, tmp, extra=()):
         return json.load(f), secs, []
 
 
+def vocabulary_args(args):
+    """The diagnose flag choosing the effect vocabulary: none leaves it to diagnose (the
+    drive effects on logs of at least 20 s with white torque noise)."""
+    return ["--drives"] if args.drives else ["--no-drives"] if args.no_drives else []
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("root", help="directory written by make_cad_cases.py (split.json, <robot>/cases.json)")
     ap.add_argument("--part", choices=["tune", "heldout", "all"], default="tune")
     ap.add_argument("--bin", default=os.environ.get("IVDYN_BIN", "target/release/ivdyn"))
-    ap.add_argument("--drives", action="store_true", help="search the drive vocabulary too (diagnose --drives)")
+    vocab = ap.add_mutually_exclusive_group()
+    vocab.add_argument("--drives", action="store_true", help="search the drive vocabulary too (diagnose --drives)")
+    vocab.add_argument("--no-drives", action="store_true",
+                       help="the basic vocabulary only (diagnose --no-drives); default: as diagnose decides per log")
     args = ap.parse_args(argv)
     with open(os.path.join(args.root, "split.json")) as f:
         split = json.load(f)
@@ -79,7 +88,7 @@ def main(argv=None):
                 manifests[robot]["_dir"] = os.path.join(args.root, robot)
             m = manifests[robot]
             case = next(c for c in m["cases"] if c["name"] == name)
-            d, secs, err = run_case(args.bin, m, case, os.path.join(tmp, robot), ["--drives"] if args.drives else [])
+            d, secs, err = run_case(args.bin, m, case, os.path.join(tmp, robot), vocabulary_args(args))
             truth = pairs(case["effects"])
             true_pairs += len(truth)
             if d is None:

@@ -611,7 +611,7 @@ fn simulate<'py>(
                     min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None, json_out=None, progress=None,
                     velocity="auto", window=None, exclude=None,
                     current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None,
-                    drives=false, verdict=false))]
+                    drives=None, verdict=false))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
@@ -636,7 +636,7 @@ fn diagnose(
     torque_constant: Option<&Bound<'_, PyAny>>,
     gear_ratio: Option<&Bound<'_, PyAny>>,
     motor_constant: Option<&Bound<'_, PyAny>>,
-    drives: bool,
+    drives: Option<bool>,
     verdict: bool,
 ) -> PyResult<String> {
     use ivdyn::diagnose::DiagnoseOptions;

@@ -41,11 +41,15 @@ pub struct DiagnoseArgs {
     /// Skip report.html (faster; diagnosis.json and residuals.mcap only).
     #[arg(long)]
     no_report: bool,
-    /// Also search the effects of real drives (smooth and load-dependent friction, torque
-    /// gain, torque ripple, time delay); off by default (docs/diagnose.md). Direction-dependent
-    /// friction, a refinement of Coulomb friction found on a joint, is searched either way.
-    #[arg(long)]
+    /// Search the effects of real drives (smooth and load-dependent friction, torque gain,
+    /// torque ripple, time delay). By default they are searched on logs of at least 15 s
+    /// (docs/diagnose.md). Direction-dependent friction, a refinement of Coulomb friction
+    /// found on a joint, is searched either way.
+    #[arg(long, conflicts_with = "no_drives")]
     drives: bool,
+    /// Leave the effects of real drives out, whatever the log's length.
+    #[arg(long)]
+    no_drives: bool,
 }
 
 pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
@@ -55,7 +59,13 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
     let opts = DiagnoseOptions {
         alpha: a.alpha,
         min_effect: a.min_effect,
-        drives: a.drives,
+        drives: if a.drives {
+            Some(true)
+        } else if a.no_drives {
+            Some(false)
+        } else {
+            None
+        },
         cutoff_hz: a.cutoff,
         velocity,
         window: cond.window,

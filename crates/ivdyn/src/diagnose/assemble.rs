@@ -78,7 +78,8 @@ pub(super) fn assemble(
     let predicted = step_predictions(&raw, &kept, ctx, d, &p.tau_nom);
     let gaps = remaining_gaps(ctx, &m, &final_rms, &regimes_after, names);
     let next_command = next_command(&kept, nominal_refit.is_some(), opts);
-    let (verdict, details) = verdict(&kept, &effects, &gaps, nominal_refit.as_ref(), names);
+    let (verdict, mut details) = verdict(&kept, &effects, &gaps, nominal_refit.as_ref(), names);
+    details.push(format!("effects of real drives {}", p.drives_why));
     let traces =
         Traces { t: s.t.clone(), q: s.q.clone(), qd: s.qd.clone(), qdd: s.qdd.clone(), tau: s.tau.clone(), predicted };
     Ok(Diagnosis {
@@ -429,7 +430,7 @@ fn log_info(opts: &DiagnoseOptions, s: &Signals) -> LogInfo {
         file: opts.log_name.clone(),
         urdf: opts.urdf_name.clone(),
         samples: s.t.len(),
-        duration: s.t.last().copied().unwrap_or(0.0) - s.t.first().copied().unwrap_or(0.0),
+        duration: s.duration(),
         rate: 1.0 / s.dt,
         velocity_in_log: s.velocity_in_log,
         velocity: s.velocity.clone(),

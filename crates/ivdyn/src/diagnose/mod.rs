@@ -69,10 +69,10 @@ pub struct DiagnoseOptions {
     pub max_steps: usize,
     /// Also search the effects of real drives (smooth and load-dependent friction, torque
     /// gain, torque ripple, time delay; direction-dependent friction is searched either
-    /// way, `EffectKind::needs_drives`). Off by default: on logs whose nominal inertials
-    /// are off (CAD models) the gain and ripple candidates still take up rigid-body error
-    /// the re-fit does not hold (docs/diagnose.md).
-    pub drives: bool,
+    /// way, `EffectKind::needs_drives`): `Some` as given; `None` (default) when the samples
+    /// used span at least [`DRIVES_MIN_DURATION_S`] and the torque noise is white at the
+    /// sample rate ([`DiagnoseOptions::drives_for`]).
+    pub drives: Option<bool>,
     /// Log file name for the report (informational).
     pub log_name: String,
     /// URDF file name for the report (informational).
@@ -83,7 +83,32 @@ pub struct DiagnoseOptions {
     pub next_args: Vec<String>,
 }
 
+/// Shortest log (seconds of samples used) on which the effects of real drives are searched
+/// by default (with white torque noise, [`DiagnoseOptions::drives_for`]). On shorter logs
+/// their many candidates take up rigid-body error of CAD inertials and noise: on the 2 s and
+/// 5-12 s random arms they lose exact names or add false alarms, while on the tuning parts
+/// of 20-60 s logs they name more cases exactly and no effect on a clean log. 15 s lies in
+/// the untested gap between those lengths, below the 19.6 s that a 20 s log keeps after its
+/// filter edges (docs/diagnose.md, "Effects of real drives by default on long logs").
+pub const DRIVES_MIN_DURATION_S: f64 = 15.0;
+
+/// Largest median (over joints) lag-1 autocorrelation of the residual's sample-to-sample
+/// differences at which the torque noise counts as white at the sample rate: -0.5 for
+/// white noise, about -0.25 once interpolated onto a resampled grid, about 0 for a torque
+/// low-passed before it was logged (the LWR4+ runs: -0.01 to 0.01). On such a log the
+/// residual is smooth model error the drive candidates fit (a spring, ripples and gains
+/// on the LWR4+), so they are left out by default.
+pub const WHITE_NOISE_MAX_LAG1: f64 = -0.125;
+
 impl DiagnoseOptions {
+    /// Whether the effects of real drives are searched on a log whose samples used span
+    /// `duration_s` seconds and whose residual's differences have median lag-1
+    /// autocorrelation `noise_lag1`: as given, else on logs of at least
+    /// [`DRIVES_MIN_DURATION_S`] with white torque noise ([`WHITE_NOISE_MAX_LAG1`]).
+    pub fn drives_for(&self, duration_s: f64, noise_lag1: f64) -> bool {
+        self.drives.unwrap_or(duration_s >= DRIVES_MIN_DURATION_S && noise_lag1 <= WHITE_NOISE_MAX_LAG1)
+    }
+
     /// Rejects option values the search cannot use (docs/reliability.md): `alpha` outside
     /// `(0, 0.5]`, `min_effect` outside `[0, 1e3]` noise standard deviations, `min_share`
     /// outside `[0, 1]`, block and step counts outside their bounds.
@@ -108,7 +133,7 @@ impl Default for DiagnoseOptions {
             exclude: vec![],
             blocks_per_fold: 8,
             max_steps: 10,
-            drives: false,
+            drives: None,
             log_name: String::new(),
             urdf_name: String::new(),
             next_args: vec![],
@@ -458,7 +483,9 @@ pub struct Diagnosis {
     /// "nothing significant missing").
     pub verdict: String,
     /// The details below the headline: each effect with its joints, the nominal re-fit
-    /// and why, what is left above the noise per joint, the next command to run.
+    /// and why, what is left above the noise per joint, what the next command leaves out,
+    /// and whether the effects of real drives were searched and why
+    /// ([`DiagnoseOptions::drives_for`]).
     pub details: Vec<String>,
     /// Signals for plots and `residuals.mcap`.
     pub traces: Traces,

@@ -5,6 +5,7 @@
 use super::DiagnoseOptions;
 use super::dictionary::{Dictionary, Grams, build_dictionary, grams};
 use super::model::{basic_all_model, fit, noise_of_all_model, rss_joint};
+use super::residual::{difference_lag1, median};
 use super::signals::{Signals, accel_step, condition};
 use crate::Robot;
 use crate::batch;
@@ -21,6 +22,10 @@ pub(super) struct Prepared {
     pub(super) tau_nom: Vec<f64>,
     pub(super) d: Dictionary,
     pub(super) gr: Grams,
+    /// Whether the effects of real drives are searched ([`DiagnoseOptions::drives_for`] of
+    /// the samples used), and why; set by [`prepare_best`].
+    pub(super) drives: bool,
+    pub(super) drives_why: String,
 }
 
 /// The log prepared at the best cutoff, then again with the acceleration aligned to the
@@ -54,9 +59,30 @@ pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions
         }
     }
     let p = best.expect("at least one cutoff").1;
+    let (duration, lag1) = (p.s.duration(), p.noise_lag1());
+    let drives = opts.drives_for(duration, lag1);
     // torque-to-motion alignment (a fraction of a sample), then everything again
-    let alpha = p.alignment(robot, opts.drives)?;
-    prepare(robot, log, opts, p.s.cutoff_hz, Some(alpha), true)
+    let alpha = p.alignment(robot, drives)?;
+    let drives_why = drives_why(opts.drives, duration, lag1);
+    Ok(Prepared { drives, drives_why, ..prepare(robot, log, opts, p.s.cutoff_hz, Some(alpha), true)? })
+}
+
+/// Why the effects of real drives were searched or not ([`DiagnoseOptions::drives_for`]).
+fn drives_why(given: Option<bool>, duration: f64, lag1: f64) -> String {
+    let (min, white) = (super::DRIVES_MIN_DURATION_S, super::WHITE_NOISE_MAX_LAG1);
+    match given {
+        Some(true) => "searched, as asked".into(),
+        Some(false) => "not searched, as asked".into(),
+        None if duration < min => format!(
+            "not searched: the log spans {duration:.1} s, under {min} s, where their candidates take up inertial error and noise (--drives, drives=True searches them)"
+        ),
+        None if lag1 > white => format!(
+            "not searched: the torque noise is not white at the sample rate (the residual's differences have lag-1 autocorrelation {lag1:.2}, where white noise gives -0.5: a torque low-passed before it was logged), where their candidates fit smooth model error (--drives, drives=True searches them)"
+        ),
+        None => format!(
+            "searched: the log spans {duration:.1} s, at least {min} s, with white torque noise (--no-drives, drives=False leaves them out)"
+        ),
+    }
 }
 
 fn prepare(
@@ -84,10 +110,18 @@ fn prepare(
             msg: "the regressor sums overflow (values in the log too large)".into(),
         });
     }
-    Ok(Prepared { s, tau_nom, d, gr })
+    Ok(Prepared { s, tau_nom, d, gr, drives: false, drives_why: String::new() })
 }
 
 impl Prepared {
+    /// Median over joints of the lag-1 autocorrelation of the differences of the basic
+    /// all-candidates residual ([`difference_lag1`]): how white the torque noise is.
+    fn noise_lag1(&self) -> f64 {
+        let n = self.d.cols.len();
+        let (_, _, r_all) = noise_of_all_model(&self.d, &self.gr, n, self.s.t.len(), 0, false);
+        median((0..n).map(|j| difference_lag1(&r_all, n, j)).collect())
+    }
+
     /// Sum over joints of log(RSS) of the all-candidates model (scale-free across joints).
     fn log_rss_all(&self) -> f64 {
         let n = self.d.cols.len();

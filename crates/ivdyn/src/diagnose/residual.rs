@@ -5,7 +5,7 @@
 use super::Regimes;
 use super::signals::Signals;
 
-fn median(mut v: Vec<f64>) -> f64 {
+pub(super) fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
@@ -51,6 +51,19 @@ pub(super) fn noise_and_tau(r: &[f64], n: usize, j: usize) -> (f64, f64) {
         ((0..t_len).map(|k| x(k) * x(k)).sum::<f64>() / t_len as f64).sqrt()
     };
     (sigma.max(1e-12), tau)
+}
+
+/// Lag-1 autocorrelation of the sample-to-sample differences of the residual `r` on
+/// joint `j`: -0.5 for white noise (whatever slow structure it rides on), about -0.25 for
+/// noise interpolated onto a resampled grid, about 0 for a torque low-passed before it was
+/// logged (its differences are the smooth noise's slope).
+pub(super) fn difference_lag1(r: &[f64], n: usize, j: usize) -> f64 {
+    let t_len = r.len() / n;
+    let dx: Vec<f64> = (1..t_len).map(|k| r[k * n + j] - r[(k - 1) * n + j]).collect();
+    let mean = dx.iter().sum::<f64>() / dx.len().max(1) as f64;
+    let c0: f64 = dx.iter().map(|v| (v - mean).powi(2)).sum();
+    let c1: f64 = dx.windows(2).map(|w| (w[0] - mean) * (w[1] - mean)).sum();
+    if c0 > 0.0 { c1 / c0 } else { 0.0 }
 }
 
 /// RMS per joint of a residual (N m).

@@ -145,7 +145,7 @@ fn propose(m: &Model, e: EffectKind, j: usize) -> Option<Model> {
 pub(super) fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
     let n = ctx.n;
     let mut out = vec![];
-    for e in EffectKind::ALL.into_iter().filter(|e| ctx.opts.drives || !e.needs_drives()) {
+    for e in EffectKind::ALL.into_iter().filter(|e| ctx.drives || !e.needs_drives()) {
         let (mut per_joint, mut larger, mut lookalike) = match e {
             EffectKind::Payload if m.payload => continue,
             EffectKind::Payload => score_payload(ctx, m),

@@ -72,6 +72,8 @@ pub(super) struct Ctx<'a> {
     dt: f64,
     pub(super) n: usize,
     pub(super) opts: &'a DiagnoseOptions,
+    /// Whether the effects of real drives are searched (`Prepared::drives`).
+    pub(super) drives: bool,
 }
 
 /// Range of motion per joint: `max q - min q` over the log (samples interleaved by joint).
@@ -103,7 +105,7 @@ impl<'a> Ctx<'a> {
         let n = robot.dof();
         let (s, d, gr) = (&p.s, &p.d, &p.gr);
         let t_len = s.t.len();
-        let (sigma, rho, _) = noise_of_all_model(d, gr, n, t_len, refit, opts.drives);
+        let (sigma, rho, _) = noise_of_all_model(d, gr, n, t_len, refit, p.drives);
         let w: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
         let m_diag = mean_mass_diag(robot, &s.q, n)?;
         let terminal_mass = robot.params()[10 * (n - 1)];
@@ -116,7 +118,7 @@ impl<'a> Ctx<'a> {
         let terminal_rms = (0..n).map(|j| effect_rms(&terminal, gr, j, &|_| true)).collect();
         let prev_link_mass = if n > 1 { robot.params()[10 * (n - 2)] } else { 0.0 };
         let h_all: Vec<f64> = {
-            let mut all = all_model(n, opts.drives);
+            let mut all = all_model(n, p.drives);
             all.refit = refit;
             let pa = all.params();
             let (f0, f1) = (fit(&pa, gr, &w, &[0]), fit(&pa, gr, &w, &[1]));
@@ -137,6 +139,7 @@ impl<'a> Ctx<'a> {
             dt: s.dt,
             n,
             opts,
+            drives: p.drives,
         })
     }
 }

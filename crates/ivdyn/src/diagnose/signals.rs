@@ -28,6 +28,13 @@ pub(super) struct Signals {
     pub(super) align: f64,
 }
 
+impl Signals {
+    /// Time from the first to the last sample used (s).
+    pub(super) fn duration(&self) -> f64 {
+        self.t.last().copied().unwrap_or(0.0) - self.t.first().copied().unwrap_or(0.0)
+    }
+}
+
 /// The log conditioned with zero-phase cutoff `cutoff_hz` (module docs); errors when it
 /// has no torque, non-finite values, or fewer than 50 samples left.
 pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) -> Result<Signals> {
