@@ -150,7 +150,7 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64], with
             }
             drive_columns(c, k, q, qd, tau_nom[k * n + j], &smooth_vs[j]);
         }
-        delay_column(&mut c[C_DELAY], tau_nom, n, j, s.dt);
+        delay_column(&mut c[C_DELAY], tau_nom, n, j, s.dt, &s.segments());
     }
     // the terminal link's 10 regressor columns, in blocks (the whole regressor would be
     // T x N x 14N doubles)
@@ -202,17 +202,15 @@ fn drive_columns(c: &mut [Vec<f64>], k: usize, q: f64, qd: f64, tau: f64, smooth
     }
 }
 
-/// `-d tau_nom / dt` of joint `j` (central differences, one-sided at the ends): the
-/// first-order column of a torque that lags the motion.
-fn delay_column(out: &mut [f64], tau_nom: &[f64], n: usize, j: usize, dt: f64) {
-    let t_len = out.len();
-    if t_len < 2 {
-        return;
-    }
+/// `-d tau_nom / dt` of joint `j` (central differences, one-sided at the ends of each
+/// segment `segs`): the first-order column of a torque that lags the motion.
+fn delay_column(out: &mut [f64], tau_nom: &[f64], n: usize, j: usize, dt: f64, segs: &[std::ops::Range<usize>]) {
     let at = |k: usize| tau_nom[k * n + j];
-    for (k, o) in out.iter_mut().enumerate() {
-        let (a, b) = (k.saturating_sub(1), (k + 1).min(t_len - 1));
-        *o = -(at(b) - at(a)) / ((b - a) as f64 * dt);
+    for seg in segs.iter().filter(|s| s.len() >= 2) {
+        for k in seg.clone() {
+            let (a, b) = (k.saturating_sub(1).max(seg.start), (k + 1).min(seg.end - 1));
+            out[k] = -(at(b) - at(a)) / ((b - a) as f64 * dt);
+        }
     }
 }
 

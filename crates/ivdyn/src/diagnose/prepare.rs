@@ -137,7 +137,7 @@ impl Prepared {
         let n = self.d.cols.len();
         let t_len = self.s.t.len();
         let (sigma, _, r_all) = noise_of_all_model(&self.d, &self.gr, n, t_len, 0, drives);
-        let delta = accel_step(&self.s.qd, n, self.s.dt);
+        let delta = accel_step(&self.s.qd, n, self.s.dt, &self.s.starts);
         let zero = vec![0.0; t_len * n];
         let (mut m_d, mut m_0) = (vec![0.0; t_len * n], vec![0.0; t_len * n]);
         batch::rnea_batch(robot, &self.s.q, &zero, &delta, &mut m_d).map_err(|e| Error::during("alignment", e))?;
