@@ -3,6 +3,10 @@
 
 use ivdyn::log::{Compression, McapWriter, ReadOptions, for_each_sample};
 
+#[path = "../../../tests/scratch.rs"]
+mod scratch;
+use scratch::Scratch;
+
 fn rss_kib() -> Option<u64> {
     let s = std::fs::read_to_string("/proc/self/status").ok()?;
     let line = s.lines().find(|l| l.starts_with("VmRSS:"))?;
@@ -12,8 +16,7 @@ fn rss_kib() -> Option<u64> {
 #[test]
 fn streams_a_large_file_with_bounded_memory() {
     let names: Vec<String> = (0..7).map(|j| format!("joint_with_a_long_name_{j}")).collect();
-    let dir = std::env::temp_dir().join(format!("ivdyn-io-stream-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = Scratch::new("ivdyn-io-stream");
     let path = dir.join("big.mcap");
     // uncompressed, ~450 bytes a message: 120k messages ~ 55 MB on disk
     let count = 120_000usize;

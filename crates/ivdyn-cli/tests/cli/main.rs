@@ -1,7 +1,9 @@
 //! The command line's tests in one binary (one build, one link): each module runs the
 //! `ivdyn` binary on fixtures or generated logs; `util` holds what they share (scratch
-//! directories are named per test).
+//! directories, `tests/scratch.rs`, are named per test and removed when it passes).
 
+#[path = "../../../../tests/scratch.rs"]
+mod scratch;
 mod util;
 
 mod bag;

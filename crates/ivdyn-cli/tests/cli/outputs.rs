@@ -111,7 +111,7 @@ fn stopped(name: &str, signal: &str, code: i32, at_commit: bool) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_ivdyn"))
         .args(&a)
         .arg("--quiet")
-        .env("TMPDIR", &tmp)
+        .env("TMPDIR", tmp.path())
         .stdout(Stdio::null())
         .stderr(Stdio::null())
         .spawn()

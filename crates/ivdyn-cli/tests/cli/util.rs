@@ -14,12 +14,11 @@ pub fn ivdyn(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_ivdyn")).args(args).arg("--quiet").output().expect("run ivdyn")
 }
 
-/// A fresh, empty directory for one test.
-pub fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ivdyn_cli_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+pub use crate::scratch::Scratch;
+
+/// A fresh, empty directory for one test, removed when it passes.
+pub fn tmpdir(name: &str) -> Scratch {
+    Scratch::new(&format!("ivdyn_cli_{name}"))
 }
 
 pub fn s(p: &Path) -> String {

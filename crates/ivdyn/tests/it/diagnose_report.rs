@@ -5,8 +5,8 @@
 //! Expected strings follow the format rule of `report::fmt_num` (3 significant digits,
 //! docs/diagnose.md), written out by hand here.
 
+use crate::scratch::Scratch;
 use std::io::Cursor;
-use std::path::Path;
 
 use base64::Engine as _;
 use ivdyn::diagnose::report::{self, write_html, write_mcap_stamped};
@@ -396,10 +396,6 @@ fn mcap_reads_back_on_every_topic() {
     assert!(e.contains("joint names"), "{e}");
 }
 
-fn tempdir(tag: &str) -> std::path::PathBuf {
-    let p = std::env::temp_dir().join(format!("ivdyn_diag_report_{tag}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&p);
-    std::fs::create_dir_all(&p).unwrap();
-    assert!(Path::new(&p).is_dir());
-    p
+fn tempdir(tag: &str) -> Scratch {
+    Scratch::new(&format!("ivdyn_diag_report_{tag}"))
 }

@@ -3,6 +3,7 @@
 //! the fit); the currents are the true torques divided by the true gains plus white noise.
 //! Every expected value comes from the simulation's truth and from statistics.
 
+use crate::scratch::Scratch;
 use ivdyn::Robot;
 use ivdyn::app::{self, GainsJob, GainsOptions, GainsReport, KnownPayload, LogInput, LogSource, SimulateOptions};
 use ivdyn::log::JointLog;
@@ -186,8 +187,7 @@ fn gain_std_is_calibrated_monte_carlo() {
 #[test]
 fn base_joint_is_not_identifiable_when_it_barely_moves() {
     let robot = ur5();
-    let dir = std::env::temp_dir().join(format!("ivdyn_gains_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = Scratch::new("ivdyn_gains");
     let json = dir.join("gains.json");
     // moves little: joint 1 reported as not identifiable, on every noise seed
     for s in 0..8 {

@@ -3,6 +3,7 @@
 //! columns and as an MCAP current topic, identifies the simulation's true base parameters
 //! as the torque log does; the jobs' errors name the option and the joint.
 
+use crate::scratch::ScratchFile;
 use std::path::{Path, PathBuf};
 
 use ivdyn::Robot;
@@ -20,10 +21,8 @@ fn ur5() -> Robot {
     Robot::from_urdf(urdf, Some("base_link"), Some("tool0")).unwrap()
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ivdyn_effort_{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+fn tmp(name: &str) -> ScratchFile {
+    ScratchFile::new("ivdyn_effort", name)
 }
 
 fn sim_opts() -> SimulateOptions {
@@ -180,7 +179,7 @@ fn errors_name_the_option_and_the_joint() {
 
     // payload and diagnose load their logs the same way
     let payload = app::PayloadJob {
-        log: LogInput::File(i_csv.clone()),
+        log: LogInput::File(i_csv.to_path_buf()),
         before: None,
         source: LogSource::default(),
         opts: Default::default(),

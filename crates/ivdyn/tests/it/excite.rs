@@ -4,6 +4,7 @@
 //! the optimised condition number beats the random trajectories of the same harmonics and
 //! bounds.
 
+use crate::scratch::Scratch;
 use ivdyn::Robot;
 use ivdyn::excite::{self, Criterion, ExciteOptions};
 
@@ -123,8 +124,7 @@ fn csv_and_mcap_outputs_read_back() {
     let n = robot.dof();
     let opts = ExciteOptions { iterations: 2, random_draws: 1, ..small_opts(1, Criterion::Cond) };
     let rep = excite::design(&robot, &opts).unwrap();
-    let dir = std::env::temp_dir().join(format!("ivdyn_excite_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = Scratch::new("ivdyn_excite");
     let (csv, mcap) = (dir.join("traj.csv"), dir.join("traj.mcap"));
     excite::write_csv(&csv, &rep.joints, &rep.trajectory).unwrap();
     excite::write_mcap(&mcap, &rep.joints, &rep.trajectory).unwrap();

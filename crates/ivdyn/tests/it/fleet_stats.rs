@@ -3,6 +3,7 @@
 //! (each log conditioned on its own, rows concatenated) to 1e-12 relative; the byte format
 //! round-trips exactly and refuses another version, damaged bytes and another model.
 
+use crate::scratch::ScratchFile;
 use ivdyn::Robot;
 use ivdyn::app::fleet::{self, LogStats};
 use ivdyn::app::identify::CoulombMode;
@@ -221,11 +222,9 @@ fn benjamini_hochberg_matches_its_definition() {
     assert_eq!(benjamini_hochberg(&[0.5, 0.6], 0.05), vec![false, false]);
 }
 
-/// `log(...)` written as an MCAP file `name` in this test binary's temporary directory.
-fn mcap_file(l: &JointLog, name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("ivdyn-fleet-stream-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(name);
+/// `log(...)` written as an MCAP file `name` in a scratch directory of its own.
+fn mcap_file(l: &JointLog, name: &str) -> ScratchFile {
+    let path = ScratchFile::new("ivdyn-fleet-stream", name);
     ivdyn::log::write_mcap(&path, l, &[]).unwrap();
     path
 }
@@ -268,13 +267,13 @@ fn a_log_file_is_streamed_and_fits_to_the_streamed_identify() {
 #[test]
 fn merged_streamed_statistics_equal_one_streamed_pass_over_the_files() {
     let robot = arm();
-    let paths: Vec<PathBuf> = [(31, 8.0), (32, 24.0), (33, 12.0)]
+    let paths: Vec<ScratchFile> = [(31, 8.0), (32, 24.0), (33, 12.0)]
         .iter()
         .enumerate()
         .map(|(k, &(seed, secs))| mcap_file(&log(&robot, seed, secs, k as i64), &format!("merge-{k}.mcap")))
         .collect();
     let names: Vec<String> = paths.iter().map(|p| p.to_string_lossy().into_owned()).collect();
-    let inputs: Vec<LogInput> = paths.iter().map(|p| LogInput::File(p.clone())).collect();
+    let inputs: Vec<LogInput> = paths.iter().map(|p| LogInput::File(p.to_path_buf())).collect();
     let pairs: Vec<(&str, &LogInput)> = names.iter().map(|s| s.as_str()).zip(&inputs).collect();
     let one_pass = fleet::logs_stats(&robot, &pairs, &LogSource::default(), &opts(), true).unwrap();
     assert!(one_pass.logs.iter().all(|l| l.streamed));

@@ -3,7 +3,8 @@
 //! URDF, duplicated stamps read two ways. Each must end in an error naming the problem
 //! (or, for duplicated stamps, give the same numbers both ways). Inputs are built here.
 
-use std::path::{Path, PathBuf};
+use crate::scratch::ScratchFile;
+use std::path::Path;
 
 use ivdyn::app::stream::{self as st, Streamed};
 use ivdyn::app::{self, IdentifyOptions, SimulateOptions, Trajectory};
@@ -32,10 +33,8 @@ fn sim(robot: &ivdyn::Robot, duration_s: f64) -> JointLog {
     app::simulate(robot, &Trajectory::Fourier, &o).unwrap()
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ivdyn-hostile-inputs-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+fn tmp(name: &str) -> ScratchFile {
+    ScratchFile::new("ivdyn-hostile-inputs", name)
 }
 
 fn err<T>(r: ivdyn::error::Result<T>) -> String {

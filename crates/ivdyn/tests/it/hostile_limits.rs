@@ -2,6 +2,7 @@
 //! forever or allocate gigabytes now end in an error naming what is wrong. Every input is
 //! built here, small, so each test runs in well under a second when the limit holds.
 
+use crate::scratch::ScratchFile;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -123,10 +124,8 @@ fn small_log(robot: &Robot) -> JointLog {
     app::simulate(robot, &Trajectory::Fourier, &o).unwrap()
 }
 
-fn temp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("ivdyn-hostile-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+fn temp(name: &str) -> ScratchFile {
+    ScratchFile::new("ivdyn-hostile", name)
 }
 
 /// One velocity of 1e300 used to hang `diagnose` in an SVD without an iteration limit;

@@ -5,6 +5,7 @@
 //! unwritable report path is a clear error that leaves none of the command's files. The
 //! plotted residual is checked against the JSON's RMS on a noise-free log.
 
+use crate::scratch::Scratch;
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
@@ -24,11 +25,8 @@ fn ur5() -> Robot {
     Robot::from_urdf(p, Some("base_link"), Some("tool0")).unwrap()
 }
 
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ivdyn_html_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn tmpdir(name: &str) -> Scratch {
+    Scratch::new(&format!("ivdyn_html_{name}"))
 }
 
 /// A 10 s, 500 Hz UR5 log with friction, torque noise `noise` (N m) and optionally a 2 kg payload.

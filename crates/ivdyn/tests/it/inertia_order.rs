@@ -3,6 +3,7 @@
 //! explicit conversions between them. Every inertia here is asymmetric (Iyy != Ixz), so a
 //! swapped order anywhere fails.
 
+use crate::scratch::ScratchFile;
 use ivdyn::Robot;
 use ivdyn::core::{
     INERTIA_ORDER, INERTIA_URDF_ORDER, inertia_from_urdf, inertia_matrix, inertia_to_urdf, inertia_vector,
@@ -13,7 +14,7 @@ use ivdyn::report::PayloadSpec;
 const URDF_ATTRS: [f64; 6] = [0.04, 0.002, -0.003, 0.05, 0.001, 0.03];
 
 /// A one-joint arm whose link has its COM at the joint origin and the inertia above.
-fn one_link_urdf() -> std::path::PathBuf {
+fn one_link_urdf() -> ScratchFile {
     let [ixx, ixy, ixz, iyy, iyz, izz] = URDF_ATTRS;
     let text = format!(
         r#"<robot name="one"><link name="base"/>
@@ -22,9 +23,7 @@ fn one_link_urdf() -> std::path::PathBuf {
 <joint name="j1" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
 <limit lower="-3" upper="3" effort="10" velocity="1"/></joint></robot>"#
     );
-    let d = std::env::temp_dir().join(format!("ivdyn_inertia_order_{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    let p = d.join("one.urdf");
+    let p = ScratchFile::new("ivdyn_inertia_order", "one.urdf");
     std::fs::write(&p, text).unwrap();
     p
 }

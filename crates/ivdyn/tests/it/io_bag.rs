@@ -3,6 +3,7 @@
 //! metadata.yaml as rosbag2 writes it), each read against the same samples written as
 //! one MCAP file. Independent writers (Python `rosbags`) are in python/tests_io/test_rosbag2.py.
 
+use crate::scratch::ScratchFile;
 use std::path::{Path, PathBuf};
 
 use ivdyn::log::{self, JointLog, ReadOptions, for_each_sample, read_joint_log, read_mcap, write_mcap};
@@ -10,11 +11,11 @@ use ivdyn::log::{self, JointLog, ReadOptions, for_each_sample, read_joint_log, r
 const T0_NS: i64 = 1_700_000_000_000_000_000;
 const JOINTS: [&str; 2] = ["a", "b"];
 
-/// A fresh directory for one test.
-fn dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ivdyn-io-bag-{}", std::process::id())).join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
+/// A fresh bag directory for one test: `bag` in a scratch directory, so that the files
+/// written beside it (`split_mcap`'s single file) go with it when the test passes.
+fn dir(name: &str) -> ScratchFile {
+    let d = ScratchFile::new("ivdyn-io-bag", name);
+    std::fs::create_dir_all(&*d).unwrap();
     d
 }
 

@@ -1,5 +1,6 @@
 //! CSV logs: the Python-written fixture, an exact write/read round trip, and bad input.
 
+use crate::scratch::ScratchFile;
 use std::path::{Path, PathBuf};
 
 use ivdyn::Error;
@@ -12,10 +13,8 @@ fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/logs").join(name)
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ivdyn-io-csv-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+fn tmp(name: &str) -> ScratchFile {
+    ScratchFile::new("ivdyn-io-csv", name)
 }
 
 fn err_of(text: &str, name: &str, joints: &[&str]) -> String {

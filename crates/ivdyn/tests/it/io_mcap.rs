@@ -2,6 +2,7 @@
 //! (python/tools/make_log_fixtures.py), every bad-input error, and round trips through
 //! ivdyn's own writer.
 
+use crate::scratch::ScratchFile;
 use std::path::{Path, PathBuf};
 
 use ivdyn::Error;
@@ -18,10 +19,8 @@ fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/logs").join(name)
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ivdyn-io-mcap-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+fn tmp(name: &str) -> ScratchFile {
+    ScratchFile::new("ivdyn-io-mcap", name)
 }
 
 /// The URDF's joint order (from the URDF itself, so the matching-by-name is end to end).

@@ -1,7 +1,8 @@
 //! ivdyn's integration tests in one binary: one build and one link instead of one per
 //! file (`make test` time), the files' tests run together on the harness's threads. Each
-//! module was a test binary of its own; they share nothing (temporary paths are named per
-//! module). `tests/fixtures.rs` and `tests/urdf_errors.rs` at the repository root belong here too.
+//! module was a test binary of its own; they share nothing (scratch directories,
+//! `tests/scratch.rs`, are named per test and removed when it passes). `tests/fixtures.rs`
+//! and `tests/urdf_errors.rs` at the repository root belong here too.
 //! `tests/io_stream.rs` stays a binary of its own: it measures the process's resident memory,
 //! which the other tests' threads would add to.
 
@@ -38,6 +39,8 @@ mod mjcf_write;
 mod output;
 mod payload;
 mod payload_physical;
+#[path = "../../../../tests/scratch.rs"]
+mod scratch;
 mod signal_conditioning;
 mod simulate_excitation;
 mod stream_identify;

@@ -4,6 +4,7 @@
 //! parameters are refused with the link's (joint's, payload's) name; a payload is a welded
 //! body in the last link. MuJoCo itself loads the file in python/tests_io/test_mjcf_export.py.
 
+use crate::scratch::Scratch;
 use std::collections::HashMap;
 
 use ivdyn::Robot;
@@ -157,8 +158,7 @@ fn names_are_escaped_and_files_written_with_the_side_file() {
     let els = elements(&mj.xml);
     assert_eq!(els[0].attrs["model"], "arm <\"&\"> 1");
     assert!(els.iter().any(|e| e.tag == "body" && e.attrs["name"] == "l&1"));
-    let dir = std::env::temp_dir().join(format!("ivdyn_mjcf_{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = Scratch::new("ivdyn_mjcf");
     let out = dir.join("paper.xml");
     write_files(&out, &mj).unwrap();
     assert_eq!(std::fs::read_to_string(&out).unwrap(), mj.xml);

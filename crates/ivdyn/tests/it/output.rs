@@ -2,17 +2,15 @@
 //! temporary file, special files written in place.
 #![cfg(unix)]
 
+use crate::scratch::Scratch;
 use std::os::unix::fs::{FileTypeExt, MetadataExt, PermissionsExt};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use ivdyn::output::{OutputSet, write_json};
 
-/// A fresh, empty directory for one test.
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ivdyn_output_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh, empty directory for one test, removed when it passes.
+fn tmpdir(name: &str) -> Scratch {
+    Scratch::new(&format!("ivdyn_output_{name}"))
 }
 
 fn names(d: &Path) -> Vec<String> {

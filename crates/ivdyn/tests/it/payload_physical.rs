@@ -2,6 +2,7 @@
 //! the payload reported is a physically possible rigid body, a log without payload gives
 //! ~0 kg, a before log of another arm is flagged, and no impossible inertia is written.
 
+use crate::scratch::ScratchFile;
 use ivdyn::Robot;
 use ivdyn::app::payload::{RIGID_P_VALUE, check_writable};
 use ivdyn::app::{self, LogInput, LogSource, PayloadJob, PayloadMode, PayloadOptions, PayloadReport, SimulateOptions};
@@ -18,10 +19,8 @@ fn ur5() -> Robot {
     Robot::from_urdf(UR5, Some("base_link"), Some("tool0")).unwrap()
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ivdyn_payload_physical_{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+fn tmp(name: &str) -> ScratchFile {
+    ScratchFile::new("ivdyn_payload_physical", name)
 }
 
 /// A 20 s, 500 Hz excitation log of `seed`, torque noise `noise` N m.
@@ -188,7 +187,7 @@ fn an_impossible_payload_is_never_written() {
         opts: PayloadOptions::default(),
         json: None,
         report: None,
-        urdf: Some((PathBuf::from(UR5), written.clone(), PayloadMode::Link)),
+        urdf: Some((PathBuf::from(UR5), written.to_path_buf(), PayloadMode::Link)),
         mjcf: None,
         torque_constant_prior: Default::default(),
     };

@@ -3,6 +3,7 @@
 //! against `dsp::differentiate`, and `stream::identify_mcap` against
 //! `app::identify` on the same log.
 
+use crate::scratch::Scratch;
 use ivdyn::app::stream::{self as st, Streamed};
 use ivdyn::app::{self, IdentifyOptions, SimulateOptions, Trajectory};
 use ivdyn::core::rng::Rng;
@@ -202,8 +203,7 @@ fn assert_stream_matches_memory(robot: &ivdyn::Robot, path: &std::path::Path, op
 
 #[test]
 fn streamed_identify_matches_in_memory_identify() {
-    let dir = std::env::temp_dir().join(format!("ivdyn-stream-id-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = Scratch::new("ivdyn-stream-id");
     let (robot, path) = ur5_log(&dir);
     // velocities differentiated from the positions
     let mut opts = IdentifyOptions::default();
@@ -228,8 +228,7 @@ fn streamed_identify_matches_in_memory_identify() {
 /// memory): uneven stamps (they need resampling), and IDIM-IV.
 #[test]
 fn uneven_stamps_and_idim_are_not_streamed() {
-    let dir = std::env::temp_dir().join(format!("ivdyn-stream-uneven-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = Scratch::new("ivdyn-stream-uneven");
     let robot = ivdyn::Robot::from_urdf(
         concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf"),
         Some("base_link"),

@@ -1,21 +1,20 @@
 //! URDF write-back: identify -> write URDF (+ side file) -> reload -> predict reproduces
 //! the identified torques to 1e-9; the rest of the XML is kept; payloads as a link or merged.
 
+use crate::scratch::ScratchFile;
 use ivdyn::Robot;
 use ivdyn::app::{self, IdentifyOptions, SimulateOptions, Trajectory};
 use ivdyn::report::PayloadSpec;
 use ivdyn::robot::load::side_path;
 use ivdyn::robot::write::{PayloadMode, write_back, write_files};
 use ivdyn_core::rng::Rng;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 const UR5: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf");
 const PANDA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/panda.urdf");
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("ivdyn_urdf_write_{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d.join(name)
+fn tmp(name: &str) -> ScratchFile {
+    ScratchFile::new("ivdyn_urdf_write", name)
 }
 
 /// Largest |tau_a - tau_b| over random states.
