@@ -4,9 +4,9 @@
 //! * **direction-dependent Coulomb friction** refines Coulomb friction found on a joint
 //!   with the column `[qd > 0]` (`fc_pos [qd > 0] - fc_neg [qd < 0]`). On a moving joint it
 //!   spans the same columns as Coulomb friction plus a torque offset, so the two readings
-//!   are told apart by physics: an offset smaller than the friction level (both `fc_pos`
-//!   and `fc_neg` positive) is read as direction-dependent friction, a larger one as an
-//!   offset. It loses to plain Coulomb friction when its extra column fails the F test or
+//!   are told apart by physics: an offset smaller than `ASYMMETRY_MAX` of the friction level
+//!   (both `fc_pos` and `fc_neg` positive, within a factor 12) is read as direction-dependent
+//!   friction, a larger one as an offset. It loses to plain Coulomb friction when its extra column fails the F test or
 //!   the held-out share, i.e. when `fc_pos == fc_neg` within the data's uncertainty.
 //! * **smooth Coulomb friction** `fc tanh(qd / vs)` replaces Coulomb friction on a joint
 //!   when held-out data prefer it: `vs` on a grid, the one removing most of the held-out
@@ -32,13 +32,21 @@ fn theta_at(f: &Fit, j: usize, col: usize) -> f64 {
     f.params.iter().position(|p| p.joint == Some(j) && p.col == col).map_or(0.0, |i| f.theta[i])
 }
 
+/// Largest asymmetry `|fc_pos - fc_neg| / (fc_pos + fc_neg)` read as direction-dependent
+/// friction; beyond it one direction's level is below 1/12 of the other's, which is an
+/// offset beside Coulomb friction (a sensor's, a load's) rather than a drive's asymmetry. It
+/// is `|tau0| / fc` of the same columns read as Coulomb friction `fc` and an offset `tau0`.
+/// (0.75, levels within a factor 7, turned true asymmetries of 0.70 into Coulomb friction +
+/// offset on the tuning parts: estimates scatter by a few %; docs/diagnose.md.)
+const ASYMMETRY_MAX: f64 = 0.85;
+
 /// A significant offset on a joint with Coulomb friction (`l`: the model with it) is, on a
-/// moving joint, direction-dependent friction when it is smaller than the friction level:
-/// rejected there as that look-alike (the asymmetric candidate names it).
+/// moving joint, direction-dependent friction when it is smaller than `ASYMMETRY_MAX` of the
+/// friction level: rejected there as that look-alike (the asymmetric candidate names it).
 pub(super) fn offset_or_asymmetric(ctx: &Ctx, l: &Model, j: usize, sc: &mut JointScore) {
     let f = fit(&l.params(), ctx.gr, &ctx.w, &[0, 1]);
     let (fc, tau0) = (theta_at(&f, j, C_SIGN), theta_at(&f, j, C_ONE));
-    if fc > 0.0 && tau0.abs() < fc {
+    if fc > 0.0 && tau0.abs() < ASYMMETRY_MAX * fc {
         sc.significant = false;
         sc.rejected_by = Some(format!(
             "look-alike: with Coulomb friction fc {fc:.3} N m, an offset of {tau0:.3} N m is direction-dependent friction (fc_pos {:.3}, fc_neg {:.3} N m)",
@@ -161,16 +169,25 @@ fn smooth_size(ctx: &Ctx, m: &Model, l: &Model, j: usize, sc: &mut JointScore) {
 }
 
 /// Direction-dependent friction is friction in both directions: `fc_pos` and `fc_neg`
-/// positive (otherwise the column is an offset larger than the friction).
-fn asymmetric_sign(ctx: &Ctx, l: &Model, j: usize, sc: &mut JointScore) {
+/// positive (otherwise the column is an offset larger than the friction), their asymmetry
+/// at most `ASYMMETRY_MAX`.
+pub(super) fn asymmetric_sign(ctx: &Ctx, l: &Model, j: usize, sc: &mut JointScore) {
     if !sc.significant {
         return;
     }
     let f = fit(&l.params(), ctx.gr, &ctx.w, &[0, 1]);
     let fc_neg = theta_at(&f, j, C_SIGN);
     let fc_pos = fc_neg + theta_at(&f, j, C_SIGN_POS);
-    if fc_pos <= 0.0 || fc_neg <= 0.0 {
-        sc.significant = false;
-        sc.rejected_by = Some(format!("sign: fc_pos {fc_pos:.4}, fc_neg {fc_neg:.4} N m are not both positive"));
-    }
+    let why = if fc_pos <= 0.0 || fc_neg <= 0.0 {
+        format!("sign: fc_pos {fc_pos:.4}, fc_neg {fc_neg:.4} N m are not both positive")
+    } else if (fc_pos - fc_neg).abs() > ASYMMETRY_MAX * (fc_pos + fc_neg) {
+        format!(
+            "size: fc_pos {fc_pos:.4}, fc_neg {fc_neg:.4} N m differ by more than {:.0} % of their sum (an offset beside Coulomb friction)",
+            100.0 * ASYMMETRY_MAX
+        )
+    } else {
+        return;
+    };
+    sc.significant = false;
+    sc.rejected_by = Some(why);
 }

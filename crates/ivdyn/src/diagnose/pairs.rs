@@ -7,6 +7,9 @@
 //! are tried on each joint: a pair is named when it passes every rule on its joint and each
 //! member passes every rule given the other (what the backward step asks of it), an
 //! inertia-like member also the look-alike rule 5 against the nominal link inertials.
+//! Direction-dependent Coulomb friction (Coulomb friction and its `[qd > 0]` column) is
+//! tried the same way: it refines Coulomb friction found on a joint, so without this it
+//! would never be tried where Coulomb friction alone fails the share.
 
 use super::dictionary::C_Q;
 use super::model::{Model, Param};
@@ -31,6 +34,16 @@ pub(super) fn best_pair(ctx: &Ctx, m: &Model) -> Option<(CandidateScore, Model, 
                     best = Some((gain, j, sc, l, a, b));
                 }
             }
+        }
+    }
+    for j in 0..ctx.n {
+        let Some((sc, l)) = score_asymmetric(ctx, m, j) else { continue };
+        let gain = ctx.gain(m, &l);
+        // on a moving joint it spans what Coulomb friction + offset spans: the same gain but
+        // for rounding, and read as direction-dependent friction, as the forward step reads
+        // an offset smaller than the friction level (`drive_rules::offset_or_asymmetric`)
+        if best.as_ref().is_none_or(|x| gain >= x.0 * (1.0 - 1e-9)) {
+            best = Some((gain, j, sc, l, EffectKind::Coulomb, EffectKind::AsymmetricCoulomb));
         }
     }
     let (score, j, sc, l, a, b) = best?;
@@ -78,4 +91,28 @@ fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> O
         }
     }
     Some((sc, l))
+}
+
+/// Direction-dependent Coulomb friction on joint `j` as one candidate: Coulomb friction
+/// with its `[qd > 0]` column. On a joint that never stops it spans what Coulomb friction
+/// and an offset span; the offset is a look-alike of the nominal model's error (rule 5),
+/// while a friction level that differs with the direction is not, so this pair is named where
+/// the other fails that rule, as `drive_rules::offset_or_asymmetric` reads an offset smaller
+/// than the friction level in the forward step. It must pass every rule on the joint, its
+/// `[qd > 0]` column every rule given Coulomb friction, and both levels be positive.
+fn score_asymmetric(ctx: &Ctx, m: &Model, j: usize) -> Option<(JointScore, Model)> {
+    use EffectKind::{AsymmetricCoulomb, Coulomb, JointSpring, SmoothCoulomb, Stribeck, TorqueOffset};
+    if [Coulomb, AsymmetricCoulomb, TorqueOffset, JointSpring, Stribeck, SmoothCoulomb].iter().any(|&e| m.has(j, e)) {
+        return None;
+    }
+    let with_coulomb = m.with(Some(j), Coulomb);
+    let l = with_coulomb.with(Some(j), AsymmetricCoulomb);
+    let friction = |p: &Param| p.joint == Some(j) && matches!(p.kind, Some(Coulomb | AsymmetricCoulomb));
+    let mut sc = ctx.joint_score(m, &l, j, &friction);
+    let asym = |p: &Param| p.joint == Some(j) && p.kind == Some(AsymmetricCoulomb);
+    if !sc.significant || !ctx.joint_score(&with_coulomb, &l, j, &asym).significant {
+        return None;
+    }
+    super::drive_rules::asymmetric_sign(ctx, &l, j, &mut sc);
+    sc.significant.then_some((sc, l))
 }

@@ -366,3 +366,57 @@ fn a_log_with_a_gap_is_diagnosed_on_both_segments() {
         case["effects"][0]["joints"].as_array().unwrap().iter().map(|j| j.as_str().unwrap().into()).collect();
     assert_eq!(named(&d), vec![("coulomb_friction".to_string(), truth)]);
 }
+
+/// Issue 15: direction-dependent Coulomb friction where neither Coulomb friction alone nor
+/// with an offset passes (`fixtures/diagnose_random/rarm0_6j/e05_3fx`, a random 6-joint arm
+/// of the 5-12 s tuning part, inertials 5 % off, motor currents with torque constants, float32;
+/// a payload, viscous friction on joints 1 and 4, direction-dependent friction on joints 1
+/// and 2: on joint 2 fc_pos 0.22, fc_neg 0.54 N m). It refines Coulomb friction found on a
+/// joint, so on joint 2, where Coulomb friction alone fails the held-out share, it was never
+/// tried and the pair Coulomb friction + offset came out instead; it is now tried as a pair
+/// (`pairs::score_asymmetric`). Asserted: exactly the true names and joints, the levels'
+/// signs, and the final RMS within 1.5x of the oracle. Not asserted: the 10 % on every
+/// parameter (`fv` on joint 1 is 0.063 against 0.098, `fc_pos` on joint 2 0.178 against
+/// 0.220: their columns share the joint's slow motion; docs/diagnose.md).
+#[test]
+fn direction_dependent_friction_as_a_pair() {
+    use ivdyn::app::{self, DiagnoseJob, Effort, LogInput, LogSource, PerJoint, TorqueConstants};
+    let set = "diagnose_random/rarm0_6j";
+    let m = cases_in(set);
+    let case = &m["cases"][0];
+    let robot =
+        Robot::from_urdf(root().join(case["urdf"].as_str().unwrap()), m["base"].as_str(), m["tip"].as_str()).unwrap();
+    let k_t = f64s(&case["sensor"]["torque_constant"]);
+    let source = LogSource {
+        current_topic: Some("/joint_states".into()),
+        effort: Effort::Current,
+        torque_constants: TorqueConstants { torque_constant: Some(PerJoint::List(k_t)), ..Default::default() },
+        ..Default::default()
+    };
+    let job = DiagnoseJob {
+        log: LogInput::File(root().join("fixtures").join(set).join(case["log"].as_str().unwrap())),
+        source,
+        opts: DiagnoseOptions::default(),
+        out: None,
+        report: false,
+        json: None,
+    };
+    let d = app::diagnose_job(&robot, &job, &None).unwrap().report.json;
+    let mut named: Vec<(String, Vec<String>)> = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
+    named.sort();
+    let j = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    let want = vec![
+        ("asymmetric_coulomb_friction".to_string(), j(&["joint_1", "joint_2"])),
+        ("payload".to_string(), vec![]),
+        ("viscous_friction".to_string(), j(&["joint_1", "joint_4"])),
+    ];
+    assert_eq!(named, want);
+    let asym = d.effects.iter().find(|e| e.name == "asymmetric_coulomb_friction").unwrap();
+    let (pos, neg) = (f64s(&asym.parameters["fc_pos"]), f64s(&asym.parameters["fc_neg"]));
+    // joint 2 pushes harder backwards than forwards (truth 0.22 / 0.54 N m)
+    assert!(pos.iter().chain(&neg).all(|&x| x > 0.0) && neg[1] > 2.0 * pos[1], "{pos:?} {neg:?}");
+    let oracle = f64s(&case["oracle"]["oracle_rms_exact"]);
+    for (i, (f, o)) in d.final_rms.iter().zip(&oracle).enumerate() {
+        assert!(*f <= 1.5 * o, "joint {i}: final RMS {f} vs oracle {o}");
+    }
+}

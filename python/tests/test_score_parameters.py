@@ -1,0 +1,46 @@
+"""The scorer's parameter accuracy (`score_diagnose_cases.param_errors`): relative errors of
+the parameters of the (effect, joint) pairs named right, checked on hand-made effects whose
+errors are known by construction."""
+import os
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(ROOT, "python", "tools"))
+from score_diagnose_cases import param_errors  # noqa: E402
+
+TRUTH = [
+    {"name": "coulomb_friction", "joints": ["j1", "j3"], "parameters": {"fc": [0.2, 0.4]}},
+    {"name": "torque_gain", "joints": ["j2"], "parameters": {"k": [0.95]}},
+    {"name": "torque_ripple", "joints": ["j2"], "parameters": {"period": [0.5], "a": [0.3], "b": [0.4]}},
+    {"name": "payload", "joints": [], "parameters": {"mass": 2.0, "com": [0.0, 0.0, 0.1], "inertia": [1e-3] * 6}},
+]
+
+
+def test_relative_errors_of_the_pairs_named_right():
+    named = [
+        # j1 10 % high, j3 5 % low, named in another joint order than the truth
+        {"name": "coulomb_friction", "joints": ["j3", "j1"], "parameters": {"fc": [0.38, 0.22]}},
+        # k - 1 = -0.04 against -0.05: 20 % off, though k is within 1.1 % of 0.95
+        {"name": "torque_gain", "joints": ["j2"], "parameters": {"k": [0.96]}},
+        # (a, b) off by (0, 0.05) on an amplitude of 0.5: 10 %
+        {"name": "torque_ripple", "joints": ["j2"], "parameters": {"period": [0.5], "a": [0.3], "b": [0.45]}},
+        # COM none (not separable on a re-fit): only the mass is scored
+        {"name": "payload", "joints": [], "parameters": {"mass": 2.5, "com": None, "inertia": None}},
+    ]
+    got = {(e, k, round(x, 9)) for e, k, x in param_errors(TRUTH, named)}
+    assert got == {
+        ("coulomb_friction", "fc", 0.1),
+        ("coulomb_friction", "fc", 0.05),
+        ("torque_gain", "k - 1", 0.2),
+        ("torque_ripple", "period", 0.0),
+        ("torque_ripple", "(a, b)", 0.1),
+        ("payload", "mass", 0.25),
+    }
+
+
+def test_effects_or_joints_not_named_are_not_scored():
+    named = [{"name": "coulomb_friction", "joints": ["j3"], "parameters": {"fc": [0.4]}},
+             {"name": "viscous_friction", "joints": ["j1"], "parameters": {"fv": [1.0]}}]
+    assert param_errors(TRUTH, named) == [("coulomb_friction", "fc", pytest.approx(0.0))]
