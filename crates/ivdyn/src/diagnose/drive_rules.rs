@@ -4,10 +4,12 @@
 //! * **direction-dependent Coulomb friction** refines Coulomb friction found on a joint
 //!   with the column `[qd > 0]` (`fc_pos [qd > 0] - fc_neg [qd < 0]`). On a moving joint it
 //!   spans the same columns as Coulomb friction plus a torque offset, so the two readings
-//!   are told apart by physics: an offset smaller than `ASYMMETRY_MAX` of the friction level
-//!   (both `fc_pos` and `fc_neg` positive, within a factor 12) is read as direction-dependent
-//!   friction, a larger one as an offset. It loses to plain Coulomb friction when its extra column fails the F test or
-//!   the held-out share, i.e. when `fc_pos == fc_neg` within the data's uncertainty.
+//!   are told apart by physics: an offset smaller than `ASYMMETRY_MAX` of the friction
+//!   level (both `fc_pos` and `fc_neg` positive, within a factor 12) is read as
+//!   direction-dependent friction, a larger one as an offset. It loses to plain Coulomb
+//!   friction when its extra column fails the F test or the held-out share, i.e. when
+//!   `fc_pos == fc_neg` within the data's uncertainty. Where Coulomb friction alone fails,
+//!   the two are tried as one candidate (`pairs`).
 //! * **smooth Coulomb friction** `fc tanh(qd / vs)` replaces Coulomb friction on a joint
 //!   when held-out data prefer it: `vs` on a grid, the one removing most of the held-out
 //!   residual; named only when the torque it changes against Coulomb friction's sign has

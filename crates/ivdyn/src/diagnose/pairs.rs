@@ -40,8 +40,9 @@ pub(super) fn best_pair(ctx: &Ctx, m: &Model) -> Option<(CandidateScore, Model, 
         let Some((sc, l)) = score_asymmetric(ctx, m, j) else { continue };
         let gain = ctx.gain(m, &l);
         // on a moving joint it spans what Coulomb friction + offset spans: the same gain but
-        // for rounding, and read as direction-dependent friction, as the forward step reads
-        // an offset smaller than the friction level (`drive_rules::offset_or_asymmetric`)
+        // for rounding, and read as direction-dependent friction (one effect, not two), as
+        // the forward step reads an offset within `ASYMMETRY_MAX` of the friction level
+        // (`drive_rules::offset_or_asymmetric`)
         if best.as_ref().is_none_or(|x| gain >= x.0 * (1.0 - 1e-9)) {
             best = Some((gain, j, sc, l, EffectKind::Coulomb, EffectKind::AsymmetricCoulomb));
         }
@@ -99,7 +100,8 @@ fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> O
 /// while a friction level that differs with the direction is not, so this pair is named where
 /// the other fails that rule, as `drive_rules::offset_or_asymmetric` reads an offset smaller
 /// than the friction level in the forward step. It must pass every rule on the joint, its
-/// `[qd > 0]` column every rule given Coulomb friction, and both levels be positive.
+/// `[qd > 0]` column every rule given Coulomb friction, and both levels be positive and
+/// within the asymmetry bound (`drive_rules::asymmetric_sign`).
 fn score_asymmetric(ctx: &Ctx, m: &Model, j: usize) -> Option<(JointScore, Model)> {
     use EffectKind::{AsymmetricCoulomb, Coulomb, JointSpring, SmoothCoulomb, Stribeck, TorqueOffset};
     if [Coulomb, AsymmetricCoulomb, TorqueOffset, JointSpring, Stribeck, SmoothCoulomb].iter().any(|&e| m.has(j, e)) {
