@@ -464,7 +464,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     ``velocity="positions"``); ``drives``: search the effects of real drives
     (smooth and load-dependent friction, torque gain, torque ripple, time delay): ``True``
     (``--drives``), ``False`` (``--no-drives``), or ``None`` (default): on logs of at least
-    15 s with white torque noise, ``docs/diagnose.md``; direction-dependent friction, a refinement of Coulomb
+    4 s with white torque noise, ``docs/diagnose.md``; direction-dependent friction, a refinement of Coulomb
     friction found on a joint, is searched either way; ``verdict``: also return the
     report's headline (``verdict``: one sentence) and the lines below it (``details``: each
     effect, what is left above the noise and why nothing was named on it).

@@ -1,5 +1,5 @@
 """The effect vocabulary `diagnose` searches by default (docs/diagnose.md, "Effects of real
-drives by default on long logs"): the effects of real drives on logs of at least 15 s whose
+drives from 4 s"): the effects of real drives on logs of at least 4 s whose
 torque noise is white at the sample rate, the basic vocabulary otherwise.
 
 The log is one case of the CAD set at 20-60 s (`make_cad_cases.py --duration 20:60`, its

@@ -42,7 +42,7 @@ pub struct DiagnoseArgs {
     #[arg(long)]
     no_report: bool,
     /// Search the effects of real drives (smooth and load-dependent friction, torque gain,
-    /// torque ripple, time delay). By default they are searched on logs of at least 15 s
+    /// torque ripple, time delay). By default they are searched on logs of at least 4 s
     /// (docs/diagnose.md). Direction-dependent friction, a refinement of Coulomb friction
     /// found on a joint, is searched either way.
     #[arg(long, conflicts_with = "no_drives")]

@@ -257,8 +257,10 @@ fn drive_parameters(kind: EffectKind, joints: &[usize], f: &Fit, m: &Model, d: &
     }
 }
 
-/// A payload's mass, centre of mass and inertia from its 10 fitted inertial parameters
-/// (only the mass when they are not physically consistent).
+/// A payload's mass, centre of mass and inertia from its 10 fitted inertial parameters:
+/// only the mass when it is not positive; the inertia null when it is not that of a body
+/// (pseudo-inertia not positive semi-definite: a negative principal moment, or one above
+/// the sum of the other two), as where the fit trades it against the re-fitted links'.
 fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
     let list = |v: Vec<f64>| serde_json::Value::from(v);
     let mut p10 = [0.0; 10];
@@ -274,7 +276,8 @@ fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
             params.insert("com".into(), list(vec![c.x, c.y, c.z]));
             // diagnosis.json keeps URDF attribute order (docs/diagnose.md)
             let urdf = ivdyn_core::inertia_to_urdf(ivdyn_core::inertia_vector(&ic));
-            params.insert("inertia".into(), list(urdf.to_vec()));
+            let body = li.is_physically_consistent(0.0);
+            params.insert("inertia".into(), if body { list(urdf.to_vec()) } else { serde_json::Value::Null });
         }
         Err(_) => {
             params.insert("mass".into(), p10[0].into());

@@ -95,7 +95,7 @@ fn ripple_grid(ctx: &Ctx, j: usize) -> Vec<usize> {
 }
 
 /// The grid of the effect's shape on joint `j` (one entry for the asymmetric friction).
-fn grid(ctx: &Ctx, e: EffectKind, j: usize) -> Vec<usize> {
+pub(super) fn grid(ctx: &Ctx, e: EffectKind, j: usize) -> Vec<usize> {
     match e {
         EffectKind::SmoothCoulomb => (0..SMOOTH_VS.len()).collect(),
         EffectKind::TorqueRipple => ripple_grid(ctx, j),
@@ -104,7 +104,7 @@ fn grid(ctx: &Ctx, e: EffectKind, j: usize) -> Vec<usize> {
 }
 
 /// `m` with `e` on joint `j` at grid entry `g`.
-fn with_shape(m: &Model, e: EffectKind, j: usize, g: usize) -> Model {
+pub(super) fn with_shape(m: &Model, e: EffectKind, j: usize, g: usize) -> Model {
     let mut l = m.with(Some(j), e);
     match e {
         EffectKind::SmoothCoulomb => l.smooth_vs[j] = g,
@@ -151,7 +151,7 @@ pub(super) fn score_grid_effect(ctx: &Ctx, m: &Model, e: EffectKind) -> Scored {
 /// Smooth friction is named only where it changes the torque against Coulomb friction's
 /// sign by at least `min_effect` noise std RMS (module docs): the size rule, applied to
 /// that change.
-fn smooth_size(ctx: &Ctx, m: &Model, l: &Model, j: usize, sc: &mut JointScore) {
+pub(super) fn smooth_size(ctx: &Ctx, m: &Model, l: &Model, j: usize, sc: &mut JointScore) {
     let (fm, fl) = (fit(&m.params(), ctx.gr, &ctx.w, &[0, 1]), fit(&l.params(), ctx.gr, &ctx.w, &[0, 1]));
     let tanh = C_TANH + l.smooth_vs[j];
     let diff = Fit {

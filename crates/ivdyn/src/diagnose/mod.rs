@@ -84,13 +84,13 @@ pub struct DiagnoseOptions {
 }
 
 /// Shortest log (seconds of samples used) on which the effects of real drives are searched
-/// by default (with white torque noise, [`DiagnoseOptions::drives_for`]). On shorter logs
-/// their many candidates take up rigid-body error of CAD inertials and noise: on the 2 s and
-/// 5-12 s random arms they lose exact names or add false alarms, while on the tuning parts
-/// of 20-60 s logs they name more cases exactly and no effect on a clean log. 15 s lies in
-/// the untested gap between those lengths, below the 19.6 s that a 20 s log keeps after its
-/// filter edges (docs/diagnose.md, "Effects of real drives by default on long logs").
-pub const DRIVES_MIN_DURATION_S: f64 = 15.0;
+/// by default (with white torque noise, [`DiagnoseOptions::drives_for`]). On 2 s logs (1.6-1.9
+/// s used) their many candidates take up rigid-body error of CAD inertials and noise: false
+/// alarms on effect-free logs rise (new random arms 4 -> 6 of 18, CAD 1 -> 3 of 12). From 5 s
+/// on (4.6 s used) they name far more true (effect, joint) pairs and fewer extra ones, with no
+/// false alarm (5-12 s tuning parts: 86 -> 124 true pairs, 87 -> 48 extra). 4 s lies in the
+/// untested gap, toward the tested side (docs/diagnose.md, "Effects of real drives from 4 s").
+pub const DRIVES_MIN_DURATION_S: f64 = 4.0;
 
 /// Largest median (over joints) lag-1 autocorrelation of the residual's sample-to-sample
 /// differences at which the torque noise counts as white at the sample rate: -0.5 for

@@ -47,6 +47,13 @@ pub(super) fn best_pair(ctx: &Ctx, m: &Model) -> Option<(CandidateScore, Model, 
             best = Some((gain, j, sc, l, EffectKind::Coulomb, EffectKind::AsymmetricCoulomb));
         }
     }
+    for j in 0..ctx.n {
+        let Some((sc, l)) = score_smooth(ctx, m, j) else { continue };
+        let gain = ctx.gain(m, &l);
+        if best.as_ref().is_none_or(|x| gain > x.0) {
+            best = Some((gain, j, sc, l, EffectKind::Coulomb, EffectKind::SmoothCoulomb));
+        }
+    }
     let (score, j, sc, l, a, b) = best?;
     let mut per_joint: Vec<JointScore> = (0..ctx.n).map(|_| not_scored("a pair is scored on one joint")).collect();
     per_joint[j] = sc;
@@ -116,5 +123,39 @@ fn score_asymmetric(ctx: &Ctx, m: &Model, j: usize) -> Option<(JointScore, Model
         return None;
     }
     super::drive_rules::asymmetric_sign(ctx, &l, j, &mut sc);
+    sc.significant.then_some((sc, l))
+}
+
+/// Smooth (sigmoid) Coulomb friction on joint `j` as one candidate: Coulomb friction with
+/// its `sign(qd)` column replaced by `tanh(qd / vs)`, `vs` on the grid by the held-out share.
+/// It refines Coulomb friction found on a joint, so where a smooth friction leaves Coulomb
+/// friction's sharp step short of the share of rule 2 (it overshoots at low speed), it would
+/// never be tried. Searched with the effects of real drives only; it must pass every rule on
+/// the joint and change the torque against Coulomb friction's sign by the size rule
+/// (`drive_rules::smooth_size`). Not on a joint with friction of another shape already
+/// (beside true load-dependent friction on the UR5 drive fixture's elbow, the tanh took what
+/// the load column's sharp step leaves near zero speed and was named too).
+fn score_smooth(ctx: &Ctx, m: &Model, j: usize) -> Option<(JointScore, Model)> {
+    use super::drive_rules::{grid, smooth_size, with_shape};
+    use EffectKind::{AsymmetricCoulomb, Coulomb, LoadDependent, SmoothCoulomb, Stribeck};
+    let friction_there = [Coulomb, AsymmetricCoulomb, Stribeck, SmoothCoulomb, LoadDependent];
+    if !ctx.drives || friction_there.iter().any(|&e| m.has(j, e)) {
+        return None;
+    }
+    let with_coulomb = m.with(Some(j), Coulomb);
+    let friction = |p: &Param| p.joint == Some(j) && matches!(p.kind, Some(Coulomb | SmoothCoulomb));
+    let mut best: Option<(JointScore, Model)> = None;
+    for g in grid(ctx, SmoothCoulomb, j) {
+        let l = with_shape(&with_coulomb, SmoothCoulomb, j, g);
+        let sc = ctx.joint_score(m, &l, j, &friction);
+        if best.as_ref().is_none_or(|(b, _)| sc.heldout_gain > b.heldout_gain) {
+            best = Some((sc, l));
+        }
+    }
+    let (mut sc, l) = best?;
+    if !sc.significant {
+        return None;
+    }
+    smooth_size(ctx, &with_coulomb, &l, j, &mut sc);
     sc.significant.then_some((sc, l))
 }

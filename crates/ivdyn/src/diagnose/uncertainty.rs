@@ -135,6 +135,10 @@ pub(super) fn with_two_std(params: &Params, std: &Params, unit_of: &dyn Fn(&str)
     params
         .iter()
         .map(|(k, v)| {
+            if v.is_null() {
+                // e.g. a payload's inertia that is not that of a body (`assemble`)
+                return format!("{k} not identified");
+            }
             let s = std.get(k);
             let text = match v {
                 Value::Array(a) => {

@@ -96,7 +96,7 @@ fn time_delay() {
     check("time_delay");
 }
 
-/// By default the effects of real drives are searched only on logs of at least 15 s with
+/// By default the effects of real drives are searched only on logs of at least 4 s with
 /// white torque noise (`DiagnoseOptions::drives_for`): on this 2 s log the smooth friction
 /// is not named as such, and the details say why (python/tests/test_diagnose_default_vocabulary.py
 /// checks a 20-60 s MuJoCo log, and the same log low-passed).
@@ -109,7 +109,7 @@ fn drive_effects_are_not_searched_by_default_on_a_short_log() {
     assert!(d.json.effects.iter().all(|e| e.name != "smooth_coulomb_friction"), "{:?}", d.json.effects);
     let why = d.details.last().unwrap();
     assert!(why.starts_with("effects of real drives not searched: the log spans"), "{why}");
-    assert!(why.contains("under 15 s"), "{why}");
+    assert!(why.contains("under 4 s"), "{why}");
 }
 
 /// The rule itself: given beats the log; by default both the duration and white noise.
@@ -117,8 +117,8 @@ fn drive_effects_are_not_searched_by_default_on_a_short_log() {
 fn drive_effects_by_default_need_a_long_log_with_white_noise() {
     let auto = DiagnoseOptions::default();
     assert!(auto.drives_for(25.0, -0.5));
-    assert!(auto.drives_for(15.0, -0.25), "interpolated noise is white enough");
-    assert!(!auto.drives_for(14.9, -0.5), "short");
+    assert!(auto.drives_for(4.0, -0.25), "interpolated noise is white enough");
+    assert!(!auto.drives_for(3.9, -0.5), "short");
     assert!(!auto.drives_for(60.0, 0.0), "low-passed torque");
     assert!(DiagnoseOptions { drives: Some(true), ..auto.clone() }.drives_for(2.0, 0.0));
     assert!(!DiagnoseOptions { drives: Some(false), ..auto }.drives_for(60.0, -0.5));
