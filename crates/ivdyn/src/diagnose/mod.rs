@@ -88,7 +88,7 @@ pub struct DiagnoseOptions {
 /// s used) their many candidates take up rigid-body error of CAD inertials and noise: false
 /// alarms on effect-free logs rise (new random arms 4 -> 6 of 18, CAD 1 -> 3 of 12). From 5 s
 /// on (4.6 s used) they name far more true (effect, joint) pairs and fewer extra ones, with no
-/// false alarm (5-12 s tuning parts: 86 -> 124 true pairs, 87 -> 48 extra). 4 s lies in the
+/// false alarm (5-12 s tuning parts: 86 -> 125 true pairs, 87 -> 47 extra). 4 s lies in the
 /// untested gap, toward the tested side (docs/diagnose.md, "Effects of real drives from 4 s").
 pub const DRIVES_MIN_DURATION_S: f64 = 4.0;
 
