@@ -9,7 +9,8 @@
 //! inertia-like member also the look-alike rule 5 against the nominal link inertials.
 //! Direction-dependent Coulomb friction (Coulomb friction and its `[qd > 0]` column) is
 //! tried the same way: it refines Coulomb friction found on a joint, so without this it
-//! would never be tried where Coulomb friction alone fails the share.
+//! would never be tried where Coulomb friction alone fails the share. So is smooth (tanh)
+//! friction, with the effects of real drives (`score_smooth`).
 
 use super::dictionary::C_Q;
 use super::model::{Model, Param};
