@@ -352,6 +352,8 @@ def write_case(cfg, robot, case, nominal, duration):
     entry = {"name": case["name"], "log": log, "urdf": rel(nominal), "samples": len(ex["t"]),
              "velocity_in_log": True, "seed": case["seed"], "effects": case["effects"], "torque_noise_std": noise,
              "oracle": oracle}
+    if mdc.FRICTION_SOLREF != "stiff":
+        entry["friction_solref"] = mdc.FRICTION_SOLREF
     stamps_ns = None
     if sensor is not None:
         q_meas, qd_meas, tau_meas, repeats = sensor_variants.finish(sensor, ex["t"], q_meas, qd_meas, tau_meas, srng)
@@ -396,7 +398,11 @@ def main(argv=None):
                     "with split.json); fixtures/diagnose_cad holds a few cases of the tuning part")
     ap.add_argument("--no-drives", action="store_true", help="only the basic effect kinds (the set of the "
                     "first slices of issue 15, as it was drawn before the effects of real drives)")
+    ap.add_argument("--friction-solref", choices=["stiff", "mujoco"], default="stiff", help="solref of the "
+                    "friction-loss constraints: (2 dt, 1), the stiffest stable one, or MuJoCo's soft default "
+                    "(0.02 s, 1), which makes Coulomb friction creep near zero velocity")
     args = ap.parse_args(argv)
+    mdc.FRICTION_SOLREF = args.friction_solref
     kinds = KINDS if args.no_drives else KINDS + DRIVE_KINDS
     if args.set == "cad":
         arms = [(name, 1500 + 100 * i) for i, name in enumerate(["ur5", "panda", "ur3", "talos_arm"])]

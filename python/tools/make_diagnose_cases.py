@@ -271,6 +271,19 @@ def zero_dynamics(root):
 
 
 # ----------------------------------------------------------------------------- models
+# The friction-loss constraint's solref: "stiff" = (2 dt, 1), the stiffest stable one at this
+# step; "mujoco" = MuJoCo's own default (0.02 s, 1), left untouched. With the default's 0.02 s
+# time constant the constraint is soft: below full slip it opposes ~90 % of the joint's net
+# torque and a joint creeps at |f| < fc, so on light joints the force reaches fc only above a
+# few tenths of a rad/s (make_cad_cases.py --friction-solref).
+FRICTION_SOLREF = "stiff"
+
+
+def friction_solref(joint, dt):
+    if FRICTION_SOLREF == "stiff":
+        joint.solref_friction = [2 * dt, 1.0]
+
+
 def mujoco_model(cfg, effects, joint_names, dt=DT):
     """MuJoCo model of the robot's clean URDF (or its own MJCF, `cfg["mjcf_path"]`, when it has
     one: the random arms) with the given effects (sensor-side ones ignored)."""
@@ -285,9 +298,7 @@ def mujoco_model(cfg, effects, joint_names, dt=DT):
             j = joints[jn]
             if e["name"] == "coulomb_friction":
                 j.frictionloss = p["fc"][i]
-                # stiffest stable friction constraint at this step (2 dt): the default 0.02 s
-                # time constant makes the friction force lag sign changes by tens of ms
-                j.solref_friction = [2 * dt, 1.0]
+                friction_solref(j, dt)
             elif e["name"] == "viscous_friction":
                 j.damping = [p["fv"][i], 0.0, 0.0]   # [linear, polynomial terms]
             elif e["name"] == "armature":
@@ -297,9 +308,9 @@ def mujoco_model(cfg, effects, joint_names, dt=DT):
                 j.springref = p["q0"][i]
             elif e["name"] == "asymmetric_coulomb_friction":
                 j.frictionloss = 0.5 * (p["fc_pos"][i] + p["fc_neg"][i])
-                j.solref_friction = [2 * dt, 1.0]
+                friction_solref(j, dt)
             elif e["name"] == "load_dependent_friction":
-                j.solref_friction = [2 * dt, 1.0]   # frictionloss itself is set every step
+                friction_solref(j, dt)   # frictionloss itself is set every step
         if e["name"] == "payload":
             parent = spec.body(cfg["terminal_link"])
             b = parent.add_body(name="payload")
