@@ -42,3 +42,21 @@ def test_zero_phase_lowpass_gain():
         assert abs(gain - want) < 0.01 * want, (f, gain, want)
         # zero phase: the output peaks where the input does
         assert abs(np.dot(y, np.cos(2 * np.pi * f * t[1000:3000]))) < 0.01 * np.dot(y, y) + 1e-9
+
+
+def test_noise_std_of_white_noise_under_a_slow_signal():
+    # MAD of the differences two samples apart: for white noise of std sigma they have std
+    # sigma sqrt(2), a slow sine barely moves them. The MAD's relative standard error at
+    # n = 20000 is about 1.1 %, so 5 % is beyond four standard errors.
+    rng = np.random.default_rng(16)
+    T, sigma = 20000, 0.02
+    t = np.arange(T) / 1000.0
+    r = 1.0 * np.sin(2 * np.pi * 0.1 * t) + sigma * rng.standard_normal(T)
+    assert abs(sb.noise_std(r) - sigma) < 0.05 * sigma
+
+
+def test_heldout_part_takes_the_tuned_setting_only(tmp_path):
+    # the held-out part never chooses: a grid of settings is refused before any case is read
+    import pytest
+    with pytest.raises(SystemExit):
+        sb.main([str(tmp_path), "--part", "heldout", "--lambdas", "1,2", "--ridges", "0.001"])

@@ -18,8 +18,8 @@ thresholded least squares (STLSQ, Brunton et al. 2016) of `r = tau - rnea_nomina
   it a simulator's half-sample lag reads as viscous friction). These name nothing.
 
 Columns are scaled to unit RMS, so a coefficient is the RMS torque its term adds; STLSQ drops
-every term below `lambda` noise standard deviations (the joint's noise: MAD of the sample-to-sample
-differences of the least-squares residual, as ivdyn estimates it), refits, and repeats. An effect
+every term below `lambda` noise standard deviations (the joint's noise: MAD of the differences two
+samples apart of the least-squares residual, as ivdyn estimates it), refits, and repeats. An effect
 is named on a joint when one of its columns survives (a payload: on any joint; Stribeck replaces
 Coulomb on its joint; a spring contains the offset). Own NumPy code, not PySINDy: PySINDy fits
 x_dot = f(x) with one feature library for all targets; a per-joint dictionary with fixed,
@@ -29,14 +29,16 @@ Conditioning: the log's velocity (else positions differentiated), a zero-phase 2
 Butterworth low-pass at 20 Hz (ivdyn identify's default) run forward and backward, central
 differences, 2 filter time constants dropped at both ends.
 
-`lambda` and the ridge (grids below) are chosen on the cases scored (the tuning part of split.json;
-never the held-out part): the most cases named exactly right, ties broken by the fewest extra
-(effect, joint) pairs, then the median final / oracle RMS. Every lambda of
-the grid is printed, so the choice is visible. Scoring (named right, false alarms, final / oracle
+`lambda` and the ridge (grids below) are chosen on the tuning part of split.json: the most cases
+named exactly right, ties broken by the fewest extra (effect, joint) pairs, then the median final /
+oracle RMS. Every lambda of the grid is printed, so the choice is visible. The held-out part
+(`--part heldout`) is run with the one setting chosen on the tuning part, given as a single
+`--lambdas` and `--ridges` value: it never chooses. Scoring (named right, false alarms, final / oracle
 RMS) is python/tools/score_diagnose_cases.py's: a case is right when the named (effect, joint)
 pairs equal the truth.
 
     python python/tools/sindy_baseline.py /tmp/cad_cases --part tune --bin target/release/ivdyn
+    python python/tools/sindy_baseline.py /tmp/cad_cases --part heldout --lambdas L --ridges R --bin ...
 """
 import argparse
 import json
@@ -146,8 +148,8 @@ def dictionary(model, q, qd, qdd, qddd, dt, tau):
 
 
 def noise_std(res):
-    """Noise std from sample-to-sample differences (MAD), as ivdyn's residual.rs."""
-    d = np.diff(res)
+    """Noise std from differences two samples apart (MAD), as ivdyn's residual.rs (NOISE_LAG)."""
+    d = res[2:] - res[:-2]
     return max(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2.0), 1e-12)
 
 
@@ -264,10 +266,8 @@ def row(method, s):
 def load_cases(root, part):
     with open(os.path.join(root, "split.json")) as f:
         split = json.load(f)
-    if part == "heldout":
-        raise SystemExit("the baseline's threshold is tuned on the tuning part; the held-out part is not for it")
     manifests, out = {}, []
-    for cid in split["tune"]:
+    for cid in split[part]:
         robot, name = cid.split("/")
         if robot not in manifests:
             with open(os.path.join(root, robot, "cases.json")) as f:
@@ -281,7 +281,8 @@ def load_cases(root, part):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("root", help="directory written by make_cad_cases.py (split.json, <robot>/cases.json)")
-    ap.add_argument("--part", choices=["tune"], default="tune")
+    ap.add_argument("--part", choices=["tune", "heldout"], default="tune",
+                    help="heldout: the setting chosen on the tuning part only (one --lambdas, one --ridges)")
     ap.add_argument("--bin", default=os.environ.get("IVDYN_BIN", "target/release/ivdyn"),
                     help="the ivdyn binary scored beside the baseline (skipped when missing)")
     ap.add_argument("--lambdas", default=",".join(str(x) for x in LAMBDAS),
@@ -292,6 +293,10 @@ def main(argv=None):
     ap.add_argument("--ridges", default=",".join(str(x) for x in RIDGES),
                     help="ridges tried (relative to the unit diagonal of the normal equations)")
     args = ap.parse_args(argv)
+    grid = [(float(x), float(y)) for x in args.lambdas.split(",") for y in args.ridges.split(",")]
+    if args.part == "heldout" and len(grid) != 1:
+        ap.error("--part heldout takes the setting chosen on the tuning part: one --lambdas and one --ridges "
+                 f"value (got {len(grid)} settings)")
     cases = load_cases(args.root, args.part)
     if args.prepare_only:
         i, k = (int(x) for x in args.prepare_only.split("/"))
@@ -299,7 +304,6 @@ def main(argv=None):
             Prepared(case, m, m["_dir"], args.cache)
             print(f"{cid}: prepared", file=sys.stderr)
         return 0
-    grid = [(float(x), float(y)) for x in args.lambdas.split(",") for y in args.ridges.split(",")]
     per_lam = {g: [] for g in grid}
     ivdyn = []
     have_bin = os.path.exists(args.bin)
@@ -320,7 +324,10 @@ def main(argv=None):
     for g in grid:
         print(row(f"lambda {g[0]:g}, ridge {g[1]:g}", summaries[g]))
     best = max(grid, key=lambda g: (summaries[g]["right"], -summaries[g]["extra"], -summaries[g]["ratio"]))
-    print(f"\nchosen on these (tuning) cases: lambda = {best[0]:g} noise std, ridge {best[1]:g}\n")
+    if args.part == "tune":
+        print(f"\nchosen on these (tuning) cases: lambda = {best[0]:g} noise std, ridge {best[1]:g}\n")
+    else:
+        print(f"\nheld-out part, the tuning part's setting: lambda = {best[0]:g} noise std, ridge {best[1]:g}\n")
     print("| case | truth | ivdyn diagnose | SINDy baseline |")
     print("|---|---|---|---|")
     for i, (cid, _, case) in enumerate(cases):

@@ -472,8 +472,8 @@ pub struct Diagnosis {
     pub steps: Vec<Step>,
     /// The candidates scored at the final step, when none was significant.
     pub final_candidates: Vec<CandidateScore>,
-    /// Estimated sensor noise std per joint (N m), from the residual's sample-to-sample
-    /// differences (robust to the slow structure a missing effect leaves).
+    /// Estimated sensor noise std per joint (N m), from differences of the residual two
+    /// samples apart (robust to the slow structure a missing effect leaves).
     pub noise_std: Vec<f64>,
     /// Regimes of the nominal residual, per joint.
     pub regimes_before: Vec<Regimes>,

@@ -10,8 +10,8 @@
 //!    model with every candidate in can explain: a missing effect explains nearly all
 //!    the structure it leaves on its joint, a look-alike only part of it;
 //! 3. it matters: the torque it adds has an RMS of at least `min_effect` times the
-//!    joint's noise level (estimated from sample-to-sample differences of the residual of
-//!    a model with every candidate in, which slow structure barely moves);
+//!    joint's noise level (estimated from differences two samples apart of the residual
+//!    of a model with every candidate in, which slow structure barely moves);
 //! 4. its parameters have their physical sign, and an armature or payload is larger than
 //!    the uncertainty of the nominal (CAD) inertials;
 //! 5. inertia-like effects (payload, armature, offset, spring, gain, ripple) are not imitated

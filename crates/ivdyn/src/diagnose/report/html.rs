@@ -104,7 +104,7 @@ fn rms_section(o: &mut String, d: &Diagnosis, figs: &Figures) {
     o.push_str("<h2 id=\"rms\">RMS residual per joint</h2>\n");
     o.push_str(
         "<p>Root mean square of the residual over the whole log, for the nominal model and after each \
-         step. The noise estimate comes from the sample-to-sample differences of the residual; a final \
+         step. The noise estimate comes from differences of the residual two samples apart; a final \
          RMS close to it means nothing structured is left.</p>\n",
     );
     o.push_str("<table id=\"rms-table\">\n<tr><th>joint</th>");
