@@ -9,7 +9,11 @@ thresholded least squares (STLSQ, Brunton et al. 2016) of `r = tau - rnea_nomina
   the log with the NumPy reference (python/reference/ivdyn_ref, written from the equations: the
   deliberate twin of the Rust code): `1` (torque_offset), `q - mean(q)` (joint_spring), `qd`
   (viscous_friction), `sign(qd)` (coulomb_friction), `qdd` (armature), the Stribeck shapes
-  `exp(-(qd/vs)^2) sign(qd)` on the same `vs` grid (stribeck_friction), the terminal link's 10
+  `exp(-(qd/vs)^2) sign(qd)` on the same `vs` grid (stribeck_friction), the real drives' columns
+  (`[qd > 0]`: asymmetric_coulomb_friction; `tanh(qd/vs)` on the same grid:
+  smooth_coulomb_friction; `|tau_nom| sign(qd)`: load_dependent_friction; `tau_nom`: torque_gain;
+  `-d tau_nom/dt`: time_delay; `sin(n q)`, `cos(n q)` for n = 4, 6, 8, 12, 16: torque_ripple,
+  `tau_nom` the joint's nominal rigid-body torque), the terminal link's 10
   regressor columns (payload) and, as rigid-body corrections that name nothing, each other link's
   torque split into its mass, first-moment and rotational-inertia parts (the re-fit's columns);
 * generic terms of the joint's own q, qd, qdd: q^2, qd^2, qdd^2, q qd, q qdd, qd qdd, qd^3,
@@ -20,8 +24,9 @@ thresholded least squares (STLSQ, Brunton et al. 2016) of `r = tau - rnea_nomina
 Columns are scaled to unit RMS, so a coefficient is the RMS torque its term adds; STLSQ drops
 every term below `lambda` noise standard deviations (the joint's noise: MAD of the differences two
 samples apart of the least-squares residual, as ivdyn estimates it), refits, and repeats. An effect
-is named on a joint when one of its columns survives (a payload: on any joint; Stribeck replaces
-Coulomb on its joint; a spring contains the offset). Own NumPy code, not PySINDy: PySINDy fits
+is named on a joint when one of its columns survives (a payload: on any joint; Stribeck, smooth and
+direction-dependent friction replace Coulomb friction on its joint, Stribeck the smooth one; a spring
+contains the offset). Own NumPy code, not PySINDy: PySINDy fits
 x_dot = f(x) with one feature library for all targets; a per-joint dictionary with fixed,
 log-dependent columns (the regressor) is 30 lines of STLSQ either way, without a dependency.
 
@@ -41,6 +46,7 @@ pairs equal the truth.
     python python/tools/sindy_baseline.py /tmp/cad_cases --part heldout --lambdas L --ridges R --bin ...
 """
 import argparse
+import hashlib
 import json
 import os
 import statistics
@@ -58,6 +64,8 @@ from ivdyn_ref import model as ref_model  # noqa: E402
 
 CUTOFF_HZ = 20.0
 STRIBECK_VS = [0.02, 0.05, 0.1, 0.2, 0.4]  # fractions of the joint's RMS speed, as dictionary.rs
+SMOOTH_VS = [0.15, 0.2, 0.3, 0.4, 0.6]      # tanh(qd / vs), the same fractions as dictionary.rs
+RIPPLE_N = [4.0, 6.0, 8.0, 12.0, 16.0]      # sin(n q), cos(n q), as dictionary.rs
 LINK_GROUPS = [(0, 1), (1, 4), (4, 10)]     # mass, first moment, rotational inertia
 LAMBDAS = [0.5, 1.0, 2.0, 3.0, 5.0, 10.0, 20.0]
 RIDGES = [0.0, 1e-3, 1e-2, 1e-1]
@@ -116,6 +124,20 @@ def conditioned(t, q, qd, fc=CUTOFF_HZ):
     return dt, keep, q[keep], v[keep], qdd[keep], qddd[keep]
 
 
+def drive_columns(x, v, tau_nom, dt, vrms):
+    """The real-drive columns of one joint, as dictionary.rs's: `[qd > 0]` (with `sign(qd)`,
+    direction-dependent Coulomb friction), `tanh(qd / vs)`, `|tau_nom| sign(qd)` (load-dependent
+    friction), `tau_nom` (a torque gain), `-d tau_nom / dt` (a delay, first order) and the ripple
+    harmonics of q."""
+    c = [("[qd>0]", "asymmetric_coulomb_friction", (v > 0).astype(float))]
+    c += [(f"tanh vs={f}", "smooth_coulomb_friction", np.tanh(v / (f * vrms))) for f in SMOOTH_VS]
+    c += [("|tau_nom| sign(qd)", "load_dependent_friction", np.abs(tau_nom) * np.sign(v)),
+          ("tau_nom", "torque_gain", tau_nom), ("-d tau_nom/dt", "time_delay", -np.gradient(tau_nom, dt))]
+    for h in RIPPLE_N:
+        c += [(f"sin {h:g}q", "torque_ripple", np.sin(h * x)), (f"cos {h:g}q", "torque_ripple", np.cos(h * x))]
+    return c
+
+
 def dictionary(model, q, qd, qdd, qddd, dt, tau):
     """The nominal residual (T x N) and per joint the dictionary columns: a list of (name, effect or
     None, column)."""
@@ -126,7 +148,8 @@ def dictionary(model, q, qd, qdd, qddd, dt, tau):
     Y = np.empty((T, n, 14 * n))
     for k in range(T):
         Y[k] = ref_dyn.regressor(model, q[k], qd[k], qdd[k])
-    r = tau - Y @ theta
+    tau_nom = Y @ theta
+    r = tau - tau_nom
     cols = []
     for j in range(n):
         x, v, a = q[:, j], qd[:, j], qdd[:, j]
@@ -135,6 +158,7 @@ def dictionary(model, q, qd, qdd, qddd, dt, tau):
              ("qd", "viscous_friction", v), ("sign(qd)", "coulomb_friction", sg), ("qdd", "armature", a)]
         vrms = max(np.sqrt(np.mean(v ** 2)), 1e-9)
         c += [(f"stribeck vs={f}", "stribeck_friction", np.exp(-(v / (f * vrms)) ** 2) * sg) for f in STRIBECK_VS]
+        c += drive_columns(x, v, tau_nom[:, j], dt, vrms)
         c += [(f"payload {i}", "payload", Y[:, j, 10 * (n - 1) + i]) for i in range(10)]
         for i in range(n - 1):
             for g, (lo, hi) in enumerate(LINK_GROUPS):
@@ -183,7 +207,10 @@ class Prepared:
     `cache` as .npz when given: the NumPy regressor is the slow part)."""
 
     def __init__(self, case, manifest, root, cache=None):
-        path = os.path.join(cache, f"{os.path.basename(root)}_{case['name']}.npz") if cache else None
+        # keyed by the log's absolute path (sets share robot and case names); v2: with the
+        # real-drive columns (a v1 file, without them, is not read)
+        key = hashlib.sha1(os.path.abspath(os.path.join(root, case["log"])).encode()).hexdigest()[:16]
+        path = os.path.join(cache, f"{os.path.basename(root)}_{case['name']}_{key}_v2.npz") if cache else None
         if path and os.path.exists(path):
             z = np.load(path, allow_pickle=False)
             self.names, self.r, self.sigma = list(manifest["joints"]), z["r"], list(z["sigma"])
@@ -222,8 +249,11 @@ class Prepared:
             coef, active = stlsq(self.G[j], self.b[j], lam * self.sigma[j], ridge)
             final.append(float(np.sqrt(np.mean((self.r[:, j] - self.X[j] @ coef) ** 2))))
             kinds = {k for k, a in zip(self.kinds[j], active) if a and k}
-            if "stribeck_friction" in kinds:
+            # one name per friction on a joint, the most specific, as the diagnosis reports it
+            if kinds & {"stribeck_friction", "smooth_coulomb_friction", "asymmetric_coulomb_friction"}:
                 kinds.discard("coulomb_friction")
+            if "stribeck_friction" in kinds:
+                kinds.discard("smooth_coulomb_friction")
             if "joint_spring" in kinds:
                 kinds.discard("torque_offset")
             for k in kinds:
