@@ -222,6 +222,9 @@ pub(super) struct Grams {
     /// Ridge on the link-scale parameters in every fit (unit-diagonal normal equations;
     /// 0 unless the nominal re-fit chose one, `refit`).
     pub(super) ridge: f64,
+    /// Nominal scale of each re-fit correction (`Dictionary::base` order,
+    /// `refit::prior_scales`): with a ridge, the corrections also get a physical prior.
+    pub(super) prior: Vec<f64>,
 }
 
 /// The fold of sample `k`: the log cut into `2 blocks_per_fold` blocks, alternately in
@@ -280,5 +283,5 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
         });
         g.push(gj);
     }
-    Grams { g, rows, ridge: 0.0 }
+    Grams { g, rows, ridge: 0.0, prior: vec![] }
 }

@@ -231,10 +231,16 @@ pub(super) fn normal_equations(
     (a, b)
 }
 
+/// Prior standard deviation of a re-fit correction, as a fraction of its combination's
+/// nominal scale (`Grams::prior`): CAD inertials are typically 20-50 % off. (0.1 was tried:
+/// more extra pairs and a false alarm, docs/diagnose.md.)
+const PRIOR_C: f64 = 0.3;
+
 /// The solution operator of [`fit`] for the normal matrix `a`: the column scaling `s`
-/// (unit diagonal) and the pseudo-inverse of the scaled matrix with the ridge on the
-/// link-scale parameters, so that `theta = S pinv (S b)`; `None` if the SVD fails.
-pub(super) fn scaled_pinv(model_params: &[Param], ridge: f64, a: &DMatrix<f64>) -> Option<(Vec<f64>, DMatrix<f64>)> {
+/// (unit diagonal) and the pseudo-inverse of the scaled matrix with the ridge (and the
+/// re-fit corrections' physical prior) on the link-scale parameters, so that `theta = S pinv (S b)`; `None` if the SVD fails.
+pub(super) fn scaled_pinv(model_params: &[Param], gr: &Grams, a: &DMatrix<f64>) -> Option<(Vec<f64>, DMatrix<f64>)> {
+    let ridge = gr.ridge;
     let p = model_params.len();
     // scale to unit diagonal, then a pseudo-inverse with a relative threshold
     let s: Vec<f64> = (0..p).map(|i| if a[(i, i)] > 0.0 { 1.0 / a[(i, i)].sqrt() } else { 0.0 }).collect();
@@ -244,6 +250,16 @@ pub(super) fn scaled_pinv(model_params: &[Param], ridge: f64, a: &DMatrix<f64>) 
     for (i, q) in model_params.iter().enumerate() {
         if q.kind.is_none() && s[i] > 0.0 {
             an[(i, i)] += ridge;
+            // and a re-fit correction also by its physical size: a Gaussian prior of standard
+            // deviation `PRIOR_C` times its scale against the noise-weighted normal equations
+            // (precision `1 / (c scale)^2`, here scaled by `s^2`), so that a well-excited
+            // column cannot take a correction many times its combination's size
+            if ridge > 0.0
+                && q.col >= C_BASE
+                && let Some(sc) = gr.prior.get(q.col - C_BASE)
+            {
+                an[(i, i)] += (s[i] / (PRIOR_C * sc)).powi(2);
+            }
         }
     }
     let svd = crate::linalg::svd(an, true, true, "diagnosis: candidate fit").ok()?;
@@ -262,7 +278,7 @@ pub(super) fn fit(model_params: &[Param], gr: &Grams, w: &[f64], folds: &[usize]
     let (a, b) = normal_equations(model_params, gr, w, folds);
     // The Gram matrices are checked finite before the search (`prepare`), so this converges;
     // were it not to, the candidate explains nothing (zero effects) rather than hanging.
-    let Some((s, pinv)) = scaled_pinv(model_params, gr.ridge, &a) else {
+    let Some((s, pinv)) = scaled_pinv(model_params, gr, &a) else {
         return Fit { params: model_params.to_vec(), theta: vec![0.0; p] };
     };
     let bn = DVector::from_fn(p, |i, _| b[i] * s[i]);

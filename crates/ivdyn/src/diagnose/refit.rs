@@ -12,8 +12,11 @@
 //!   terminal link is what a payload is, and the payload candidate with its own rules
 //!   (size beyond the CAD margin, held-out share, look-alike check) decides it.
 //! * **Regularised toward the nominal**: a ridge on the corrections (unit-diagonal normal
-//!   equations), the largest on a grid whose two-fold held-out residual (friction on every
-//!   joint in) is within 1 % of the best, among the grid values whose corrected links are
+//!   equations) plus, whenever the ridge is on, a physical prior (each correction a
+//!   Gaussian of 30 % of its combination's nominal scale, `prior_scales`: a well-excited
+//!   column cannot take a correction many times its size), the ridge the largest on a grid
+//!   whose two-fold held-out residual (friction on every joint in) is within 1 % of the
+//!   best, among the grid values whose corrected links are
 //!   physically consistent if there are any (`corrected`: the full parameters closest to
 //!   the nominal in its own scales with those base parameters; mass, inertia about the COM
 //!   and its triangle inequalities). When none is, the held-out choice stands and
@@ -104,6 +107,15 @@ fn corrected(d: &Dictionary, nominal: &[f64], delta: &[f64]) -> Option<Vec<f64>>
     let y = gram.cholesky()?.solve(&DVector::from_column_slice(delta));
     let dtheta = ps2.transpose() * y;
     Some(nominal[..p].iter().zip(dtheta.iter()).map(|(t, d)| t + d).collect())
+}
+
+/// Nominal scale of each base parameter's correction: `sqrt(diag(P S^2 P^T))`, the size of
+/// the combination in the nominal's own scales (`S`, as in `corrected`).
+pub(super) fn prior_scales(d: &Dictionary, nominal: &[f64]) -> Vec<f64> {
+    let p = d.base.full_cols;
+    let s2: Vec<f64> = consistent::scales(nominal, p / 10)[..p].iter().map(|s| s * s).collect();
+    let pm = consistent::base_map(&d.base, p);
+    (0..pm.nrows()).map(|r| (0..p).map(|c| pm[(r, c)].powi(2) * s2[c]).sum::<f64>().sqrt()).collect()
 }
 
 /// Whether every re-fitted link of `theta` is physically consistent (positive mass,

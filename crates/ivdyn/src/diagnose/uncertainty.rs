@@ -34,7 +34,7 @@ pub(super) fn covariance(f: &Fit, gr: &Grams, w: &[f64], r_final: &[f64]) -> Opt
         return None;
     }
     let (a, _) = normal_equations(&f.params, gr, w, &[0, 1]);
-    let (s, pinv) = scaled_pinv(&f.params, gr.ridge, &a)?;
+    let (s, pinv) = scaled_pinv(&f.params, gr, &a)?;
     let h = DMatrix::from_fn(p, p, |i, k| s[i] * pinv[(i, k)] * s[k]);
     let mut meat = DMatrix::<f64>::zeros(p, p);
     for j in 0..n {
