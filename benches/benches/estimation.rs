@@ -1,6 +1,6 @@
 //! Estimation hot paths: one recursive update of the paper's terminal-link problem
 //! (k = 5, 18 base columns, rows of joints 5 and 6: dynamics + estimator; the reduced
-//! update and the full-dynamics reference), one scalar-row
+//! update in covariance and information form, and the full-dynamics reference), one scalar-row
 //! update of RLS and RIV over the paper robot's full base set, and a batch fit of 100 000
 //! UR5 samples (regressor + streaming QR least squares).
 
@@ -8,7 +8,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use ivdyn::Robot;
 use ivdyn::ident::{LsAccumulator, base::robot_base_params, fit_ls};
 use ivdyn_core::estim::terminal::{Method, TerminalLink};
-use ivdyn_core::estim::{Riv, Rls};
+use ivdyn_core::estim::{Riv, RivInfo, Rls};
 use ivdyn_core::rng::Rng;
 use ivdyn_core::{Data, VecN};
 use ivdyn_lab::repro::{Estimator, PaperSim};
@@ -48,6 +48,23 @@ fn terminal_link(c: &mut Criterion) {
             let s = &samples[k];
             full.update_full(&s.q, &s.qd, &s.qdd_meas, &s.tau, &instr[k]).unwrap();
             black_box(full.theta()[0])
+        })
+    });
+    // the same estimate in information form (LU factors of R updated by Bennett's rank-one
+    // algorithm, one estimate per sample)
+    let mut info = TerminalLink::<6, Const<18>>::new(
+        sim.nominal.clone(),
+        sim.spec,
+        cols,
+        sim.row_weight,
+        Method::IvInfo(RivInfo::new(SVector::<f64, 18>::zeros(), 1e4)),
+    );
+    c.bench_function("terminal_link_iv_info_update/paper_k5_18cols", |b| {
+        b.iter(|| {
+            k = (k + 1) % samples.len();
+            let s = &samples[k];
+            info.update(&s.q, &s.qd, &s.qdd_meas, &s.tau, &instr[k]).unwrap();
+            black_box(info.theta()[0])
         })
     });
     let mut ls = TerminalLink::<6, Const<18>>::new(

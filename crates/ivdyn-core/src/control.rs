@@ -273,10 +273,12 @@ where
     /// coincide; tried: the full sandwich form with this crate's heuristic row weights was
     /// 10-100 x too pessimistic on the paper's robot; this form was ~3 x pessimistic on one
     /// Panda run, judged against the estimate's actual error). Both assume the row weights are the inverse
-    /// variances of the rows' equation errors. `O(1)` for IV, `O(D^2)` for LS.
+    /// variances of the rows' equation errors. `O(1)` for IV, `O(D^2)` for LS, `O(D^3)` for
+    /// IV in information form (`P` by `D` solves).
     pub fn variance(&self, b: usize) -> f64 {
         match &self.link.method {
             Method::Iv(r) => r.p[(b, b)],
+            Method::IvInfo(r) => r.p()[(b, b)],
             Method::Ls(r) => {
                 let mut v = r.theta.clone();
                 r.variances(&mut v);
@@ -356,6 +358,7 @@ where
     pub fn torque_std(&mut self, out: &mut VecN<N>) {
         let cov_ls = match &self.link.method {
             Method::Ls(r) => Some(r.covariance()),
+            Method::IvInfo(r) => Some(r.p()),
             Method::Iv(_) => None,
         };
         let mut phi = self.link.theta().clone();
@@ -366,7 +369,7 @@ where
             let v = match (&self.link.method, &cov_ls) {
                 (_, Some(c)) => quad(c, &phi),
                 (Method::Iv(r), None) => quad(&r.p, &phi),
-                (Method::Ls(_), None) => 0.0,
+                (Method::Ls(_) | Method::IvInfo(_), None) => 0.0,
             };
             out[row] = libm::sqrt(v.max(0.0));
         }

@@ -4,7 +4,7 @@
 mod common;
 use common::Rng;
 use ivdyn_core::Error;
-use ivdyn_core::estim::{Riv, Rls};
+use ivdyn_core::estim::{Riv, RivInfo, Rls};
 use nalgebra::{Const, SMatrix, SVector};
 
 const P: usize = 8;
@@ -157,4 +157,86 @@ fn degenerate_updates_are_errors_and_leave_the_state_alone() {
     phi2[1] = 1.0;
     assert_eq!(riv.update(&phi2, &z, 1.0, 1e300), Err(Error::DegenerateUpdate));
     assert_eq!(riv.theta, V::zeros());
+}
+
+/// The information form from the prior `P = p0 I`, `theta0`, with rows of every sparsity
+/// (leading zeros, holes), estimated once per two rows, equals the batch IV
+/// `(I / p0 + Z^T W Phi)^{-1} (theta0 / p0 + Z^T W y)` and the covariance form.
+#[test]
+fn riv_info_equals_batch_iv_and_the_covariance_form() {
+    let mut rng = Rng(15);
+    let truth = row(&mut rng);
+    let theta0 = row(&mut rng);
+    let p0 = 10.0;
+    let mut info = M::identity() / p0;
+    let mut rhs = theta0 / p0;
+    let mut ri = RivInfo::<Const<P>>::new(theta0, p0);
+    let mut rc = Riv::<Const<P>>::new(theta0, p0);
+    for k in 0..300 {
+        let first = k % P;
+        let support = SVector::<bool, P>::from_fn(|i, _| i >= first && (i + k) % 5 != 0);
+        let mask = |v: V| V::from_fn(|i, _| if support[i] { v[i] } else { 0.0 });
+        let z = mask(row(&mut rng));
+        let phi = mask(z + V::from_fn(|_, _| 0.3 * rng.uniform(-1.0, 1.0)));
+        let y = z.dot(&truth) + 0.01 * rng.uniform(-1.0, 1.0);
+        let w = rng.uniform(0.5, 2.0);
+        // entries outside the support are not read
+        let mut phi_junk = phi;
+        phi_junk[(first + P - 1) % P] += if support[(first + P - 1) % P] { 0.0 } else { 1e3 };
+        ri.add_row_sparse(&phi_junk, &z, &support, y, w).unwrap();
+        rc.update(&phi, &z, y, w).unwrap();
+        info += w * z * phi.transpose();
+        rhs += w * y * z;
+        if k % 2 == 1 {
+            ri.estimate().unwrap();
+            let batch = info.lu().solve(&rhs).unwrap();
+            assert!((ri.theta - batch).norm() <= 1e-10 * batch.norm(), "row {k}: {} vs {}", ri.theta, batch);
+            assert!((ri.theta - rc.theta).norm() <= 1e-10 * batch.norm(), "row {k}");
+        }
+    }
+    let p = info.try_inverse().unwrap();
+    assert!((ri.p() - p).norm() <= 1e-10 * p.norm());
+    assert!((ri.p() - rc.p).norm() <= 1e-10 * p.norm());
+    assert_eq!(ri.count, 300);
+    // a full-support update estimates at once
+    let (z, y) = (row(&mut rng), 0.5);
+    ri.update(&z, &z, y, 1.0).unwrap();
+    info += z * z.transpose();
+    rhs += y * z;
+    let batch = info.lu().solve(&rhs).unwrap();
+    assert!((ri.theta - batch).norm() <= 1e-10 * batch.norm());
+}
+
+/// Refused rows (non-finite input, a vanishing pivot, a row out of range) leave the state
+/// as it was: the next good row gives what it gives without them.
+#[test]
+fn riv_info_refused_rows_leave_the_state_alone() {
+    let mut rng = Rng(16);
+    let mut a = RivInfo::<Const<P>>::new(V::zeros(), 1.0);
+    for _ in 0..20 {
+        let z = row(&mut rng);
+        a.update(&z, &z, rng.uniform(-1.0, 1.0), 1.0).unwrap();
+    }
+    let b = a.clone();
+    let z = row(&mut rng);
+    let mut bad = z;
+    bad[3] = f64::NAN;
+    assert_eq!(a.update(&bad, &z, 1.0, 1.0), Err(Error::NonFinite { what: "phi", index: 3 }));
+    assert_eq!(a.update(&z, &z, 1.0, 0.0), Err(Error::DegenerateUpdate));
+    // instrument and regressor that cancel the first pivot exactly: u11' = u11 + w z1 phi1 = 0
+    let u11 = a.p().try_inverse().unwrap()[(0, 0)];
+    let (mut zc, mut phic) = (V::zeros(), V::zeros());
+    zc[0] = 1.0;
+    phic[0] = -u11;
+    phic[5] = 2.0;
+    assert_eq!(a.update(&phic, &zc, 1.0, 1.0), Err(Error::DegenerateUpdate));
+    // a row whose information dwarfs what is held (1 / eps^2)
+    let huge = z * 1e20;
+    assert!(matches!(a.update(&huge, &huge, 1.0, 1.0), Err(Error::RowOutOfRange { .. })));
+    assert_eq!(a.count, b.count);
+    assert_eq!(a.p(), b.p());
+    let mut b = b;
+    a.update(&z, &z, 0.3, 1.0).unwrap();
+    b.update(&z, &z, 0.3, 1.0).unwrap();
+    assert_eq!(a.theta, b.theta);
 }

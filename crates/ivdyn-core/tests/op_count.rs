@@ -4,7 +4,7 @@
 //!
 //! `Counted` is a scalar that counts the arithmetic executed on it; it runs through the
 //! same generic code as `f64` (`TerminalLink<6, Const<18>, Counted>`: the reduced rows of
-//! `estim::terminal_rows`, the sparse `Riv`/`Rls` row updates), so the count cannot drift
+//! `estim::terminal_rows`, the sparse `Riv`/`RivInfo`/`Rls` row updates), so the count cannot drift
 //! from the code. Counted: `*` as a multiplication, `/` as a division (reported apart, and
 //! included in the multiplications of the totals, as operation counts of the time did),
 //! `+` and `-` as additions; square roots and `sin_cos`/`tanh` apart. Not counted: sign
@@ -19,11 +19,14 @@
 //! ~1500, so that test asserts the figure reached, as a regression guard, not the paper's
 //! bound (`docs/paper-reproduction.md`, "Cost of one recursive update", says where the
 //! rest goes). Least squares (Bierman's UD form): 1260 multiplications (76 divisions) and
-//! 1044 additions: that test asserts the paper's bound.
+//! 1044 additions; IV in information form (`RivInfo`: the LU factors of `R` updated by
+//! Bennett's algorithm, one estimate per sample; the same estimate, `tests/terminal_update.rs`):
+//! 1519 multiplications (46 divisions) and 1348 additions. Those two tests assert the
+//! paper's bound.
 
 use ivdyn_core::estim::terminal::{Method, TerminalLink, TerminalSpec};
 use ivdyn_core::estim::terminal_rows::{Needed, TerminalRows, terminal_rows};
-use ivdyn_core::estim::{Riv, Rls};
+use ivdyn_core::estim::{Riv, RivInfo, Rls};
 use ivdyn_core::scalar::RealScalar;
 use ivdyn_core::{LINK_PARAMS, paper};
 use nalgebra::{Const, SVector};
@@ -182,16 +185,28 @@ fn sample(k: usize) -> (V6, V6, V6, V6, V6) {
     (v6(f(1.0, 1.0)), v6(f(1.5, 2.0)), v6(f(8.0, 3.0)), v6(f(0.3, 1.3)), v6(f(6.0, 3.1)))
 }
 
-fn estimator(iv: bool) -> TerminalLink<6, Const<D>, Counted> {
+/// Which estimator: least squares (UD), IV covariance form, IV information form.
+#[derive(Clone, Copy, PartialEq)]
+enum Kind {
+    Ls,
+    Iv,
+    IvInfo,
+}
+
+fn estimator(kind: Kind) -> TerminalLink<6, Const<D>, Counted> {
     let cols = SVector::<usize, D>::from(COLUMNS);
     let z = SVector::<Counted, D>::from_element(Counted(0.0));
-    let method = if iv { Method::Iv(Riv::new(z, 1e4)) } else { Method::Ls(Rls::new(z, 1e4)) };
+    let method = match kind {
+        Kind::Ls => Method::Ls(Rls::new(z, 1e4)),
+        Kind::Iv => Method::Iv(Riv::new(z, 1e4)),
+        Kind::IvInfo => Method::IvInfo(RivInfo::new(z, 1e4)),
+    };
     TerminalLink::new(paper::robot(), TerminalSpec::PAPER, cols, [0.0, 0.0, 0.0, 0.0, 0.01, 1.0], method)
 }
 
 /// One update's operations after `warm` updates.
-fn update_ops(iv: bool, warm: usize) -> Ops {
-    let mut tl = estimator(iv);
+fn update_ops(kind: Kind, warm: usize) -> Ops {
+    let mut tl = estimator(kind);
     for k in 0..warm {
         let (q, qd, qdd, tau, qz) = sample(k);
         tl.update(&q, &qd, &qdd, &tau, &qz).unwrap();
@@ -244,13 +259,13 @@ fn report(what: &str, o: &Ops) {
 /// The IV update (the paper's method): the count, printed, at or below the figure reached.
 #[test]
 fn iv_update_operation_count() {
-    let ops = update_ops(true, 5);
+    let ops = update_ops(Kind::Iv, 5);
     let dynamics = dynamics_ops(true);
     report("IV terminal-link update, paper robot, k = 5, D = 18", &ops);
     report("  of which the dynamics (rows' regressor entries x2, nominal torque)", &dynamics);
     report("    of which the outward recursion (both accelerations)", &outward_ops());
     // the count does not depend on the state (no data-dependent branches on this path)
-    assert_eq!(ops, update_ops(true, 17));
+    assert_eq!(ops, update_ops(Kind::Iv, 17));
     // regression guard: the figure reached (module docs), not the paper's 1800 / 1500
     assert!(ops.mul + ops.div <= 1919, "{ops:?}");
     assert!(ops.add <= 1756, "{ops:?}");
@@ -260,10 +275,28 @@ fn iv_update_operation_count() {
 /// The least-squares update (Bierman's UD form): within the paper's figure.
 #[test]
 fn ls_update_operation_count() {
-    let ops = update_ops(false, 5);
+    let ops = update_ops(Kind::Ls, 5);
     report("LS terminal-link update, paper robot, k = 5, D = 18", &ops);
     report("  of which the dynamics (rows' regressor entries, nominal torque)", &dynamics_ops(false));
-    assert_eq!(ops, update_ops(false, 17));
+    assert_eq!(ops, update_ops(Kind::Ls, 17));
+    assert!(ops.mul + ops.div <= 1800, "{ops:?}");
+    assert!(ops.add <= 1500, "{ops:?}");
+    assert_eq!(ops.trig, 6, "one sin_cos per joint");
+}
+
+/// The IV update in information form (the same estimate, `tests/terminal_update.rs`):
+/// within the paper's figure.
+#[test]
+fn iv_information_form_update_operation_count() {
+    let ops = update_ops(Kind::IvInfo, 5);
+    report("IV terminal-link update, information form, paper robot, k = 5, D = 18", &ops);
+    report("  of which the dynamics (as for IV)", &dynamics_ops(true));
+    let mut tl = estimator(Kind::IvInfo);
+    let (q, qd, qdd, tau, qz) = sample(0);
+    tl.update(&q, &qd, &qdd, &tau, &qz).unwrap();
+    let Method::IvInfo(r) = &mut tl.method else { unreachable!() };
+    report("  of which the estimate (two triangular solves)", &count(|| r.estimate().unwrap()));
+    assert_eq!(ops, update_ops(Kind::IvInfo, 17));
     assert!(ops.mul + ops.div <= 1800, "{ops:?}");
     assert!(ops.add <= 1500, "{ops:?}");
     assert_eq!(ops.trig, 6, "one sin_cos per joint");

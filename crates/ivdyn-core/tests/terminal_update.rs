@@ -9,7 +9,7 @@ use common::{Rng, assert_close, random_model};
 use ivdyn_core::dh::{DhRow, model_from_dh};
 use ivdyn_core::estim::terminal::{Method, TerminalLink, TerminalSpec};
 use ivdyn_core::estim::terminal_rows::{Needed, TerminalRows, terminal_rows};
-use ivdyn_core::estim::{Riv, Rls};
+use ivdyn_core::estim::{Riv, RivInfo, Rls};
 use ivdyn_core::{Data, LINK_PARAMS, Model, VecN, paper, regressor, rnea};
 use nalgebra::{DMatrix, DVector, Dyn};
 use std::f64::consts::FRAC_PI_2;
@@ -121,17 +121,23 @@ fn independent_columns<const N: usize>(model: &Model<N>, spec: &TerminalSpec, se
 /// Runs the reduced and the full update side by side over `samples` random samples
 /// (torques of the nominal model with a changed last link, noisy accelerations, an
 /// instrument of its own) and compares the estimates (and the IV `P`) after each.
-fn compare_updates<const N: usize>(model: &Model<N>, spec: TerminalSpec, iv: bool, seed: u64, what: &str) {
+/// `Kind::IvInfo` runs the reduced update with the information form against the full
+/// update with the covariance form: two recursions of the same estimate.
+fn compare_updates<const N: usize>(model: &Model<N>, spec: TerminalSpec, kind: Kind, seed: u64, what: &str) {
     let cols = independent_columns(model, &spec, seed);
     let d = cols.len();
-    let method = || {
+    let method = |reference: bool| {
         let z = DVector::zeros(d);
-        if iv { Method::Iv(Riv::<Dyn>::new(z, 1e4)) } else { Method::Ls(Rls::<Dyn>::new(z, 1e4)) }
+        match kind {
+            Kind::Ls => Method::Ls(Rls::<Dyn>::new(z, 1e4)),
+            Kind::IvInfo if !reference => Method::IvInfo(RivInfo::<Dyn>::new(z, 1e4)),
+            Kind::Iv | Kind::IvInfo => Method::Iv(Riv::<Dyn>::new(z, 1e4)),
+        }
     };
     let weights = [1.0; N].map(|w| w * 0.5);
     let cv = DVector::from_vec(cols.clone());
-    let mut reduced = TerminalLink::<N, Dyn>::new(model.clone(), spec, cv.clone(), weights, method());
-    let mut full = TerminalLink::<N, Dyn>::new(model.clone(), spec, cv, weights, method());
+    let mut reduced = TerminalLink::<N, Dyn>::new(model.clone(), spec, cv.clone(), weights, method(false));
+    let mut full = TerminalLink::<N, Dyn>::new(model.clone(), spec, cv, weights, method(true));
     let mut truth = model.clone();
     truth.inertia[N - 1].0[0] += 0.5;
     truth.inertia[N - 1].0[1] += 0.02;
@@ -152,18 +158,33 @@ fn compare_updates<const N: usize>(model: &Model<N>, spec: TerminalSpec, iv: boo
             "{what}, sample {k}: |dtheta| {:e} vs |theta| {scale:e}",
             (a - b).norm()
         );
-        if let (Method::Iv(ra), Method::Iv(rb)) = (&reduced.method, &full.method) {
-            assert!((&ra.p - &rb.p).norm() <= 1e-8 * rb.p.norm(), "{what}, sample {k}: P");
+        match (&reduced.method, &full.method) {
+            (Method::Iv(ra), Method::Iv(rb)) => {
+                assert!((&ra.p - &rb.p).norm() <= 1e-8 * rb.p.norm(), "{what}, sample {k}: P")
+            }
+            (Method::IvInfo(ra), Method::Iv(rb)) if k % 50 == 0 => {
+                assert!((ra.p() - &rb.p).norm() <= 1e-8 * rb.p.norm(), "{what}, sample {k}: P")
+            }
+            _ => {}
         }
     }
     assert_eq!(reduced.rows_used, full.rows_used);
 }
 
+#[derive(Clone, Copy)]
+enum Kind {
+    Ls,
+    Iv,
+    IvInfo,
+}
+
+const KINDS: [Kind; 3] = [Kind::Iv, Kind::Ls, Kind::IvInfo];
+
 #[test]
 fn reduced_update_equals_full_update_paper_robot() {
     let paper = paper::robot();
     // the bench's configuration: rows of joints 5 and 6, links 5 and 6 with (fc, fv)
-    for iv in [true, false] {
+    for iv in KINDS {
         compare_updates(&paper, TerminalSpec::PAPER, iv, 1, "paper k=5");
         compare_updates(&paper, TerminalSpec::payload(6), iv, 2, "paper payload");
     }
@@ -174,7 +195,7 @@ fn reduced_update_equals_full_update_paper_robot() {
 
 #[test]
 fn reduced_update_equals_full_update_ur5_like_and_random_chains() {
-    for iv in [true, false] {
+    for iv in KINDS {
         let ur5 = ur5_like(11);
         compare_updates(&ur5, TerminalSpec::new(4, [true, true, false, false]), iv, 3, "ur5-like k=5");
         compare_updates(&ur5, TerminalSpec::payload(6), iv, 4, "ur5-like payload");
@@ -195,10 +216,20 @@ fn reduced_update_equals_full_update_ur5_like_and_random_chains() {
 fn skipped_rows_and_refused_input_as_in_the_full_update() {
     let paper = paper::robot();
     let cols = DVector::from_vec(independent_columns(&paper, &TerminalSpec::PAPER, 1));
-    let m = || Method::Iv(Riv::<Dyn>::new(DVector::zeros(cols.len()), 1e4));
+    for info in [false, true] {
+        skipped_rows_and_refused_input(&paper, &cols, info);
+    }
+}
+
+/// `info`: the reduced update in the information form (against the covariance form).
+fn skipped_rows_and_refused_input(paper: &Model<6>, cols: &DVector<usize>, info: bool) {
+    let m = |info: bool| {
+        let z = DVector::zeros(cols.len());
+        if info { Method::IvInfo(RivInfo::<Dyn>::new(z, 1e4)) } else { Method::Iv(Riv::<Dyn>::new(z, 1e4)) }
+    };
     let w = [0.0, 0.0, 0.0, 0.0, 0.01, 1.0];
-    let mut a = TerminalLink::<6, Dyn>::new(paper.clone(), TerminalSpec::PAPER, cols.clone(), w, m());
-    let mut b = TerminalLink::<6, Dyn>::new(paper.clone(), TerminalSpec::PAPER, cols.clone(), w, m());
+    let mut a = TerminalLink::<6, Dyn>::new(paper.clone(), TerminalSpec::PAPER, cols.clone(), w, m(info));
+    let mut b = TerminalLink::<6, Dyn>::new(paper.clone(), TerminalSpec::PAPER, cols.clone(), w, m(false));
     a.min_speed = 0.5;
     b.min_speed = 0.5;
     let mut rng = Rng(9);

@@ -4,7 +4,7 @@
 
 use core::panic::PanicInfo;
 use ivdyn_core::estim::terminal::{Method, TerminalLink, TerminalSpec};
-use ivdyn_core::estim::{Riv, Rls};
+use ivdyn_core::estim::{Riv, RivInfo, Rls};
 use ivdyn_core::nalgebra::{Const, SVector};
 use ivdyn_core::{paper, Data, VecN};
 
@@ -33,9 +33,14 @@ pub extern "C" fn _start() -> ! {
     let mut tl = TerminalLink::<6, Const<18>>::new(model.clone(), TerminalSpec::PAPER, cols, [1.0; 6], iv);
     let _ = tl.update(&q, &qd, &qdd, &tau, &qdd);
     let _ = tl.update_full(&q, &qd, &qdd, &tau, &qdd);
+    // the information form, in f32 (a small controller's build)
+    let info = Method::IvInfo(RivInfo::new(SVector::<f32, 18>::zeros(), 1e4));
+    let mut tli = TerminalLink::<6, Const<18>, f32>::new(model.clone(), TerminalSpec::PAPER, cols, [1.0; 6], info);
+    let v = VecN::<6>::from_element(0.2).map(|x| x as f32);
+    let _ = tli.update(&v, &v, &v, &v, &v);
+    let _ = core::hint::black_box(tli.theta()[0]);
     let ls = Method::Ls(Rls::new(SVector::<f32, 18>::zeros(), 1e4));
     let mut tl32 = TerminalLink::<6, Const<18>, f32>::new(model, TerminalSpec::PAPER, cols, [1.0; 6], ls);
-    let v = VecN::<6>::from_element(0.2).map(|x| x as f32);
     let _ = tl32.update(&v, &v, &v, &v, &v);
     let _ = core::hint::black_box((tl.theta()[0], tl32.theta()[0]));
     loop {}

@@ -4,7 +4,9 @@
 //!
 //! # Math note
 //! `P = (sum w z phi^T)^{-1}` is not symmetric, so no factorised form keeps it
-//! positive definite; the Sherman-Morrison update
+//! positive definite (and it is dense whatever the rows' sparsity: [`super::RivInfo`] holds
+//! `P^-1` as LU factors instead, in fewer operations, without forgetting); the
+//! Sherman-Morrison update
 //! `P <- (P - P z phi^T P / (lambda / w + phi^T P z)) / lambda`
 //! is guarded instead: a denominator that is not finite or is tiny relative to its terms
 //! scale `lambda / w + |phi|_1 |P z|_inf`

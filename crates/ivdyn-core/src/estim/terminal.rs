@@ -20,7 +20,7 @@
 use super::terminal_rows::{Needed, TerminalRows, terminal_rows};
 use crate::data::Data;
 use crate::error::Error;
-use crate::estim::{Riv, Rls};
+use crate::estim::{Riv, RivInfo, Rls};
 use crate::model::Model;
 use crate::params::{DRIVE_PARAMS, LINK_PARAMS};
 use crate::regressor::Regressor;
@@ -121,8 +121,12 @@ where
 {
     /// The paper's LSM (biased when the regressor holds noisy accelerations).
     Ls(Rls<D, T>),
-    /// The paper's IVM.
+    /// The paper's IVM, covariance form (forgetting, anti-windup, outlier gate).
     Iv(Riv<D, T>),
+    /// The paper's IVM, information form: the same estimate in fewer operations (one
+    /// estimate per sample, rank-one updates that skip a row's leading zeros); no
+    /// forgetting ([`RivInfo`]).
+    IvInfo(RivInfo<D, T>),
 }
 
 /// Online terminal-link estimator: nominal model, unknown set, identifiable columns,
@@ -159,6 +163,8 @@ where
     /// `(link, entry)` of each estimated column ([`TerminalSpec::column`]).
     col_map: OVector<(usize, usize), D>,
     support: OVector<bool, D>,
+    /// Every column (the dense rows of [`TerminalLink::update_full`]).
+    support_all: OVector<bool, D>,
     phi: OVector<T, D>,
     z: OVector<T, D>,
 }
@@ -192,6 +198,7 @@ where
             needed: Needed::NONE,
             col_map: OVector::from_element_generic(dim, u1, (0, 0)),
             support: OVector::from_element_generic(dim, u1, false),
+            support_all: OVector::from_element_generic(dim, u1, true),
             phi: OVector::from_element_generic(dim, u1, T::zero()),
             z: OVector::from_element_generic(dim, u1, T::zero()),
         }
@@ -202,6 +209,7 @@ where
         match &self.method {
             Method::Ls(r) => &r.theta,
             Method::Iv(r) => &r.theta,
+            Method::IvInfo(r) => &r.theta,
         }
     }
 
@@ -219,13 +227,14 @@ where
     ) -> Result<(), Error> {
         check_finite("tau", tau)?;
         check_finite("qdd", qdd)?;
-        let iv = matches!(self.method, Method::Iv(_));
+        let iv = !matches!(self.method, Method::Ls(_));
         if iv {
             check_finite("qdd_instr", qdd_instr)?;
         }
         self.plan();
         let rows = self.spec.rows(N);
         terminal_rows(&self.nominal, &self.needed, &mut self.rows, q, qd, qdd, iv.then_some(qdd_instr));
+        let (mut added, mut result) = (false, Ok(()));
         for row in rows {
             if self.min_speed > 0.0 && !(qd[row].abs() >= T::from_f64(self.min_speed)) {
                 self.rows_skipped += 1;
@@ -243,13 +252,26 @@ where
             }
             let dtau = tau[row] - self.rows.tau[row];
             let w = self.row_weight[row];
-            match &mut self.method {
-                Method::Ls(r) => r.update_sparse(&self.phi, &self.support, dtau, w)?,
-                Method::Iv(r) => r.update_sparse(&self.phi, &self.z, &self.support, dtau, w)?,
+            result = match &mut self.method {
+                Method::Ls(r) => r.update_sparse(&self.phi, &self.support, dtau, w),
+                Method::Iv(r) => r.update_sparse(&self.phi, &self.z, &self.support, dtau, w),
+                Method::IvInfo(r) => r.add_row_sparse(&self.phi, &self.z, &self.support, dtau, w),
+            };
+            if result.is_err() {
+                break;
             }
-            self.rows_used += 1;
+            (added, self.rows_used) = (true, self.rows_used + 1);
         }
-        Ok(())
+        self.finish_sample(added, result)
+    }
+
+    /// The information form estimates once per sample, after its rows (those added before
+    /// a refused row count, as in the row-by-row forms).
+    fn finish_sample(&mut self, added: bool, result: Result<(), Error>) -> Result<(), Error> {
+        if let (true, Method::IvInfo(r)) = (added, &mut self.method) {
+            r.estimate()?;
+        }
+        result
     }
 
     /// The column map and the regressor entries the rows need, from `spec` and `columns`
@@ -313,10 +335,13 @@ where
         let tau_nom = *rnea(&self.nominal, &mut self.data, q, qd, qdd);
         regressor(&self.nominal, &mut self.data, q, qd, qdd);
         self.rows.y = self.data.y.clone();
-        if let Method::Iv(_) = self.method {
+        let iv = !matches!(self.method, Method::Ls(_));
+        if iv {
             crate::error::check_finite("qdd_instr", qdd_instr.as_slice())?;
             regressor(&self.nominal, &mut self.data_z, q, qd, qdd_instr);
         }
+        let (mut added, mut result) = (false, Ok(()));
+        self.support_all.fill(true);
         for row in self.spec.rows(N) {
             if self.min_speed > 0.0 && !(qd[row].abs() >= self.min_speed) {
                 self.rows_skipped += 1;
@@ -327,17 +352,21 @@ where
             }
             let dtau = tau[row] - tau_nom[row];
             let w = self.row_weight[row];
-            match &mut self.method {
-                Method::Ls(r) => r.update(&self.phi, dtau, w)?,
-                Method::Iv(r) => {
-                    for (b, &c) in self.columns.iter().enumerate() {
-                        self.z[b] = self.spec.entry(&self.data_z.y, row, c);
-                    }
-                    r.update(&self.phi, &self.z, dtau, w)?
+            if iv {
+                for (b, &c) in self.columns.iter().enumerate() {
+                    self.z[b] = self.spec.entry(&self.data_z.y, row, c);
                 }
             }
-            self.rows_used += 1;
+            result = match &mut self.method {
+                Method::Ls(r) => r.update(&self.phi, dtau, w),
+                Method::Iv(r) => r.update(&self.phi, &self.z, dtau, w),
+                Method::IvInfo(r) => r.add_row_sparse(&self.phi, &self.z, &self.support_all, dtau, w),
+            };
+            if result.is_err() {
+                break;
+            }
+            (added, self.rows_used) = (true, self.rows_used + 1);
         }
-        Ok(())
+        self.finish_sample(added, result)
     }
 }

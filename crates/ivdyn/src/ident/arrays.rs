@@ -557,6 +557,7 @@ fn terminal_run_n<const N: usize>(
     let p = match &tl.method {
         Method::Ls(r) => r.covariance().transpose().as_slice().to_vec(),
         Method::Iv(r) => r.p.transpose().as_slice().to_vec(),
+        Method::IvInfo(r) => r.p().transpose().as_slice().to_vec(),
     };
     Ok(TerminalRun {
         theta: tl.theta().as_slice().to_vec(),
