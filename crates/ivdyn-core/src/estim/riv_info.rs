@@ -19,8 +19,11 @@
 //! products per row (`P z`, `P^T phi`, the rank-one update of `P`), and `P`, not symmetric,
 //! is dense whatever the rows' sparsity. Here the rank-one updates are cheaper than the
 //! covariance form's and a sample of several rows pays for one estimate: on the paper's
-//! terminal-link problem (`D = 18`, rows of joints 5 and 6, row 6 blind to the first 9
-//! columns) 1186 products against 1680 (`tests/op_count.rs`).
+//! terminal-link problem (`D = 18`, rows of joints 5 and 6, row 6 blind to the first 8
+//! columns) the estimator spends 1280 products (46 of them divisions) against 1680, which
+//! brings the whole update within the paper's count (`tests/op_count.rs`). Fewer
+//! operations are not less time on a desktop core: its steps are short dependent loops,
+//! and the instructions per update are about the covariance form's (`benches/README.md`).
 //!
 //! No pivoting: `z` is the regressor at instrumental accelerations, near `phi`, so `R`
 //! stays near the positive definite `R0 + sum w phi phi^T`, whose leading minors are
@@ -51,12 +54,14 @@ where
     pub theta: OVector<T, D>,
     /// Rows added.
     pub count: u64,
-    /// LU factors of `R`: `U` on and above the diagonal, `L` (unit diagonal implied) below.
-    lu: OMatrix<T, D, D>,
+    /// `L` of `R = L U`, strictly below the diagonal (unit diagonal implied).
+    l: OMatrix<T, D, D>,
+    /// `U^T` on and below the diagonal (column-major: column `j` is row `j` of `U`, contiguous).
+    ut: OMatrix<T, D, D>,
     /// `r = R0 theta0 + sum w z y`.
     rhs: OVector<T, D>,
-    /// `L U` before the row being added (a refused row is undone from it).
-    saved: OMatrix<T, D, D>,
+    /// `L`, `U^T` before the row being added (a refused row is undone from them).
+    saved: (OMatrix<T, D, D>, OMatrix<T, D, D>),
     x: OVector<T, D>,
     y: OVector<T, D>,
 }
@@ -69,12 +74,14 @@ where
     pub fn new(theta0: OVector<T, D>, p0: f64) -> Self {
         let (dim, u1) = theta0.shape_generic();
         let r0 = T::from_f64(1.0 / p0);
-        let mut lu = OMatrix::from_element_generic(dim, dim, T::zero());
-        lu.fill_diagonal(r0);
+        let l = OMatrix::from_element_generic(dim, dim, T::zero());
+        let mut ut = l.clone();
+        ut.fill_diagonal(r0);
         let rhs = theta0.map(|t| t * r0);
         Self {
-            saved: lu.clone(),
-            lu,
+            saved: (l.clone(), ut.clone()),
+            l,
+            ut,
             rhs,
             x: OVector::from_element_generic(dim, u1, T::zero()),
             y: OVector::from_element_generic(dim, u1, T::zero()),
@@ -126,9 +133,13 @@ where
             self.x[j] = if o { w_t * z[j] } else { T::zero() };
             self.y[j] = if o { phi[j] } else { T::zero() };
         }
-        self.saved.copy_from(&self.lu);
+        // the update changes columns f.. of L and U^T only
+        let k = f * n;
+        self.saved.0.as_mut_slice()[k..].copy_from_slice(&self.l.as_slice()[k..]);
+        self.saved.1.as_mut_slice()[k..].copy_from_slice(&self.ut.as_slice()[k..]);
         if let Err(e) = self.bennett(f) {
-            self.lu.copy_from(&self.saved);
+            self.l.as_mut_slice()[k..].copy_from_slice(&self.saved.0.as_slice()[k..]);
+            self.ut.as_mut_slice()[k..].copy_from_slice(&self.saved.1.as_slice()[k..]);
             return Err(e);
         }
         // r += (w y) z over the support
@@ -141,16 +152,16 @@ where
     }
 
     /// Bennett's update of `L U` by `x y^T` from step `f` on (module docs); `x`, `y` are
-    /// consumed. Column-major storage: column `j` of `L` is contiguous, row `j` of `U`
-    /// strided.
+    /// consumed. Column `j` of `L` and row `j` of `U` (column `j` of `U^T`) are contiguous:
+    /// the step is four contiguous streams.
     fn bennett(&mut self, f: usize) -> Result<(), Error> {
         let n = self.theta.len();
         let (eps_rel, max_ratio) = (T::from_f64(1e-12), T::from_f64(MAX_INFORMATION_RATIO));
-        let lu = self.lu.as_mut_slice();
+        let (l, ut) = (self.l.as_mut_slice(), self.ut.as_mut_slice());
         let (x, y) = (self.x.as_mut_slice(), self.y.as_mut_slice());
         let mut finite = true;
         for j in f..n {
-            let (xj, yj, ujj) = (x[j], y[j], lu[j * n + j]);
+            let (xj, yj, ujj) = (x[j], y[j], ut[j * n + j]);
             let xy = xj * yj;
             let pivot = ujj + xy;
             if !(xy.abs() <= max_ratio * ujj.abs()) {
@@ -159,47 +170,46 @@ where
             if !pivot.is_finite() || pivot.abs() <= eps_rel * (ujj.abs() + xy.abs()) {
                 return Err(Error::DegenerateUpdate);
             }
-            lu[j * n + j] = pivot;
+            ut[j * n + j] = pivot;
             let c = yj / pivot;
-            // column j of L (rows below j) and row j of U (columns right of j)
-            let (left, right) = lu.split_at_mut((j + 1) * n);
-            let l_col = &mut left[j * n + j + 1..];
-            let u_row = right.iter_mut().skip(j).step_by(n);
-            for (((l, u), xi), yi) in l_col.iter_mut().zip(u_row).zip(&mut x[j + 1..]).zip(&mut y[j + 1..]) {
+            let below = j * n + j + 1..(j + 1) * n;
+            let (l_col, u_row) = (&mut l[below.clone()], &mut ut[below]);
+            for (((li, ui), xi), yi) in l_col.iter_mut().zip(u_row).zip(&mut x[j + 1..]).zip(&mut y[j + 1..]) {
                 // u' = u + x1 y2; y~ = y2 - c u'
-                *u += xj * *yi;
-                *yi -= c * *u;
+                *ui += xj * *yi;
+                *yi -= c * *ui;
                 // x~ = x2 - x1 l; l' = l + c x~
-                *xi -= xj * *l;
-                *l += c * *xi;
-                finite &= l.is_finite() & u.is_finite();
+                *xi -= xj * *li;
+                *li += c * *xi;
             }
         }
-        // a product that overflowed away from the pivots
+        // an entry of L that overflowed (one of U, or of x or y, makes a later pivot
+        // non-finite, which the tests above refuse)
         if finite { Ok(()) } else { Err(Error::RowOutOfRange { ratio: f64::INFINITY }) }
     }
 
-    /// `theta = R^-1 r` by the two triangular solves, column by column (each column of
-    /// `L` and `U` contiguous, its updates independent).
+    /// `theta = R^-1 r` by the two triangular solves.
     pub fn estimate(&mut self) -> Result<(), Error> {
         let n = self.theta.len();
-        let lu = self.lu.as_slice();
+        let (l, ut) = (self.l.as_slice(), self.ut.as_slice());
         // L w = r (w in y)
         self.y.copy_from(&self.rhs);
         let w = self.y.as_mut_slice();
         for j in 0..n {
             let wj = w[j];
-            for (wi, l) in w[j + 1..].iter_mut().zip(&lu[j * n + j + 1..(j + 1) * n]) {
-                *wi -= *l * wj;
+            for (wi, lij) in w[j + 1..].iter_mut().zip(&l[j * n + j + 1..(j + 1) * n]) {
+                *wi -= *lij * wj;
             }
         }
-        // U theta = w (in place in y; a non-finite result leaves theta as it was)
-        for j in (0..n).rev() {
-            let tj = w[j] / lu[j * n + j];
-            w[j] = tj;
-            for (wi, u) in w[..j].iter_mut().zip(&lu[j * n..j * n + j]) {
-                *wi -= *u * tj;
+        // U theta = w, in place in y, row by row (row i of U is column i of U^T,
+        // contiguous); a non-finite result leaves theta as it was
+        for i in (0..n).rev() {
+            let (head, tail) = w.split_at_mut(i + 1);
+            let mut acc = head[i];
+            for (uij, tj) in ut[i * n + i + 1..(i + 1) * n].iter().zip(tail.iter()) {
+                acc -= *uij * *tj;
             }
+            head[i] = acc / ut[i * n + i];
         }
         if let Some(index) = self.y.iter().position(|v| !v.is_finite()) {
             return Err(Error::NonFinite { what: "IV estimate", index });
@@ -212,7 +222,7 @@ where
     /// not for every sample.
     pub fn p(&self) -> OMatrix<T, D, D> {
         let mut s = self.clone();
-        let mut p = self.lu.clone();
+        let mut p = self.l.clone();
         let n = self.theta.len();
         for c in 0..n {
             s.rhs.fill(T::zero());
