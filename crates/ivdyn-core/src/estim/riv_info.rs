@@ -181,6 +181,7 @@ where
                 // x~ = x2 - x1 l; l' = l + c x~
                 *xi -= xj * *li;
                 *li += c * *xi;
+                finite &= li.is_finite();
             }
         }
         // an entry of L that overflowed (one of U, or of x or y, makes a later pivot
