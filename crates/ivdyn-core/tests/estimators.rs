@@ -240,3 +240,50 @@ fn riv_info_refused_rows_leave_the_state_alone() {
     b.update(&z, &z, 0.3, 1.0).unwrap();
     assert_eq!(a.theta, b.theta);
 }
+
+/// `P`'s bits (NaN-safe equality of two states).
+fn p_bits(r: &RivInfo<Const<P>>) -> Vec<u64> {
+    r.p().iter().map(|v| v.to_bits()).collect()
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+
+    /// Rows of any size (1e-200 to 1e200), weight, sparsity and instrument (from
+    /// uncorrelated to equal to the regressor), some non-finite: the information form never
+    /// panics, a refused row leaves the state bit for bit as it was, and an accepted one
+    /// leaves the factors finite (the estimate is finite or an error).
+    #[test]
+    fn riv_info_any_rows_never_panic_and_refusals_leave_the_state(
+        seed in proptest::prelude::any::<u64>(),
+        exp in -200i32..200,
+        w_exp in -40i32..40,
+        corr in 0.0f64..=1.0,
+    ) {
+        let mut rng = Rng(seed);
+        let scale = 10f64.powi(exp);
+        let mut r = RivInfo::<Const<P>>::new(V::zeros(), 10f64.powi(exp.clamp(-100, 100) / 2));
+        for k in 0..40 {
+            let first = (rng.uniform(0.0, P as f64) as usize).min(P - 1);
+            let support = SVector::<bool, P>::from_fn(|i, _| i >= first && rng.uniform(0.0, 1.0) < 0.8);
+            let z = row(&mut rng) * scale;
+            let mut phi = z * corr + row(&mut rng) * (scale * (1.0 - corr));
+            if k % 13 == 7 {
+                phi[first] = [f64::NAN, f64::INFINITY, f64::MAX][k % 3];
+            }
+            let y = rng.uniform(-1.0, 1.0) * scale;
+            let w = 10f64.powi(w_exp) * rng.uniform(0.5, 2.0);
+            let before = (r.count, p_bits(&r));
+            match r.add_row_sparse(&phi, &z, &support, y, w) {
+                Ok(()) => proptest::prop_assert_eq!(r.count, before.0 + 1),
+                Err(_) => {
+                    proptest::prop_assert_eq!(r.count, before.0);
+                    proptest::prop_assert_eq!(p_bits(&r), before.1);
+                }
+            }
+            if r.estimate().is_ok() {
+                proptest::prop_assert!(r.theta.iter().all(|v| v.is_finite()));
+            }
+        }
+    }
+}
