@@ -32,6 +32,8 @@ pub(super) struct Found {
     pub(super) model: Model,
     /// The nominal re-fit the search ran on (the final model has it too).
     pub(super) refit: Option<RefitDecision>,
+    /// Notes for the details (an armature the re-fit held, `rotor`).
+    pub(super) notes: Vec<String>,
 }
 
 /// The diagnosis of `found` on the prepared log (`r_nom`: the nominal residual, `T x N`).
@@ -44,7 +46,7 @@ pub(super) fn assemble(
     baseline_rms: Vec<f64>,
     r_nom: &[f64],
 ) -> Result<Diagnosis> {
-    let Found { steps, final_candidates, model: m, refit } = found;
+    let Found { steps, final_candidates, model: m, refit, notes } = found;
     let (s, d) = (&p.s, &p.d);
     let n = ctx.n;
     let t_len = s.t.len();
@@ -79,6 +81,7 @@ pub(super) fn assemble(
     let gaps = remaining_gaps(ctx, &m, &final_rms, &regimes_after, names);
     let next_command = next_command(&kept, nominal_refit.is_some(), opts);
     let (verdict, mut details) = verdict(&kept, &effects, &gaps, nominal_refit.as_ref(), names);
+    details.extend(notes);
     details.push(format!("effects of real drives {}", p.drives_why));
     let traces =
         Traces { t: s.t.clone(), q: s.q.clone(), qd: s.qd.clone(), qdd: s.qdd.clone(), tau: s.tau.clone(), predicted };
@@ -105,6 +108,7 @@ fn merge_repeats(steps: Vec<(Step, Model)>) -> Vec<Step> {
         if seen.contains(&st.effect) {
             // the same effect found again on more joints: merge into the first entry
             let pos = out_steps.iter().position(|x: &Step| x.effect == st.effect).expect("seen");
+            carry_scores(&mut out_steps[pos], &st);
             out_steps[pos].joints.extend(st.joints.iter().copied());
             out_steps[pos].rms_after = st.rms_after.clone();
             continue;
@@ -114,6 +118,20 @@ fn merge_repeats(steps: Vec<(Step, Model)>) -> Vec<Step> {
         out_steps.push(st);
     }
     out_steps
+}
+
+/// The scores of `later`'s joints (its candidate of its own effect) into `first`'s candidate
+/// of that effect, where the evidence reads them, and its reason beside the first's.
+fn carry_scores(first: &mut Step, later: &Step) {
+    let of = |st: &Step| st.candidates.iter().position(|c| c.effect == st.effect);
+    let (Some(a), Some(b)) = (of(first), of(later)) else { return };
+    let src = &later.candidates[b];
+    for &j in &later.joints {
+        first.candidates[a].per_joint[j] = src.per_joint[j].clone();
+    }
+    if !first.candidates[a].reason.contains(&src.reason) {
+        first.candidates[a].reason += &format!("; then: {}", src.reason);
+    }
 }
 
 /// The effects in the order found, with the final fit's parameters and their standard

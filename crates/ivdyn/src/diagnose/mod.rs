@@ -10,6 +10,7 @@
 //! * `model`: a model of effects, its parameters and its fit from the Gram matrices.
 //! * `prepare`: the differentiation cutoff and torque alignment chosen on the log.
 //! * `refit`: the nominal model's own error re-fitted when the log calls for it.
+//! * `rotor`: an armature the re-fit holds, named by its size (its column is a link's).
 //! * `rules`: scoring a candidate (F test, held-out share, size, physics, look-alikes).
 //! * [`search`]: the add / drop / refit loop ([`diagnose`]).
 //! * `uncertainty`: standard errors of the final fit's parameters (`parameters_std`).
@@ -32,6 +33,7 @@ mod prepare;
 mod refit;
 pub mod report;
 mod residual;
+mod rotor;
 mod rules;
 mod score;
 pub mod search;

@@ -42,6 +42,9 @@ pub(super) struct Model {
     /// toward the nominal (`Grams::ridge`). The terminal link is left out: a change there is
     /// what a payload is, and the payload candidate and its rules decide it.
     pub(super) refit: usize,
+    /// Base columns (indices into `Dictionary::base`) left out of the re-fit: each is an
+    /// armature's column on this log, and the armature holds it (`rotor`).
+    pub(super) refit_skip: Vec<usize>,
     /// The terminal link's 10 inertial parameters free on this joint's row alone (the
     /// look-alike check of the terminal joint, whose torque is that link's alone).
     pub(super) terminal_row: Option<usize>,
@@ -58,6 +61,7 @@ impl Model {
             all_shapes: false,
             link_scale: false,
             refit: 0,
+            refit_skip: vec![],
             terminal_row: None,
         }
     }
@@ -144,7 +148,8 @@ impl Model {
         }
         let links = if self.link_scale { self.per_joint.len() } else { 0 };
         let link_cols = C_LINK..C_LINK + LINK_GROUPS.len() * links;
-        for c in link_cols.chain(C_BASE..C_BASE + self.refit) {
+        let refit = (C_BASE..C_BASE + self.refit).filter(|c| !self.refit_skip.contains(&(c - C_BASE)));
+        for c in link_cols.chain(refit) {
             p.push(Param { kind: None, joint: None, col: c });
         }
         p

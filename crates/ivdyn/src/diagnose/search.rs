@@ -14,8 +14,8 @@ use super::prepare::prepare_best;
 use super::refit::{self, RefitDecision};
 use super::residual::rms_per_joint;
 use super::rules::score_candidates;
-use super::score::Ctx;
-use super::{CandidateScore, Diagnosis, EffectKind, Step};
+use super::score::{Ctx, not_scored};
+use super::{CandidateScore, Diagnosis, EffectKind, JointScore, Step, rotor};
 use crate::Robot;
 use crate::error::{Error, Result};
 use crate::log::JointLog;
@@ -48,8 +48,35 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     let baseline_rms = rms_per_joint(&r_nom, n);
     let mut start = Model::new(n);
     start.refit = nbase;
-    let found = search(&ctx, &p.d, t_len, opts.max_steps, start, refit);
+    let mut found = search(&ctx, &p.d, t_len, opts.max_steps, start, refit);
+    if found.refit.is_some() {
+        add_rotors(&ctx, &p.d, robot, t_len, &mut found)?;
+    }
     assemble(robot, opts, &p, &ctx, found, baseline_rms, &r_nom)
+}
+
+/// The armatures the re-fit held (`rotor`), each as a step of its own after the search's
+/// (its RMS before: without it and without its twin base column), with its note among the
+/// details.
+fn add_rotors(ctx: &Ctx, d: &Dictionary, robot: &Robot, t_len: usize, found: &mut Found) -> Result<()> {
+    let rotors = rotor::rotors_in_refit(ctx, &found.model, &d.base, &robot.params(), &robot.joint_names)?;
+    for r in rotors {
+        // before: without it and without its twin in the re-fit (the re-fit held it)
+        let (rms, after) = (model_rms(ctx, d, t_len, &r.without), model_rms(ctx, d, t_len, &r.model));
+        let mut per_joint: Vec<JointScore> =
+            (0..ctx.n).map(|_| not_scored("an armature the re-fit held is scored on its own joint")).collect();
+        per_joint[r.joint] = r.score;
+        let (a, j) = (EffectKind::Armature, vec![r.joint]);
+        let score = ctx.gain(&r.without, &r.model);
+        let cand =
+            CandidateScore { effect: a, per_joint, joints: j.clone(), score, accepted: true, reason: r.note.clone() };
+        let step =
+            Step { effect: a, joints: j, evidence: vec![], candidates: vec![cand], rms_before: rms, rms_after: after };
+        found.steps.push((step, r.model.clone()));
+        found.notes.push(r.note);
+        found.model = r.model;
+    }
+    Ok(())
 }
 
 /// RMS per joint of the residual the model `m` (fitted on every sample) leaves.
@@ -113,7 +140,7 @@ fn search(
         steps.push((step, m.clone()));
         steps.extend(companions.into_iter().map(|st| (st, m.clone())));
     }
-    Found { steps, final_candidates, model: m, refit }
+    Found { steps, final_candidates, model: m, refit, notes: vec![] }
 }
 
 /// The candidate with the largest score among those significant on some joint.
