@@ -1,6 +1,6 @@
 """The scorer's parameter accuracy (`score_diagnose_cases.param_errors`): relative errors of
 the parameters of the (effect, joint) pairs named right, checked on hand-made effects whose
-errors are known by construction."""
+errors are known by construction; and which true pairs a case must name (`split_truth`)."""
 import os
 import sys
 
@@ -8,7 +8,7 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "python", "tools"))
-from score_diagnose_cases import param_errors  # noqa: E402
+from score_diagnose_cases import named_right, pairs, param_errors, split_truth  # noqa: E402
 
 TRUTH = [
     {"name": "coulomb_friction", "joints": ["j1", "j3"], "parameters": {"fc": [0.2, 0.4]}},
@@ -44,3 +44,22 @@ def test_effects_or_joints_not_named_are_not_scored():
     named = [{"name": "coulomb_friction", "joints": ["j3"], "parameters": {"fc": [0.4]}},
              {"name": "viscous_friction", "joints": ["j1"], "parameters": {"fv": [1.0]}}]
     assert param_errors(TRUTH, named) == [("coulomb_friction", "fc", pytest.approx(0.0))]
+
+
+def test_a_pair_below_the_noise_may_be_named_or_not():
+    # armature on j1 (effect RMS 5 noise std there) and j3 (0.2 noise std: below the noise)
+    manifest = {"joints": ["j1", "j2", "j3"]}
+    case = {"effects": [{"name": "armature", "joints": ["j1", "j3"], "parameters": {"ia": [0.5, 0.001]}},
+                        {"name": "payload", "joints": [], "parameters": {"mass": 1.0}}],
+            "torque_noise_std": [0.01, 0.01, 0.02],
+            "oracle": {"effect_rms": [0.05, 0.0, 0.004]}}
+    required, optional = split_truth(case, manifest)
+    assert required == {("armature", "j1"), ("payload", "")}
+    assert optional == {("armature", "j3")}
+    assert named_right(required, required, optional)
+    assert named_right(required | optional, required, optional)
+    # a required pair missed, or a pair beyond the truth, is not right
+    assert not named_right({("payload", "")} | optional, required, optional)
+    assert not named_right(required | {("armature", "j2")}, required, optional)
+    # without the noise level or the effects' RMS every true pair is required
+    assert split_truth({"effects": case["effects"]}, manifest) == (pairs(case["effects"]), set())

@@ -4,7 +4,8 @@ table: per case, the true effects against the named ones (effect and joint sets)
 nominal model was re-fitted, the worst joint's final / oracle RMS and the wall time.
 
 A case is *right* when the named (effect, joint) pairs are exactly the true ones (a payload
-counts as one pair with no joint). Oracle RMS: `oracle_rms_exact` (the true effects on the
+counts as one pair with no joint), except that a true pair on a joint whose true effects stay
+below the noise (`split_truth`) may be named or not. Oracle RMS: `oracle_rms_exact` (the true effects on the
 nominal, wrong model) and `oracle_rms_true_model` (the true effects on the true rigid-body
 model: what a perfect diagnosis with a perfect re-fit leaves). The parameters of every pair
 named right are compared with the truth (`param_errors`: within 10 %, issue 15's criterion),
@@ -34,6 +35,33 @@ def pairs(effects):
         for j in e["joints"]:
             out.add((e["name"], j))
     return out
+
+
+# A true (effect, joint) pair is required only where the true effects on that joint are above
+# the noise (issue 15: "each effect on all the joints where it is above the noise and on no
+# other"): the RMS of their torque there (`oracle.effect_rms`, exact states) at least this many
+# of the joint's torque noise standard deviations. Below it (armatures of 30-80 % of a last
+# link's small axial inertia: 0.02-0.39 noise std on the random and CAD sets), naming the pair
+# is neither required nor an error.
+ABOVE_NOISE = 1.0
+
+
+def split_truth(case, manifest):
+    """(required, optional) true (effect, joint) pairs of a case: optional on a joint whose
+    true effects stay below the noise (`ABOVE_NOISE`); a payload is always required."""
+    truth = pairs(case["effects"])
+    sig = case.get("torque_noise_std") or manifest.get("torque_noise_std")
+    rms = case.get("oracle", {}).get("effect_rms")
+    if not sig or not rms:
+        return truth, set()
+    at = {j: i for i, j in enumerate(manifest["joints"])}
+    optional = {(e, j) for e, j in truth if j and rms[at[j]] < ABOVE_NOISE * sig[at[j]]}
+    return truth - optional, optional
+
+
+def named_right(named, required, optional):
+    """Every required pair named, and nothing beyond the true pairs."""
+    return required <= named <= required | optional
 
 
 # Relative error allowed on an identified parameter (issue 15: 90 % within 10 % of truth).
@@ -122,7 +150,7 @@ def main(argv=None):
     ids = split["tune"] + split["heldout"] if args.part == "all" else split[args.part]
     manifests = {}
     rows, right, ratios, ratios_true, times, false_alarm_clean = [], 0, [], [], [], []
-    found = true_pairs = extra = 0
+    found = true_pairs = extra = below = below_named = 0
     perrs = []
     cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     print("| case | truth | named | missed | extra | refit | final/oracle | final/oracle (true model) | time |")
@@ -137,16 +165,19 @@ def main(argv=None):
             m = manifests[robot]
             case = next(c for c in m["cases"] if c["name"] == name)
             d, secs, err = run_case(args.bin, m, case, os.path.join(tmp, robot), vocabulary_args(args))
-            truth = pairs(case["effects"])
-            true_pairs += len(truth)
+            required, optional = split_truth(case, m)
+            truth = required | optional
+            true_pairs += len(required)
+            below += len(optional)
             if d is None:
                 print(f"| {cid} | {short(truth)} | ERROR {err[0]} | | | | | | {secs:.2f} s |")
                 continue
             named = pairs(d["effects"])
-            ok = named == truth
+            ok = named_right(named, required, optional)
             perrs.extend(param_errors(case["effects"], d["effects"]))
             right += ok
-            found += len(named & truth)
+            found += len(named & required)
+            below_named += len(named & optional)
             extra += len(named - truth)
             if not truth:
                 false_alarm_clean.append(bool(named))
@@ -156,7 +187,7 @@ def main(argv=None):
             ratios_true.append(worst_t)
             times.append(secs)
             refit = "yes" if d.get("nominal_refit") else "no"
-            print(f"| {cid} | {short(truth)} | {short(named)} | {short(truth - named) if truth - named else ''} | "
+            print(f"| {cid} | {short(truth)} | {short(named)} | {short(required - named) if required - named else ''} | "
                   f"{short(named - truth) if named - truth else ''} | {refit} | {worst:.2f} | {worst_t:.2f} | "
                   f"{secs:.2f} s |")
     n = len(ratios)
@@ -169,7 +200,8 @@ def main(argv=None):
               f"median worst-joint final/oracle {statistics.median(ratios):.2f} "
               f"(true-model oracle {statistics.median(ratios_true):.2f}); "
               f"median time {statistics.median(times):.2f} s (CLI end to end, --no-report); "
-              f"true (effect, joint) pairs named {found} of {true_pairs}, extra pairs {extra}; "
+              f"true (effect, joint) pairs named {found} of {true_pairs}, extra pairs {extra} "
+              f"({below} true pairs below the noise not required, {below_named} of them named); "
               f"parameters of those within {100 * PARAM_TOL:.0f} % of truth "
               f"{sum(e <= PARAM_TOL for _, _, e in perrs)} of {len(perrs)}; "
               f"CPU of the diagnoses {cpu / len(ids):.2f} s per case (user + sys)")
