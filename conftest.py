@@ -9,6 +9,12 @@ import pytest
 
 ROOT = os.path.dirname(os.path.abspath(__file__))
 
+# Ray starts its workers at nice 15; `make test` runs the Python suites beside the Rust
+# tests, which then take nearly all of both cores from them: the synthetic fleet's Ray run
+# took 80-120 s beside two busy processes (17 s alone), 28-40 s with its workers at nice 0.
+# Every runtime the tests start (ray.init reads this when it launches the raylet) gets it.
+os.environ.setdefault("RAY_worker_niceness", "0")
+
 
 def ivdyn_exe():
     """The `ivdyn` binary: $IVDYN_BIN (`make test` passes the one its Rust test build
