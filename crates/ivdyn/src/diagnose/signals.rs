@@ -42,7 +42,49 @@ impl Signals {
     pub(super) fn segments(&self) -> Vec<std::ops::Range<usize>> {
         segment_ranges(&self.starts, self.t.len())
     }
+
+    /// Every `k`-th block of [`SUBSAMPLE_BLOCK`] samples, `k` the smallest that keeps at
+    /// most about `max_rows` of the `n`-joint samples; `None` when all of them fit. Spread
+    /// over the whole log (every part of the motion is in it) and contiguous within a block
+    /// (differences in time stay exact: each kept block starts a segment).
+    pub(super) fn every_kth_block(&self, n: usize, max_rows: usize) -> Option<Signals> {
+        let t_len = self.t.len();
+        if t_len <= max_rows {
+            return None;
+        }
+        let k = t_len.div_ceil(max_rows.max(SUBSAMPLE_BLOCK));
+        let mut out = Signals {
+            t: vec![],
+            q: vec![],
+            qd: vec![],
+            qdd: vec![],
+            tau: vec![],
+            velocity_in_log: self.velocity_in_log,
+            velocity: self.velocity.clone(),
+            dt: self.dt,
+            cutoff_hz: self.cutoff_hz,
+            align: self.align,
+            starts: vec![],
+        };
+        for a in (0..t_len).step_by(k * SUBSAMPLE_BLOCK) {
+            let b = (a + SUBSAMPLE_BLOCK).min(t_len);
+            // a block's own start, and any segment starting inside it
+            let base = out.t.len();
+            out.starts.push(base);
+            out.starts.extend(self.starts.iter().filter(|&&s| s > a && s < b).map(|&s| base + s - a));
+            out.t.extend_from_slice(&self.t[a..b]);
+            for (dst, src) in
+                [(&mut out.q, &self.q), (&mut out.qd, &self.qd), (&mut out.qdd, &self.qdd), (&mut out.tau, &self.tau)]
+            {
+                dst.extend_from_slice(&src[a * n..b * n]);
+            }
+        }
+        Some(out)
+    }
 }
+
+/// Samples of one block of [`Signals::every_kth_block`].
+pub(super) const SUBSAMPLE_BLOCK: usize = 500;
 
 /// Sample ranges of the segments starting at `starts` in `t_len` samples.
 pub(super) fn segment_ranges(starts: &[usize], t_len: usize) -> Vec<std::ops::Range<usize>> {
@@ -155,4 +197,44 @@ pub(super) fn accel_step(qd: &[f64], n: usize, dt: f64, starts: &[usize]) -> Vec
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `t_len` samples of 2 joints, value = sample index, segments at `starts`.
+    fn ramp(t_len: usize, starts: Vec<usize>) -> Signals {
+        let x: Vec<f64> = (0..t_len).flat_map(|k| [k as f64, k as f64]).collect();
+        Signals {
+            t: (0..t_len).map(|k| k as f64).collect(),
+            q: x.clone(),
+            qd: x.clone(),
+            qdd: x.clone(),
+            tau: x,
+            velocity_in_log: true,
+            velocity: vec![],
+            dt: 1e-3,
+            cutoff_hz: 20.0,
+            align: 0.0,
+            starts,
+        }
+    }
+
+    #[test]
+    fn every_kth_block_keeps_whole_blocks_and_their_segment_starts() {
+        let b = SUBSAMPLE_BLOCK;
+        assert!(ramp(3 * b, vec![0]).every_kth_block(2, 3 * b).is_none());
+        // 10 blocks, at most 4 blocks' worth kept: k = 3, blocks 0, 3, 6, 9; a segment of
+        // the log starting inside block 3 starts one in the subsample too
+        let s = ramp(10 * b, vec![0, 3 * b + 7]).every_kth_block(2, 4 * b).unwrap();
+        assert_eq!(s.t.len(), 4 * b);
+        assert_eq!(s.starts, vec![0, b, b + 7, 2 * b, 3 * b]);
+        for (i, blk) in [0, 3, 6, 9].iter().enumerate() {
+            assert_eq!(s.t[i * b], (blk * b) as f64);
+            assert_eq!(s.t[(i + 1) * b - 1], ((blk + 1) * b - 1) as f64);
+            assert_eq!(s.tau[2 * (i * b) + 1], (blk * b) as f64);
+        }
+        assert_eq!(s.q.len(), 2 * s.t.len());
+    }
 }
