@@ -243,7 +243,7 @@ const PRIOR_C: f64 = 0.3;
 
 /// The solution operator of [`fit`] for the normal matrix `a`: the column scaling `s`
 /// (unit diagonal) and the pseudo-inverse of the scaled matrix with the ridge (and the
-/// re-fit corrections' physical prior) on the link-scale parameters, so that `theta = S pinv (S b)`; `None` if the SVD fails.
+/// re-fit corrections' physical prior) on the link-scale parameters, so that `theta = S pinv (S b)`; `None` if the eigen-decomposition fails.
 pub(super) fn scaled_pinv(model_params: &[Param], gr: &Grams, a: &DMatrix<f64>) -> Option<(Vec<f64>, DMatrix<f64>)> {
     let ridge = gr.ridge;
     let p = model_params.len();
@@ -267,10 +267,16 @@ pub(super) fn scaled_pinv(model_params: &[Param], gr: &Grams, a: &DMatrix<f64>) 
             }
         }
     }
-    let svd = crate::linalg::svd(an, true, true, "diagnosis: candidate fit").ok()?;
-    let tol = 1e-10 * svd.singular_values.max();
-    let pinv = svd.pseudo_inverse(tol).unwrap_or_else(|_| DMatrix::zeros(p, p));
-    Some((s, pinv))
+    // `an` is symmetric: its eigen-decomposition is its SVD (singular values |lambda|) at
+    // about half the cost; the pseudo-inverse keeps the directions above the relative threshold
+    let eig = crate::linalg::sym_eigen(an, "diagnosis: candidate fit").ok()?;
+    let tol = 1e-10 * eig.eigenvalues.amax();
+    let v = eig.eigenvectors;
+    let mut v_inv = v.clone();
+    for (mut col, &l) in v_inv.column_iter_mut().zip(eig.eigenvalues.iter()) {
+        col *= if l.abs() > tol { 1.0 / l } else { 0.0 };
+    }
+    Some((s, v_inv * v.transpose()))
 }
 
 /// Weighted LS over `folds` (weights `w[j]` per joint). Rank-deficient directions (e.g.
