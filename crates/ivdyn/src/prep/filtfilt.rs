@@ -118,7 +118,7 @@ impl StreamFiltfilt {
         let at = self.buf.len();
         self.buf.extend_from_slice(rest);
         self.total += rest.len() / m;
-        forward(&self.filter.sections, &mut self.z, &mut self.buf[at..], m);
+        self.filter.run_rows(&mut self.z, &mut self.buf[at..], m, false);
         if self.buf.len() / m >= self.block + self.look {
             self.flush(out);
         }
@@ -153,7 +153,7 @@ impl StreamFiltfilt {
             self.ring_next = (i + 1) % len;
         }
         self.total += t;
-        forward(&self.filter.sections, &mut self.z, &mut self.buf[at..], m);
+        self.filter.run_rows(&mut self.z, &mut self.buf[at..], m, false);
         if self.buf.len() / m >= self.block + self.look {
             self.flush(out);
         }
@@ -187,10 +187,10 @@ impl StreamFiltfilt {
             let ext: Vec<f64> = last.iter().zip(self.ring_row(i)).map(|(l, x)| 2.0 * l - x).collect();
             let at = self.buf.len();
             self.buf.extend_from_slice(&ext);
-            forward(&self.filter.sections, &mut self.z, &mut self.buf[at..], m);
+            self.filter.run_rows(&mut self.z, &mut self.buf[at..], m, false);
         }
         let rows = self.buf.len() / m;
-        backward(&self.filter.sections, &mut self.buf, m, rows, rows - signal_rows);
+        backward(&self.filter, &mut self.buf, m, rows, rows - signal_rows);
         self.emit(signal_rows, out);
         self.buf.clear();
     }
@@ -221,10 +221,10 @@ impl StreamFiltfilt {
         for i in (1..=self.pad).rev() {
             ext.extend(x0.iter().zip(row(i)).map(|(a, b)| 2.0 * a - b));
         }
-        steady_state(&self.filter.sections, &mut self.z, &ext[..m], m);
-        forward(&self.filter.sections, &mut self.z, &mut ext, m);
+        self.filter.steady_state(&mut self.z, &ext[..m]);
+        self.filter.run_rows(&mut self.z, &mut ext, m, false);
         self.buf = std::mem::take(&mut self.head);
-        forward(&self.filter.sections, &mut self.z, &mut self.buf, m);
+        self.filter.run_rows(&mut self.z, &mut self.buf, m, false);
         self.started = true;
     }
 
@@ -233,7 +233,7 @@ impl StreamFiltfilt {
         let m = self.m;
         let rows = self.buf.len() / m;
         let done = rows - self.look;
-        backward(&self.filter.sections, &mut self.buf, m, rows, self.look);
+        backward(&self.filter, &mut self.buf, m, rows, self.look);
         self.emit(done, out);
         self.buf.copy_within(done * m.., 0);
         self.buf.truncate(self.look * m);
@@ -259,7 +259,7 @@ pub fn look_ahead(filter: &Butterworth) -> usize {
     let limit = 1_000_000;
     let mut x = [1.0];
     for k in 0..limit {
-        forward(&filter.sections, &mut z, &mut x, 1);
+        filter.run_rows(&mut z, &mut x, 1, false);
         let h = x[0].abs();
         peak = peak.max(h);
         if h > LOOK_TOL * peak {
@@ -272,77 +272,17 @@ pub fn look_ahead(filter: &Butterworth) -> usize {
     last + 1 + filter.order
 }
 
-/// Steady-state initial conditions of every section for a constant input `level`
-/// (per column), as `Butterworth::filtfilt` starts each pass.
-fn steady_state(sections: &[[f64; 5]], z: &mut [f64], level: &[f64], m: usize) {
-    let mut lv = level.to_vec();
-    for (s, sec) in sections.iter().enumerate() {
-        let [b0, b1, b2, a1, a2] = *sec;
-        let g = (b0 + b1 + b2) / (1.0 + a1 + a2);
-        let (z1, z2) = z[2 * s * m..2 * (s + 1) * m].split_at_mut(m);
-        for j in 0..m {
-            z2[j] = (b2 - a2 * g) * lv[j];
-            z1[j] = (b1 - a1 * g) * lv[j] + z2[j];
-            lv[j] *= g;
-        }
-    }
-}
-
-/// Runs every section (transposed direct form II, the arithmetic of
-/// `Butterworth::filter`) over the rows of `x` in place, state `z` carried.
-fn forward(sections: &[[f64; 5]], z: &mut [f64], x: &mut [f64], m: usize) {
-    run_rows(sections, z, x, m, false)
-}
-
-/// [`forward`] over the rows of `x` taken last to first (the backward pass).
-fn run_rows(sections: &[[f64; 5]], z: &mut [f64], x: &mut [f64], m: usize, reverse: bool) {
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-        // SAFETY: the CPU supports AVX2 and FMA (checked just above); the function is the
-        // same safe code compiled with those features.
-        unsafe { run_rows_avx2(sections, z, x, m, reverse) };
-        return;
-    }
-    run_rows_generic(sections, z, x, m, reverse)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn run_rows_avx2(sections: &[[f64; 5]], z: &mut [f64], x: &mut [f64], m: usize, reverse: bool) {
-    run_rows_generic(sections, z, x, m, reverse)
-}
-
-#[inline(always)]
-fn run_rows_generic(sections: &[[f64; 5]], z: &mut [f64], x: &mut [f64], m: usize, reverse: bool) {
-    let rows = x.len() / m;
-    for r in 0..rows {
-        let r = if reverse { rows - 1 - r } else { r };
-        let row = &mut x[r * m..(r + 1) * m];
-        for (s, sec) in sections.iter().enumerate() {
-            let [b0, b1, b2, a1, a2] = *sec;
-            let (z1, z2) = z[2 * s * m..2 * (s + 1) * m].split_at_mut(m);
-            for ((v, z1), z2) in row.iter_mut().zip(z1.iter_mut()).zip(z2.iter_mut()) {
-                let x = *v;
-                let out = b0 * x + *z1;
-                *z1 = b1 * x - a1 * out + *z2;
-                *z2 = b2 * x - a2 * out;
-                *v = out;
-            }
-        }
-    }
-}
-
 /// The backward pass over the first `rows` rows of `buf`, from the last row down,
 /// starting from the steady state at the last row's value. The last `skip` rows only
 /// advance the state (they are left as they are); the others are overwritten with the
 /// output.
-fn backward(sections: &[[f64; 5]], buf: &mut [f64], m: usize, rows: usize, skip: usize) {
+fn backward(filter: &Butterworth, buf: &mut [f64], m: usize, rows: usize, skip: usize) {
     if rows == 0 {
         return;
     }
-    let mut z = vec![0.0; 2 * sections.len() * m];
-    steady_state(sections, &mut z, &buf[(rows - 1) * m..rows * m], m);
+    let mut z = vec![0.0; 2 * filter.sections.len() * m];
+    filter.steady_state(&mut z, &buf[(rows - 1) * m..rows * m]);
     let mut tail = buf[(rows - skip) * m..rows * m].to_vec();
-    run_rows(sections, &mut z, &mut tail, m, true);
-    run_rows(sections, &mut z, &mut buf[..(rows - skip) * m], m, true);
+    filter.run_rows(&mut z, &mut tail, m, true);
+    filter.run_rows(&mut z, &mut buf[..(rows - skip) * m], m, true);
 }
