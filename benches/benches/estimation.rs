@@ -181,7 +181,8 @@ fn batch_fit(c: &mut Criterion) {
 /// The parallel filter of `identify` (the zero-phase low-pass of the torque and of every
 /// regressor column, `Butterworth::filtfilt_columns`): a UR5's 60 s at 1 kHz, 6 x 78
 /// columns of the stacked regressor and torque, at the default cut-off; against the same
-/// columns filtered one at a time (`filtfilt`, the per-column loop it replaced).
+/// columns gathered and filtered one at a time (`filtfilt`: the loop `filtfilt_columns`
+/// ran before it swept whole rows, with today's single-signal kernel).
 fn parallel_filter(c: &mut Criterion) {
     let (t, m, fs) = (60_000, 6 * 13, 1000.0);
     let x: Vec<f64> = (0..t * m).map(|i| ((i % m) as f64 + 1.0) * (1e-3 * (i / m) as f64).sin()).collect();
