@@ -53,10 +53,19 @@ lint-then-test:
 # with rust blocks are doctests too). Examples are not built here (`cargo test` would build
 # them all: clippy --all-targets checks them), except write_log, which a Python test runs;
 # ivdyn-py is tested from Python, and ivdyn-benches has no tests (criterion stays out).
+# ivdyn's own unit tests (`--lib`) compile the whole crate a second time, with cfg(test):
+# 182 CPU s at the profile's opt-level 2, 26 s at 0, beside one core's worth of work that
+# waits for it. They are built apart at opt-level 0 (IVDYN_UNIT), so the crate the other
+# tests and the wheel link stays at 2 (a profile setting for all of `cargo test` would
+# change every crate's build). At opt-level 0 one test needs more than the default 2 MiB
+# thread stack, hence RUST_MIN_STACK. `cargo test` alone runs them at opt-level 2, as ever.
 RUST_PKGS := --workspace --exclude ivdyn-py --exclude ivdyn-benches
+IVDYN_UNIT := -p ivdyn --lib --config 'profile.test.package.ivdyn.opt-level=0'
 rust-build: package
-	$(CARGO) test $(RUST_PKGS) --lib --bins --tests --no-run
-	$(CARGO) build $(RUST_PKGS) --lib --bins --tests --example write_log
+	$(CARGO) test $(RUST_PKGS) --bins --test '*' --no-run
+	$(CARGO) test $(RUST_PKGS) --exclude ivdyn --lib --no-run
+	$(CARGO) test $(IVDYN_UNIT) --no-run
+	$(CARGO) build $(RUST_PKGS) --lib --bins --test '*' --example write_log
 
 ## lint: rustfmt (rustfmt.toml) and clippy with warnings as errors, on every target
 lint:
@@ -74,7 +83,9 @@ $(STAMP): python/requirements-dev.txt
 	touch $(STAMP)
 
 rust-test:
-	$(CARGO) test $(RUST_PKGS) --lib --bins --tests
+	$(CARGO) test $(RUST_PKGS) --bins --test '*'
+	$(CARGO) test $(RUST_PKGS) --exclude ivdyn --lib
+	RUST_MIN_STACK=8388608 $(CARGO) test $(IVDYN_UNIT)
 	$(CARGO) test $(RUST_PKGS) --doc
 
 # The core must build for a bare-metal target, and a #![no_main] probe with no global
