@@ -40,10 +40,13 @@ demo:
 # same target dir, reusing that build (tools/feature_parity.py); (2) fmt and clippy, then the
 # Rust tests (both take cargo's lock on target/, so one after the other), beside the Python
 # suites, the fresh-venv wheel check and the no_std probe, which need only what stage 1 built.
-# -Otarget prints each step's output whole when it ends.
+# Stage 2 runs three jobs at once: the Python suites and the Rust tests each keep about two
+# cores busy for most of it, but both end in steps of one (the small Rust suites, the
+# doctests) that the no_std build and the wheel check fill. -Otarget prints each step's
+# output whole when it ends.
 test:
 	$(MAKE) -j2 test-wheel
-	$(MAKE) -j2 -Otarget lint-then-test py-run nostd smoke-run SMOKE_WHEELS=$(TEST_WHEELS)
+	$(MAKE) -j3 -Otarget lint-then-test py-run nostd smoke-run SMOKE_WHEELS=$(TEST_WHEELS)
 
 lint-then-test:
 	$(MAKE) lint
@@ -54,17 +57,19 @@ lint-then-test:
 # them all: clippy --all-targets checks them), except write_log, which a Python test runs;
 # ivdyn-py is tested from Python, and ivdyn-benches has no tests (criterion stays out).
 # ivdyn's own unit tests (`--lib`) compile the whole crate a second time, with cfg(test):
-# 182 CPU s at the profile's opt-level 2, 26 s at 0, beside one core's worth of work that
-# waits for it. They are built apart at opt-level 0 (IVDYN_UNIT), so the crate the other
-# tests and the wheel link stays at 2 (a profile setting for all of `cargo test` would
-# change every crate's build). At opt-level 0 one test needs more than the default 2 MiB
-# thread stack, hence RUST_MIN_STACK. `cargo test` alone runs them at opt-level 2, as ever.
+# 182 CPU s at the profile's opt-level 2. So the unit tests are built apart, with ivdyn at
+# opt-level 0 (its lib and lib test 48 CPU s; the lib tests of ivdyn-lab and
+# ivdyn-fuzz link that build), so the crate the other tests and the wheel link stays at 2
+# (a profile setting for all of `cargo test` would change every crate's build). The same
+# packages are selected in both, so every dependency has the same features and builds once
+# (`-p ivdyn` alone unifies fewer and rebuilt nalgebra, serde, ...). At opt-level 0 one
+# test needs more than the default 2 MiB thread stack, hence RUST_MIN_STACK. `cargo test`
+# alone runs them at opt-level 2, as ever.
 RUST_PKGS := --workspace --exclude ivdyn-py --exclude ivdyn-benches
-IVDYN_UNIT := -p ivdyn --lib --config 'profile.test.package.ivdyn.opt-level=0'
+UNIT_TESTS := $(RUST_PKGS) --lib --config 'profile.test.package.ivdyn.opt-level=0'
 rust-build: package
 	$(CARGO) test $(RUST_PKGS) --bins --test '*' --no-run
-	$(CARGO) test $(RUST_PKGS) --exclude ivdyn --lib --no-run
-	$(CARGO) test $(IVDYN_UNIT) --no-run
+	$(CARGO) test $(UNIT_TESTS) --no-run
 	$(CARGO) build $(RUST_PKGS) --lib --bins --test '*' --example write_log
 
 ## lint: rustfmt (rustfmt.toml) and clippy with warnings as errors, on every target
@@ -84,8 +89,7 @@ $(STAMP): python/requirements-dev.txt
 
 rust-test:
 	$(CARGO) test $(RUST_PKGS) --bins --test '*'
-	$(CARGO) test $(RUST_PKGS) --exclude ivdyn --lib
-	RUST_MIN_STACK=8388608 $(CARGO) test $(IVDYN_UNIT)
+	RUST_MIN_STACK=8388608 $(CARGO) test $(UNIT_TESTS)
 	$(CARGO) test $(RUST_PKGS) --doc
 
 # The core must build for a bare-metal target, and a #![no_main] probe with no global

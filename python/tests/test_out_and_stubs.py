@@ -76,10 +76,14 @@ def test_out_errors(ur5):
 def test_stubs_match_the_native_module(tmp_path):
     """mypy.stubtest: every name, signature and class property of ivdyn._ivdyn against
     _ivdyn.pyi (and a type check of the pure-Python modules)."""
-    # Ray and matplotlib ship type information, so mypy would analyse both whole packages
-    # (most of this test's time) for the two modules that import them: they are taken as Any
+    # Ray, matplotlib and tqdm ship type information, so mypy would analyse whole packages
+    # (most of this test's time) for the few modules that import them: they are taken as
+    # Any. tqdm.auto pulls in IPython and prompt_toolkit (~280 modules); matplotlib's own
+    # .pyi files are followed unless follow_imports_for_stubs says otherwise (mypy alone on
+    # the package, one run each: 18.4 s -> 11.0 s, 18 modules checked either way).
     cfg = tmp_path / "mypy.ini"
-    cfg.write_text("[mypy]\n\n[mypy-ray,ray.*,matplotlib,matplotlib.*]\nfollow_imports = skip\n")
+    cfg.write_text("[mypy]\n\n[mypy-ray,ray.*,matplotlib,matplotlib.*,tqdm,tqdm.*]\n"
+                   "follow_imports = skip\nfollow_imports_for_stubs = True\n")
     r = subprocess.run([sys.executable, "-m", "mypy.stubtest", "ivdyn", "--mypy-config-file", str(cfg)],
                        cwd=tmp_path, capture_output=True, text=True, timeout=600,
                        env=dict(os.environ, MYPY_CACHE_DIR=str(tmp_path / "cache")))

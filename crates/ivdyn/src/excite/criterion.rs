@@ -402,9 +402,8 @@ mod tests {
         )
         .unwrap();
         let opts = ExciteOptions { harmonics: 3, opt_samples: 30, ..Default::default() };
+        let (n, base) = (robot.dof(), robot_base_params(&robot, 200, 1).unwrap());
         for crit in [Criterion::Cond, Criterion::Logdet] {
-            let n = robot.dof();
-            let base = robot_base_params(&robot, 200, 1).unwrap();
             let bounds = joint_bounds(&robot, &opts).unwrap();
             let boxes = bounds
                 .iter()
