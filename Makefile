@@ -7,7 +7,7 @@ STAMP  := $(VENV)/.installed
 CARGO  ?= cargo
 export CARGO_TERM_COLOR ?= never
 
-.PHONY: demo test test-wheel lint-then-test py-run smoke-run rust-build venv lint rust-test nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
+.PHONY: demo test test-wheel lint-then-test py-run smoke-run rust-build venv lint rust-test rust-tests rust-unit rust-doc nostd py-test fixtures bench bench-anchor bench-hour clean paper real-data floor messy py-install fuzz wheel wheel-smoke package publish-check
 
 ## demo: the main job on bundled data: the dynamics of the bundled robots, then a
 ## simulated UR5 log with friction and a 2 kg payload -> `ivdyn identify` (unloaded log)
@@ -87,9 +87,18 @@ $(STAMP): python/requirements-dev.txt
 	$(VENV)/bin/pip install -q maturin==1.16.0
 	touch $(STAMP)
 
-rust-test:
+# Three independent parts; under make test's -j they run side by side (cargo holds its lock
+# on target/ only while it builds, and everything is built by then): the unit tests and the
+# doctests, mostly one core each, fill the time the integration suites leave.
+rust-test: rust-tests rust-unit rust-doc
+
+rust-tests:
 	$(CARGO) test $(RUST_PKGS) --bins --test '*'
+
+rust-unit:
 	RUST_MIN_STACK=8388608 $(CARGO) test $(UNIT_TESTS)
+
+rust-doc:
 	$(CARGO) test $(RUST_PKGS) --doc
 
 # The core must build for a bare-metal target, and a #![no_main] probe with no global
