@@ -3,32 +3,58 @@
 //! Where a joint lacks two effects (Coulomb friction and an offset, a spring and viscous
 //! friction, ...), each alone removes only its part of the held-out structure and fails the
 //! share of rule 2 (`rules`), though together they explain it. So when no single candidate
-//! is significant anywhere (the search would stop), pairs of the basic per-joint vocabulary
-//! are tried on each joint: a pair is named when it passes every rule on its joint and each
-//! member passes every rule given the other (what the backward step asks of it), an
-//! inertia-like member also the look-alike rule 5 against the nominal link inertials.
+//! is significant anywhere (the search would stop), pairs of the per-joint vocabulary (with
+//! the effects of real drives: load-dependent friction, gain, delay, ripple) are tried on
+//! each joint: a pair is named when it passes every rule on its joint and each member
+//! passes every rule given the other (what the backward step asks of it) and is above the
+//! noise, an inertia-like member also the look-alike rule 5 against the nominal link
+//! inertials.
 //! Direction-dependent Coulomb friction (Coulomb friction and its `[qd > 0]` column) is
 //! tried the same way: it refines Coulomb friction found on a joint, so without this it
 //! would never be tried where Coulomb friction alone fails the share. So is smooth (tanh)
 //! friction, with the effects of real drives (`score_smooth`).
 
 use super::dictionary::C_Q;
+use super::drive_rules::{grid, with_shape};
 use super::model::{Model, Param};
 use super::rules::model_error_lookalike;
 use super::score::{Ctx, not_scored};
 use super::{CandidateScore, EffectKind, JointScore};
 
-/// The effects tried in pairs (the per-joint basic vocabulary).
-const KINDS: [EffectKind; 5] =
-    [EffectKind::Coulomb, EffectKind::Viscous, EffectKind::Armature, EffectKind::TorqueOffset, EffectKind::JointSpring];
+/// The effects tried in pairs: the per-joint basic vocabulary, then the per-joint effects
+/// of real drives (searched only with them; a ripple with its harmonic on its grid).
+const KINDS: [EffectKind; 9] = [
+    EffectKind::Coulomb,
+    EffectKind::Viscous,
+    EffectKind::Armature,
+    EffectKind::TorqueOffset,
+    EffectKind::JointSpring,
+    EffectKind::LoadDependent,
+    EffectKind::TorqueGain,
+    EffectKind::TimeDelay,
+    EffectKind::TorqueRipple,
+];
+
+/// Smallest RMS (in noise standard deviations of the joint) of the torque each member of a
+/// pair adds. Two columns fitted together take up part of the nominal model's own error
+/// where one alone would not, so a pair, named only where no single effect passes, names
+/// only members above the noise. (At `min_effect`, 0.5, a Coulomb friction and a ripple of
+/// 1.0 and 0.56 noise std were named together on a payload-only log of the tuning part.)
+const PAIR_MIN_EFFECT: f64 = 1.0;
+
+/// The effects of `KINDS` the search may name (the drives' ones only when it searches them).
+fn kinds(ctx: &Ctx) -> Vec<EffectKind> {
+    KINDS.into_iter().filter(|e| ctx.drives || !e.needs_drives()).collect()
+}
 
 /// The best pair over all joints (largest weighted residual reduction), as a candidate of
 /// its first effect on its joint, the model with both, and the second effect.
 pub(super) fn best_pair(ctx: &Ctx, m: &Model) -> Option<(CandidateScore, Model, EffectKind)> {
     let mut best: Option<(f64, usize, JointScore, Model, EffectKind, EffectKind)> = None;
+    let kinds = kinds(ctx);
     for j in 0..ctx.n {
-        for (i, &a) in KINDS.iter().enumerate() {
-            for &b in &KINDS[i + 1..] {
+        for (i, &a) in kinds.iter().enumerate() {
+            for &b in &kinds[i + 1..] {
                 let Some((sc, l)) = score_pair(ctx, m, j, a, b) else { continue };
                 let gain = ctx.gain(m, &l);
                 if best.as_ref().is_none_or(|x| gain > x.0) {
@@ -71,20 +97,36 @@ fn of(j: usize, e: EffectKind) -> impl Fn(&Param) -> bool {
 
 /// The pair `(a, b)` on joint `j` with its score, when it can go there and passes.
 fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> Option<(JointScore, Model)> {
-    use EffectKind::{AsymmetricCoulomb, JointSpring, TorqueOffset};
-    // a spring holds an offset's column, direction-dependent friction one too
+    use EffectKind::{AsymmetricCoulomb, JointSpring, TorqueGain, TorqueOffset};
+    // a spring holds an offset's column, direction-dependent friction one too; a gain on the
+    // terminal joint is a scale of the terminal link (as `rules::score_joint_effect` says)
     let offset_like = |e: EffectKind| matches!(e, TorqueOffset | JointSpring);
     let blocked = |e: EffectKind| match e {
         TorqueOffset => m.has(j, JointSpring) || m.has(j, AsymmetricCoulomb),
-        JointSpring => m.has(j, TorqueOffset),
+        TorqueGain if j + 1 == ctx.n => true,
         _ => m.has(j, e),
     };
     if offset_like(a) && offset_like(b) || blocked(a) || blocked(b) {
         return None;
     }
-    let l = m.with(Some(j), a).with(Some(j), b);
+    // a spring replaces an offset found on the joint (its constant is the offset's column),
+    // as the single spring candidate does
+    let spring = a == JointSpring || b == JointSpring;
+    let start = if spring { m.without(Some(j), TorqueOffset) } else { m.clone() };
     let (sa, sb) = (of(j, a), of(j, b));
-    let sc = ctx.joint_score(m, &l, j, &|p| sa(p) || sb(p));
+    // a ripple's harmonic on its grid, the one removing most of the held-out residual (as
+    // `drive_rules::score_grid_effect` chooses it alone); one entry for the other effects
+    let mut best: Option<(JointScore, Model)> = None;
+    for ga in grid(ctx, a, j) {
+        for gb in grid(ctx, b, j) {
+            let l = with_shape(&with_shape(&start, a, j, ga), b, j, gb);
+            let sc = ctx.joint_score(m, &l, j, &|p| sa(p) || sb(p));
+            if best.as_ref().is_none_or(|(x, _)| sc.heldout_gain > x.heldout_gain) {
+                best = Some((sc, l));
+            }
+        }
+    }
+    let (sc, l) = best?;
     if !sc.significant {
         return None;
     }
@@ -92,7 +134,8 @@ fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> O
         let without = l.without(Some(j), x);
         // a spring's position column is tested beside the constant, as a single spring is
         let base = if x == EffectKind::JointSpring { without.with(Some(j), EffectKind::TorqueOffset) } else { without };
-        if !ctx.joint_score(&base, &l, j, sel).significant {
+        let member = ctx.joint_score(&base, &l, j, sel);
+        if !member.significant || member.effect_rms < PAIR_MIN_EFFECT * ctx.sigma[j] {
             return None;
         }
         if super::rules::inertia_like(x) && model_error_lookalike(ctx, &base, &l, j, sel).is_some() {
@@ -137,7 +180,7 @@ fn score_asymmetric(ctx: &Ctx, m: &Model, j: usize) -> Option<(JointScore, Model
 /// (beside true load-dependent friction on the UR5 drive fixture's elbow, the tanh took what
 /// the load column's sharp step leaves near zero speed and was named too).
 fn score_smooth(ctx: &Ctx, m: &Model, j: usize) -> Option<(JointScore, Model)> {
-    use super::drive_rules::{grid, smooth_size, with_shape};
+    use super::drive_rules::smooth_size;
     use EffectKind::{AsymmetricCoulomb, Coulomb, LoadDependent, SmoothCoulomb, Stribeck};
     let friction_there = [Coulomb, AsymmetricCoulomb, Stribeck, SmoothCoulomb, LoadDependent];
     if !ctx.drives || friction_there.iter().any(|&e| m.has(j, e)) {

@@ -484,3 +484,41 @@ fn direction_dependent_friction_as_a_pair() {
         assert!(*f <= 1.5 * o, "joint {i}: final RMS {f} vs oracle {o}");
     }
 }
+
+/// Issue 15: two effects of real drives on one joint (`fixtures/diagnose_random/rarm5_7j/e05_3fx`,
+/// a random 7-joint arm of the 5-12 s tuning part, inertials 5 % off: a torque ripple of
+/// period pi/6 rad and a 6.2 ms torque-to-motion delay on joint 3, armatures on joints 4 and
+/// 7). On joint 3 the delay alone removed 51 % of the explainable held-out residual and the
+/// ripple 37 %, both short of the 75 % share, and pairs were tried over the basic vocabulary
+/// only, so neither was named. Pairs now take the single-column drive effects and the ripple
+/// on its harmonic grid (`pairs`). Asserted: the required names and joints (the armature on
+/// joint 7 makes 0.09 noise std there: it may be named or not), the ripple's period, the
+/// delay and the ripple's amplitude within 10 % of truth, and the final RMS within 1.5x of
+/// the true-model oracle on every joint.
+#[test]
+fn two_drive_effects_on_one_joint() {
+    let set = "diagnose_random/rarm5_7j";
+    let m = cases_in(set);
+    let case = &m["cases"][0];
+    let d = run_full(set, case, &m).json;
+    let named = |e: &str| d.effects.iter().find(|x| x.name == e).map(|x| x.joints.clone());
+    assert_eq!(d.effects.len(), 3, "{:?}", d.effects);
+    let arm = named("armature").unwrap_or_default();
+    assert!(arm.contains(&"joint_4".to_string()) && arm.iter().all(|j| j == "joint_4" || j == "joint_7"), "{arm:?}");
+    assert_eq!(named("torque_ripple"), Some(vec!["joint_3".to_string()]));
+    assert_eq!(named("time_delay"), Some(vec!["joint_3".to_string()]));
+    let truth = |e: &str, p: &str| {
+        let t = case["effects"].as_array().unwrap().iter().find(|x| x["name"] == e).unwrap();
+        f64s(&t["parameters"][p])[0]
+    };
+    let got = |e: &str, p: &str| f64s(&d.effects.iter().find(|x| x.name == e).unwrap().parameters[p])[0];
+    assert_eq!(got("torque_ripple", "period"), truth("torque_ripple", "period"));
+    let amp = |f: &dyn Fn(&str, &str) -> f64| f("torque_ripple", "a").hypot(f("torque_ripple", "b"));
+    assert!((amp(&got) / amp(&truth) - 1.0).abs() <= 0.1, "amplitude {} vs {}", amp(&got), amp(&truth));
+    let (delay, delay_true) = (got("time_delay", "delay_s"), truth("time_delay", "delay_s"));
+    assert!((delay / delay_true - 1.0).abs() <= 0.1, "delay {delay} vs {delay_true}");
+    let oracle = f64s(&case["oracle"]["oracle_rms_true_model"]);
+    for (j, (f, o)) in d.final_rms.iter().zip(&oracle).enumerate() {
+        assert!(*f <= 1.5 * o, "joint {j}: final RMS {f} vs true-model oracle {o}");
+    }
+}
