@@ -31,6 +31,7 @@
 pub mod error;
 pub mod limits;
 pub mod output;
+pub mod par;
 pub mod progress;
 pub mod report;
 

@@ -46,13 +46,25 @@ pub fn diagnose_job(robot: &Robot, job: &DiagnoseJob, progress: &ProgressSink) -
     let mut set = OutputSet::new();
     if let Some(dir) = &job.out {
         set.create_dir_all(dir)?;
-        if job.report {
-            let _st = Stage::begin(progress, "writing report.html", 0);
-            let page = report::html_page(&d, dir)?;
-            set.write_bytes(&dir.join(report::HTML_FILE), page.as_bytes())?;
-        }
+        let _st = Stage::begin(progress, "writing the report and residuals", 0);
+        // the page (its plots) and the residual file are independent: side by side on a
+        // long log (`diagnose::threads_for`)
         let mcap = dir.join(report::MCAP_FILE);
-        set.write(&mcap, |p| report::write_residuals(&d, &robot.joint_names, log.t0_ns, p))?;
+        let write_residuals =
+            |set: &mut OutputSet| set.write(&mcap, |p| report::write_residuals(&d, &robot.joint_names, log.t0_ns, p));
+        let (page, residuals) = if diagnose::threads_for(log.t.len()) > 1 {
+            std::thread::scope(|scope| {
+                let page = job.report.then(|| scope.spawn(|| report::html_page(&d, dir)));
+                let residuals = write_residuals(&mut set);
+                (page.map(|h| h.join().unwrap_or_else(|p| std::panic::resume_unwind(p))), residuals)
+            })
+        } else {
+            (job.report.then(|| report::html_page(&d, dir)), write_residuals(&mut set))
+        };
+        if let Some(page) = page {
+            set.write_bytes(&dir.join(report::HTML_FILE), page?.as_bytes())?;
+        }
+        residuals?;
         set.write_json(&dir.join("diagnosis.json"), &d.json)?;
     }
     if let Some(j) = &job.json {

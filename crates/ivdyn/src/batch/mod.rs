@@ -39,9 +39,7 @@ pub fn threads_for(t: usize) -> usize {
     if t < 2 * MIN_SAMPLES_PER_THREAD {
         return 1;
     }
-    static AVAIL: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
-    let avail = *AVAIL.get_or_init(|| std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1));
-    avail.min(t / MIN_SAMPLES_PER_THREAD).max(1)
+    crate::par::available().min(t / MIN_SAMPLES_PER_THREAD).max(1)
 }
 
 pub(crate) fn dim_err(what: String, expected: usize, got: usize) -> Error {

@@ -114,43 +114,17 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64], with
     let p_full = robot.num_params();
     let base = if with_base { refit_base(robot)? } else { no_base(n) };
     let nb = base.base_count();
-    // the target's slot stays empty (the residual is `r0`)
-    let mut cols: Vec<Vec<Vec<f64>>> = (0..n)
-        .map(|_| (0..C_BASE + nb).map(|c| if c == C_TARGET { vec![] } else { vec![0.0; t_len] }).collect())
-        .collect();
-    let mut vs = vec![[0.0; 5]; n];
-    let mut smooth_vs = vec![[0.0; 5]; n];
-    let mut q_mean = vec![0.0; n];
-    for j in 0..n {
-        let qd_rms = ((0..t_len).map(|k| s.qd[k * n + j].powi(2)).sum::<f64>() / t_len as f64).sqrt().max(1e-9);
-        q_mean[j] = (0..t_len).map(|k| s.q[k * n + j]).sum::<f64>() / t_len as f64;
-        for (g, f) in STRIBECK_VS.iter().enumerate() {
-            vs[j][g] = f * qd_rms;
-        }
-        for (g, f) in SMOOTH_VS.iter().enumerate() {
-            smooth_vs[j][g] = f * qd_rms;
-        }
-        let c = &mut cols[j];
-        for k in 0..t_len {
-            let (q, qd, qdd) = (s.q[k * n + j], s.qd[k * n + j], s.qdd[k * n + j]);
-            let sg = if qd > 0.0 {
-                1.0
-            } else if qd < 0.0 {
-                -1.0
-            } else {
-                0.0
-            };
-            c[C_ONE][k] = 1.0;
-            c[C_Q][k] = q - q_mean[j];
-            c[C_QD][k] = qd;
-            c[C_SIGN][k] = sg;
-            c[C_QDD][k] = qdd;
-            for g in 0..STRIBECK_VS.len() {
-                c[C_STRIBECK + g][k] = (-(qd / vs[j][g]).powi(2)).exp() * sg;
-            }
-            drive_columns(c, k, q, qd, tau_nom[k * n + j], &smooth_vs[j]);
-        }
-        delay_column(&mut c[C_DELAY], tau_nom, n, j, s.dt, &s.segments());
+    // each joint's own columns (independent: on the machine's cores, `par`)
+    let joints: Vec<usize> = (0..n).collect();
+    let threads = super::threads_for(t_len);
+    let per_joint = crate::par::map(threads, &joints, |&j| joint_columns(s, tau_nom, n, j, C_BASE + nb));
+    let mut cols = Vec::with_capacity(n);
+    let (mut vs, mut smooth_vs, mut q_mean) = (vec![], vec![], vec![]);
+    for (c, v, sv, qm) in per_joint {
+        cols.push(c);
+        vs.push(v);
+        smooth_vs.push(sv);
+        q_mean.push(qm);
     }
     // the terminal link's 10 regressor columns, in blocks (the whole regressor would be
     // T x N x 14N doubles)
@@ -164,27 +138,70 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64], with
         let out = &mut y[..m * n * p_full];
         batch::regressor_batch(robot, &s.q[k0 * n..k1 * n], &s.qd[k0 * n..k1 * n], &s.qdd[k0 * n..k1 * n], out, false)
             .map_err(|e| Error::during("regressor", e))?;
-        for kk in 0..m {
-            for j in 0..n {
+        // each joint's rows into its own columns (on the machine's cores, `par`)
+        let out = &*out;
+        crate::par::for_each_mut(threads, &mut cols, |j, cj| {
+            for kk in 0..m {
                 let row = &out[(kk * n + j) * p_full..(kk * n + j + 1) * p_full];
                 for c in 0..10 {
-                    cols[j][C_PAYLOAD + c][k0 + kk] = row[link + c];
+                    cj[C_PAYLOAD + c][k0 + kk] = row[link + c];
                 }
                 for i in 0..n {
                     for (g, &(lo, hi)) in LINK_GROUPS.iter().enumerate() {
-                        cols[j][C_LINK + LINK_GROUPS.len() * i + g][k0 + kk] =
+                        cj[C_LINK + LINK_GROUPS.len() * i + g][k0 + kk] =
                             (lo..hi).map(|c| row[10 * i + c] * theta_nom[10 * i + c]).sum();
                     }
                 }
                 for (b, &c) in base.independent.iter().enumerate() {
-                    cols[j][C_BASE + b][k0 + kk] = row[c];
+                    cj[C_BASE + b][k0 + kk] = row[c];
                 }
             }
-        }
+        });
     }
     let r0 = (0..n).map(|j| (0..t_len).map(|k| s.tau[k * n + j] - tau_nom[k * n + j]).collect()).collect();
     Ok(Dictionary { cols, r0, vs, smooth_vs, q_mean, base })
 }
+
+/// Joint `j`'s own columns over the log (`size` slots; the target's and the rigid-body
+/// ones are filled by the caller), its Stribeck and smooth-friction speeds and its mean `q`.
+fn joint_columns(s: &Signals, tau_nom: &[f64], n: usize, j: usize, size: usize) -> JointColumns {
+    let t_len = s.t.len();
+    // the target's slot stays empty (the residual is `r0`)
+    let mut c: Vec<Vec<f64>> = (0..size).map(|c| if c == C_TARGET { vec![] } else { vec![0.0; t_len] }).collect();
+    let (mut vs, mut smooth_vs) = ([0.0; 5], [0.0; 5]);
+    let qd_rms = ((0..t_len).map(|k| s.qd[k * n + j].powi(2)).sum::<f64>() / t_len as f64).sqrt().max(1e-9);
+    let q_mean = (0..t_len).map(|k| s.q[k * n + j]).sum::<f64>() / t_len as f64;
+    for (g, f) in STRIBECK_VS.iter().enumerate() {
+        vs[g] = f * qd_rms;
+    }
+    for (g, f) in SMOOTH_VS.iter().enumerate() {
+        smooth_vs[g] = f * qd_rms;
+    }
+    for k in 0..t_len {
+        let (q, qd, qdd) = (s.q[k * n + j], s.qd[k * n + j], s.qdd[k * n + j]);
+        let sg = if qd > 0.0 {
+            1.0
+        } else if qd < 0.0 {
+            -1.0
+        } else {
+            0.0
+        };
+        c[C_ONE][k] = 1.0;
+        c[C_Q][k] = q - q_mean;
+        c[C_QD][k] = qd;
+        c[C_SIGN][k] = sg;
+        c[C_QDD][k] = qdd;
+        for g in 0..STRIBECK_VS.len() {
+            c[C_STRIBECK + g][k] = (-(qd / vs[g]).powi(2)).exp() * sg;
+        }
+        drive_columns(&mut c, k, q, qd, tau_nom[k * n + j], &smooth_vs);
+    }
+    delay_column(&mut c[C_DELAY], tau_nom, n, j, s.dt, &s.segments());
+    (c, vs, smooth_vs, q_mean)
+}
+
+/// A joint's columns, Stribeck speeds, smooth-friction speeds and mean `q`.
+type JointColumns = (Vec<Vec<f64>>, [f64; 5], [f64; 5], f64);
 
 /// Sample `k` of the real-drive columns of one joint (`tau`: its nominal rigid-body torque).
 fn drive_columns(c: &mut [Vec<f64>], k: usize, q: f64, qd: f64, tau: f64, smooth_vs: &[f64; 5]) {
@@ -243,14 +260,15 @@ const GRAM_BLOCK: usize = 256;
 /// sample).
 pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Grams {
     let n = d.cols.len();
-    let mut g = Vec::with_capacity(n);
-    let mut rows = vec![[0usize; 2]; n];
     let size = C_BASE + d.nbase();
     // the columns in use (the link columns of links beyond the robot's stay zero)
     let used: Vec<usize> = (0..C_LINK + LINK_GROUPS.len() * n).chain(C_TARGET..size).collect();
     let u = used.len();
-    let mut x = DMatrix::<f64>::zeros(GRAM_BLOCK, u);
-    for j in 0..n {
+    // the joints' sums are independent: on the machine's cores (`par`), each as alone
+    let joints: Vec<usize> = (0..n).collect();
+    let per_joint = crate::par::map(super::threads_for(t_len), &joints, |&j| {
+        let mut x = DMatrix::<f64>::zeros(GRAM_BLOCK, u);
+        let mut rows = [0usize; 2];
         let mut gu = [DMatrix::<f64>::zeros(u, u), DMatrix::<f64>::zeros(u, u)];
         let mut k0 = 0;
         while k0 < t_len {
@@ -269,7 +287,7 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
             // kernel (matrixmultiply) for f64, `gemm_tr` a dot product per entry
             let xt = xb.transpose();
             gu[f].gemm(1.0, &xt, &xb, 1.0);
-            rows[j][f] += m;
+            rows[f] += m;
             k0 = k1;
         }
         let gj = gu.map(|gf| {
@@ -281,7 +299,8 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
             }
             full
         });
-        g.push(gj);
-    }
+        (gj, rows)
+    });
+    let (g, rows) = per_joint.into_iter().unzip();
     Grams { g, rows, ridge: 0.0, prior: vec![] }
 }

@@ -94,6 +94,20 @@ pub struct DiagnoseOptions {
 /// untested gap, toward the tested side (docs/diagnose.md, "Effects of real drives from 4 s").
 pub const DRIVES_MIN_DURATION_S: f64 = 4.0;
 
+/// Fewest log samples on which the diagnosis uses the machine's cores (`par`: the cutoffs,
+/// the dictionary and Gram sums, the candidate scores, the pairs; the report beside the
+/// residual file). Below it one thread: a diagnosis of a few thousand samples takes well
+/// under a second, and there the threads cost more than they save (the 40 fixture logs of
+/// 2-12 s on both cores: wall -17 %, user CPU +12 %, system CPU +70 %), which a test suite or
+/// a fleet running many diagnoses side by side pays. The 60 s, 1 kHz bench log (60 000
+/// samples) goes from 5.6-6.0 s to 3.7-3.9 s (benches/README.md).
+pub const PARALLEL_MIN_SAMPLES: usize = 20_000;
+
+/// The threads the diagnosis of a log of `samples` uses ([`PARALLEL_MIN_SAMPLES`]).
+pub fn threads_for(samples: usize) -> usize {
+    if samples >= PARALLEL_MIN_SAMPLES { crate::par::available() } else { 1 }
+}
+
 /// Largest median (over joints) lag-1 autocorrelation of the residual's sample-to-sample
 /// differences at which the torque noise counts as white at the sample rate: -0.5 for
 /// white noise, about -0.25 once interpolated onto a resampled grid, about 0 for a torque

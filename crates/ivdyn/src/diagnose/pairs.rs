@@ -50,35 +50,32 @@ fn kinds(ctx: &Ctx) -> Vec<EffectKind> {
 /// The best pair over all joints (largest weighted residual reduction), as a candidate of
 /// its first effect on its joint, the model with both, and the second effect.
 pub(super) fn best_pair(ctx: &Ctx, m: &Model) -> Option<(CandidateScore, Model, EffectKind)> {
+    // every joint's candidates scored on the machine's cores (`par`), then chosen in one
+    // order: the pairs joint by joint, then direction-dependent friction, then smooth friction
+    let joints: Vec<usize> = (0..ctx.n).collect();
+    let scored = crate::par::map(ctx.threads, &joints, |&j| joint_candidates(ctx, m, j));
     let mut best: Option<(f64, usize, JointScore, Model, EffectKind, EffectKind)> = None;
-    let kinds = kinds(ctx);
-    for j in 0..ctx.n {
-        for (i, &a) in kinds.iter().enumerate() {
-            for &b in &kinds[i + 1..] {
-                let Some((sc, l)) = score_pair(ctx, m, j, a, b) else { continue };
-                let gain = ctx.gain(m, &l);
-                if best.as_ref().is_none_or(|x| gain > x.0) {
-                    best = Some((gain, j, sc, l, a, b));
-                }
+    for (j, (pairs, _, _)) in scored.iter().enumerate() {
+        for (gain, sc, l, a, b) in pairs {
+            if best.as_ref().is_none_or(|x| *gain > x.0) {
+                best = Some((*gain, j, sc.clone(), l.clone(), *a, *b));
             }
         }
     }
-    for j in 0..ctx.n {
-        let Some((sc, l)) = score_asymmetric(ctx, m, j) else { continue };
-        let gain = ctx.gain(m, &l);
+    for (j, (_, asym, _)) in scored.iter().enumerate() {
+        let Some((gain, sc, l)) = asym else { continue };
         // on a moving joint it spans what Coulomb friction + offset spans: the same gain but
         // for rounding, and read as direction-dependent friction (one effect, not two), as
         // the forward step reads an offset within `ASYMMETRY_MAX` of the friction level
         // (`drive_rules::offset_or_asymmetric`)
-        if best.as_ref().is_none_or(|x| gain >= x.0 * (1.0 - 1e-9)) {
-            best = Some((gain, j, sc, l, EffectKind::Coulomb, EffectKind::AsymmetricCoulomb));
+        if best.as_ref().is_none_or(|x| *gain >= x.0 * (1.0 - 1e-9)) {
+            best = Some((*gain, j, sc.clone(), l.clone(), EffectKind::Coulomb, EffectKind::AsymmetricCoulomb));
         }
     }
-    for j in 0..ctx.n {
-        let Some((sc, l)) = score_smooth(ctx, m, j) else { continue };
-        let gain = ctx.gain(m, &l);
-        if best.as_ref().is_none_or(|x| gain > x.0) {
-            best = Some((gain, j, sc, l, EffectKind::Coulomb, EffectKind::SmoothCoulomb));
+    for (j, (_, _, smooth)) in scored.iter().enumerate() {
+        let Some((gain, sc, l)) = smooth else { continue };
+        if best.as_ref().is_none_or(|x| *gain > x.0) {
+            best = Some((*gain, j, sc.clone(), l.clone(), EffectKind::Coulomb, EffectKind::SmoothCoulomb));
         }
     }
     let (score, j, sc, l, a, b) = best?;
@@ -87,6 +84,28 @@ pub(super) fn best_pair(ctx: &Ctx, m: &Model) -> Option<(CandidateScore, Model, 
     let reason = format!("with {} on the same joint as one candidate: neither alone passes every rule", b.label());
     let cand = CandidateScore { effect: a, per_joint, joints: vec![j], score, accepted: false, reason };
     Some((cand, l, b))
+}
+
+/// A scored candidate with its weighted residual reduction (`Ctx::gain`) and model.
+type Gained = (f64, JointScore, Model);
+
+/// A passing pair: its gain, score and model, and its two effects.
+type GainedPair = (f64, JointScore, Model, EffectKind, EffectKind);
+
+/// Joint `j`'s passing pairs (each with its two effects), its direction-dependent and its
+/// smooth friction candidates, when they pass.
+fn joint_candidates(ctx: &Ctx, m: &Model, j: usize) -> (Vec<GainedPair>, Option<Gained>, Option<Gained>) {
+    let kinds = kinds(ctx);
+    let mut pairs = vec![];
+    for (i, &a) in kinds.iter().enumerate() {
+        for &b in &kinds[i + 1..] {
+            if let Some((sc, l)) = score_pair(ctx, m, j, a, b) {
+                pairs.push((ctx.gain(m, &l), sc, l, a, b));
+            }
+        }
+    }
+    let gained = |x: Option<(JointScore, Model)>| x.map(|(sc, l)| (ctx.gain(m, &l), sc, l));
+    (pairs, gained(score_asymmetric(ctx, m, j)), gained(score_smooth(ctx, m, j)))
 }
 
 /// Selects joint `j`'s parameters of effect `e` (a spring's position column only: its

@@ -60,11 +60,24 @@ pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions
     };
     let cutoffs = if cutoffs.is_empty() { vec![dsp::default_cutoff(fs)] } else { cutoffs };
     let rows = (cutoffs.len() > 1).then_some(CUTOFF_ROWS);
+    // each thread keeps the best of its run of cutoffs (a pass's columns are ~100 MB), then
+    // the first of the lowest scores wins, as in one loop over the grid
+    let best_of = |cs: &[f64]| -> Result<Option<(f64, Prepared)>> {
+        let mut best: Option<(f64, Prepared)> = None;
+        for &c in cs {
+            let p = prepare(robot, log, opts, c, None, false, rows)?;
+            let score = p.log_rss_all();
+            if best.as_ref().is_none_or(|b| score < b.0) {
+                best = Some((score, p));
+            }
+        }
+        Ok(best)
+    };
     let mut best: Option<(f64, Prepared)> = None;
-    for &c in &cutoffs {
-        let p = prepare(robot, log, opts, c, None, false, rows)?;
-        let score = p.log_rss_all();
-        if best.as_ref().is_none_or(|b| score < b.0) {
+    for run in crate::par::map_chunks(super::threads_for(log.t.len()), &cutoffs, best_of) {
+        if let Some((score, p)) = run?
+            && best.as_ref().is_none_or(|b| score < b.0)
+        {
             best = Some((score, p));
         }
     }

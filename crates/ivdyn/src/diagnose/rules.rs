@@ -142,28 +142,33 @@ fn propose(m: &Model, e: EffectKind, j: usize) -> Option<Model> {
 }
 
 /// Scores every candidate against the current model.
+/// (Each effect is scored independently of the others: on the machine's cores, `par`.)
 pub(super) fn score_candidates(ctx: &Ctx, m: &Model) -> Vec<(CandidateScore, Model)> {
-    let n = ctx.n;
-    let mut out = vec![];
-    for e in EffectKind::ALL.into_iter().filter(|e| ctx.drives || !e.needs_drives()) {
-        let (mut per_joint, mut larger, mut lookalike) = match e {
-            EffectKind::Payload if m.payload => continue,
-            EffectKind::Payload => score_payload(ctx, m),
-            EffectKind::Stribeck => score_stribeck(ctx, m),
-            EffectKind::SmoothCoulomb | EffectKind::AsymmetricCoulomb | EffectKind::TorqueRipple => {
-                super::drive_rules::score_grid_effect(ctx, m, e)
-            }
-            _ => score_joint_effect(ctx, m, e),
-        };
-        if inertia_like(e) && e != EffectKind::Payload {
-            lookalike = reject_link_scale_lookalikes(ctx, m, e, &mut per_joint, &mut larger);
+    let effects: Vec<EffectKind> = EffectKind::ALL
+        .into_iter()
+        .filter(|e| ctx.drives || !e.needs_drives())
+        .filter(|&e| !(e == EffectKind::Payload && m.payload))
+        .collect();
+    crate::par::map(ctx.threads, &effects, |&e| score_effect(ctx, m, e))
+}
+
+/// The candidate `e` scored against `m`, with the model it makes.
+fn score_effect(ctx: &Ctx, m: &Model, e: EffectKind) -> (CandidateScore, Model) {
+    let (mut per_joint, mut larger, mut lookalike) = match e {
+        EffectKind::Payload => score_payload(ctx, m),
+        EffectKind::Stribeck => score_stribeck(ctx, m),
+        EffectKind::SmoothCoulomb | EffectKind::AsymmetricCoulomb | EffectKind::TorqueRipple => {
+            super::drive_rules::score_grid_effect(ctx, m, e)
         }
-        let joints: Vec<usize> = (0..n).filter(|&j| per_joint[j].significant).collect();
-        let score = if joints.is_empty() { 0.0 } else { ctx.gain(m, &larger) };
-        let reason = lookalike_reason(&lookalike);
-        out.push((CandidateScore { effect: e, per_joint, joints, score, accepted: false, reason }, larger));
+        _ => score_joint_effect(ctx, m, e),
+    };
+    if inertia_like(e) && e != EffectKind::Payload {
+        lookalike = reject_link_scale_lookalikes(ctx, m, e, &mut per_joint, &mut larger);
     }
-    out
+    let joints: Vec<usize> = (0..ctx.n).filter(|&j| per_joint[j].significant).collect();
+    let score = if joints.is_empty() { 0.0 } else { ctx.gain(m, &larger) };
+    let reason = lookalike_reason(&lookalike);
+    (CandidateScore { effect: e, per_joint, joints, score, accepted: false, reason }, larger)
 }
 
 /// A payload acts on every joint at once: one model, scored joint by joint, each

@@ -102,6 +102,8 @@ pub(super) struct Ctx<'a> {
     pub(super) opts: &'a DiagnoseOptions,
     /// Whether the effects of real drives are searched (`Prepared::drives`).
     pub(super) drives: bool,
+    /// Threads for the candidates' scores (`threads_for` of the log's samples).
+    pub(super) threads: usize,
 }
 
 /// Range of motion per joint: `max q - min q` over the log (samples interleaved by joint).
@@ -176,6 +178,7 @@ impl<'a> Ctx<'a> {
             n,
             opts,
             drives: p.drives,
+            threads: super::threads_for(s.t.len()),
         })
     }
 }
