@@ -48,11 +48,11 @@ pub fn diagnose_job(robot: &Robot, job: &DiagnoseJob, progress: &ProgressSink) -
         set.create_dir_all(dir)?;
         let _st = Stage::begin(progress, "writing the report and residuals", 0);
         // the page (its plots) and the residual file are independent: side by side on a
-        // long log (`diagnose::threads_for`)
+        // long log (`DiagnoseOptions::threads_for`)
         let mcap = dir.join(report::MCAP_FILE);
         let write_residuals =
             |set: &mut OutputSet| set.write(&mcap, |p| report::write_residuals(&d, &robot.joint_names, log.t0_ns, p));
-        let (page, residuals) = if diagnose::threads_for(log.t.len()) > 1 {
+        let (page, residuals) = if opts.threads_for(log.t.len()) > 1 {
             std::thread::scope(|scope| {
                 let page = job.report.then(|| scope.spawn(|| report::html_page(&d, dir)));
                 let residuals = write_residuals(&mut set);

@@ -108,7 +108,13 @@ fn no_base(n: usize) -> BaseParams {
 
 /// The dictionary over the conditioned log `s`, and the nominal residual `tau - tau_nom`;
 /// the re-fit's base-parameter columns only `with_base`.
-pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64], with_base: bool) -> Result<Dictionary> {
+pub(super) fn build_dictionary(
+    robot: &Robot,
+    s: &Signals,
+    tau_nom: &[f64],
+    with_base: bool,
+    threads: usize,
+) -> Result<Dictionary> {
     let n = robot.dof();
     let t_len = s.t.len();
     let p_full = robot.num_params();
@@ -116,7 +122,6 @@ pub(super) fn build_dictionary(robot: &Robot, s: &Signals, tau_nom: &[f64], with
     let nb = base.base_count();
     // each joint's own columns (independent: on the machine's cores, `par`)
     let joints: Vec<usize> = (0..n).collect();
-    let threads = super::threads_for(t_len);
     let per_joint = crate::par::map(threads, &joints, |&j| joint_columns(s, tau_nom, n, j, C_BASE + nb));
     let mut cols = Vec::with_capacity(n);
     let (mut vs, mut smooth_vs, mut q_mean) = (vec![], vec![], vec![]);
@@ -258,7 +263,7 @@ const GRAM_BLOCK: usize = 256;
 /// one fold, `G_f += X^T X` with `X` the block's used columns, by the matrix product
 /// (blocked and vectorised: the search's whole cost on a long log was this sum, sample by
 /// sample).
-pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Grams {
+pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize, threads: usize) -> Grams {
     let n = d.cols.len();
     let size = C_BASE + d.nbase();
     // the columns in use (the link columns of links beyond the robot's stay zero)
@@ -266,7 +271,7 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize) -> Gra
     let u = used.len();
     // the joints' sums are independent: on the machine's cores (`par`), each as alone
     let joints: Vec<usize> = (0..n).collect();
-    let per_joint = crate::par::map(super::threads_for(t_len), &joints, |&j| {
+    let per_joint = crate::par::map(threads, &joints, |&j| {
         let mut x = DMatrix::<f64>::zeros(GRAM_BLOCK, u);
         let mut rows = [0usize; 2];
         let mut gu = [DMatrix::<f64>::zeros(u, u), DMatrix::<f64>::zeros(u, u)];

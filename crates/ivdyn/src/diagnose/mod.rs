@@ -75,6 +75,11 @@ pub struct DiagnoseOptions {
     /// used span at least [`DRIVES_MIN_DURATION_S`] and the torque noise is white at the
     /// sample rate ([`DiagnoseOptions::drives_for`]).
     pub drives: Option<bool>,
+    /// Most threads the diagnosis uses (`Some(1)`: the calling thread alone); `None`
+    /// (default): the machine's cores on a log of at least [`PARALLEL_MIN_SAMPLES`]
+    /// samples, else one ([`DiagnoseOptions::threads_for`]). The results are the same with
+    /// any count, bit for bit.
+    pub threads: Option<usize>,
     /// Log file name for the report (informational).
     pub log_name: String,
     /// URDF file name for the report (informational).
@@ -103,11 +108,6 @@ pub const DRIVES_MIN_DURATION_S: f64 = 4.0;
 /// samples) goes from 5.6-6.0 s to 3.7-3.9 s (benches/README.md).
 pub const PARALLEL_MIN_SAMPLES: usize = 20_000;
 
-/// The threads the diagnosis of a log of `samples` uses ([`PARALLEL_MIN_SAMPLES`]).
-pub fn threads_for(samples: usize) -> usize {
-    if samples >= PARALLEL_MIN_SAMPLES { crate::par::available() } else { 1 }
-}
-
 /// Largest median (over joints) lag-1 autocorrelation of the residual's sample-to-sample
 /// differences at which the torque noise counts as white at the sample rate: -0.5 for
 /// white noise, about -0.25 once interpolated onto a resampled grid, about 0 for a torque
@@ -125,15 +125,23 @@ impl DiagnoseOptions {
         self.drives.unwrap_or(duration_s >= DRIVES_MIN_DURATION_S && noise_lag1 <= WHITE_NOISE_MAX_LAG1)
     }
 
+    /// The threads the diagnosis of a log of `samples` uses: as given, else the machine's
+    /// cores from [`PARALLEL_MIN_SAMPLES`] on and one below.
+    pub fn threads_for(&self, samples: usize) -> usize {
+        let auto = if samples >= PARALLEL_MIN_SAMPLES { crate::par::available() } else { 1 };
+        self.threads.unwrap_or(auto)
+    }
+
     /// Rejects option values the search cannot use (docs/reliability.md): `alpha` outside
     /// `(0, 0.5]`, `min_effect` outside `[0, 1e3]` noise standard deviations, `min_share`
-    /// outside `[0, 1]`, block and step counts outside their bounds.
+    /// outside `[0, 1]`, block, step and thread counts outside their bounds.
     pub fn check(&self) -> crate::error::Result<()> {
         crate::limits::positive_up_to("alpha", self.alpha, 0.5)?;
         crate::limits::in_range("min_effect", self.min_effect, 0.0, 1e3)?;
         crate::limits::in_range("min_share", self.min_share, 0.0, 1.0)?;
         crate::limits::count_in("blocks_per_fold", self.blocks_per_fold, 1, 1000)?;
-        crate::limits::count_in("max_steps", self.max_steps, 0, 100)
+        crate::limits::count_in("max_steps", self.max_steps, 0, 100)?;
+        self.threads.map_or(Ok(()), |t| crate::limits::count_in("threads", t, 1, 1024))
     }
 }
 
@@ -150,6 +158,7 @@ impl Default for DiagnoseOptions {
             blocks_per_fold: 8,
             max_steps: 10,
             drives: None,
+            threads: None,
             log_name: String::new(),
             urdf_name: String::new(),
             next_args: vec![],

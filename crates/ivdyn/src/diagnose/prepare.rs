@@ -74,7 +74,7 @@ pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions
         Ok(best)
     };
     let mut best: Option<(f64, Prepared)> = None;
-    for run in crate::par::map_chunks(super::threads_for(log.t.len()), &cutoffs, best_of) {
+    for run in crate::par::map_chunks(opts.threads_for(log.t.len()), &cutoffs, best_of) {
         if let Some((score, p)) = run?
             && best.as_ref().is_none_or(|b| score < b.0)
         {
@@ -135,8 +135,9 @@ fn prepare(
     let t_len = s.t.len();
     let mut tau_nom = vec![0.0; t_len * n];
     batch::rnea_batch(robot, &s.q, &s.qd, &s.qdd, &mut tau_nom).map_err(|e| Error::during("nominal model", e))?;
-    let d = build_dictionary(robot, &s, &tau_nom, with_base)?;
-    let gr = grams(&d, t_len, opts.blocks_per_fold.max(1));
+    let threads = opts.threads_for(log.t.len());
+    let d = build_dictionary(robot, &s, &tau_nom, with_base, threads)?;
+    let gr = grams(&d, t_len, opts.blocks_per_fold.max(1), threads);
     // every fit of the search decomposes these sums: a non-finite one would not converge
     if let Some(j) = gr.g.iter().position(|g| g.iter().any(|m| m.iter().any(|x| !x.is_finite()))) {
         return Err(Error::Numerical {

@@ -102,7 +102,7 @@ pub(super) struct Ctx<'a> {
     pub(super) opts: &'a DiagnoseOptions,
     /// Whether the effects of real drives are searched (`Prepared::drives`).
     pub(super) drives: bool,
-    /// Threads for the candidates' scores (`threads_for` of the log's samples).
+    /// Threads for the candidates' scores (`DiagnoseOptions::threads_for`).
     pub(super) threads: usize,
 }
 
@@ -178,7 +178,7 @@ impl<'a> Ctx<'a> {
             n,
             opts,
             drives: p.drives,
-            threads: super::threads_for(s.t.len()),
+            threads: opts.threads_for(s.t.len()),
         })
     }
 }

@@ -522,3 +522,27 @@ fn two_drive_effects_on_one_joint() {
         assert!(*f <= 1.5 * o, "joint {j}: final RMS {f} vs true-model oracle {o}");
     }
 }
+
+/// The diagnosis on several threads is the diagnosis on one, bit for bit (`ivdyn::par`: each
+/// task runs as it would alone, results in order): `diagnosis.json`, the report's steps
+/// and details, and the residual traces of `fixtures/diagnose_random/rarm5_7j/e05_3fx`
+/// with `threads` 1 and 2 (this short log would otherwise run on one thread:
+/// `PARALLEL_MIN_SAMPLES`; `par` caps the count at the machine's cores, so this needs two,
+/// which CI has). And a thread count of 0 is an error naming the option.
+#[test]
+fn threads_do_not_change_the_diagnosis() {
+    let set = "diagnose_random/rarm5_7j";
+    let m = cases_in(set);
+    let case = &m["cases"][0];
+    let with = |threads| run_with(set, case, &m, &DiagnoseOptions { threads: Some(threads), ..Default::default() });
+    let (one, two) = (with(1), with(2));
+    let json = |d: &Diagnosis| serde_json::to_string(&d.json).unwrap();
+    assert_eq!(json(&one), json(&two));
+    assert_eq!(one.details, two.details);
+    assert_eq!(format!("{:?}", one.steps), format!("{:?}", two.steps));
+    assert_eq!(format!("{:?}", one.final_candidates), format!("{:?}", two.final_candidates));
+    assert_eq!(format!("{:?}", one.traces), format!("{:?}", two.traces));
+    let bad = DiagnoseOptions { threads: Some(0), ..Default::default() };
+    let err = bad.check().unwrap_err().to_string();
+    assert!(err.contains("threads"), "{err}");
+}
