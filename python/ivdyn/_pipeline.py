@@ -12,6 +12,7 @@ call and is raised from it.
 from __future__ import annotations
 
 import json
+import operator
 import os
 import tempfile
 from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
@@ -442,7 +443,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
              velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
              exclude: Optional[Sequence[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
              gear_ratio=None, motor_constant=None, drives: Optional[bool] = None, verdict: bool = False,
-             progress: Progress = None) -> Dict[str, Any]:
+             threads: Optional[int] = None, progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
     ``effects`` [{name, joints, parameters, parameters_std, rms_before, rms_after}] in the
@@ -467,7 +468,10 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     4 s with white torque noise, ``docs/diagnose.md``; direction-dependent friction, a refinement of Coulomb
     friction found on a joint, is searched either way; ``verdict``: also return the
     report's headline (``verdict``: one sentence) and the lines below it (``details``: each
-    effect, what is left above the noise and why nothing was named on it).
+    effect, what is left above the noise and why nothing was named on it); ``threads``: most
+    threads to use (``1``: the calling thread alone, e.g. in a fleet worker that runs
+    diagnoses side by side; default: the machine's cores on logs of 20 000 samples or more,
+    else one). The result is the same with any count.
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
@@ -479,6 +483,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
                                window=_window(window), exclude=_spans(exclude),
                                drives=None if drives is None else bool(drives),
                                verdict=bool(verdict),
+                               threads=None if threads is None else operator.index(threads),
                                **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()

@@ -64,14 +64,18 @@ def test_python_and_cli_agree(tmp_path):
     if not os.path.exists(exe):
         exe = os.path.join(ROOT, "target", "debug", "ivdyn")
     assert os.path.exists(exe), "build the ivdyn binary first (make test does)"
+    # the command line on two threads, Python on one (this short log's default): the
+    # diagnosis does not depend on the thread count (DiagnoseOptions::threads)
     subprocess.run([exe, "diagnose", "--urdf", os.path.join(ROOT, case["urdf"]), "--base", m["base"], "--tip", m["tip"],
-                    "--log", os.path.join(CASES, case["log"]), "--out", str(tmp_path), "--no-report", "--quiet"],
+                    "--log", os.path.join(CASES, case["log"]), "--out", str(tmp_path), "--no-report", "--quiet",
+                    "--threads", "2"],
                    check=True, capture_output=True)
     with open(tmp_path / "diagnosis.json") as f:
         cli = json.load(f)
-    py = ivdyn.diagnose(_robot(case, m), os.path.join(CASES, case["log"]))
+    py = ivdyn.diagnose(_robot(case, m), os.path.join(CASES, case["log"]), threads=1)
     assert [e["name"] for e in py["effects"]] == [e["name"] for e in cli["effects"]] == ["torque_offset"]
     np.testing.assert_allclose(py["final_rms"], cli["final_rms"], rtol=1e-12)
+    assert py["effects"] == cli["effects"] and py["final_rms"] == cli["final_rms"]
 
 
 def test_bad_input_raises_with_the_problem():
@@ -79,3 +83,9 @@ def test_bad_input_raises_with_the_problem():
     robot = _robot(case, m)
     with pytest.raises(Exception, match="effort|tau"):
         ivdyn.diagnose(robot, {"t": np.arange(100) * 1e-3, "q": np.zeros((100, 6))})
+    log = os.path.join(CASES, case["log"])
+    for bad in (0, -1, 2000):
+        with pytest.raises(ValueError, match=f"threads.*{bad}"):
+            ivdyn.diagnose(robot, log, threads=bad)
+    with pytest.raises(TypeError):
+        ivdyn.diagnose(robot, log, threads=1.5)

@@ -611,7 +611,7 @@ fn simulate<'py>(
                     min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None, json_out=None, progress=None,
                     velocity="auto", window=None, exclude=None,
                     current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None,
-                    drives=None, verdict=false))]
+                    drives=None, verdict=false, threads=None))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
@@ -638,6 +638,7 @@ fn diagnose(
     motor_constant: Option<&Bound<'_, PyAny>>,
     drives: Option<bool>,
     verdict: bool,
+    threads: Option<i64>,
 ) -> PyResult<String> {
     use ivdyn::diagnose::DiagnoseOptions;
     let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
@@ -650,6 +651,10 @@ fn diagnose(
             alpha,
             min_effect,
             drives,
+            // a negative count is named here; 0 and counts past the bound by `check`
+            threads: threads
+                .map(|k| usize::try_from(k).map_err(|_| PyValueError::new_err(format!("threads: {k} is negative"))))
+                .transpose()?,
             cutoff_hz: cutoff,
             velocity: if ignore_log_velocity {
                 ivdyn::prep::VelocitySource::Positions

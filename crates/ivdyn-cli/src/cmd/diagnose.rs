@@ -50,6 +50,10 @@ pub struct DiagnoseArgs {
     /// Leave the effects of real drives out, whatever the log's length.
     #[arg(long)]
     no_drives: bool,
+    /// Most threads to use (1: this thread alone). Default: the machine's cores on logs of
+    /// 20 000 samples or more, else one. The diagnosis is the same with any count.
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
@@ -66,6 +70,7 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
         } else {
             None
         },
+        threads: a.threads,
         cutoff_hz: a.cutoff,
         velocity,
         window: cond.window,

@@ -132,6 +132,7 @@ fn cli_error_window_and_exclude() {
     fails("win_after", "identify", &with(&["--window", "500:600"]), &["ur5_500hz.mcap", "--window", "the log lasts"]);
     fails("excl_order", "identify", &with(&["--exclude", "3:1"]), &["--exclude", "3:1"]);
     fails("velocity_log", "diagnose", &with(&["--velocity", "log", "--out", "/nonexistent/d"]), &["--velocity"]);
+    fails("threads_0", "diagnose", &with(&["--threads", "0", "--out", "/nonexistent/d"]), &["--threads", "0"]);
     fails("coulomb", "identify", &with(&["--coulomb", "tanh"]), &["coulomb", "'auto', 'sign' or 'model'", "tanh"]);
 }
 
