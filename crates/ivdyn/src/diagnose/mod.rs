@@ -376,6 +376,12 @@ pub struct JointScore {
     pub heldout_gain: f64,
     /// RMS (N m) of the torque the fitted candidate adds on this joint.
     pub effect_rms: f64,
+    /// RMS (N m) of the residual it removes on this joint beyond the model without it,
+    /// `sqrt((RSS_before - RSS_after) / samples)`: `effect_rms` when its columns are
+    /// orthogonal to the model's, less when the other effects (or the nominal re-fit) hold
+    /// part of what it adds (for a torque gain, `effect_rms`: its column is the nominal
+    /// model's torque, which a re-fit spans).
+    pub explained_rms: f64,
     /// Whether the candidate is significant on this joint.
     pub significant: bool,
     /// The rule that rejected it on this joint, with its numbers (F test, held-out share,

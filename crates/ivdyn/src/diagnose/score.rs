@@ -237,8 +237,21 @@ impl Ctx<'_> {
         let structure = explainable.max(0.05 * h0);
         let heldout_gain = if h0 > 0.0 { ((h0 - h1) / structure).min(1.0) } else { 0.0 };
         let e_rms = effect_rms(&fl, self.gr, j, added);
-        let mut sc =
-            JointScore { f: f_stat, p, heldout_gain, effect_rms: e_rms, significant: false, rejected_by: None };
+        // what it removes beyond the others (the size rule's second half). Not for a gain:
+        // its column `tau_nom,j = Y_j pi_nominal` lies in the re-fit's span but for the
+        // terminal link's part by construction, so beyond a re-fit it "explains" only that
+        // part; its look-alike and CAD-margin rules decide it
+        let gain = fl.params.iter().any(|p| added(p) && p.kind == Some(EffectKind::TorqueGain));
+        let explained_rms = if gain { e_rms } else { ((r0 - r1).max(0.0) / rows).sqrt() };
+        let mut sc = JointScore {
+            f: f_stat,
+            p,
+            heldout_gain,
+            effect_rms: e_rms,
+            explained_rms,
+            significant: false,
+            rejected_by: None,
+        };
         sc.rejected_by = self
             .statistical_rule(&sc, j)
             .or_else(|| Self::unphysical(&fl, j, added))
@@ -284,6 +297,14 @@ impl Ctx<'_> {
                 "size: adds {:.3} N m RMS, {:.2} noise std, needs {:.2}",
                 sc.effect_rms,
                 sc.effect_rms / self.sigma[j],
+                o.min_effect
+            ))
+        } else if sc.explained_rms < o.min_effect * self.sigma[j] {
+            Some(format!(
+                "size: adds {:.3} N m RMS but removes {:.3} N m RMS of the residual beyond the other effects, {:.2} noise std, needs {:.2}",
+                sc.effect_rms,
+                sc.explained_rms,
+                sc.explained_rms / self.sigma[j],
                 o.min_effect
             ))
         } else {
@@ -410,6 +431,7 @@ pub(super) fn not_scored(why: &str) -> JointScore {
         p: 1.0,
         heldout_gain: 0.0,
         effect_rms: 0.0,
+        explained_rms: 0.0,
         significant: false,
         rejected_by: Some(format!("not tried: {why}")),
     }

@@ -546,3 +546,62 @@ fn threads_do_not_change_the_diagnosis() {
     let err = bad.check().unwrap_err().to_string();
     assert!(err.contains("threads"), "{err}");
 }
+
+/// Issue 15: the size rule counts what a candidate removes beyond the other effects (and
+/// the nominal re-fit), not only the torque it adds: a column the re-fit's base columns
+/// nearly span can add 0.3 N m RMS and remove 0.005 N m of the residual. Two logs of the
+/// random-arm tuning parts, diagnosed as the command line does (`app::diagnose_job`):
+/// * `fixtures/diagnose_random_2s/rarm6_6j/e05_0fx` (2 s, no effect, inertials 5 % off,
+///   jittered stamps with 98 re-published samples, float32, no velocity): offsets on joints
+///   2 and 4 were named (0.14 and -0.02 N m); the model the nominal re-fit is decided with
+///   (every candidate that passes the rules) no longer takes them, and the re-fit then
+///   explains what they did;
+/// * `fixtures/diagnose_random/rarm5_7j/e30_2fx` (9 s, inertials 30 % off): Coulomb friction
+///   on joint 6 and smooth friction on joint 7, and viscous friction on joint 7 beside them
+///   (removing 0.4 noise std) was named too.
+///
+/// Asserted: exactly the true names and joints (both fail on the previous binary).
+#[test]
+fn a_candidate_the_other_effects_hold_is_not_named() {
+    use ivdyn::app::{self, DiagnoseJob, LogInput};
+    let job = |set: &str, case: &Value, m: &Value| {
+        let robot =
+            Robot::from_urdf(root().join(case["urdf"].as_str().unwrap()), m["base"].as_str(), m["tip"].as_str())
+                .unwrap();
+        let job = DiagnoseJob {
+            log: LogInput::File(root().join("fixtures").join(set).join(case["log"].as_str().unwrap())),
+            source: Default::default(),
+            opts: DiagnoseOptions::default(),
+            out: None,
+            report: false,
+            json: None,
+        };
+        app::diagnose_job(&robot, &job, &None).unwrap().report
+    };
+    let named = |d: &Diagnosis| {
+        let mut v: Vec<(String, Vec<String>)> =
+            d.json.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
+        v.sort();
+        v
+    };
+    let (set, m) = ("diagnose_random_2s/rarm6_6j", cases_in("diagnose_random_2s/rarm6_6j"));
+    let case = &m["cases"][0];
+    assert!(case["effects"].as_array().unwrap().is_empty());
+    let d = job(set, case, &m);
+    assert_eq!(named(&d), vec![], "{:?}", d.details);
+
+    let (set, m) = ("diagnose_random/rarm5_7j", cases_in("diagnose_random/rarm5_7j"));
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e30_2fx").unwrap();
+    let d = job(set, case, &m);
+    let mut truth: Vec<(String, Vec<String>)> = case["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| {
+            let j = e["joints"].as_array().unwrap().iter().map(|j| j.as_str().unwrap().to_string()).collect();
+            (e["name"].as_str().unwrap().to_string(), j)
+        })
+        .collect();
+    truth.sort();
+    assert_eq!(named(&d), truth, "{:?}", d.details);
+}

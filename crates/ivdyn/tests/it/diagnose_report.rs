@@ -38,7 +38,7 @@ fn regimes(rms: f64, rev: f64) -> Regimes {
 
 fn score(significant: bool, f: f64, p: f64, gain: f64) -> JointScore {
     let rejected_by = (!significant).then(|| format!("F test: F {f}, p {p} >= alpha 1e-3"));
-    JointScore { f, p, heldout_gain: gain, effect_rms: 0.25, significant, rejected_by }
+    JointScore { f, p, heldout_gain: gain, effect_rms: 0.25, explained_rms: 0.25, significant, rejected_by }
 }
 
 /// Joint 0 `j_one`, joint 1 `wrist<1>`; q = sin(2 pi t + j), qd, qdd its derivatives;
