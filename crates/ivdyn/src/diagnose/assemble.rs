@@ -167,6 +167,13 @@ fn report_effects(
             continue;
         }
         let mut params = effect_parameters(kind, &joints, f, m, d, n);
+        if kind == EffectKind::SmoothCoulomb {
+            // `vs` between the grid points, `fc` with it (`drive_rules::smooth_shape`)
+            let shapes: Vec<(f64, f64)> =
+                joints.iter().map(|&j| super::drive_rules::smooth_shape(ctx, m, d, j)).collect();
+            params.insert("vs".into(), shapes.iter().map(|s| s.0).collect::<Vec<_>>().into());
+            params.insert("fc".into(), shapes.iter().map(|s| s.1).collect::<Vec<_>>().into());
+        }
         let mut parameters_std = cov
             .map(|c| uncertainty::parameters_std(f, c, &|g| effect_parameters(kind, &joints, g, m, d, n)))
             .unwrap_or_default();
