@@ -174,6 +174,14 @@ fn report_effects(
             params.insert("vs".into(), shapes.iter().map(|s| s.0).collect::<Vec<_>>().into());
             params.insert("fc".into(), shapes.iter().map(|s| s.1).collect::<Vec<_>>().into());
         }
+        if kind == EffectKind::LoadDependent {
+            // `mu` against the load the fit models (`drive_rules::load_mu_on_fitted_load`)
+            let mu: Option<Vec<f64>> =
+                joints.iter().map(|&j| super::drive_rules::load_mu_on_fitted_load(f, d, j)).collect();
+            if let Some(mu) = mu {
+                params.insert("mu".into(), mu.into());
+            }
+        }
         let mut parameters_std = cov
             .map(|c| uncertainty::parameters_std(f, c, &|g| effect_parameters(kind, &joints, g, m, d, n)))
             .unwrap_or_default();

@@ -26,7 +26,7 @@
 use super::EffectKind;
 use super::JointScore;
 use super::dictionary::Dictionary;
-use super::dictionary::{C_ONE, C_SIGN, C_SIGN_POS, C_TANH, RIPPLE_N, SMOOTH_VS};
+use super::dictionary::{C_BASE, C_GAIN, C_ONE, C_SIGN, C_SIGN_POS, C_TANH, RIPPLE_N, SMOOTH_VS};
 use super::model::{Fit, Model, Param, effect_rms, fit, rss_joint};
 use super::score::{Ctx, Scored, not_scored};
 
@@ -226,4 +226,35 @@ pub(super) fn smooth_shape(ctx: &Ctx, m: &Model, d: &Dictionary, j: usize) -> (f
     let (p, q) = if xv <= x1 { (lo, own) } else { (own, hi) };
     let t = (xv - p.0) / (q.0 - p.0);
     (xv.exp(), p.2 + t * (q.2 - p.2))
+}
+
+/// Load-dependent friction's `mu` on joint `j` against the load the final fit `f` models:
+/// the nominal torque corrected by the fit's rigid-body part (the re-fit's base corrections,
+/// a payload), `|tau_nom + Y delta| sign(qd)`, regressed on what the rest of the fit leaves
+/// on the joint; `None` when the fit has no rigid-body part. The search's column holds the
+/// nominal torque (CAD inertials 20-50 % off), and `mu` scales with the load it is read
+/// against: a drive's friction follows the torque it carries, not the CAD model's.
+pub(super) fn load_mu_on_fitted_load(f: &Fit, d: &Dictionary, j: usize) -> Option<f64> {
+    let rigid = |p: &Param| p.kind == Some(EffectKind::Payload) || p.kind.is_none() && p.col >= C_BASE;
+    let on_j = |p: &Param| p.joint.is_none_or(|pj| pj == j);
+    if !f.params.iter().any(|p| rigid(p) && on_j(p)) {
+        return None;
+    }
+    let cols = &d.cols[j];
+    let (mut load, mut other) = (cols[C_GAIN].clone(), vec![0.0; cols[C_GAIN].len()]);
+    for (p, &v) in f.params.iter().zip(&f.theta).filter(|(p, _)| on_j(p)) {
+        let (acc, col) = if rigid(p) { (&mut load, &cols[p.col]) } else { (&mut other, &cols[p.col]) };
+        if p.kind != Some(EffectKind::LoadDependent) || rigid(p) {
+            acc.iter_mut().zip(col).for_each(|(a, c)| *a += v * c);
+        }
+    }
+    // the residual without load-dependent friction, against the fitted load's column
+    let (mut num, mut den) = (0.0, 0.0);
+    for t in 0..load.len() {
+        let c = load[t].abs() * cols[C_SIGN][t];
+        let y = d.r0[j][t] - other[t] - (load[t] - cols[C_GAIN][t]);
+        num += c * y;
+        den += c * c;
+    }
+    (den > 0.0).then(|| num / den)
 }

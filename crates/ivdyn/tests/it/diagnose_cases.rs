@@ -44,6 +44,36 @@ pub(crate) fn run_with(set: &str, case: &Value, m: &Value, opts: &DiagnoseOption
     d
 }
 
+/// A fixture case diagnosed as the command line does, default options (`app::diagnose_job`:
+/// the log read with the job's log options, as `ivdyn diagnose --log`; a log of motor
+/// currents with its torque constants, as the case's `diagnose_args` say).
+fn run_job(set: &str, case: &Value, m: &Value) -> Diagnosis {
+    use ivdyn::app::{self, DiagnoseJob, Effort, LogInput, LogSource, PerJoint, TorqueConstants};
+    let robot =
+        Robot::from_urdf(root().join(case["urdf"].as_str().unwrap()), m["base"].as_str(), m["tip"].as_str()).unwrap();
+    let source = match case["sensor"]["torque_constant"].as_array() {
+        Some(_) => LogSource {
+            current_topic: Some("/joint_states".into()),
+            effort: Effort::Current,
+            torque_constants: TorqueConstants {
+                torque_constant: Some(PerJoint::List(f64s(&case["sensor"]["torque_constant"]))),
+                ..Default::default()
+            },
+            ..Default::default()
+        },
+        None => Default::default(),
+    };
+    let job = DiagnoseJob {
+        log: LogInput::File(root().join("fixtures").join(set).join(case["log"].as_str().unwrap())),
+        source,
+        opts: DiagnoseOptions::default(),
+        out: None,
+        report: false,
+        json: None,
+    };
+    app::diagnose_job(&robot, &job, &None).unwrap().report
+}
+
 /// A payload's inertia, when reported, is that of a body: principal moments about its
 /// centre of mass non-negative and each at most the sum of the other two (eigenvalues of
 /// the 3x3 tensor, URDF order `ixx ixy ixz iyy iyz izz`).
@@ -563,21 +593,6 @@ fn threads_do_not_change_the_diagnosis() {
 /// Asserted: exactly the true names and joints (both fail on the previous binary).
 #[test]
 fn a_candidate_the_other_effects_hold_is_not_named() {
-    use ivdyn::app::{self, DiagnoseJob, LogInput};
-    let job = |set: &str, case: &Value, m: &Value| {
-        let robot =
-            Robot::from_urdf(root().join(case["urdf"].as_str().unwrap()), m["base"].as_str(), m["tip"].as_str())
-                .unwrap();
-        let job = DiagnoseJob {
-            log: LogInput::File(root().join("fixtures").join(set).join(case["log"].as_str().unwrap())),
-            source: Default::default(),
-            opts: DiagnoseOptions::default(),
-            out: None,
-            report: false,
-            json: None,
-        };
-        app::diagnose_job(&robot, &job, &None).unwrap().report
-    };
     let named = |d: &Diagnosis| {
         let mut v: Vec<(String, Vec<String>)> =
             d.json.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
@@ -587,12 +602,12 @@ fn a_candidate_the_other_effects_hold_is_not_named() {
     let (set, m) = ("diagnose_random_2s/rarm6_6j", cases_in("diagnose_random_2s/rarm6_6j"));
     let case = &m["cases"][0];
     assert!(case["effects"].as_array().unwrap().is_empty());
-    let d = job(set, case, &m);
+    let d = run_job(set, case, &m);
     assert_eq!(named(&d), vec![], "{:?}", d.details);
 
     let (set, m) = ("diagnose_random/rarm5_7j", cases_in("diagnose_random/rarm5_7j"));
     let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e30_2fx").unwrap();
-    let d = job(set, case, &m);
+    let d = run_job(set, case, &m);
     let mut truth: Vec<(String, Vec<String>)> = case["effects"]
         .as_array()
         .unwrap()
@@ -604,4 +619,27 @@ fn a_candidate_the_other_effects_hold_is_not_named() {
         .collect();
     truth.sort();
     assert_eq!(named(&d), truth, "{:?}", d.details);
+}
+
+/// Issue 15 ("90 % of identified parameters within 10 %"): load-dependent friction's `mu` is
+/// read against the load the final fit models (the nominal torque corrected by the re-fit's
+/// base corrections, `drive_rules::load_mu_on_fitted_load`), not against the CAD model's
+/// torque, which is 15 % off here: `fixtures/diagnose_random/rarm0_6j/e15_2fx` (tuning part,
+/// 7 s, inertials 15 % off; load-dependent friction mu 0.0707 on joint 4, smooth friction on
+/// joints 2, 3 and 6). The nominal load gave 0.0598 (15 % low). Asserted: load-dependent
+/// friction named on joint 4 and its `mu` within 10 % of truth. Not asserted: the other
+/// names (smooth friction on joints 2 and 3 comes out as load-dependent friction too, a known
+/// miss, docs/diagnose.md).
+#[test]
+fn load_dependent_friction_against_the_fitted_load() {
+    let set = "diagnose_random/rarm0_6j";
+    let m = cases_in(set);
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e15_2fx").unwrap();
+    let d = run_job(set, case, &m).json;
+    let names: Vec<_> = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
+    let e = d.effects.iter().find(|e| e.name == "load_dependent_friction").unwrap_or_else(|| panic!("{names:?}"));
+    let at = e.joints.iter().position(|j| j == "joint_4").expect("on joint_4");
+    let truth = case["effects"].as_array().unwrap().iter().find(|e| e["name"] == "load_dependent_friction").unwrap();
+    let (mu, mu_true) = (f64s(&e.parameters["mu"])[at], f64s(&truth["parameters"]["mu"])[0]);
+    assert!((mu - mu_true).abs() <= 0.1 * mu_true, "mu {mu} vs truth {mu_true}");
 }
