@@ -174,6 +174,16 @@ fn report_effects(
             params.insert("vs".into(), shapes.iter().map(|s| s.0).collect::<Vec<_>>().into());
             params.insert("fc".into(), shapes.iter().map(|s| s.1).collect::<Vec<_>>().into());
         }
+        if kind == EffectKind::TimeDelay {
+            // the exact shift, not its first order (`drive_rules::delay_exact`)
+            let first = params["delay_s"].as_array().cloned().unwrap_or_default();
+            let exact: Vec<f64> = joints
+                .iter()
+                .zip(&first)
+                .map(|(&j, d0)| super::drive_rules::delay_exact(f, d, j, d0.as_f64().unwrap_or(f64::NAN)))
+                .collect();
+            params.insert("delay_s".into(), exact.into());
+        }
         if kind == EffectKind::LoadDependent {
             // `mu` against the load the fit models (`drive_rules::load_mu_on_fitted_load`)
             let mu: Option<Vec<f64>> =

@@ -73,6 +73,10 @@ pub(super) struct Dictionary {
     /// The rigid-body base parameters of the links before the terminal one (the columns
     /// from `C_BASE` on; the terminal link's are left out: a change there is a payload).
     pub(super) base: BaseParams,
+    /// The log's contiguous segments (sample ranges) and sample period (s): time shifts
+    /// stop at a segment's ends.
+    pub(super) segments: Vec<std::ops::Range<usize>>,
+    pub(super) dt: f64,
 }
 
 impl Dictionary {
@@ -164,7 +168,7 @@ pub(super) fn build_dictionary(
         });
     }
     let r0 = (0..n).map(|j| (0..t_len).map(|k| s.tau[k * n + j] - tau_nom[k * n + j]).collect()).collect();
-    Ok(Dictionary { cols, r0, vs, smooth_vs, q_mean, base })
+    Ok(Dictionary { cols, r0, vs, smooth_vs, q_mean, base, segments: s.segments(), dt: s.dt })
 }
 
 /// Joint `j`'s own columns over the log (`size` slots; the target's and the rigid-body

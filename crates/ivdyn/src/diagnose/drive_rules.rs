@@ -235,26 +235,74 @@ pub(super) fn smooth_shape(ctx: &Ctx, m: &Model, d: &Dictionary, j: usize) -> (f
 /// nominal torque (CAD inertials 20-50 % off), and `mu` scales with the load it is read
 /// against: a drive's friction follows the torque it carries, not the CAD model's.
 pub(super) fn load_mu_on_fitted_load(f: &Fit, d: &Dictionary, j: usize) -> Option<f64> {
-    let rigid = |p: &Param| p.kind == Some(EffectKind::Payload) || p.kind.is_none() && p.col >= C_BASE;
-    let on_j = |p: &Param| p.joint.is_none_or(|pj| pj == j);
-    if !f.params.iter().any(|p| rigid(p) && on_j(p)) {
+    let (load, y, rigid) = fitted_torque_and_rest(f, d, j, EffectKind::LoadDependent);
+    if !rigid {
         return None;
-    }
-    let cols = &d.cols[j];
-    let (mut load, mut other) = (cols[C_GAIN].clone(), vec![0.0; cols[C_GAIN].len()]);
-    for (p, &v) in f.params.iter().zip(&f.theta).filter(|(p, _)| on_j(p)) {
-        let (acc, col) = if rigid(p) { (&mut load, &cols[p.col]) } else { (&mut other, &cols[p.col]) };
-        if p.kind != Some(EffectKind::LoadDependent) || rigid(p) {
-            acc.iter_mut().zip(col).for_each(|(a, c)| *a += v * c);
-        }
     }
     // the residual without load-dependent friction, against the fitted load's column
     let (mut num, mut den) = (0.0, 0.0);
     for t in 0..load.len() {
-        let c = load[t].abs() * cols[C_SIGN][t];
-        let y = d.r0[j][t] - other[t] - (load[t] - cols[C_GAIN][t]);
-        num += c * y;
+        let c = load[t].abs() * d.cols[j][C_SIGN][t];
+        num += c * y[t];
         den += c * c;
     }
     (den > 0.0).then(|| num / den)
+}
+
+/// On joint `j`: the rigid-body torque the fit `f` models (the nominal one, `C_GAIN`'s
+/// column, plus the re-fit's base corrections and a payload), and what the fit leaves for
+/// effect `e` (the nominal residual less every other effect and the rigid-body part), and
+/// whether the fit has a rigid-body part on the joint.
+fn fitted_torque_and_rest(f: &Fit, d: &Dictionary, j: usize, e: EffectKind) -> (Vec<f64>, Vec<f64>, bool) {
+    let rigid = |p: &Param| p.kind == Some(EffectKind::Payload) || p.kind.is_none() && p.col >= C_BASE;
+    let on_j = |p: &Param| p.joint.is_none_or(|pj| pj == j);
+    let cols = &d.cols[j];
+    let mut tau = cols[C_GAIN].clone();
+    let mut rest = d.r0[j].clone();
+    for (p, &v) in f.params.iter().zip(&f.theta).filter(|(p, _)| on_j(p) && p.kind != Some(e)) {
+        if rigid(p) {
+            tau.iter_mut().zip(&cols[p.col]).for_each(|(a, c)| *a += v * c);
+        }
+        rest.iter_mut().zip(&cols[p.col]).for_each(|(a, c)| *a -= v * c);
+    }
+    let has_rigid = f.params.iter().any(|p| rigid(p) && on_j(p));
+    (tau, rest, has_rigid)
+}
+
+/// The time delay on joint `j` that makes the fitted rigid-body torque, shifted exactly,
+/// `tau(t - delay) - tau(t)` (linear interpolation within each segment), best explain what
+/// the fit `f` leaves for it; searched from the first-order estimate `delay0` (`-delay
+/// tau'`, the search's column). The first order reads a delay short by `(w delay)^2 / 6` of
+/// it at each frequency `w` of the torque: 3-5 % on the UR5 drive fixture, up to 15 % on the
+/// random arms' faster torques (docs/diagnose.md). `delay0` when it is not positive.
+pub(super) fn delay_exact(f: &Fit, d: &Dictionary, j: usize, delay0: f64) -> f64 {
+    if delay0.is_nan() || delay0 <= 0.0 {
+        return delay0;
+    }
+    let (tau, y, _) = fitted_torque_and_rest(f, d, j, EffectKind::TimeDelay);
+    // the samples with the longest shift's history in their segment
+    let skip = (2.0 * delay0 / d.dt).ceil() as usize + 1;
+    let rows: Vec<std::ops::Range<usize>> =
+        d.segments.iter().filter(|s| s.len() > skip).map(|s| s.start + skip..s.end).collect();
+    if rows.is_empty() {
+        return delay0;
+    }
+    // residual sum of squares with the shift `delay`
+    let sse = |delay: f64| -> f64 {
+        let (i, frac) = ((delay / d.dt).floor() as usize, (delay / d.dt).fract());
+        let mut s = 0.0;
+        for k in rows.iter().flat_map(|r| r.clone()) {
+            let past = tau[k - i] + frac * (tau[k - i - 1] - tau[k - i]);
+            s += (y[k] - (past - tau[k])).powi(2);
+        }
+        s
+    };
+    // golden-section search on [delay0 / 2, 2 delay0] (the first order is within a few tens of %)
+    let (mut a, mut b) = (0.5 * delay0, 2.0 * delay0);
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    for _ in 0..40 {
+        let (c, e) = (b - g * (b - a), a + g * (b - a));
+        if sse(c) <= sse(e) { b = e } else { a = c }
+    }
+    0.5 * (a + b)
 }

@@ -643,3 +643,24 @@ fn load_dependent_friction_against_the_fitted_load() {
     let (mu, mu_true) = (f64s(&e.parameters["mu"])[at], f64s(&truth["parameters"]["mu"])[0]);
     assert!((mu - mu_true).abs() <= 0.1 * mu_true, "mu {mu} vs truth {mu_true}");
 }
+
+/// Issue 15 ("90 % of identified parameters within 10 %"): a time delay is reported from the
+/// exact shift of the fitted rigid-body torque, `tau(t - delay) - tau(t)`, not from the
+/// search's first-order column `-delay tau'`, which reads it short by `(w delay)^2 / 6` at
+/// each frequency `w` of the torque (`drive_rules::delay_exact`):
+/// `fixtures/diagnose_random/rarm6_6j/e30_3fx` (tuning part, 5 s, inertials 30 % off; a
+/// delay of 7.09 ms on joint 1, torque gains on joints 1 and 2, springs on joints 1 and 3).
+/// The first order gave 6.14 ms (13 % short). Asserted: the delay named on joint 1 and within
+/// 10 % of truth. Not asserted: the gains (a known miss, docs/diagnose.md).
+#[test]
+fn a_time_delay_from_the_exact_shift() {
+    let set = "diagnose_random/rarm6_6j";
+    let m = cases_in(set);
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e30_3fx").unwrap();
+    let d = run_job(set, case, &m).json;
+    let e = d.effects.iter().find(|e| e.name == "time_delay").expect("time delay named");
+    assert_eq!(e.joints, vec!["joint_1".to_string()]);
+    let truth = case["effects"].as_array().unwrap().iter().find(|e| e["name"] == "time_delay").unwrap();
+    let (delay, delay_true) = (f64s(&e.parameters["delay_s"])[0], f64s(&truth["parameters"]["delay_s"])[0]);
+    assert!((delay - delay_true).abs() <= 0.1 * delay_true, "delay {delay} vs truth {delay_true}");
+}
