@@ -165,7 +165,7 @@ pub(super) fn smooth_size(ctx: &Ctx, m: &Model, l: &Model, j: usize, sc: &mut Jo
     sc.effect_rms = effect_rms(&diff, ctx.gr, j, &|_| true);
     if sc.significant || sc.rejected_by.as_deref().is_some_and(|r| r.starts_with("size")) {
         sc.rejected_by = ctx
-            .statistical_rule(sc, j)
+            .statistical_rule(sc, j, ctx.refinement_share())
             .or_else(|| Ctx::unphysical(&fl, j, &|p| p.kind == Some(EffectKind::SmoothCoulomb)));
         sc.significant = sc.rejected_by.is_none();
     }

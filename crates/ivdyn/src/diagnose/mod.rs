@@ -53,7 +53,8 @@ pub struct DiagnoseOptions {
     /// a joint to be named there (default 0.5).
     pub min_effect: f64,
     /// Share of the held-out residual above the noise a candidate must remove on a joint
-    /// to be named there (default 0.75).
+    /// to be named there (default 0.75; a refinement of Coulomb friction already on the
+    /// joint needs 0.8 of it).
     pub min_share: f64,
     /// Zero-phase low-pass cutoff (Hz) for q / qd before differentiation (default: the
     /// one on a grid of 10-160 Hz, at most fs/4, that leaves the least residual).
