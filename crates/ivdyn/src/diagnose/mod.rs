@@ -100,6 +100,10 @@ pub struct DiagnoseOptions {
 /// untested gap, toward the tested side (docs/diagnose.md, "Effects of real drives from 4 s").
 pub const DRIVES_MIN_DURATION_S: f64 = 4.0;
 
+/// The `reason` of the final candidate that was added and then removed again by the backward
+/// step (which then stopped the search): its rows say why.
+pub(crate) const UNDONE: &str = "added, then removed again by the backward step";
+
 /// Fewest log samples on which the diagnosis uses the machine's cores (`par`: the cutoffs,
 /// the dictionary and Gram sums, the candidate scores, the pairs; the report beside the
 /// residual file). Below it one thread: a diagnosis of a few thousand samples takes well

@@ -421,16 +421,9 @@ impl Ctx<'_> {
                 return (v <= -1.0).then(|| format!("sign: gain k = {:.4} is not positive", 1.0 + v));
             }
             let name = match (p.kind, p.col) {
-                (Some(EffectKind::Coulomb), C_SIGN) => "fc",
-                (Some(EffectKind::SmoothCoulomb), _) => "fc",
-                (Some(EffectKind::LoadDependent), C_LOAD) => "mu",
-                (Some(EffectKind::TimeDelay), C_DELAY) => "delay_s",
-                (Some(EffectKind::Viscous), C_QD) => "fv",
-                (Some(EffectKind::Armature), C_QDD) => "ia",
-                (Some(EffectKind::JointSpring), C_Q) => "k",
                 // on top of the re-fit the mass holds the previous links' mass errors too
                 (Some(EffectKind::Payload), C_PAYLOAD) if !has_refit(f) => "payload mass",
-                _ => return None,
+                (kind, col) => level(kind, col)?,
             };
             (v <= 0.0).then(|| format!("sign: {name} = {v:.4} is not positive"))
         })
@@ -444,6 +437,38 @@ impl Ctx<'_> {
             .map(|j| self.w[j] * (rss_joint(&fs, self.gr, j, &[0, 1]) - rss_joint(&fl, self.gr, j, &[0, 1])))
             .sum()
     }
+}
+
+/// The name of the level physics keeps positive that column `col` of effect `kind` holds
+/// (`fc` of Coulomb friction is `fc_neg` beside direction-dependent friction).
+fn level(kind: Option<EffectKind>, col: usize) -> Option<&'static str> {
+    match (kind?, col) {
+        (EffectKind::Coulomb, C_SIGN) | (EffectKind::SmoothCoulomb, _) => Some("fc"),
+        (EffectKind::LoadDependent, C_LOAD) => Some("mu"),
+        (EffectKind::TimeDelay, C_DELAY) => Some("delay_s"),
+        (EffectKind::Viscous, C_QD) => Some("fv"),
+        (EffectKind::Armature, C_QDD) => Some("ia"),
+        (EffectKind::JointSpring, C_Q) => Some("k"),
+        _ => None,
+    }
+}
+
+/// The levels on joint `j` that physics keeps positive (friction levels, both of a
+/// direction-dependent friction's, `fv`, `ia`, `k`, `mu`, a delay), named
+/// "<effect> <parameter>".
+pub(super) fn signed_levels(f: &Fit, j: usize) -> Vec<(String, f64)> {
+    let coulomb =
+        f.params.iter().zip(&f.theta).find(|(p, _)| p.joint == Some(j) && p.kind == Some(EffectKind::Coulomb));
+    let on_j = f.params.iter().zip(&f.theta).filter(|(p, _)| p.joint == Some(j));
+    on_j.filter_map(|(p, &v)| match (p.kind, level(p.kind, p.col)) {
+        // direction-dependent friction: fc_pos = fc_neg (Coulomb's fc) + its column's coefficient
+        (Some(EffectKind::AsymmetricCoulomb), _) => {
+            Some(("direction-dependent Coulomb friction fc_pos".into(), v + coulomb.map_or(0.0, |c| *c.1)))
+        }
+        (Some(kind), Some(name)) => Some((format!("{} {name}", kind.label()), v)),
+        _ => None,
+    })
+    .collect()
 }
 
 /// Whether the fit has the nominal re-fit's base columns.

@@ -9,12 +9,12 @@
 pub use super::DiagnoseOptions;
 use super::assemble::{Found, assemble};
 use super::dictionary::Dictionary;
-use super::model::{Model, effect_torque, fit};
+use super::model::{Fit, Model, effect_torque, fit, rss_joint};
 use super::prepare::prepare_best;
 use super::refit::{self, RefitDecision};
 use super::residual::rms_per_joint;
 use super::rules::score_candidates;
-use super::score::{Ctx, not_scored};
+use super::score::{Ctx, not_scored, signed_levels};
 use super::{CandidateScore, Diagnosis, EffectKind, JointScore, Step, rotor};
 use crate::Robot;
 use crate::error::{Error, Result};
@@ -121,7 +121,7 @@ fn search(
         explain_choice(&mut cands, bi);
         let effect = cands[bi].0.effect;
         let joints = cands[bi].0.joints.clone();
-        let m_new = backward(ctx, &cands[bi].1);
+        let (m_new, removed) = backward(ctx, &cands[bi].1);
         let rms_after = model_rms(ctx, d, t_len, &m_new);
         let mut step = Step {
             effect,
@@ -133,7 +133,9 @@ fn search(
         };
         rms_cur = rms_after;
         if m_new == m {
-            break; // the backward step undid it: nothing new
+            // the backward step undid it: nothing new; the candidates, with why it went
+            final_candidates = undone(step.candidates, &removed);
+            break;
         }
         let companions = companion_steps(&mut step, &m, &m_new);
         m = m_new;
@@ -141,6 +143,24 @@ fn search(
         steps.extend(companions.into_iter().map(|st| (st, m.clone())));
     }
     Found { steps, final_candidates, model: m, refit, notes: vec![] }
+}
+
+/// The candidates of a step the backward step undid, the accepted one marked not added
+/// and, on each joint it was removed from, rejected with the backward step's reason.
+fn undone(mut cands: Vec<CandidateScore>, removed: &[Removal]) -> Vec<CandidateScore> {
+    for c in cands.iter_mut().filter(|c| c.accepted) {
+        c.accepted = false;
+        c.reason = super::UNDONE.into();
+        for (j, _, why) in removed.iter().filter(|r| r.1 == c.effect) {
+            for (i, sc) in c.per_joint.iter_mut().enumerate() {
+                if j.is_none_or(|j| j == i) {
+                    sc.significant = false;
+                    sc.rejected_by = Some(format!("removed by the backward step: {why}"));
+                }
+            }
+        }
+    }
+    cands
 }
 
 /// The candidate with the largest score among those significant on some joint.
@@ -221,9 +241,14 @@ fn companion_steps(step: &mut Step, m: &Model, m_new: &Model) -> Vec<Step> {
         .collect()
 }
 
-/// Removes effects that are no longer significant given the others (backward step).
-fn backward(ctx: &Ctx, m: &Model) -> Model {
+/// One effect the backward step removed: joint (`None`: the payload), effect, why.
+type Removal = (Option<usize>, EffectKind, String);
+
+/// Removes effects that are no longer significant given the others, then those that leave
+/// a joint unphysical (`unphysical_removal`) (backward step); what it removed, and why.
+fn backward(ctx: &Ctx, m: &Model) -> (Model, Vec<Removal>) {
     let mut m = m.clone();
+    let mut removed = vec![];
     loop {
         let mut worst: Option<(f64, Option<usize>, EffectKind)> = None;
         for j in 0..ctx.n {
@@ -248,9 +273,36 @@ fn backward(ctx: &Ctx, m: &Model) -> Model {
                 worst = Some((0.0, None, EffectKind::Payload));
             }
         }
-        match worst {
-            Some((_, j, e)) => m = m.without(j, e),
-            None => return m,
+        let why = "no longer significant given the other effects".to_string();
+        match worst.map(|(_, j, e)| (j, e, why)).or_else(|| unphysical_removal(ctx, &m)) {
+            Some((j, e, why)) => {
+                m = m.without(j, e);
+                removed.push((j, e, why));
+            }
+            None => return (m, removed),
         }
     }
+}
+
+/// On the first joint where a level physics keeps positive is not (`signed_levels`: an
+/// effect added later, correlated with one already in, can fit better by pushing that one
+/// through zero, e.g. viscous friction beside direction-dependent friction), the effect whose
+/// removal leaves the joint physical with the least residual (the least residual alone when
+/// none does), and why. Coulomb friction goes with its refinement.
+fn unphysical_removal(ctx: &Ctx, m: &Model) -> Option<Removal> {
+    let physical = |f: &Fit, j: usize| signed_levels(f, j).iter().all(|&(_, v)| v > 0.0);
+    let f = fit(&m.params(), ctx.gr, &ctx.w, &[0, 1]);
+    let j = (0..ctx.n).find(|&j| !physical(&f, j))?;
+    let (name, v) = signed_levels(&f, j).into_iter().find(|&(_, v)| v <= 0.0)?;
+    let refined = m.has(j, EffectKind::SmoothCoulomb) || m.has(j, EffectKind::AsymmetricCoulomb);
+    let removals = m.per_joint[j].iter().filter(|&&e| !(e == EffectKind::Coulomb && refined));
+    let score = |&e: &EffectKind| {
+        let fs = fit(&m.without(Some(j), e).params(), ctx.gr, &ctx.w, &[0, 1]);
+        (!physical(&fs, j), rss_joint(&fs, ctx.gr, j, &[0, 1]))
+    };
+    let e = removals.map(|e| (score(e), *e)).min_by(|a, b| a.0.0.cmp(&b.0.0).then(a.0.1.total_cmp(&b.0.1)))?.1;
+    let why = format!(
+        "sign: with it the joint's {name} is {v:.4}, not positive; of the effects there, leaving out this one keeps the rest physical with the least residual"
+    );
+    Some((Some(j), e, why))
 }

@@ -305,9 +305,16 @@ fn final_section(o: &mut String, d: &Diagnosis) {
         o.push_str("<p>No candidate scores were recorded for the final model.</p>\n");
         return;
     }
+    let why = match d.final_candidates.iter().find(|c| c.reason == crate::diagnose::UNDONE) {
+        Some(c) => format!(
+            "the one added ({}) was removed again by the backward step (the rule on its rows), so the search stopped",
+            c.effect.label()
+        ),
+        None => "none is significant, so the search stopped".into(),
+    };
     let _ = writeln!(
         o,
-        "<p>Every candidate scored on the residual of the final model ({}): none is significant, so the search stopped.</p>",
+        "<p>Every candidate scored on the residual of the final model ({}): {why}.</p>",
         esc(&model_label(d, d.steps.len()))
     );
     candidates_table(o, d, &d.final_candidates);
