@@ -184,6 +184,21 @@ fn report_effects(
                 .collect();
             params.insert("delay_s".into(), exact.into());
         }
+        if kind == EffectKind::Coulomb || kind == EffectKind::AsymmetricCoulomb {
+            // the levels where the joint moves, not through its stick phases (`levels`)
+            let asym = kind == EffectKind::AsymmetricCoulomb;
+            let lv: Option<Vec<(f64, f64)>> =
+                joints.iter().map(|&j| super::levels::coulomb_levels(f, d, j, asym)).collect();
+            if let Some(lv) = lv {
+                let (neg, pos): (Vec<f64>, Vec<f64>) = lv.into_iter().unzip();
+                if asym {
+                    params.insert("fc_neg".into(), neg.into());
+                    params.insert("fc_pos".into(), pos.into());
+                } else {
+                    params.insert("fc".into(), neg.into());
+                }
+            }
+        }
         if kind == EffectKind::LoadDependent {
             // `mu` against the load the fit models (`drive_rules::load_mu_on_fitted_load`)
             let mu: Option<Vec<f64>> =

@@ -313,3 +313,17 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize, thread
     let (g, rows) = per_joint.into_iter().unzip();
     Grams { g, rows, ridge: 0.0, prior: vec![] }
 }
+
+/// A joint is at rest below this share of its RMS speed (the standstill share of
+/// `prep::hygiene`): a stick phase's velocity is zero up to the velocity's noise; the
+/// smooth-friction grid starts at 0.15 of the speed (`SMOOTH_VS`), far above it. (Random
+/// tuning part, Coulomb levels within 10 %: 0.01, 0.02 and 0.05 alike, 12 of 12;
+/// docs/diagnose.md, "Friction levels where the joint moves".)
+const REST_SHARE: f64 = crate::prep::hygiene::STANDSTILL_SHARE;
+
+/// The samples where joint `j` moves (`|qd|` above `REST_SHARE` of its RMS speed).
+pub(super) fn moving(d: &Dictionary, j: usize) -> Vec<bool> {
+    let qd = &d.cols[j][C_QD];
+    let rms = (qd.iter().map(|v| v * v).sum::<f64>() / qd.len().max(1) as f64).sqrt();
+    qd.iter().map(|v| v.abs() > REST_SHARE * rms).collect()
+}

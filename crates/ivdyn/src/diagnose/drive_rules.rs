@@ -235,13 +235,15 @@ pub(super) fn smooth_shape(ctx: &Ctx, m: &Model, d: &Dictionary, j: usize) -> (f
 /// nominal torque (CAD inertials 20-50 % off), and `mu` scales with the load it is read
 /// against: a drive's friction follows the torque it carries, not the CAD model's.
 pub(super) fn load_mu_on_fitted_load(f: &Fit, d: &Dictionary, j: usize) -> Option<f64> {
-    let (load, y, rigid) = fitted_torque_and_rest(f, d, j, EffectKind::LoadDependent);
+    let (load, y, rigid) = fitted_torque_and_rest(f, d, j, &[EffectKind::LoadDependent]);
     if !rigid {
         return None;
     }
-    // the residual without load-dependent friction, against the fitted load's column
+    // the residual without load-dependent friction, against the fitted load's column, where
+    // the joint moves (`dictionary::moving`: at rest the friction is static, not `mu |load|`)
+    let moving = super::dictionary::moving(d, j);
     let (mut num, mut den) = (0.0, 0.0);
-    for t in 0..load.len() {
+    for t in (0..load.len()).filter(|&t| moving[t]) {
         let c = load[t].abs() * d.cols[j][C_SIGN][t];
         num += c * y[t];
         den += c * c;
@@ -251,15 +253,20 @@ pub(super) fn load_mu_on_fitted_load(f: &Fit, d: &Dictionary, j: usize) -> Optio
 
 /// On joint `j`: the rigid-body torque the fit `f` models (the nominal one, `C_GAIN`'s
 /// column, plus the re-fit's base corrections and a payload), and what the fit leaves for
-/// effect `e` (the nominal residual less every other effect and the rigid-body part), and
-/// whether the fit has a rigid-body part on the joint.
-fn fitted_torque_and_rest(f: &Fit, d: &Dictionary, j: usize, e: EffectKind) -> (Vec<f64>, Vec<f64>, bool) {
+/// the effects `e` (the nominal residual less every other effect and the rigid-body part),
+/// and whether the fit has a rigid-body part on the joint.
+pub(super) fn fitted_torque_and_rest(
+    f: &Fit,
+    d: &Dictionary,
+    j: usize,
+    e: &[EffectKind],
+) -> (Vec<f64>, Vec<f64>, bool) {
     let rigid = |p: &Param| p.kind == Some(EffectKind::Payload) || p.kind.is_none() && p.col >= C_BASE;
     let on_j = |p: &Param| p.joint.is_none_or(|pj| pj == j);
     let cols = &d.cols[j];
     let mut tau = cols[C_GAIN].clone();
     let mut rest = d.r0[j].clone();
-    for (p, &v) in f.params.iter().zip(&f.theta).filter(|(p, _)| on_j(p) && p.kind != Some(e)) {
+    for (p, &v) in f.params.iter().zip(&f.theta).filter(|(p, _)| on_j(p) && !p.kind.is_some_and(|k| e.contains(&k))) {
         if rigid(p) {
             tau.iter_mut().zip(&cols[p.col]).for_each(|(a, c)| *a += v * c);
         }
@@ -279,7 +286,7 @@ pub(super) fn delay_exact(f: &Fit, d: &Dictionary, j: usize, delay0: f64) -> f64
     if delay0.is_nan() || delay0 <= 0.0 {
         return delay0;
     }
-    let (tau, y, _) = fitted_torque_and_rest(f, d, j, EffectKind::TimeDelay);
+    let (tau, y, _) = fitted_torque_and_rest(f, d, j, &[EffectKind::TimeDelay]);
     // the samples with the longest shift's history in their segment
     let skip = (2.0 * delay0 / d.dt).ceil() as usize + 1;
     let rows: Vec<std::ops::Range<usize>> =

@@ -27,6 +27,7 @@ use serde::{Deserialize, Serialize};
 mod assemble;
 mod dictionary;
 mod drive_rules;
+mod levels;
 mod model;
 mod pairs;
 mod prepare;
