@@ -55,8 +55,9 @@ pub(super) fn inertia_like(e: EffectKind) -> bool {
 ///   inertia are off independently). It imitates the candidate if a change of its 10
 ///   inertial parameters making less torque than `CAD_ERROR_MAX` of its nominal torque on
 ///   every joint (what a link-scale error of that size makes) leaves the candidate no
-///   longer significant; on the terminal joint that change is fitted to the joint's own row
-///   and may make up to `CAD_TERMINAL_MARGIN`, the payload's margin.
+///   longer significant, and removes at least as much of the held-out residual of all
+///   joints as the candidate does; on the terminal joint that change is fitted to the
+///   joint's own row and may make up to `CAD_TERMINAL_MARGIN`, the payload's margin.
 pub(super) fn model_error_lookalike(
     ctx: &Ctx,
     m: &Model,
@@ -116,7 +117,14 @@ fn terminal_error_lookalike(
     // and inertia each off); on all rows at once, as a link scale (125 % there took true
     // armatures on the CAD set, docs/diagnose.md)
     let margin = if terminal { CAD_TERMINAL_MARGIN } else { CAD_ERROR_MAX };
-    if share >= margin || ctx.joint_score(&base, &l, j, added).significant {
+    // off the terminal joint that change is fitted to every row, which it must all fit: it
+    // imitates the candidate only if it removes as much of the held-out residual of all
+    // joints as the candidate does (a gain on joint 1 it takes from that row alone, at
+    // the other rows' cost, and the final model holds no such change)
+    if share >= margin
+        || ctx.joint_score(&base, &l, j, added).significant
+        || !terminal && ctx.heldout_rss(&base) > ctx.heldout_rss(larger)
+    {
         return None;
     }
     Some(format!(

@@ -430,6 +430,14 @@ impl Ctx<'_> {
     }
 
     /// Noise-weighted RSS reduction of `larger` over `smaller` (all joints, all data).
+    /// The held-out residual of model `m` on every joint, weighted by the joints' noise
+    /// (two-fold cross-validation, as `joint_score`'s held-out share).
+    pub(super) fn heldout_rss(&self, m: &Model) -> f64 {
+        let p = m.params();
+        let (f0, f1) = (fit(&p, self.gr, &self.w, &[0]), fit(&p, self.gr, &self.w, &[1]));
+        (0..self.n).map(|j| self.w[j] * (rss_joint(&f0, self.gr, j, &[1]) + rss_joint(&f1, self.gr, j, &[0]))).sum()
+    }
+
     pub(super) fn gain(&self, smaller: &Model, larger: &Model) -> f64 {
         let (fs, fl) =
             (fit(&smaller.params(), self.gr, &self.w, &[0, 1]), fit(&larger.params(), self.gr, &self.w, &[0, 1]));
