@@ -748,10 +748,7 @@ fn a_time_delay_from_the_exact_shift() {
 /// model).
 #[test]
 fn a_gain_the_terminal_link_takes_only_from_its_own_row() {
-    let (set, m) = ("diagnose_random/rarm10_6j", cases_in("diagnose_random/rarm10_6j"));
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e05_1fx").unwrap();
-    let d = run_job(set, case, &m).json;
-    let names: Vec<_> = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
+    let (case, d, names) = named_in("diagnose_random/rarm10_6j", "e05_1fx");
     assert_eq!(names, vec![("torque_gain".to_string(), vec!["joint_1".to_string(), "joint_2".to_string()])]);
     let (k, k_true) = (f64s(&d.effects[0].parameters["k"]), f64s(&case["effects"][0]["parameters"]["k"]));
     for (x, t) in k.iter().zip(&k_true) {
@@ -772,13 +769,20 @@ fn a_gain_the_terminal_link_takes_only_from_its_own_row() {
 /// 35 % low, is not: the smaller level sits on the joint's stick phases).
 #[test]
 fn direction_dependent_friction_beside_a_looser_refit() {
-    let (set, m) = ("diagnose_random/rarm10_6j", cases_in("diagnose_random/rarm10_6j"));
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e15_1fx").unwrap();
-    let d = run_job(set, case, &m).json;
-    let names: Vec<_> = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
+    let (case, d, names) = named_in("diagnose_random/rarm10_6j", "e15_1fx");
     assert_eq!(names, vec![("asymmetric_coulomb_friction".to_string(), vec!["joint_3".to_string()])]);
     assert!(d.nominal_refit.is_some());
     let (fc, fc_true) =
         (f64s(&d.effects[0].parameters["fc_pos"])[0], f64s(&case["effects"][0]["parameters"]["fc_pos"])[0]);
     assert!((fc - fc_true).abs() <= 0.1 * fc_true, "fc_pos {fc} vs truth {fc_true}");
+}
+
+/// A fixture case of `set` diagnosed as the command line does: the case, its diagnosis and
+/// the (effect, joints) named.
+fn named_in(set: &str, name: &str) -> (Value, DiagnosisJson, Vec<(String, Vec<String>)>) {
+    let m = cases_in(set);
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap().clone();
+    let d = run_job(set, &case, &m).json;
+    let names = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
+    (case, d, names)
 }
