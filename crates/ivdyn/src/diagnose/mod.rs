@@ -39,6 +39,7 @@ mod rules;
 mod score;
 pub mod search;
 mod signals;
+mod swap;
 mod uncertainty;
 
 pub use search::diagnose;

@@ -107,7 +107,8 @@ fn search(
             Some(bi) => bi,
             // no single effect passes: two on one joint may (`pairs`); first in the list,
             // so that the step's evidence finds its scores, not its first effect's alone
-            None => match super::pairs::best_pair(ctx, &m) {
+            // no pair either: a friction shape in place of another (`swap`)
+            None => match super::pairs::best_pair(ctx, &m).or_else(|| super::swap::best_swap(ctx, &m)) {
                 Some((pair, l, _)) => {
                     cands.insert(0, (pair, l));
                     0
