@@ -1,13 +1,13 @@
 //! `ivdyn diagnose` on a real arm: the KUKA LWR4+ runs of `../shared/data/real` (joint
 //! torque sensors, 200 Hz, pre-filtered by their authors; see docs/diagnose.md). The
-//! nominal model is the data set's URDF (CentroEPiaggio inertials, no friction).
+//! nominal model is the data set's URDF (CentroEPiaggio inertials; its `<dynamics>` friction
+//! is checked against the log, not taken as known: docs/diagnose.md, "The URDF's friction").
 //!
 //!     cargo run --release -p ivdyn --example diagnose_real -- [DATA_ROOT] [OUT_DIR]
 
 use std::path::PathBuf;
 
 use ivdyn::diagnose::{self, DiagnoseOptions};
-use ivdyn::log::JointLog;
 use ivdyn_lab::real::{load_lwr_robot, load_lwr_run};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -17,17 +17,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let robot = load_lwr_robot(&root)?;
     for k in [1usize, 2, 3] {
         let run = load_lwr_run(&root, k)?;
-        let log = JointLog {
-            joint_names: robot.joint_names.clone(),
-            t0_ns: 0,
-            t: run.t.clone(),
-            q: run.q.clone(),
-            qd: Some(run.qd.clone()),
-            tau: Some(run.tau.clone()),
-            u: None,
-            current: None,
-            truncated: false,
-        };
+        let log = run.joint_log(&robot.joint_names);
         let opts = DiagnoseOptions {
             log_name: run.file.display().to_string(),
             urdf_name: "kuka_lwr4.urdf".into(),

@@ -139,6 +139,21 @@ impl LwrRun {
     pub fn is_empty(&self) -> bool {
         self.t.is_empty()
     }
+
+    /// The run as a joint log of the joints `names` (velocities and torques as logged).
+    pub fn joint_log(&self, names: &[String]) -> ivdyn::log::JointLog {
+        ivdyn::log::JointLog {
+            joint_names: names.to_vec(),
+            t0_ns: 0,
+            t: self.t.clone(),
+            q: self.q.clone(),
+            qd: Some(self.qd.clone()),
+            tau: Some(self.tau.clone()),
+            u: None,
+            current: None,
+            truncated: false,
+        }
+    }
 }
 
 /// Loads `root/kuka_lwr4p_flobaroid/measurements_<k>.npz` (`k` in 1..=3). The
