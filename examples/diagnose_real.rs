@@ -1,7 +1,7 @@
 //! `ivdyn diagnose` on a real arm: the KUKA LWR4+ runs of `../shared/data/real` (joint
 //! torque sensors, 200 Hz, pre-filtered by their authors; see docs/diagnose.md). The
-//! nominal model is the data set's URDF (CentroEPiaggio inertials; its `<dynamics>` friction
-//! is checked against the log, not taken as known: docs/diagnose.md, "The URDF's friction").
+//! nominal model is the data set's URDF (CentroEPiaggio inertials, and its `<dynamics>`
+//! friction and damping, which the nominal torque includes: docs/diagnose.md, the LWR4+).
 //!
 //!     cargo run --release -p ivdyn --example diagnose_real -- [DATA_ROOT] [OUT_DIR]
 

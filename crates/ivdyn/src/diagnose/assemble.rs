@@ -43,8 +43,8 @@ pub(super) fn assemble(
     p: &Prepared,
     ctx: &Ctx,
     found: Found,
-    (baseline_rms, r_nom): (Vec<f64>, &[f64]),
-    urdf_friction: &[(f64, f64)],
+    baseline_rms: Vec<f64>,
+    r_nom: &[f64],
 ) -> Result<Diagnosis> {
     let Found { steps, final_candidates, model: m, refit, notes } = found;
     let (s, d) = (&p.s, &p.d);
@@ -73,15 +73,8 @@ pub(super) fn assemble(
     let regimes_before = regimes(s, r_nom, n);
     let regimes_after = regimes(s, &r_final, n);
 
-    // the effects, then again without the friction the URDF holds (`urdf_friction`)
-    let fc = (&f, cov.as_ref());
-    let mut out_steps = merge_repeats(steps.clone());
-    let mut effects = report_effects(&mut out_steps, fc, (&m, &[]), d, names, &regimes_before, ctx);
-    let (held, urdf_details) = super::urdf_friction::held(&effects, urdf_friction, names);
-    if !held.is_empty() {
-        out_steps = merge_repeats(steps);
-        effects = report_effects(&mut out_steps, fc, (&m, &held), d, names, &regimes_before, ctx);
-    }
+    let mut out_steps = merge_repeats(steps);
+    let effects = report_effects(&mut out_steps, (&f, cov.as_ref()), &m, d, names, &regimes_before, ctx);
     let kept: Vec<Step> =
         out_steps.into_iter().filter(|st| effects.iter().any(|e| e.name == st.effect.name())).collect();
     let predicted = step_predictions(&raw, &kept, ctx, d, &p.tau_nom);
@@ -89,7 +82,6 @@ pub(super) fn assemble(
     let next_command = next_command(&kept, nominal_refit.is_some(), opts);
     let (verdict, mut details) = verdict(&kept, &effects, &gaps, nominal_refit.as_ref(), names);
     details.extend(notes);
-    details.extend(urdf_details);
     details.push(format!("effects of real drives {}", p.drives_why));
     let traces =
         Traces { t: s.t.clone(), q: s.q.clone(), qd: s.qd.clone(), qdd: s.qdd.clone(), tau: s.tau.clone(), predicted };
@@ -144,13 +136,12 @@ fn carry_scores(first: &mut Step, later: &Step) {
 
 /// The effects in the order found, with the final fit's parameters and their standard
 /// errors (from `cov`, the covariance of the fit's `theta`); an effect whose joints were
-/// all dropped by a later backward step is not reported, nor a friction on a joint in
-/// `held` (the URDF holds it, `urdf_friction`). Sets each reported step's joints (those of
-/// the final model) and evidence.
+/// all dropped by a later backward step is not reported. Sets each reported step's joints
+/// (those of the final model) and evidence.
 fn report_effects(
     out_steps: &mut [Step],
     (f, cov): (&Fit, Option<&nalgebra::DMatrix<f64>>),
-    (m, held): (&Model, &[(EffectKind, usize)]),
+    m: &Model,
     d: &Dictionary,
     names: &[String],
     regimes_before: &[Regimes],
@@ -160,7 +151,7 @@ fn report_effects(
     let mut effects = vec![];
     for st in out_steps.iter_mut() {
         let kind = st.effect;
-        let named: Vec<usize> = match kind {
+        let joints: Vec<usize> = match kind {
             EffectKind::Payload => (0..n).collect(),
             // Stribeck replaces Coulomb on its joints
             EffectKind::Coulomb => (0..n)
@@ -172,8 +163,6 @@ fn report_effects(
                 .collect(),
             _ => (0..n).filter(|&j| m.has(j, kind)).collect(),
         };
-        // what the URDF holds is not missing (`urdf_friction`)
-        let joints: Vec<usize> = named.into_iter().filter(|&j| !held.contains(&(kind, j))).collect();
         if kind != EffectKind::Payload && joints.is_empty() || kind == EffectKind::Payload && !m.payload {
             continue;
         }

@@ -41,7 +41,6 @@ pub mod search;
 mod signals;
 mod swap;
 mod uncertainty;
-mod urdf_friction;
 
 pub use search::diagnose;
 

@@ -32,10 +32,6 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
         });
     }
     crate::prep::hygiene::torque_check(log)?;
-    // the URDF's joint friction is checked against the log, not taken as known (`urdf_friction`)
-    let urdf_friction = super::urdf_friction::of(robot);
-    let rigid = super::urdf_friction::without(robot)?;
-    let robot = &rigid;
     let mut p = prepare_best(robot, log, opts)?;
     // the re-fit corrections' physical scales (used only when a re-fit is on)
     p.gr.prior = refit::prior_scales(&p.d, &robot.params());
@@ -56,7 +52,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     if found.refit.is_some() {
         add_rotors(&ctx, &p.d, robot, t_len, &mut found)?;
     }
-    assemble(robot, opts, &p, &ctx, found, (baseline_rms, &r_nom), &urdf_friction)
+    assemble(robot, opts, &p, &ctx, found, baseline_rms, &r_nom)
 }
 
 /// The armatures the re-fit held (`rotor`), each as a step of its own after the search's

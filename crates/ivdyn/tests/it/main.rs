@@ -15,7 +15,6 @@ mod diagnose_cases;
 mod diagnose_drives;
 mod diagnose_report;
 mod diagnose_uncertainty;
-mod diagnose_urdf_friction;
 mod drive_gains;
 mod dwh_level;
 mod effort_current;
