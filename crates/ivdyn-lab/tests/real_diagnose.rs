@@ -61,3 +61,38 @@ fn tx40_friction_and_rotor_inertia_are_named() {
     // nothing the arm does not have
     assert!(d.effects.iter().all(|e| e.name != "payload"), "{:?}", d.effects);
 }
+
+/// Issue 15, item 6 on the KUKA LWR4+ (`../shared/data/real`, FloBaRoID's run 2: 25 s at
+/// 200 Hz, link-side joint torque sensors, low-passed by the data set's authors), starting
+/// from its URDF, whose `<dynamics>` give every joint friction (0.05-0.8 N m, 0.2-1.2 N m
+/// s/rad) that the log contradicts (`diagnose::urdf_friction`). The yardstick is the issue's:
+/// the friction `identify`'s held-out validation shows (docs/real-data.md, identified on all
+/// three runs with springs and offsets, validated across runs): Coulomb friction on
+/// `lwr_1_joint` 0.457 and `lwr_2_joint` 0.538 N m, and on `lwr_4_joint` fc 1.036 with an
+/// offset of -0.642 N m, which on that moving joint is direction-dependent friction fc_pos
+/// 0.394, fc_neg 1.678 N m. Asserted: those named, each level within 40 % of `identify`'s (a
+/// per-run diagnosis with its re-fit against an all-run fit: they differ by up to 31 %, on
+/// `lwr_1_joint`), and the detail that says the URDF's friction was left out. With the URDF's
+/// friction as the nominal, none was named (docs/diagnose.md, "The URDF's friction").
+#[test]
+fn lwr_friction_identify_validates_is_named_from_the_urdf() {
+    use ivdyn_lab::real::{load_lwr_robot, load_lwr_run};
+    let robot = load_lwr_robot(&root()).unwrap();
+    let run = load_lwr_run(&root(), 2).unwrap();
+    let d = diagnose(&robot, &run.joint_log(&robot.joint_names), &DiagnoseOptions::default()).unwrap();
+    let level = |name: &str, key: &str, joint: &str| -> Option<f64> {
+        let e = d.json.effects.iter().find(|e| e.name == name)?;
+        let i = e.joints.iter().position(|j| j == joint)?;
+        e.parameters[key].as_array()?.get(i)?.as_f64()
+    };
+    let near = |v: Option<f64>, reference: f64, what: &str| {
+        let v = v.unwrap_or_else(|| panic!("{what} not named: {:?}", d.json.effects));
+        assert!((v - reference).abs() <= 0.4 * reference, "{what}: {v} vs identify's {reference}");
+    };
+    near(level("coulomb_friction", "fc", "lwr_1_joint"), 0.457, "lwr_1_joint fc");
+    near(level("coulomb_friction", "fc", "lwr_2_joint"), 0.538, "lwr_2_joint fc");
+    near(level("asymmetric_coulomb_friction", "fc_pos", "lwr_4_joint"), 0.394, "lwr_4_joint fc_pos");
+    near(level("asymmetric_coulomb_friction", "fc_neg", "lwr_4_joint"), 1.678, "lwr_4_joint fc_neg");
+    assert!(d.details.iter().any(|l| l.contains("the URDF's friction is not the log's")), "{:?}", d.details);
+    assert!(d.json.effects.iter().all(|e| e.name != "payload"), "{:?}", d.json.effects);
+}

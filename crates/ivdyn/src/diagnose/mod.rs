@@ -41,6 +41,7 @@ pub mod search;
 mod signals;
 mod swap;
 mod uncertainty;
+mod urdf_friction;
 
 pub use search::diagnose;
 

@@ -49,6 +49,14 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     let mut start = Model::new(n);
     start.refit = nbase;
     let mut found = search(&ctx, &p.d, t_len, opts.max_steps, start, refit);
+    // a URDF friction the log contradicts outright: the diagnosis of the model without it
+    // (`urdf_friction`; that model has none, so this happens once)
+    let urdf = super::urdf_friction::of(robot);
+    if let Some(why) = super::urdf_friction::contradicted(&ctx, &found.model, &urdf, &robot.joint_names) {
+        let mut d = diagnose(&super::urdf_friction::without(robot)?, log, opts)?;
+        d.details.push(why);
+        return Ok(d);
+    }
     if found.refit.is_some() {
         add_rotors(&ctx, &p.d, robot, t_len, &mut found)?;
     }

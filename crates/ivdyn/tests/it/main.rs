@@ -15,6 +15,7 @@ mod diagnose_cases;
 mod diagnose_drives;
 mod diagnose_report;
 mod diagnose_uncertainty;
+mod diagnose_urdf_friction;
 mod drive_gains;
 mod dwh_level;
 mod effort_current;
