@@ -59,6 +59,10 @@ pub(super) fn offset_or_asymmetric(ctx: &Ctx, l: &Model, j: usize, sc: &mut Join
     }
 }
 
+/// Why a refinement of Coulomb friction (Stribeck, smooth, direction-dependent) is not tried
+/// on a joint without Coulomb friction found (a URDF's friction is the nominal's, not found).
+pub(super) const NO_COULOMB_TO_REFINE: &str = "no Coulomb friction found on the joint for it to refine";
+
 /// Whether the grid effect `e` can go on joint `j` of `m` (why not, when it cannot).
 fn precondition(ctx: &Ctx, m: &Model, e: EffectKind, j: usize) -> Option<String> {
     let refined = [EffectKind::Stribeck, EffectKind::SmoothCoulomb, EffectKind::AsymmetricCoulomb];
@@ -72,7 +76,7 @@ fn precondition(ctx: &Ctx, m: &Model, e: EffectKind, j: usize) -> Option<String>
             ));
         }
         EffectKind::TorqueRipple => return None,
-        _ if !m.has(j, EffectKind::Coulomb) => "a refinement of Coulomb friction already found on the joint",
+        _ if !m.has(j, EffectKind::Coulomb) => NO_COULOMB_TO_REFINE,
         _ if refined.iter().any(|&r| m.has(j, r)) => "Coulomb friction on the joint is already refined",
         EffectKind::AsymmetricCoulomb if m.has(j, EffectKind::TorqueOffset) || m.has(j, EffectKind::JointSpring) => {
             "an offset on the joint already spans its column"

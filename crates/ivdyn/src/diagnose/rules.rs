@@ -26,6 +26,7 @@
 //! otherwise an offset.
 
 use super::dictionary::{C_Q, STRIBECK_VS};
+use super::drive_rules::NO_COULOMB_TO_REFINE;
 use super::model::{Model, Param, fit};
 use super::score::{CAD_ERROR_MAX, CAD_TERMINAL_MARGIN, Ctx, Scored, not_scored};
 use super::{CandidateScore, EffectKind, JointScore};
@@ -207,8 +208,12 @@ fn score_stribeck(ctx: &Ctx, m: &Model) -> Scored {
     let mut larger = m.clone();
     for j in 0..ctx.n {
         let refined = [EffectKind::Stribeck, EffectKind::SmoothCoulomb, EffectKind::AsymmetricCoulomb];
-        if !m.has(j, EffectKind::Coulomb) || refined.iter().any(|&r| m.has(j, r)) {
-            per_joint.push(not_scored("a refinement of Coulomb friction already found on the joint"));
+        if !m.has(j, EffectKind::Coulomb) {
+            per_joint.push(not_scored(NO_COULOMB_TO_REFINE));
+            continue;
+        }
+        if refined.iter().any(|&r| m.has(j, r)) {
+            per_joint.push(not_scored("Coulomb friction on the joint is already refined"));
             continue;
         }
         let (sc, l) = best_stribeck(ctx, m, j);

@@ -6,6 +6,7 @@ pub mod load;
 pub mod mjcf;
 pub mod physical;
 pub mod urdf;
+pub mod urdf_lenient;
 pub mod write;
 
 use crate::error::{Error, Result};

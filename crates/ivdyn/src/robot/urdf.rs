@@ -21,6 +21,7 @@
 //!   below the root on fixed joints.
 //! - `<dynamics damping friction>` become the viscous and Coulomb drive parameters.
 
+use super::urdf_lenient::{first_joint_origin_only, without_appearance};
 use super::{Chain, DynModel, MAX_DOF, Robot};
 use crate::error::{Error, Result};
 use ivdyn_core::model::GRAVITY_Z;
@@ -67,21 +68,45 @@ pub fn load_str(text: &str, file: &Path, base: Option<&str>, tip: Option<&str>) 
 }
 
 /// Loads URDF text with `opts`; `file` is only used in error messages.
-///
-/// A joint with several `<origin>` elements (seen in URDFs exported by hand-edited
-/// xacro) is read as urdfdom, ROS's parser, reads it: the first origin counts.
 pub fn load_str_with(text: &str, file: &Path, opts: &UrdfOptions) -> Result<Robot> {
     check_xml_depth(text, file)?;
+    let urdf = parse_as_urdfdom(text, file)?;
+    Builder::new(&urdf, file)?.build(opts)
+}
+
+/// urdf-rs's reading of `text`; when it fails, retried on the text fixed up as urdfdom reads
+/// it (`urdf_lenient`: duplicated joint origins, then the appearance dropped). The first
+/// error stands when no fix-up helps.
+fn parse_as_urdfdom(text: &str, file: &Path) -> Result<urdf_rs::Robot> {
     let parse = |t: &str| {
         urdf_rs::read_from_string(t).map_err(|e| Error::UrdfParse { file: file.to_path_buf(), msg: e.to_string() })
     };
-    let urdf = match parse(text) {
-        Err(Error::UrdfParse { msg, .. }) if msg.contains("duplicate field `origin`") => {
-            parse(&first_joint_origin_only(text))?
-        }
-        r => r?,
+    let first = match parse(text) {
+        Ok(u) => return Ok(u),
+        Err(e) => e,
     };
-    Builder::new(&urdf, file)?.build(opts)
+    let origins = first_joint_origin_only(text);
+    if let Ok(u) = parse(&origins) {
+        return Ok(u);
+    }
+    match without_appearance(&origins).map(|t| parse(&t)) {
+        Some(Ok(u)) => Ok(u),
+        _ => Err(with_xacro_hint(first, text)),
+    }
+}
+
+/// A xacro file (macros, `${...}` expressions) is no URDF until expanded: the parse error
+/// says so, since urdf-rs's own ("invalid float literal") does not.
+fn with_xacro_hint(e: Error, text: &str) -> Error {
+    match e {
+        Error::UrdfParse { file, msg } if text.contains("${") || text.contains("<xacro:") => Error::UrdfParse {
+            file,
+            msg: format!(
+                "{msg}; the file holds xacro (`${{...}}` expressions or `<xacro:...>` elements): expand it first, e.g. `xacro robot.urdf.xacro > robot.urdf`"
+            ),
+        },
+        e => e,
+    }
 }
 
 /// Deepest element nesting accepted in a URDF. Real URDFs nest about 6 deep
@@ -137,36 +162,6 @@ fn tag_end(b: &[u8], from: usize) -> usize {
         }
     }
     b.len()
-}
-
-/// Drops every `<origin .../>` after the first inside each `<joint>...</joint>`
-/// (urdfdom's reading of duplicated joint origins).
-pub fn first_joint_origin_only(text: &str) -> String {
-    let mut out = String::with_capacity(text.len());
-    let mut rest = text;
-    while let Some(js) = rest.find("<joint") {
-        out.push_str(&rest[..js]);
-        let Some(je) = rest[js..].find("</joint>").map(|e| js + e + "</joint>".len()) else {
-            rest = &rest[js..];
-            break;
-        };
-        let joint = &rest[js..je];
-        let mut seen = false;
-        let mut jr = joint;
-        while let Some(os) = jr.find("<origin") {
-            let oe = jr[os..].find("/>").map(|e| os + e + 2).unwrap_or(jr.len());
-            out.push_str(&jr[..os]);
-            if !seen {
-                out.push_str(&jr[os..oe]);
-                seen = true;
-            }
-            jr = &jr[oe..];
-        }
-        out.push_str(jr);
-        rest = &rest[je..];
-    }
-    out.push_str(rest);
-    out
 }
 
 struct Builder<'a> {
@@ -669,16 +664,4 @@ fn limits(joint: &urdf_rs::Joint) -> JointLimits {
         _ => (f64::NEG_INFINITY, f64::INFINITY),
     };
     JointLimits { lower, upper, velocity: or_inf(l.velocity), effort: or_inf(l.effort) }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn keeps_first_origin_of_joints_only() {
-        let s = r#"<link name="a"><visual><origin xyz="1 0 0"/><origin xyz="2 0 0"/></visual></link><joint name="j" type="fixed"><origin xyz="0 0 1"/><origin xyz="0 0 0"/><parent link="a"/></joint>"#;
-        let want = r#"<link name="a"><visual><origin xyz="1 0 0"/><origin xyz="2 0 0"/></visual></link><joint name="j" type="fixed"><origin xyz="0 0 1"/><parent link="a"/></joint>"#;
-        assert_eq!(first_joint_origin_only(s), want);
-    }
 }

@@ -48,5 +48,6 @@ mod stream_identify;
 mod transmission;
 #[path = "../../../../tests/urdf_errors.rs"]
 mod urdf_errors;
+mod urdf_lenient;
 mod urdf_tip;
 mod urdf_write;

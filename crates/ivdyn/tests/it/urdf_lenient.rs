@@ -1,0 +1,57 @@
+//! URDFs that urdfdom (ROS's parser) reads and urdf-rs refuses load as urdfdom reads them: a
+//! `<texture />` without a file name, as CAD exporters write it, inside a link's `<visual>`
+//! and in a top-level `<material>`. The appearance carries no dynamics, so the robot is the
+//! one of the same file without it; the masses are checked against the file's own `<mass>`.
+
+use std::path::PathBuf;
+
+use ivdyn::Robot;
+use ivdyn::core::params::{M, link_col};
+use ivdyn::robot::urdf::{UrdfOptions, load_str_with};
+
+fn arm7() -> (PathBuf, String) {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/arm7_hand.urdf");
+    let text = std::fs::read_to_string(&p).unwrap();
+    (p, text)
+}
+
+/// arm7_hand.urdf with a textured visual on link3 and a top-level textured material.
+fn with_textures(text: &str) -> String {
+    let visual = r#"<visual><geometry><mesh filename="package://arm/link3.stl"/></geometry><material name="grey"><color rgba="0.5 0.5 0.5 1"/><texture /></material></visual>"#;
+    let t = text.replacen("<link name=\"link3\">", &format!("<link name=\"link3\">{visual}"), 1);
+    t.replacen("<link ", "<material name=\"metal\"><texture/></material>\n  <link ", 1)
+}
+
+#[test]
+fn texture_without_file_loads_as_urdfdom_reads_it() {
+    let (p, text) = arm7();
+    let textured = with_textures(&text);
+    assert!(urdf_rs::read_from_string(&textured).is_err(), "urdf-rs alone would refuse it");
+    let opts = UrdfOptions::new(None, Some("flange"));
+    let r = load_str_with(&textured, &p, &opts).unwrap();
+    let plain = Robot::from_urdf_with(&p, &opts).unwrap();
+    assert_eq!(r.joint_names, plain.joint_names);
+    assert_eq!(r.params(), plain.params());
+    let u = urdf_rs::read_file(&p).unwrap();
+    let mass = |l: &str| u.links.iter().find(|x| x.name == l).unwrap().inertial.mass.value;
+    // the last link carries link7 and the flange fused to it (the hand beyond the tip dropped)
+    let last = r.params()[link_col(6, M)];
+    assert!((last - mass("link7") - mass("flange")).abs() < 1e-12, "{last}");
+}
+
+#[test]
+fn a_broken_file_keeps_its_first_error() {
+    let (p, text) = arm7();
+    let broken = with_textures(&text).replacen("<mass value=\"2.2\"/>", "<mass/>", 1);
+    let e = load_str_with(&broken, &p, &UrdfOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("arm7_hand.urdf") && e.contains("cannot parse URDF"), "{e}");
+}
+
+/// A xacro file (not expanded) is refused with a parse error that says to expand it.
+#[test]
+fn an_unexpanded_xacro_says_so() {
+    let (p, text) = arm7();
+    let xacro = text.replacen("<mass value=\"2.2\"/>", "<mass value=\"${m3}\"/>", 1);
+    let e = load_str_with(&xacro, &p, &UrdfOptions::default()).unwrap_err().to_string();
+    assert!(e.contains("cannot parse URDF") && e.contains("xacro robot.urdf.xacro > robot.urdf"), "{e}");
+}
