@@ -82,6 +82,7 @@ pub(super) fn assemble(
     let next_command = next_command(&kept, nominal_refit.is_some(), opts);
     let (verdict, mut details) = verdict(&kept, &effects, &gaps, nominal_refit.as_ref(), names);
     details.extend(notes);
+    details.extend(robot.inertial_notes().into_iter().map(|n| format!("nominal model: {n}")));
     details.push(format!("effects of real drives {}", p.drives_why));
     let traces =
         Traces { t: s.t.clone(), q: s.q.clone(), qd: s.qd.clone(), qdd: s.qdd.clone(), tau: s.tau.clone(), predicted };

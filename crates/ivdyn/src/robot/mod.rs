@@ -10,7 +10,7 @@ pub mod urdf_lenient;
 pub mod write;
 
 use crate::error::{Error, Result};
-use ivdyn_core::params::{DRIVE_PARAM_NAMES, LINK_PARAM_NAMES, param_count};
+use ivdyn_core::params::{DRIVE_PARAM_NAMES, LINK_PARAM_NAMES, LINK_PARAMS, link_col, param_count};
 use ivdyn_core::{
     self as core_, CoulombShape, DriveParams, Joint, JointLimits, LinkInertia, Model, Transform, Vec3, VecN,
 };
@@ -334,8 +334,10 @@ impl Robot {
     }
 
     /// What loading the URDF left out of the chain and where it went, one line each (for
-    /// the command line and reports): off-chain links fused into each model link, and the
-    /// links dropped below the tip. Empty for a plain chain.
+    /// the command line and reports): off-chain links fused into each model link, the
+    /// links dropped below the tip, and links whose inertials are no rigid body's (CAD
+    /// exports have them; a massless link, all zero, is allowed). Empty for a plain chain
+    /// of physical links.
     pub fn chain_notes(&self) -> Vec<String> {
         let mut notes = vec![];
         for into in &self.link_names {
@@ -352,6 +354,24 @@ impl Robot {
                 self.dropped_links.join(", "),
                 self.link_names.last().map(String::as_str).unwrap_or("")
             ));
+        }
+        notes.extend(self.inertial_notes());
+        notes
+    }
+
+    /// The links whose inertials no body has (`physical::check_link_limits`), one line each:
+    /// a CAD export's broken inertia is a nominal error no re-fit of its own makes physical.
+    pub fn inertial_notes(&self) -> Vec<String> {
+        let theta = self.params();
+        let mut notes = vec![];
+        for (k, link) in self.link_names.iter().enumerate().take(self.dof()) {
+            let problems = physical::check_link_limits(&theta[link_col(k, 0)..link_col(k, LINK_PARAMS)]);
+            if !problems.is_empty() {
+                notes.push(format!(
+                    "link '{link}' is no rigid body: {} (the nominal model is not physical; `identify --consistent` fits one that is)",
+                    problems.join("; ")
+                ));
+            }
         }
         notes
     }

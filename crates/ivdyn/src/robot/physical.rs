@@ -83,6 +83,23 @@ fn fmt3(v: &[f64]) -> String {
 
 /// Problems of one link's 10 parameters (empty when physically consistent).
 pub fn check_link(p: &[f64]) -> Vec<String> {
+    link_problems(p, 0.0)
+}
+
+/// Problems no body has, in one link's 10 parameters: a negative mass or principal
+/// moment, or broken triangle inequalities, beyond rounding. A point mass or a massless
+/// link (the limits of a rigid body, which URDFs hold) passes; [`check_link`] asks more.
+pub fn check_link_limits(p: &[f64]) -> Vec<String> {
+    if p.iter().take(LINK_PARAMS).all(|v| *v == 0.0) {
+        return vec![];
+    }
+    // rounding of the inertia's eigenvalues: relative to the largest parameter
+    let scale = p.iter().take(LINK_PARAMS).fold(0.0f64, |a, v| a.max(v.abs()));
+    link_problems(p, -1e-9 * scale)
+}
+
+/// `check_link`'s tests with each "positive" read as "above `floor`" (0: strict).
+fn link_problems(p: &[f64], floor: f64) -> Vec<String> {
     let mut out = vec![];
     if p.iter().take(LINK_PARAMS).any(|v| !v.is_finite()) {
         return vec!["parameters are not finite".into()];
@@ -96,13 +113,13 @@ pub fn check_link(p: &[f64]) -> Vec<String> {
         let ic = inertia_origin(p) + m * cx * cx;
         let mut eig: Vec<f64> = ic.symmetric_eigenvalues().iter().copied().collect();
         eig.sort_by(|a, b| a.total_cmp(b));
-        if !(eig[0] > 0.0) {
+        if !(eig[0] > floor) {
             out.push(format!(
                 "inertia about the centre of mass is not positive definite (principal moments {})",
                 fmt3(&eig)
             ));
         }
-        if eig[0] + eig[1] < eig[2] {
+        if eig[0] + eig[1] - eig[2] < floor {
             out.push(format!(
                 "principal moments {} violate the triangle inequality {:.4e} + {:.4e} >= {:.4e}",
                 fmt3(&eig),
@@ -112,9 +129,11 @@ pub fn check_link(p: &[f64]) -> Vec<String> {
             ));
         }
     }
-    let jmin = pseudo_inertia(p).symmetric_eigenvalues().min();
-    if !(jmin > 0.0) {
-        out.push(format!("pseudo-inertia is not positive definite (smallest eigenvalue {jmin:.4e})"));
+    if floor == 0.0 {
+        let jmin = pseudo_inertia(p).symmetric_eigenvalues().min();
+        if !(jmin > 0.0) {
+            out.push(format!("pseudo-inertia is not positive definite (smallest eigenvalue {jmin:.4e})"));
+        }
     }
     out
 }

@@ -1,7 +1,9 @@
-//! URDFs that urdfdom (ROS's parser) reads and urdf-rs refuses load as urdfdom reads them: a
-//! `<texture />` without a file name, as CAD exporters write it, inside a link's `<visual>`
-//! and in a top-level `<material>`. The appearance carries no dynamics, so the robot is the
-//! one of the same file without it; the masses are checked against the file's own `<mass>`.
+//! What CAD exports and hand-edited URDFs hold. Files that urdfdom (ROS's parser) reads and
+//! urdf-rs refuses load as urdfdom reads them: a `<texture />` without a file name, as CAD
+//! exporters write it, inside a link's `<visual>` and in a top-level `<material>`. The
+//! appearance carries no dynamics, so the robot is the one of the same file without it; the
+//! masses are checked against the file's own `<mass>`. A link whose inertials no body has is
+//! noted by name; a point mass (zero inertia about its COM, a rigid body's limit) is not.
 
 use std::path::PathBuf;
 
@@ -54,4 +56,33 @@ fn an_unexpanded_xacro_says_so() {
     let xacro = text.replacen("<mass value=\"2.2\"/>", "<mass value=\"${m3}\"/>", 1);
     let e = load_str_with(&xacro, &p, &UrdfOptions::default()).unwrap_err().to_string();
     assert!(e.contains("cannot parse URDF") && e.contains("xacro robot.urdf.xacro > robot.urdf"), "{e}");
+}
+
+/// arm7_hand.urdf with link3's `<inertia>` replaced.
+fn link3_inertia(text: &str, inertia: &str) -> String {
+    let old = r#"<inertia ixx="0.015" ixy="0.002" ixz="0.001" iyy="0.013" iyz="-0.001" izz="0.008"/>"#;
+    assert!(text.contains(old));
+    text.replacen(old, inertia, 1)
+}
+
+fn notes_of(text: &str) -> String {
+    let (p, _) = arm7();
+    load_str_with(text, &p, &UrdfOptions::new(None, Some("flange"))).unwrap().chain_notes().join("\n")
+}
+
+#[test]
+fn links_no_body_has_are_noted() {
+    let (_, text) = arm7();
+    assert!(!notes_of(&text).contains("no rigid body"), "{}", notes_of(&text));
+    // a negative principal moment
+    let neg =
+        notes_of(&link3_inertia(&text, r#"<inertia ixx="-0.01" ixy="0" ixz="0" iyy="0.013" iyz="0" izz="0.008"/>"#));
+    assert!(neg.contains("link 'link3' is no rigid body") && neg.contains("not positive definite"), "{neg}");
+    // 0.013 + 0.008 < 0.05: the triangle inequality of the principal moments broken
+    let tri =
+        notes_of(&link3_inertia(&text, r#"<inertia ixx="0.05" ixy="0" ixz="0" iyy="0.013" iyz="0" izz="0.008"/>"#));
+    assert!(tri.contains("link 'link3' is no rigid body") && tri.contains("triangle inequality"), "{tri}");
+    // a point mass is a rigid body's limit
+    let point = notes_of(&link3_inertia(&text, r#"<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>"#));
+    assert!(!point.contains("no rigid body"), "{point}");
 }
