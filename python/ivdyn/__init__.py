@@ -196,6 +196,14 @@ class Robot:
         return self._r.dropped_links
 
     @property
+    def notes(self) -> list:
+        """What loading left out of the chain and where it went (fused, dropped links), and
+        the links whose inertials no body has (a negative principal moment, broken triangle
+        inequalities: CAD exports have them), one sentence each: the command line's ``note:``
+        lines. Empty for a plain chain of physical links."""
+        return self._r.notes
+
+    @property
     def num_params(self) -> int:
         """``14 N``."""
         return 14 * self.dof

@@ -87,3 +87,22 @@ def test_pipeline_takes_the_option_with_a_urdf_path(tmp_path):
     assert out["samples"] > 0
     with pytest.raises(ValueError, match="fuse_beyond_tip"):
         ivdyn.simulate(ivdyn.Robot.from_urdf(URDF, tip="flange"), tip="flange", fuse_beyond_tip=True)
+
+
+def test_a_cad_export_loads_as_pinocchio_reads_it(tmp_path):
+    """A `<texture />` without a file name (CAD exporters write it; urdfdom and Pinocchio read
+    it, urdf-rs alone refuses it) in a visual of every link: the same dynamics as Pinocchio's
+    model of that file. A link whose inertia no body has is named in ``notes``."""
+    text = open(truncated_urdf(tmp_path)).read()
+    tex = '<visual><geometry><box size="0.1 0.1 0.1"/></geometry><material name="m"><texture /></material></visual>'
+    textured = tmp_path / "textured.urdf"
+    textured.write_text(text.replace("</inertial>", "</inertial>" + tex))
+    robot = ivdyn.Robot.from_urdf(str(textured), tip="flange")
+    assert not any("no rigid body" in n for n in robot.notes), robot.notes
+    compare(robot, pin_model(str(textured), ["cable_joint"]), 3)
+    old = 'ixx="0.015" ixy="0.002" ixz="0.001" iyy="0.013" iyz="-0.001" izz="0.008"'
+    assert old in text
+    broken = tmp_path / "broken.urdf"
+    broken.write_text(text.replace(old, 'ixx="-0.015" ixy="0" ixz="0" iyy="0.013" iyz="0" izz="0.008"'))
+    notes = ivdyn.Robot.from_urdf(str(broken), tip="flange").notes
+    assert any(n.startswith("link 'link3' is no rigid body") for n in notes), notes

@@ -43,6 +43,10 @@ what the true effects leave with the *true* rigid-body model) and OUT/split.json
     .venv/bin/python python/tools/make_cad_cases.py --out /tmp/cad_cases [--duration 2]
     .venv/bin/python python/tools/make_cad_cases.py --out fixtures/diagnose_cad --only ur5/e15_0fx,...
     .venv/bin/python python/tools/make_cad_cases.py --set random --out /tmp/random_cases [--arms 6] [--duration 20:60]
+    .venv/bin/python python/tools/make_cad_cases.py --set random --everywhere coulomb_friction,viscous_friction ...
+
+`--everywhere KINDS`: those kinds go on every joint of the arm (a real arm's friction is on all
+its joints), each joint's size drawn as above.
 """
 import argparse
 import json
@@ -64,6 +68,11 @@ KINDS = ["coulomb_friction", "viscous_friction", "armature", "torque_offset", "j
 DRIVE_KINDS = ["asymmetric_coulomb_friction", "smooth_coulomb_friction", "load_dependent_friction", "torque_gain",
                "torque_ripple", "time_delay"]
 RIPPLE_N = [4, 6, 8, 12, 16]
+# kinds drawn on every joint instead of 1-3 (`--everywhere`): a real arm's friction is on all
+# of its joints (issue 15: viscous friction on all 7 joints named on 3 of them)
+EVERYWHERE_KINDS = ["coulomb_friction", "viscous_friction", "armature", "asymmetric_coulomb_friction",
+                    "smooth_coulomb_friction", "load_dependent_friction"]
+EVERYWHERE = set()
 SPLIT_SEED = 15
 
 
@@ -237,6 +246,8 @@ def draw_effects(cfg, robot, names, seed, count, rng, kinds=KINDS):
         if kind in DRIVE_KINDS:
             tau = robot.rnea(q, qd, qdd)
             js = drive_joints(kind, n, sig, tau, rng)
+            if kind in EVERYWHERE:
+                js = list(range(n))
             if js:
                 p = drive_parameters(kind, js, rng.uniform(5.0, 15.0, len(js)), sig, q, qd, tau, rng)
                 effects.append({"name": str(kind), "joints": [names[j] for j in js], "parameters": p})
@@ -252,6 +263,8 @@ def draw_effects(cfg, robot, names, seed, count, rng, kinds=KINDS):
                                            "inertia": [1.2 * r2, 0.0, 0.0, 1.0 * r2, 0.0, 0.8 * r2]}})
             continue
         js = sorted(int(j) for j in rng.choice(n, size=int(rng.integers(1, 4)), replace=False))
+        if kind in EVERYWHERE:
+            js = list(range(n))
         k = rng.uniform(5.0, 15.0, len(js))
         rms_of = lambda x: np.sqrt(np.mean(x ** 2, axis=0))  # noqa: E731
         if kind == "coulomb_friction":
@@ -401,8 +414,14 @@ def main(argv=None):
     ap.add_argument("--friction-solref", choices=["stiff", "mujoco"], default="stiff", help="solref of the "
                     "friction-loss constraints: (2 dt, 1), the stiffest stable one, or MuJoCo's soft default "
                     "(0.02 s, 1), which makes Coulomb friction creep near zero velocity")
+    ap.add_argument("--everywhere", default="", help="comma list of kinds drawn on every joint instead of 1-3 "
+                    f"(of {', '.join(EVERYWHERE_KINDS)}); the draws of the other effects change with it")
     args = ap.parse_args(argv)
     mdc.FRICTION_SOLREF = args.friction_solref
+    EVERYWHERE.clear()
+    EVERYWHERE.update(k for k in args.everywhere.split(",") if k)
+    if not EVERYWHERE <= set(EVERYWHERE_KINDS):
+        ap.error(f"--everywhere: {sorted(EVERYWHERE - set(EVERYWHERE_KINDS))} not among {EVERYWHERE_KINDS}")
     kinds = KINDS if args.no_drives else KINDS + DRIVE_KINDS
     if args.set == "cad":
         arms = [(name, 1500 + 100 * i) for i, name in enumerate(["ur5", "panda", "ur3", "talos_arm"])]

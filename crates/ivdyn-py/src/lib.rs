@@ -195,6 +195,13 @@ impl PyRobot {
         self.inner.dropped_links.clone()
     }
 
+    /// What loading left out of the chain and where it went, and links whose inertials no
+    /// body has, one line each (`Robot::chain_notes`: the command line's `note:` lines).
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.inner.chain_notes()
+    }
+
     #[getter]
     fn param_names(&self) -> Vec<String> {
         self.inner.param_names()
