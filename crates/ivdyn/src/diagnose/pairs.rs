@@ -12,7 +12,12 @@
 //! Direction-dependent Coulomb friction (Coulomb friction and its `[qd > 0]` column) is
 //! tried the same way: it refines Coulomb friction found on a joint, so without this it
 //! would never be tried where Coulomb friction alone fails the share. So is smooth (tanh)
-//! friction, with the effects of real drives (`score_smooth`).
+//! friction, with the effects of real drives (`score_smooth`), and as a member of a pair
+//! beside another effect (not beside another friction shape, nor beside an offset: with a
+//! constant a tanh stands for direction-dependent friction), its tanh kept only where it
+//! beats the same pair with `sign(qd)` as a refinement must (`smooth_over_sign`): a real
+//! arm's joint often lacks smooth friction, viscous friction and a third effect at once, and
+//! viscous friction named first takes the tanh's slope.
 
 use super::dictionary::C_Q;
 use super::drive_rules::{grid, with_shape};
@@ -23,7 +28,7 @@ use super::{CandidateScore, EffectKind, JointScore};
 
 /// The effects tried in pairs: the per-joint basic vocabulary, then the per-joint effects
 /// of real drives (searched only with them; a ripple with its harmonic on its grid).
-const KINDS: [EffectKind; 9] = [
+const KINDS: [EffectKind; 10] = [
     EffectKind::Coulomb,
     EffectKind::Viscous,
     EffectKind::Armature,
@@ -33,6 +38,7 @@ const KINDS: [EffectKind; 9] = [
     EffectKind::TorqueGain,
     EffectKind::TimeDelay,
     EffectKind::TorqueRipple,
+    EffectKind::SmoothCoulomb,
 ];
 
 /// Smallest RMS (in noise standard deviations of the joint) of the torque each member of a
@@ -109,23 +115,57 @@ fn joint_candidates(ctx: &Ctx, m: &Model, j: usize) -> (Vec<GainedPair>, Option<
 }
 
 /// Selects joint `j`'s parameters of effect `e` (a spring's position column only: its
-/// constant is an offset's).
+/// constant is an offset's; smooth friction's tanh, held as Coulomb friction's shape).
 fn of(j: usize, e: EffectKind) -> impl Fn(&Param) -> bool {
-    move |p: &Param| p.joint == Some(j) && p.kind == Some(e) && (e != EffectKind::JointSpring || p.col == C_Q)
+    use EffectKind::{Coulomb, JointSpring, SmoothCoulomb};
+    move |p: &Param| {
+        p.joint == Some(j)
+            && (p.kind == Some(e) || e == SmoothCoulomb && p.kind == Some(Coulomb))
+            && (e != JointSpring || p.col == C_Q)
+    }
+}
+
+/// `m` with `e` on joint `j` at grid entry `g`: smooth friction as Coulomb friction with its
+/// `sign(qd)` replaced by the tanh (as `score_smooth` builds it).
+fn add(m: &Model, e: EffectKind, j: usize, g: usize) -> Model {
+    match e {
+        EffectKind::SmoothCoulomb => with_shape(&m.with(Some(j), EffectKind::Coulomb), e, j, g),
+        _ => with_shape(m, e, j, g),
+    }
+}
+
+/// `m` without `e` on joint `j` (smooth friction: its Coulomb friction too).
+fn remove(m: &Model, e: EffectKind, j: usize) -> Model {
+    match e {
+        EffectKind::SmoothCoulomb => m.without(Some(j), EffectKind::Coulomb).without(Some(j), e),
+        _ => m.without(Some(j), e),
+    }
+}
+
+/// Friction shapes: one per joint, so a pair holds at most one.
+fn friction_shape(e: EffectKind) -> bool {
+    use EffectKind::{AsymmetricCoulomb, Coulomb, LoadDependent, SmoothCoulomb, Stribeck};
+    matches!(e, Coulomb | AsymmetricCoulomb | SmoothCoulomb | Stribeck | LoadDependent)
 }
 
 /// The pair `(a, b)` on joint `j` with its score, when it can go there and passes.
 fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> Option<(JointScore, Model)> {
-    use EffectKind::{AsymmetricCoulomb, JointSpring, TorqueGain, TorqueOffset};
+    use EffectKind::{AsymmetricCoulomb, Coulomb, JointSpring, SmoothCoulomb, Stribeck, TorqueGain, TorqueOffset};
     // a spring holds an offset's column, direction-dependent friction one too; a gain on the
-    // terminal joint is a scale of the terminal link (as `rules::score_joint_effect` says)
+    // terminal joint is a scale of the terminal link (as `rules::score_joint_effect` says);
+    // smooth friction only where the joint has no friction of a shape yet (`score_smooth`)
     let offset_like = |e: EffectKind| matches!(e, TorqueOffset | JointSpring);
     let blocked = |e: EffectKind| match e {
         TorqueOffset => m.has(j, JointSpring) || m.has(j, AsymmetricCoulomb),
         TorqueGain if j + 1 == ctx.n => true,
+        SmoothCoulomb => [Coulomb, AsymmetricCoulomb, Stribeck, SmoothCoulomb].iter().any(|&x| m.has(j, x)),
         _ => m.has(j, e),
     };
-    if offset_like(a) && offset_like(b) || blocked(a) || blocked(b) {
+    // with an offset, smooth friction would stand for direction-dependent friction (on a
+    // moving joint its level plus a constant), which `score_asymmetric` names
+    let smooth = a == SmoothCoulomb || b == SmoothCoulomb;
+    let pair_blocked = smooth && (friction_shape(a) && friction_shape(b) || a == TorqueOffset || b == TorqueOffset);
+    if offset_like(a) && offset_like(b) || blocked(a) || blocked(b) || pair_blocked {
         return None;
     }
     // a spring replaces an offset found on the joint (its constant is the offset's column),
@@ -138,7 +178,7 @@ fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> O
     let mut best: Option<(JointScore, Model)> = None;
     for ga in grid(ctx, a, j) {
         for gb in grid(ctx, b, j) {
-            let l = with_shape(&with_shape(&start, a, j, ga), b, j, gb);
+            let l = add(&add(&start, a, j, ga), b, j, gb);
             let sc = ctx.joint_score(m, &l, j, &|p| sa(p) || sb(p));
             if best.as_ref().is_none_or(|(x, _)| sc.heldout_gain > x.heldout_gain) {
                 best = Some((sc, l));
@@ -150,7 +190,7 @@ fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> O
         return None;
     }
     for (x, sel) in [(a, &sa), (b, &sb)] {
-        let without = l.without(Some(j), x);
+        let without = remove(&l, x, j);
         // a spring's position column is tested beside the constant, as a single spring is
         let base = if x == EffectKind::JointSpring { without.with(Some(j), EffectKind::TorqueOffset) } else { without };
         let member = ctx.joint_score(&base, &l, j, sel);
@@ -161,7 +201,23 @@ fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> O
             return None;
         }
     }
+    if smooth && !smooth_over_sign(ctx, &l, j) {
+        return None;
+    }
     Some((sc, l))
+}
+
+/// The tanh of a pair's smooth friction is what the data ask for, not a sharp Coulomb
+/// friction's look-alike: against the same pair with `sign(qd)` it passes the rules of a
+/// refinement and changes the torque by the size rule (`drive_rules::smooth_size`), and the
+/// pair with direction-dependent friction in its place leaves more of the held-out residual
+/// (a tanh and its partner otherwise stand for levels that differ with the direction).
+fn smooth_over_sign(ctx: &Ctx, l: &Model, j: usize) -> bool {
+    use EffectKind::{AsymmetricCoulomb, Coulomb, SmoothCoulomb};
+    let sign = l.without(Some(j), SmoothCoulomb).with(Some(j), Coulomb);
+    let mut sc = ctx.joint_score(&sign, l, j, &|p: &Param| p.joint == Some(j) && p.kind == Some(SmoothCoulomb));
+    super::drive_rules::smooth_size(ctx, &sign, l, j, &mut sc);
+    sc.significant && ctx.heldout_rss(l) < ctx.heldout_rss(&sign.with(Some(j), AsymmetricCoulomb))
 }
 
 /// Direction-dependent Coulomb friction on joint `j` as one candidate: Coulomb friction

@@ -811,3 +811,45 @@ fn named_in(set: &str, name: &str) -> (Value, DiagnosisJson, Vec<(String, Vec<St
     let names = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
     (case, d, names)
 }
+
+/// Friction on every joint, as a real arm has it (issue 15: viscous friction on all 7 joints
+/// named on 3): `fixtures/diagnose_every/rarm4_6j/e30_3fx` (`make_cad_cases.py --everywhere`,
+/// inertials 30 % off, 11 s jittered with re-published samples): viscous and smooth friction
+/// on all six joints, springs on joints 5 and 6. Viscous friction is named first on every
+/// joint, its level taking the tanh's slope; smooth friction then refines no Coulomb friction
+/// found, and alone (`pairs::score_smooth`) leaves the share short where a spring is missing
+/// too. Since smooth friction is a member of the pairs (session 27) it is named on joints 1-5
+/// and the spring on joint 5 (before: smooth friction on joints 3 and 4, no spring on 5,
+/// joint 5's `fv` 0.90 against a true 0.52). Asserted: nothing beyond the truth; viscous
+/// friction on all six joints, springs on 5 and 6, smooth friction on joints 1-5 (joint 6's,
+/// 0.12 N m beside a spring, stays in viscous friction's level: the miss left); `fv` and `fc`
+/// on joints 2-5 within 12 % of truth.
+#[test]
+fn friction_on_every_joint() {
+    let (case, d, names) = named_in("diagnose_every/rarm4_6j", "e30_3fx");
+    let truth: std::collections::BTreeMap<String, Vec<String>> = case["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| (e["name"].as_str().unwrap().to_string(), serde_json::from_value(e["joints"].clone()).unwrap()))
+        .collect();
+    for (name, joints) in &names {
+        assert!(joints.iter().all(|j| truth.get(name).is_some_and(|t| t.contains(j))), "{name} on {joints:?}");
+    }
+    let on = |name: &str| names.iter().find(|(n, _)| n == name).map(|(_, j)| j.clone()).unwrap_or_default();
+    let all: Vec<String> = (1..=6).map(|k| format!("joint_{k}")).collect();
+    assert_eq!(on("viscous_friction"), all);
+    assert_eq!(on("joint_spring"), vec!["joint_5", "joint_6"]);
+    assert_eq!(on("smooth_coulomb_friction"), all[..5].to_vec());
+    let param = |name: &str, key: &str| {
+        let named = f64s(&d.effects.iter().find(|e| e.name == name).unwrap().parameters[key]);
+        let e = case["effects"].as_array().unwrap().iter().find(|e| e["name"] == name).unwrap();
+        (named, f64s(&e["parameters"][key]))
+    };
+    let (fv, fv_true) = param("viscous_friction", "fv");
+    let (fc, fc_true) = param("smooth_coulomb_friction", "fc");
+    for k in 1..5 {
+        assert!((fv[k] - fv_true[k]).abs() <= 0.12 * fv_true[k], "joint {}: fv {} vs {}", k + 1, fv[k], fv_true[k]);
+        assert!((fc[k] - fc_true[k]).abs() <= 0.12 * fc_true[k], "joint {}: fc {} vs {}", k + 1, fc[k], fc_true[k]);
+    }
+}
