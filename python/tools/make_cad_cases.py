@@ -67,6 +67,8 @@ KINDS = ["coulomb_friction", "viscous_friction", "armature", "torque_offset", "j
 # the effects of real drives (issue 15 item 2), drawn beside the others (`--no-drives`: without)
 DRIVE_KINDS = ["asymmetric_coulomb_friction", "smooth_coulomb_friction", "load_dependent_friction", "torque_gain",
                "torque_ripple", "time_delay"]
+# drawn only when `--kinds` names them (the default draws stay those of the committed fixtures)
+EXTRA_KINDS = ["stribeck_friction"]
 RIPPLE_N = [4, 6, 8, 12, 16]
 # kinds drawn on every joint instead of 1-3 (`--everywhere`): a real arm's friction is on all
 # of its joints (issue 15: viscous friction on all 7 joints named on 3 of them)
@@ -205,6 +207,11 @@ def drive_parameters(kind, js, k, sig, q, qd, tau, rng):
         return {"fc_pos": [s * (1 + x) for s, x in zip(size, a)], "fc_neg": [s * (1 - x) for s, x in zip(size, a)]}
     if kind == "smooth_coulomb_friction":
         return {"fc": size, "vs": [float(rng.uniform(0.2, 0.4) * rms_of(qd)[j]) for j in js]}
+    if kind == "stribeck_friction":
+        # static friction fc + fs of 1.5-2 fc, falling to fc within 5-15 % of the joint's RMS speed
+        fc = [s * float(rng.uniform(0.6, 0.8)) for s in size]
+        return {"fc": fc, "fs": [c * float(rng.uniform(0.5, 1.0)) for c in fc],
+                "vs": [float(rng.uniform(0.05, 0.15) * rms_of(qd)[j]) for j in js]}
     if kind == "load_dependent_friction":
         return {"mu": [s / float(rms_of(tau)[j]) for s, j in zip(size, js)]}
     if kind == "torque_gain":
@@ -243,7 +250,7 @@ def draw_effects(cfg, robot, names, seed, count, rng, kinds=KINDS):
     n = len(names)
     effects = []
     for kind in rng.choice(kinds, size=count, replace=False):
-        if kind in DRIVE_KINDS:
+        if kind in DRIVE_KINDS or kind in EXTRA_KINDS:
             tau = robot.rnea(q, qd, qdd)
             js = drive_joints(kind, n, sig, tau, rng)
             if kind in EVERYWHERE:
@@ -414,6 +421,8 @@ def main(argv=None):
     ap.add_argument("--friction-solref", choices=["stiff", "mujoco"], default="stiff", help="solref of the "
                     "friction-loss constraints: (2 dt, 1), the stiffest stable one, or MuJoCo's soft default "
                     "(0.02 s, 1), which makes Coulomb friction creep near zero velocity")
+    ap.add_argument("--kinds", default="", help="comma list of the kinds to draw from instead of the default "
+                    f"(with {', '.join(EXTRA_KINDS)}, which the default leaves out)")
     ap.add_argument("--everywhere", default="", help="comma list of kinds drawn on every joint instead of 1-3 "
                     f"(of {', '.join(EVERYWHERE_KINDS)}); the draws of the other effects change with it")
     args = ap.parse_args(argv)
@@ -423,6 +432,11 @@ def main(argv=None):
     if not EVERYWHERE <= set(EVERYWHERE_KINDS):
         ap.error(f"--everywhere: {sorted(EVERYWHERE - set(EVERYWHERE_KINDS))} not among {EVERYWHERE_KINDS}")
     kinds = KINDS if args.no_drives else KINDS + DRIVE_KINDS
+    if args.kinds:
+        kinds = args.kinds.split(",")
+        unknown = sorted(set(kinds) - set(KINDS + DRIVE_KINDS + EXTRA_KINDS))
+        if unknown:
+            ap.error(f"--kinds: {unknown} not among {KINDS + DRIVE_KINDS + EXTRA_KINDS}")
     if args.set == "cad":
         arms = [(name, 1500 + 100 * i) for i, name in enumerate(["ur5", "panda", "ur3", "talos_arm"])]
     else:

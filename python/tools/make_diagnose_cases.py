@@ -33,9 +33,12 @@ the step), or as a sensor model applied to the recorded torque:
     time_delay        sensor: the logged effort of sample k is the applied joint torque at
                       t_k - delay_s (linear interpolation; the first sample's before the log)
 
-`stribeck_friction` is not generated: MuJoCo's joint friction loss has a constant magnitude and
-no velocity dependence, so MuJoCo cannot express it with its own mechanisms (see
-docs/diagnose-data.md).
+    stribeck_friction  joint `frictionloss` set before every step to fc + fs exp(-(qd/vs)^2) at
+                      the step's velocity (constraint force: stick phases hold up to fc + fs,
+                      the static friction; the level falls to fc as the joint speeds up)
+
+The UR5 and Panda fixtures of this script have no Stribeck friction (their manifests say so);
+make_cad_cases.py draws it with `--kinds`.
 
 Before anything is simulated, MuJoCo's inverse dynamics (`mj_inverse`, qacc given) is checked
 against ivdyn's `rnea` on the clean model (and the mass matrices against each other); the script
@@ -309,7 +312,7 @@ def mujoco_model(cfg, effects, joint_names, dt=DT):
             elif e["name"] == "asymmetric_coulomb_friction":
                 j.frictionloss = 0.5 * (p["fc_pos"][i] + p["fc_neg"][i])
                 friction_solref(j, dt)
-            elif e["name"] == "load_dependent_friction":
+            elif e["name"] in ("load_dependent_friction", "stribeck_friction"):
                 friction_solref(j, dt)   # frictionloss itself is set every step
         if e["name"] == "payload":
             parent = spec.body(cfg["terminal_link"])
@@ -486,7 +489,14 @@ def drive_force(effects, names, q, qd):
 
 def load_friction(m, d, effects, names):
     """Sets each load-dependent joint's `frictionloss` to mu |tau_load| (MuJoCo's rigid-body
-    torque `mj_rne` at the current state and the previous step's acceleration)."""
+    torque `mj_rne` at the current state and the previous step's acceleration), and each
+    Stribeck joint's to fc + fs exp(-(qd / vs)^2) at the current velocity."""
+    for e in effects:
+        if e["name"] == "stribeck_friction":
+            p = e["parameters"]
+            for i, jn in enumerate(e["joints"]):
+                j = names.index(jn)
+                m.dof_frictionloss[j] = p["fc"][i] + p["fs"][i] * math.exp(-(d.qvel[j] / p["vs"][i]) ** 2)
     lf = [(names.index(jn), p_mu) for e in effects if e["name"] == "load_dependent_friction"
           for jn, p_mu in zip(e["joints"], e["parameters"]["mu"])]
     if not lf:
@@ -620,6 +630,9 @@ def effect_torque(effects, names, q, qd, qdd, robot_true, t=None):
                 out[:, j] += p["fc"][i] * np.tanh(qd[:, j] / p["vs"][i])
             elif e["name"] == "load_dependent_friction":
                 out[:, j] += p["mu"][i] * np.abs(rigid[:, j]) * np.sign(qd[:, j])
+            elif e["name"] == "stribeck_friction":
+                level = p["fc"][i] + p["fs"][i] * np.exp(-(qd[:, j] / p["vs"][i]) ** 2)
+                out[:, j] += level * np.sign(qd[:, j])
             elif e["name"] == "torque_ripple":
                 w = 2 * math.pi / p["period"][i]
                 out[:, j] += p["a"][i] * np.sin(w * q[:, j]) + p["b"][i] * np.cos(w * q[:, j])
