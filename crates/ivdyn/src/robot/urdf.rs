@@ -21,7 +21,7 @@
 //!   below the root on fixed joints.
 //! - `<dynamics damping friction>` become the viscous and Coulomb drive parameters.
 
-use super::urdf_lenient::{first_joint_origin_only, without_appearance};
+use super::urdf_lenient::{first_joint_origin_only, with_location, without_appearance};
 use super::{Chain, DynModel, MAX_DOF, Robot};
 use crate::error::{Error, Result};
 use ivdyn_core::model::GRAVITY_Z;
@@ -75,8 +75,9 @@ pub fn load_str_with(text: &str, file: &Path, opts: &UrdfOptions) -> Result<Robo
 }
 
 /// urdf-rs's reading of `text`; when it fails, retried on the text fixed up as urdfdom reads
-/// it (`urdf_lenient`: duplicated joint origins, then the appearance dropped). The first
-/// error stands when no fix-up helps.
+/// it (`urdf_lenient`: duplicated joint origins, then the appearance dropped). When no fix-up
+/// helps, the error is that of the most fixed-up text (what is wrong beyond what urdfdom
+/// forgives), located in the file as given.
 fn parse_as_urdfdom(text: &str, file: &Path) -> Result<urdf_rs::Robot> {
     let parse = |t: &str| {
         urdf_rs::read_from_string(t).map_err(|e| Error::UrdfParse { file: file.to_path_buf(), msg: e.to_string() })
@@ -89,9 +90,20 @@ fn parse_as_urdfdom(text: &str, file: &Path) -> Result<urdf_rs::Robot> {
     if let Ok(u) = parse(&origins) {
         return Ok(u);
     }
-    match without_appearance(&origins).map(|t| parse(&t)) {
-        Some(Ok(u)) => Ok(u),
-        _ => Err(with_xacro_hint(first, text)),
+    // not well-formed XML (no appearance to drop): the first error says where
+    let last = match without_appearance(&origins).map(|t| parse(&t)) {
+        Some(Ok(u)) => return Ok(u),
+        Some(Err(e)) => e,
+        None => first,
+    };
+    Err(with_xacro_hint(located(last, text), text))
+}
+
+/// urdf-rs names a missing attribute but not where: the element, its link or joint and line.
+fn located(e: Error, text: &str) -> Error {
+    match e {
+        Error::UrdfParse { file, msg } => Error::UrdfParse { file, msg: with_location(msg, text) },
+        e => e,
     }
 }
 
