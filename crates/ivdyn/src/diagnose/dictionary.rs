@@ -43,7 +43,11 @@ pub(super) const C_DELAY: usize = C_GAIN + 1;
 /// Ripple harmonics `sin(n q), cos(n q)` (period `2 pi / n`) for these `n`.
 pub(super) const RIPPLE_N: [f64; 5] = [4.0, 6.0, 8.0, 12.0, 16.0];
 pub(super) const C_RIPPLE: usize = C_DELAY + 1;
-pub(super) const C_PAYLOAD: usize = C_RIPPLE + 2 * RIPPLE_N.len();
+/// The stick phase, `sign(qd)` where the joint is at rest (`REST_SHARE` of its RMS speed) and
+/// 0 elsewhere: there a joint held by its friction has any friction within the static level,
+/// not the Stribeck shape's peak (`Model::stick`).
+pub(super) const C_STUCK: usize = C_RIPPLE + 2 * RIPPLE_N.len();
+pub(super) const C_PAYLOAD: usize = C_STUCK + 1;
 /// Link-scale columns of the look-alike check and the nominal re-fit: link i's nominal
 /// torque on the joint split by the parts of its inertial parameters, `Y_i,g theta_i,g`
 /// for g = its mass, its first moment (mass times COM) and its rotational inertia, at
@@ -200,9 +204,12 @@ fn joint_columns(s: &Signals, tau_nom: &[f64], n: usize, j: usize, size: usize) 
         c[C_QD][k] = qd;
         c[C_SIGN][k] = sg;
         c[C_QDD][k] = qdd;
+        // the Stribeck shapes where the joint slides; at rest the stick column stands for them
+        let stuck = qd.abs() <= REST_SHARE * qd_rms;
         for g in 0..STRIBECK_VS.len() {
-            c[C_STRIBECK + g][k] = (-(qd / vs[g]).powi(2)).exp() * sg;
+            c[C_STRIBECK + g][k] = if stuck { 0.0 } else { (-(qd / vs[g]).powi(2)).exp() * sg };
         }
+        c[C_STUCK][k] = if stuck { sg } else { 0.0 };
         drive_columns(&mut c, k, q, qd, tau_nom[k * n + j], &smooth_vs);
     }
     delay_column(&mut c[C_DELAY], tau_nom, n, j, s.dt, &s.segments());

@@ -6,7 +6,7 @@ use nalgebra::{DMatrix, DVector};
 use super::EffectKind;
 use super::dictionary::{
     C_BASE, C_DELAY, C_GAIN, C_LINK, C_LOAD, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_RIPPLE, C_SIGN, C_SIGN_POS,
-    C_STRIBECK, C_TANH, C_TARGET, Dictionary, Grams, LINK_GROUPS, RIPPLE_N, SMOOTH_VS,
+    C_STRIBECK, C_STUCK, C_TANH, C_TARGET, Dictionary, Grams, LINK_GROUPS, RIPPLE_N, SMOOTH_VS,
 };
 use super::residual::noise_and_tau;
 
@@ -26,6 +26,14 @@ pub(super) struct Param {
 pub(super) struct Model {
     pub(super) per_joint: Vec<Vec<EffectKind>>,
     pub(super) stribeck_vs: Vec<usize>,
+    /// The stick column (`C_STUCK`) on joints without Stribeck friction: the model Stribeck
+    /// friction is compared with (Stribeck friction has it always). Coulomb friction's
+    /// `sign(qd)` takes a stuck joint's samples at their noisy sign; beside the Stribeck
+    /// shape, which weighs the lowest speeds most, those samples (friction anywhere within
+    /// the static level) pull `fs` to zero. The stick column holds them apart, and the
+    /// comparison model has it too, so it gains Stribeck friction nothing on a joint that
+    /// only sticks.
+    pub(super) stick: Vec<bool>,
     /// Smooth Coulomb `vs` (index into `SMOOTH_VS`) per joint.
     pub(super) smooth_vs: Vec<usize>,
     /// Ripple harmonic (index into `RIPPLE_N`) per joint.
@@ -55,6 +63,7 @@ impl Model {
         Model {
             per_joint: vec![vec![]; n],
             stribeck_vs: vec![0; n],
+            stick: vec![false; n],
             smooth_vs: vec![0; n],
             ripple_n: vec![0; n],
             payload: false,
@@ -116,7 +125,7 @@ impl Model {
                     // k (q - q0) = k q + c: the constant is the offset's column, so a
                     // spring and an offset on one joint share it (never both: see rules)
                     EffectKind::JointSpring => vec![C_Q, C_ONE],
-                    EffectKind::Stribeck => vec![C_STRIBECK],
+                    EffectKind::Stribeck => vec![C_STRIBECK, C_STUCK],
                     EffectKind::Payload => vec![],
                 };
                 for c in cols {
@@ -125,6 +134,9 @@ impl Model {
                         p.push(Param { kind: Some(e), joint: Some(j), col: c });
                     }
                 }
+            }
+            if self.stick[j] && !effects.contains(&EffectKind::Stribeck) {
+                p.push(Param { kind: Some(EffectKind::Coulomb), joint: Some(j), col: C_STUCK });
             }
         }
         if self.all_shapes {

@@ -8,8 +8,8 @@
 
 pub use super::DiagnoseOptions;
 use super::assemble::{Found, assemble};
-use super::dictionary::Dictionary;
-use super::model::{Fit, Model, effect_torque, fit, rss_joint};
+use super::dictionary::{C_STUCK, Dictionary};
+use super::model::{Fit, Model, Param, effect_torque, fit, rss_joint};
 use super::prepare::prepare_best;
 use super::refit::{self, RefitDecision};
 use super::residual::rms_per_joint;
@@ -267,8 +267,13 @@ fn backward(ctx: &Ctx, m: &Model) -> (Model, Vec<Removal>) {
                 if e == EffectKind::Coulomb && refined {
                     continue;
                 }
-                let smaller = m.without(Some(j), e);
-                let sc = ctx.joint_score(&smaller, &m, j, &|p| p.joint == Some(j) && p.kind == Some(e));
+                let mut smaller = m.without(Some(j), e);
+                // Stribeck friction against Coulomb friction with its stick column (`Model::stick`)
+                if e == EffectKind::Stribeck {
+                    smaller.stick[j] = true;
+                }
+                let shape = |p: &Param| p.joint == Some(j) && p.kind == Some(e) && p.col != C_STUCK;
+                let sc = ctx.joint_score(&smaller, &m, j, &shape);
                 if !sc.significant && worst.as_ref().is_none_or(|w| sc.f < w.0) {
                     worst = Some((sc.f, Some(j), e));
                 }
