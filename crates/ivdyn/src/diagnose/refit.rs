@@ -275,13 +275,16 @@ fn decision_base(ctx: &Ctx, gr: &Grams, refit: usize) -> (Model, Vec<EffectKind>
     (base, against)
 }
 
-/// Whether the log calls for the re-fit, and with which ridge (module docs).
-pub(super) fn decide(ctx: &Ctx, d: &Dictionary, robot: &Robot) -> Option<RefitDecision> {
+/// Whether the log calls for the re-fit, and with which ridge (module docs); when it does
+/// not, why, in words with the numbers (for the details).
+pub(super) fn decide(ctx: &Ctx, d: &Dictionary, robot: &Robot) -> std::result::Result<RefitDecision, String> {
     let n = ctx.n;
     if n < 2 || d.nbase() == 0 {
-        return None; // one link: its change is a payload's business
+        // one link: its change is a payload's business
+        return Err("one moving link: a change of its inertials is the payload candidate's".into());
     }
-    let (ridge, consistent) = ridge_of_either_base(ctx, d, &robot.params())?;
+    let (ridge, consistent) = ridge_of_either_base(ctx, d, &robot.params())
+        .ok_or_else(|| "no ridge of the grid could be scored".to_string())?;
     let mut gr = ctx.gr.clone();
     gr.ridge = ridge;
     let (base, against) = decision_base(ctx, &gr, d.nbase());
@@ -301,7 +304,23 @@ pub(super) fn decide(ctx: &Ctx, d: &Dictionary, robot: &Robot) -> Option<RefitDe
             joints.push(j);
         }
     }
-    if joints.is_empty() { None } else { Some(RefitDecision { ridge, consistent, against, share, joints }) }
+    if joints.is_empty() {
+        return Err(not_on(ctx, ridge, &against, &share, &robot.joint_names));
+    }
+    Ok(RefitDecision { ridge, consistent, against, share, joints })
+}
+
+/// Why the re-fit is off: the most it removes on a joint, against what it needs.
+fn not_on(ctx: &Ctx, ridge: f64, against: &[EffectKind], share: &[f64], names: &[String]) -> String {
+    let j = (0..share.len()).max_by(|&a, &b| share[a].total_cmp(&share[b])).unwrap_or(0);
+    let against: String = against.iter().map(|e| format!(", {}", e.label())).collect();
+    format!(
+        "beside friction on every joint{against} where they explain more, a re-fit of the base parameters of all links but the terminal one (ridge {ridge:.0e}) removes at most {:.0} % of the held-out residual above the noise on a joint ({}); it needs {:.0} % and {:.2} noise std of RMS torque on one",
+        100.0 * share[j].max(0.0),
+        names[j],
+        100.0 * REFIT_MIN_SHARE,
+        ctx.opts.min_effect
+    )
 }
 
 /// `nominal_refit` of `diagnosis.json`: the base parameters of the links before the

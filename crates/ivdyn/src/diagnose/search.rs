@@ -37,7 +37,10 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     p.gr.prior = refit::prior_scales(&p.d, &robot.params());
     // the nominal model's own error first: with every candidate in, does a re-fit of it
     // still explain held-out residual? Then every model of the search contains it.
-    let refit = refit::decide(&Ctx::new(robot, &p, opts, 0)?, &p.d, robot);
+    let (refit, refit_off) = match refit::decide(&Ctx::new(robot, &p, opts, 0)?, &p.d, robot) {
+        Ok(r) => (Some(r), None),
+        Err(why) => (None, Some(format!("nominal model not re-fitted: {why}"))),
+    };
     if let Some(r) = &refit {
         p.gr.ridge = r.ridge;
     }
@@ -60,6 +63,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     if found.refit.is_some() {
         add_rotors(&ctx, &p.d, robot, t_len, &mut found)?;
     }
+    found.notes.extend(refit_off);
     assemble(robot, opts, &p, &ctx, found, baseline_rms, &r_nom)
 }
 

@@ -886,3 +886,20 @@ fn stribeck_friction_from_a_sticking_joint() {
         }
     }
 }
+
+/// On an exact model (the UR5 fixture's effect-free `clean_a`, MuJoCo from the same URDF)
+/// the nominal re-fit stays off, and the details say why with its numbers: the most it
+/// removes of a joint's held-out residual above the noise is below the 50 % it needs.
+#[test]
+fn an_exact_model_says_why_it_is_not_refitted() {
+    let m = cases_in("diagnose");
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "clean_a").unwrap();
+    let d = run_job("diagnose", case, &m);
+    assert!(d.json.effects.is_empty(), "{:?}", d.details);
+    assert!(d.json.nominal_refit.is_none());
+    let line = d.details.iter().find(|l| l.starts_with("nominal model not re-fitted: ")).expect("why not re-fitted");
+    let at = line.find("removes at most ").expect("its share") + "removes at most ".len();
+    let share: f64 = line[at..].split(' ').next().unwrap().parse().unwrap();
+    assert!((0.0..50.0).contains(&share), "{line}");
+    assert!(line.contains("it needs 50 %"), "{line}");
+}
