@@ -272,7 +272,7 @@ fn best_stribeck(ctx: &Ctx, m: &Model, j: usize) -> (JointScore, Model) {
 }
 
 /// Stribeck friction's shape column (not the stick column it brings, `Model::stick`).
-pub(super) fn stribeck_shape(p: &Param) -> bool {
+fn stribeck_shape(p: &Param) -> bool {
     p.kind == Some(EffectKind::Stribeck) && p.col != C_STUCK
 }
 
