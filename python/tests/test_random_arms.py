@@ -82,3 +82,25 @@ def test_sensor_variants_are_what_the_log_holds(tmp_path):
                                atol=sensor_variants.CURRENT_RES * 8.0)
     assert np.max(np.abs(log["q"] - q)[kept]) <= 0.5 * 2 * math.pi / mdc.ENCODER_COUNTS + 1e-7
     assert sensor_variants.diagnose_args(sensor)[:4] == ["--current-topic", "/joint_states", "--effort", "current"]
+
+
+def test_wide_motion_sweeps_three_times_the_angles_at_the_same_speeds(tmp_path, monkeypatch):
+    """`--motion wide`: amplitudes x3 at a base frequency of 0.13-0.2 Hz instead of 0.4-0.6.
+    The three harmonics keep their draws, so over 60 s the RMS angle about the centre is ~3x,
+    the RMS speed ~1x (f0 ratio 0.325-0.333 by the uniform draw, times 3: 0.975-1.0) and the
+    RMS acceleration ~1/3 (times f0 ratio again: 0.32-0.33); +-10 % for the harmonics' own
+    +-10 % frequency draws beating differently over the window."""
+    cfgs = {}
+    for motion in ("narrow", "wide"):
+        monkeypatch.setattr(mcc, "MOTION", motion)
+        cfgs[motion] = mcc.random_config("arm", str(tmp_path / motion), joints_seed=(7, 15001))
+    assert np.allclose(cfgs["wide"]["amp_scale"], 3.0 * cfgs["narrow"]["amp_scale"])
+    t = np.arange(60_000) * 1e-3
+    rms = lambda x: np.sqrt(np.mean(x ** 2, axis=0))  # noqa: E731
+    ref = {k: mdc.reference(c, 5003, t) for k, c in cfgs.items()}
+    centre = np.array(cfgs["wide"]["centres"])
+    ratio = [rms(ref["wide"][i] - (centre if i == 0 else 0)) / rms(ref["narrow"][i] - (centre if i == 0 else 0))
+             for i in range(3)]
+    assert np.all((2.7 < ratio[0]) & (ratio[0] < 3.3)), ratio[0]
+    assert np.all((0.88 < ratio[1]) & (ratio[1] < 1.1)), ratio[1]
+    assert np.all((0.29 < ratio[2]) & (ratio[2] < 0.37)), ratio[2]

@@ -165,12 +165,27 @@ def random_config(name, out, joints_seed=None):
     rng = np.random.default_rng(seed + 1)
     cfg["centres"] = [float(v) for v in rng.uniform(-1.0, 1.0, n)]
     cfg["amp_scale"] = rng.uniform(0.1, 0.2, n)
+    with_motion(cfg)
     robot = ivdyn.Robot.from_urdf(cfg["urdf_path"], base=cfg["base"], tip=cfg["tip"])
     t = np.arange(int(round(2.0 / mdc.DT))) * mdc.DT
     tau = robot.rnea(*mdc.reference(cfg, seed, t))
     cfg["torque_noise"] = [float(max(NOISE_FLOOR, round(NOISE_SHARE * v, 3))) for v in mdc.rms(tau)]
     total = sum(lk["mass"] for lk in arm["links"])
     cfg["payload_mass"] = (0.05 * total, 0.15 * total)
+    return cfg
+
+
+# `--motion wide`: each joint's amplitude this many times the default's at this base frequency
+# range (Hz): the same speeds, a third of the accelerations, three times the angles (about 1-2
+# rad peak to peak instead of 0.4-0.7), as an identification trajectory sweeps its poses.
+WIDE_AMPLITUDE, WIDE_F0 = 3.0, (0.13, 0.2)
+MOTION = "narrow"
+
+
+def with_motion(cfg):
+    """`cfg` with the reference of `MOTION` (module constant set by `--motion`)."""
+    if MOTION == "wide":
+        cfg.update(amp_scale=WIDE_AMPLITUDE * np.asarray(cfg["amp_scale"]), f0_range=WIDE_F0)
     return cfg
 
 
@@ -374,6 +389,8 @@ def write_case(cfg, robot, case, nominal, duration):
              "oracle": oracle}
     if mdc.FRICTION_SOLREF != "stiff":
         entry["friction_solref"] = mdc.FRICTION_SOLREF
+    if MOTION != "narrow":
+        entry["motion"] = MOTION
     stamps_ns = None
     if sensor is not None:
         q_meas, qd_meas, tau_meas, repeats = sensor_variants.finish(sensor, ex["t"], q_meas, qd_meas, tau_meas, srng)
@@ -425,7 +442,14 @@ def main(argv=None):
                     f"(with {', '.join(EXTRA_KINDS)}, which the default leaves out)")
     ap.add_argument("--everywhere", default="", help="comma list of kinds drawn on every joint instead of 1-3 "
                     f"(of {', '.join(EVERYWHERE_KINDS)}); the draws of the other effects change with it")
+    ap.add_argument("--motion", choices=["narrow", "wide"], default="narrow", help="--set random: the "
+                    "reference's sweep: 0.4-0.6 Hz harmonics over 0.4-0.7 rad, or three times the angles at a "
+                    "third of the frequency (same speeds; identification-like poses)")
     args = ap.parse_args(argv)
+    global MOTION
+    MOTION = args.motion
+    if MOTION != "narrow" and args.set != "random":
+        ap.error("--motion wide is for --set random (the CAD arms' amplitudes are set within their limits)")
     mdc.FRICTION_SOLREF = args.friction_solref
     EVERYWHERE.clear()
     EVERYWHERE.update(k for k in args.everywhere.split(",") if k)

@@ -407,11 +407,12 @@ def robot_config(name, out=None):
 
 # ----------------------------------------------------------------------------- trajectory
 def reference(cfg, seed, t):
-    """Sum of 3 harmonics per joint (base frequency 0.4-0.6 Hz), centred on the robot's centres."""
+    """Sum of 3 harmonics per joint (base frequency 0.4-0.6 Hz, or `cfg["f0_range"]`), centred on
+    the robot's centres."""
     centres = np.array(cfg["centres"])
     rng = np.random.default_rng(seed)
     n = len(centres)
-    f0 = rng.uniform(0.4, 0.6)
+    f0 = rng.uniform(*cfg.get("f0_range", (0.4, 0.6)))
     q = np.tile(centres, (len(t), 1))
     qd = np.zeros_like(q)
     qdd = np.zeros_like(q)
