@@ -197,7 +197,7 @@ fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> O
         if !member.significant || member.effect_rms < PAIR_MIN_EFFECT * ctx.sigma[j] {
             return None;
         }
-        if super::rules::inertia_like(x) && model_error_lookalike(ctx, &base, &l, j, sel).is_some() {
+        if super::rules::inertia_like(x) && model_error_lookalike(ctx, &base, &l, j, x, sel).is_some() {
             return None;
         }
     }
