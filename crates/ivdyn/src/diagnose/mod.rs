@@ -32,6 +32,7 @@ mod model;
 mod pairs;
 mod prepare;
 mod refit;
+mod regrid;
 pub mod report;
 mod residual;
 mod rotor;

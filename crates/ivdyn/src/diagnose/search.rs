@@ -113,6 +113,7 @@ fn search(
     let mut steps: Vec<(Step, Model)> = vec![];
     let mut rms_cur = model_rms(ctx, d, t_len, &m);
     let mut final_candidates = vec![];
+    let mut notes = vec![];
     for _ in 0..max_steps {
         let mut cands = score_candidates(ctx, &m);
         let bi = match best_candidate(&cands) {
@@ -134,7 +135,8 @@ fn search(
         explain_choice(&mut cands, bi);
         let effect = cands[bi].0.effect;
         let joints = cands[bi].0.joints.clone();
-        let (m_new, removed) = backward(ctx, &cands[bi].1);
+        let (m_new, removed, regridded) = backward(ctx, &cands[bi].1);
+        notes.extend(regridded);
         let rms_after = model_rms(ctx, d, t_len, &m_new);
         let mut step = Step {
             effect,
@@ -145,9 +147,11 @@ fn search(
             rms_after: rms_after.clone(),
         };
         rms_cur = rms_after;
-        if m_new == m {
-            // the backward step undid it: nothing new; the candidates, with why it went
+        if m_new.per_joint == m.per_joint && m_new.payload == m.payload {
+            // the backward step undid it: nothing new (but shapes chosen again); the
+            // candidates, with why it went
             final_candidates = undone(step.candidates, &removed);
+            m = m_new;
             break;
         }
         let companions = companion_steps(&mut step, &m, &m_new);
@@ -155,7 +159,7 @@ fn search(
         steps.push((step, m.clone()));
         steps.extend(companions.into_iter().map(|st| (st, m.clone())));
     }
-    Found { steps, final_candidates, model: m, refit, notes: vec![] }
+    Found { steps, final_candidates, model: m, refit, notes }
 }
 
 /// The candidates of a step the backward step undid, the accepted one marked not added
@@ -257,12 +261,18 @@ fn companion_steps(step: &mut Step, m: &Model, m_new: &Model) -> Vec<Step> {
 /// One effect the backward step removed: joint (`None`: the payload), effect, why.
 type Removal = (Option<usize>, EffectKind, String);
 
-/// Removes effects that are no longer significant given the others, then those that leave
-/// a joint unphysical (`unphysical_removal`) (backward step); what it removed, and why.
-fn backward(ctx: &Ctx, m: &Model) -> (Model, Vec<Removal>) {
+/// Chooses the grid shapes again (`regrid`), then removes effects that are no longer
+/// significant given the others, then those that leave a joint unphysical
+/// (`unphysical_removal`), until none goes (backward step); what it removed, and why, and
+/// the notes of the shapes it changed.
+fn backward(ctx: &Ctx, m: &Model) -> (Model, Vec<Removal>, Vec<String>) {
     let mut m = m.clone();
     let mut removed = vec![];
+    let mut notes = vec![];
     loop {
+        let (regridded, changed) = super::regrid::regrid(ctx, &m);
+        m = regridded;
+        notes.extend(changed);
         let mut worst: Option<(f64, Option<usize>, EffectKind)> = None;
         for j in 0..ctx.n {
             for &e in &m.per_joint[j] {
@@ -297,7 +307,7 @@ fn backward(ctx: &Ctx, m: &Model) -> (Model, Vec<Removal>) {
                 m = m.without(j, e);
                 removed.push((j, e, why));
             }
-            None => return (m, removed),
+            None => return (m, removed, notes),
         }
     }
 }
