@@ -11,7 +11,7 @@ model: what a perfect diagnosis with a perfect re-fit leaves). The parameters of
 named right are compared with the truth (`param_errors`: within 10 %, issue 15's criterion),
 in a table per effect and parameter printed before the summary line.
 
-    python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn] [--drives | --no-drives]
+    python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn] [--drives | --no-drives] [--identifiability]
 
 `--part heldout` runs the held-out third of split.json: run it once, at the end.
 """
@@ -144,7 +144,13 @@ def main(argv=None):
     vocab.add_argument("--drives", action="store_true", help="search the drive vocabulary too (diagnose --drives)")
     vocab.add_argument("--no-drives", action="store_true",
                        help="the basic vocabulary only (diagnose --no-drives); default: as diagnose decides per log")
+    ap.add_argument("--identifiability", action="store_true", help="also print, per rigid-body look-alike kind, "
+                    "the true pairs found against the part of their torque the re-fit's columns leave "
+                    "(lookalike_identifiability.py)")
     args = ap.parse_args(argv)
+    # MuJoCo and the generator are imported only when asked for
+    li = __import__("lookalike_identifiability") if args.identifiability else None
+    ident_rows = []
     with open(os.path.join(args.root, "split.json")) as f:
         split = json.load(f)
     ids = split["tune"] + split["heldout"] if args.part == "all" else split[args.part]
@@ -174,6 +180,10 @@ def main(argv=None):
                 continue
             named = pairs(d["effects"])
             ok = named_right(named, required, optional)
+            if li:
+                for key, z in li.identifiable_parts(args.root, m, case).items():
+                    status = "found" if key in named else "optional" if key in optional else "missed"
+                    ident_rows.append((key[0], z, status))
             perrs.extend(param_errors(case["effects"], d["effects"]))
             right += ok
             found += len(named & required)
@@ -194,6 +204,9 @@ def main(argv=None):
     cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = cpu1.ru_utime - cpu0.ru_utime + cpu1.ru_stime - cpu0.ru_stime
     print_param_table(perrs)
+    if li:
+        print("\nTrue look-alike pairs found, by the part of their torque the rigid-body columns leave:\n")
+        print(li.table(ident_rows))
     if n:
         print(f"\n{args.part}: {right} of {len(ids)} cases named exactly right; "
               f"false alarms on {sum(false_alarm_clean)} of {len(false_alarm_clean)} effect-free logs; "
