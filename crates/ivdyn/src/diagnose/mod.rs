@@ -25,6 +25,7 @@
 use serde::{Deserialize, Serialize};
 
 mod assemble;
+mod constant_view;
 mod dictionary;
 mod drive_rules;
 mod levels;

@@ -62,6 +62,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     }
     if found.refit.is_some() {
         add_rotors(&ctx, &p.d, robot, t_len, &mut found)?;
+        found.notes.extend(super::constant_view::note(&ctx, nbase, &robot.joint_names));
     }
     found.notes.extend(refit_off);
     assemble(robot, opts, &p, &ctx, found, baseline_rms, &r_nom)
