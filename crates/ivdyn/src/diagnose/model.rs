@@ -56,6 +56,9 @@ pub(super) struct Model {
     /// The terminal link's 10 inertial parameters free on this joint's row alone (the
     /// look-alike check of the terminal joint, whose torque is that link's alone).
     pub(super) terminal_row: Option<usize>,
+    /// The terminal link's 10 inertial parameters free on every row, as a correction of the
+    /// nominal pulled toward it by the re-fit's ridge, not a payload (`terminal_cad`).
+    pub(super) terminal_cad: bool,
 }
 
 impl Model {
@@ -72,6 +75,7 @@ impl Model {
             refit: 0,
             refit_skip: vec![],
             terminal_row: None,
+            terminal_cad: false,
         }
     }
 
@@ -156,6 +160,10 @@ impl Model {
         } else if let Some(j) = self.terminal_row {
             for k in 0..10 {
                 p.push(Param { kind: Some(EffectKind::Payload), joint: Some(j), col: C_PAYLOAD + k });
+            }
+        } else if self.terminal_cad {
+            for k in 0..10 {
+                p.push(Param { kind: None, joint: None, col: C_PAYLOAD + k });
             }
         }
         let links = if self.link_scale { self.per_joint.len() } else { 0 };

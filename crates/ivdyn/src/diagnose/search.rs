@@ -61,11 +61,44 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
         return Ok(d);
     }
     if found.refit.is_some() {
+        with_terminal_cad(&ctx, &robot.joint_names, &mut found);
         add_rotors(&ctx, &p.d, robot, t_len, &mut found)?;
         found.notes.extend(super::constant_view::note(&ctx, nbase, &robot.joint_names));
     }
     found.notes.extend(refit_off);
     assemble(robot, opts, &p, &ctx, found, baseline_rms, &r_nom)
+}
+
+/// The terminal link's own CAD error fitted once the search is done, when no payload is
+/// named: the re-fit leaves that link out (a change there is what a payload is), so its CAD
+/// error stays in the terminal joints' residual, where a friction or a delay can take part of
+/// it. The model with the link's 10 parameters free (ridge-pulled toward the nominal as the
+/// re-fit is) goes through the backward step, removing only what that link cannot be
+/// mistaken for (friction, delay, ripple: an offset, spring, armature or gain on those joints
+/// is what a change of the link makes, and the look-alike rules decided them; so is the
+/// constant of direction-dependent friction on a moving joint, which went on 4 joints of the
+/// tuning parts when it could be removed); kept when it removes something, with a note for
+/// each.
+fn with_terminal_cad(ctx: &Ctx, names: &[String], found: &mut Found) {
+    if found.model.payload {
+        return;
+    }
+    let mut m = found.model.clone();
+    m.terminal_cad = true;
+    let removable = |e: EffectKind| !super::rules::inertia_like(e) && e != EffectKind::AsymmetricCoulomb;
+    let (m, removed, regridded) = backward(ctx, &m, &removable);
+    if removed.is_empty() {
+        return;
+    }
+    for (j, e, why) in &removed {
+        let on = j.map_or(String::new(), |j| format!(" on {}", names[j]));
+        found.notes.push(format!(
+            "{}{on} not named: {why} once the terminal link's own CAD error (its inertial parameters, pulled toward the nominal; not a payload) is fitted",
+            e.label()
+        ));
+    }
+    found.notes.extend(regridded);
+    found.model = m;
 }
 
 /// The armatures the re-fit held (`rotor`), each as a step of its own after the search's
@@ -136,7 +169,7 @@ fn search(
         explain_choice(&mut cands, bi);
         let effect = cands[bi].0.effect;
         let joints = cands[bi].0.joints.clone();
-        let (m_new, removed, regridded) = backward(ctx, &cands[bi].1);
+        let (m_new, removed, regridded) = backward(ctx, &cands[bi].1, &|_| true);
         notes.extend(regridded);
         let rms_after = model_rms(ctx, d, t_len, &m_new);
         let mut step = Step {
@@ -266,7 +299,7 @@ type Removal = (Option<usize>, EffectKind, String);
 /// significant given the others, then those that leave a joint unphysical
 /// (`unphysical_removal`), until none goes (backward step); what it removed, and why, and
 /// the notes of the shapes it changed.
-fn backward(ctx: &Ctx, m: &Model) -> (Model, Vec<Removal>, Vec<String>) {
+fn backward(ctx: &Ctx, m: &Model, removable: &dyn Fn(EffectKind) -> bool) -> (Model, Vec<Removal>, Vec<String>) {
     let mut m = m.clone();
     let mut removed = vec![];
     let mut notes = vec![];
@@ -279,7 +312,7 @@ fn backward(ctx: &Ctx, m: &Model) -> (Model, Vec<Removal>, Vec<String>) {
             for &e in &m.per_joint[j] {
                 // Coulomb friction refined (smooth, direction-dependent) stays with its refinement
                 let refined = m.has(j, EffectKind::SmoothCoulomb) || m.has(j, EffectKind::AsymmetricCoulomb);
-                if e == EffectKind::Coulomb && refined {
+                if e == EffectKind::Coulomb && refined || !removable(e) {
                     continue;
                 }
                 let mut smaller = m.without(Some(j), e);
