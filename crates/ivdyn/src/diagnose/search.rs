@@ -336,7 +336,8 @@ fn backward(ctx: &Ctx, m: &Model, removable: &dyn Fn(EffectKind) -> bool) -> (Mo
             }
         }
         let why = "no longer significant given the other effects".to_string();
-        match worst.map(|(_, j, e)| (j, e, why)).or_else(|| unphysical_removal(ctx, &m)) {
+        // (what `removable` keeps stays, whichever rule would take it)
+        match worst.map(|(_, j, e)| (j, e, why)).or_else(|| unphysical_removal(ctx, &m)).filter(|r| removable(r.1)) {
             Some((j, e, why)) => {
                 m = m.without(j, e);
                 removed.push((j, e, why));
