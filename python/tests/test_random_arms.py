@@ -104,3 +104,19 @@ def test_wide_motion_sweeps_three_times_the_angles_at_the_same_speeds(tmp_path, 
     assert np.all((2.7 < ratio[0]) & (ratio[0] < 3.3)), ratio[0]
     assert np.all((0.88 < ratio[1]) & (ratio[1] < 1.1)), ratio[1]
     assert np.all((0.29 < ratio[2]) & (ratio[2] < 0.37)), ratio[2]
+
+
+def test_ripple_harmonics_off_the_diagnosis_grid(monkeypatch):
+    """`--ripple-n`: a ripple's period is 2 pi / n for n drawn from the given list (harmonics
+    the diagnosis's grid 4, 6, 8, 12, 16 does not hold), and a list that is not one of positive
+    numbers is refused naming the option."""
+    monkeypatch.setattr(mcc, "RIPPLE_N", [3.0, 5.0, 7.0, 10.0, 14.0, 20.0])
+    rng = np.random.default_rng(3)
+    js, sig = [0, 1, 2], np.full(3, 0.01)
+    q = np.zeros((100, 3))
+    p = mcc.drive_parameters("torque_ripple", js, [3.0] * 3, sig, q, q, q, rng)
+    n = [2 * np.pi / x for x in p["period"]]
+    assert all(min(abs(v - h) for h in mcc.RIPPLE_N) < 1e-12 for v in n), n
+    for bad in ("4,x", "4,-2"):
+        with pytest.raises(SystemExit):
+            mcc.main(["--ripple-n", bad, "--out", "/nonexistent"])

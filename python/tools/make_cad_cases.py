@@ -70,6 +70,7 @@ DRIVE_KINDS = ["asymmetric_coulomb_friction", "smooth_coulomb_friction", "load_d
 # drawn only when `--kinds` names them (the default draws stay those of the committed fixtures)
 EXTRA_KINDS = ["stribeck_friction"]
 RIPPLE_N = [4, 6, 8, 12, 16]
+DEFAULT_RIPPLE_N = list(RIPPLE_N)   # the diagnosis's own grid (`--ripple-n` draws from others)
 # kinds drawn on every joint instead of 1-3 (`--everywhere`): a real arm's friction is on all
 # of its joints (issue 15: viscous friction on all 7 joints named on 3 of them)
 EVERYWHERE_KINDS = ["coulomb_friction", "viscous_friction", "armature", "asymmetric_coulomb_friction",
@@ -391,6 +392,8 @@ def write_case(cfg, robot, case, nominal, duration):
         entry["friction_solref"] = mdc.FRICTION_SOLREF
     if MOTION != "narrow":
         entry["motion"] = MOTION
+    if RIPPLE_N != DEFAULT_RIPPLE_N:
+        entry["ripple_n"] = list(RIPPLE_N)
     stamps_ns = None
     if sensor is not None:
         q_meas, qd_meas, tau_meas, repeats = sensor_variants.finish(sensor, ex["t"], q_meas, qd_meas, tau_meas, srng)
@@ -442,6 +445,8 @@ def main(argv=None):
                     f"(with {', '.join(EXTRA_KINDS)}, which the default leaves out)")
     ap.add_argument("--everywhere", default="", help="comma list of kinds drawn on every joint instead of 1-3 "
                     f"(of {', '.join(EVERYWHERE_KINDS)}); the draws of the other effects change with it")
+    ap.add_argument("--ripple-n", default="", help="comma list of the ripple harmonics n (period 2 pi / n) "
+                    f"to draw from instead of {RIPPLE_N} (the diagnosis's own grid): periods it was not tuned on")
     ap.add_argument("--motion", choices=["narrow", "wide"], default="narrow", help="--set random: the "
                     "reference's sweep: 0.4-0.6 Hz harmonics over 0.4-0.7 rad, or three times the angles at a "
                     "third of the frequency (same speeds; identification-like poses)")
@@ -451,6 +456,13 @@ def main(argv=None):
     if MOTION != "narrow" and args.set != "random":
         ap.error("--motion wide is for --set random (the CAD arms' amplitudes are set within their limits)")
     mdc.FRICTION_SOLREF = args.friction_solref
+    if args.ripple_n:
+        try:
+            RIPPLE_N[:] = [float(v) for v in args.ripple_n.split(",")]
+        except ValueError:
+            ap.error(f"--ripple-n: {args.ripple_n!r} is not a comma list of numbers")
+        if not all(v > 0 for v in RIPPLE_N):
+            ap.error(f"--ripple-n: harmonics must be positive, got {RIPPLE_N}")
     EVERYWHERE.clear()
     EVERYWHERE.update(k for k in args.everywhere.split(",") if k)
     if not EVERYWHERE <= set(EVERYWHERE_KINDS):

@@ -4,7 +4,7 @@
 
 use super::dictionary::{
     C_DELAY, C_GAIN, C_LOAD, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_RIPPLE, C_SIGN, C_SIGN_POS, C_STRIBECK, C_TANH,
-    Dictionary, RIPPLE_N,
+    Dictionary,
 };
 use super::model::{Fit, Model, effect_torque, fit, rss_joint};
 use super::prepare::Prepared;
@@ -214,6 +214,9 @@ fn report_effects(
         if kind == EffectKind::Payload && super::score::has_refit(f) {
             payload_on_refit(&mut params, &mut parameters_std, ctx.prev_link_mass);
         }
+        if kind == EffectKind::TorqueRipple {
+            period_std(&joints, m, d, &mut parameters_std);
+        }
         st.joints = joints.clone();
         st.evidence = evidence(st, &params, names, regimes_before, ctx);
         effects.push(EffectJson {
@@ -305,7 +308,7 @@ fn drive_parameters(kind: EffectKind, joints: &[usize], f: &Fit, m: &Model, d: &
         }
         EffectKind::TorqueRipple => {
             let col = |j: usize| C_RIPPLE + 2 * m.ripple_n[j];
-            params.insert("period".into(), over(&|j: usize| std::f64::consts::TAU / RIPPLE_N[m.ripple_n[j]]));
+            params.insert("period".into(), over(&|j: usize| std::f64::consts::TAU / d.ripple_h[j][m.ripple_n[j]].0));
             params.insert("a".into(), over(&|j: usize| theta_of(f, j, kind, col(j))));
             params.insert("b".into(), over(&|j: usize| theta_of(f, j, kind, col(j) + 1)));
         }
@@ -313,6 +316,18 @@ fn drive_parameters(kind: EffectKind, joints: &[usize], f: &Fit, m: &Model, d: &
             params.insert("delay_s".into(), over(&|j: usize| theta_of(f, j, kind, C_DELAY)));
         }
         _ => {}
+    }
+}
+
+/// A ripple's period's standard error where it was fitted between the grid's harmonics
+/// (`ripple_period`; `null` on a grid entry): `2 pi s_h / h^2` for harmonic `h`, error `s_h`.
+fn period_std(joints: &[usize], m: &Model, d: &Dictionary, std: &mut Params) {
+    let of = |j: usize| {
+        let (h, s) = d.ripple_h[j][m.ripple_n[j]];
+        s.map_or(serde_json::Value::Null, |s| (std::f64::consts::TAU * s / (h * h)).into())
+    };
+    if !std.is_empty() {
+        std.insert("period".into(), joints.iter().map(|&j| of(j)).collect());
     }
 }
 

@@ -74,6 +74,10 @@ pub(super) struct Dictionary {
     pub(super) smooth_vs: Vec<[f64; 5]>,
     /// Mean position per joint (the spring's reference for conditioning).
     pub(super) q_mean: Vec<f64>,
+    /// The ripple harmonic of each slot `C_RIPPLE + 2 g` per joint: `RIPPLE_N`, but for a
+    /// named ripple's period fitted between them (`ripple_period`), and that fit's standard
+    /// error (`None`: a grid entry).
+    pub(super) ripple_h: Vec<[(f64, Option<f64>); RIPPLE_N.len()]>,
     /// The rigid-body base parameters of the links before the terminal one (the columns
     /// from `C_BASE` on; the terminal link's are left out: a change there is a payload).
     pub(super) base: BaseParams,
@@ -172,7 +176,8 @@ pub(super) fn build_dictionary(
         });
     }
     let r0 = (0..n).map(|j| (0..t_len).map(|k| s.tau[k * n + j] - tau_nom[k * n + j]).collect()).collect();
-    Ok(Dictionary { cols, r0, vs, smooth_vs, q_mean, base, segments: s.segments(), dt: s.dt })
+    let ripple_h = vec![RIPPLE_N.map(|h| (h, None)); n];
+    Ok(Dictionary { cols, r0, vs, smooth_vs, q_mean, ripple_h, base, segments: s.segments(), dt: s.dt })
 }
 
 /// Joint `j`'s own columns over the log (`size` slots; the target's and the rigid-body
@@ -262,7 +267,7 @@ pub(super) struct Grams {
 
 /// The fold of sample `k`: the log cut into `2 blocks_per_fold` blocks, alternately in
 /// fold 0 and 1, so that both folds see every part of the motion.
-fn fold_of(k: usize, t_len: usize, blocks_per_fold: usize) -> usize {
+pub(super) fn fold_of(k: usize, t_len: usize, blocks_per_fold: usize) -> usize {
     let nb = 2 * blocks_per_fold;
     (k * nb / t_len) % 2
 }
@@ -319,6 +324,65 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize, thread
     });
     let (g, rows) = per_joint.into_iter().unzip();
     Grams { g, rows, ridge: 0.0, prior: vec![] }
+}
+
+/// Joint `j`'s Gram entries of the columns `new` (index, values over the log), which take
+/// the place of the dictionary's: each one's products with every column in use, per fold (as
+/// `grams` sums them). The dictionary itself is not changed.
+pub(super) fn regram(d: &Dictionary, gr: &mut Grams, j: usize, new: &[(usize, &[f64])], blocks_per_fold: usize) {
+    let (n, t_len) = (d.cols.len(), d.r0[j].len());
+    let size = gr.g[j][0].nrows();
+    let rows = Rows::every(t_len, 1, blocks_per_fold);
+    let used: Vec<usize> = (0..C_LINK + LINK_GROUPS.len() * n).chain(C_TARGET..size).collect();
+    regram_over(d, gr, j, new, &rows, &used);
+}
+
+/// Samples of the log (every `stride`-th), each with its fold, and the factor that scales
+/// sums over them to sums over the log.
+pub(super) struct Rows {
+    pub(super) k: Vec<usize>,
+    fold: Vec<usize>,
+    scale: f64,
+}
+
+impl Rows {
+    pub(super) fn every(t_len: usize, stride: usize, blocks_per_fold: usize) -> Self {
+        let k: Vec<usize> = (0..t_len).step_by(stride.max(1)).collect();
+        let fold = k.iter().map(|&k| fold_of(k, t_len, blocks_per_fold)).collect();
+        Rows { scale: t_len as f64 / k.len().max(1) as f64, k, fold }
+    }
+}
+
+/// [`regram`] over the columns `used` alone (the others' entries left as they are) and the
+/// samples `rows` (the new columns' values given on those samples only).
+pub(super) fn regram_over(
+    d: &Dictionary,
+    gr: &mut Grams,
+    j: usize,
+    new: &[(usize, &[f64])],
+    rows: &Rows,
+    used: &[usize],
+) {
+    let values = |c: usize| -> std::borrow::Cow<[f64]> {
+        let col = match new.iter().find(|x| x.0 == c) {
+            Some(x) => return x.1.into(),
+            None if c == C_TARGET => &d.r0[j],
+            None => &d.cols[j][c],
+        };
+        if rows.k.len() == col.len() { col.as_slice().into() } else { rows.k.iter().map(|&k| col[k]).collect() }
+    };
+    for &(c, v) in new {
+        for &u in used {
+            let mut s = [0.0; 2];
+            for ((a, b), &f) in v.iter().zip(values(u).iter()).zip(&rows.fold) {
+                s[f] += a * b;
+            }
+            for (f, sf) in s.into_iter().enumerate() {
+                gr.g[j][f][(c, u)] = rows.scale * sf;
+                gr.g[j][f][(u, c)] = rows.scale * sf;
+            }
+        }
+    }
 }
 
 /// A joint is at rest below this share of its RMS speed (the standstill share of

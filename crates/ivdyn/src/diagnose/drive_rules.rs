@@ -91,12 +91,14 @@ fn precondition(ctx: &Ctx, m: &Model, e: EffectKind, j: usize) -> Option<String>
 /// less it is a monotone or parabolic trend in `q`. (On the tuning parts, 1.0 also dropped
 /// true ripples of the UR5 drive fixture; 0 named ripples on 44 of the random arms' joints
 /// where there was none; docs/diagnose.md.)
-const RIPPLE_MIN_PERIODS: f64 = 0.5;
+pub(super) const RIPPLE_MIN_PERIODS: f64 = 0.5;
 
 /// The ripple harmonics (indices into `RIPPLE_N`) of which joint `j` sweeps at least
 /// `RIPPLE_MIN_PERIODS` of a period.
 fn ripple_grid(ctx: &Ctx, j: usize) -> Vec<usize> {
-    (0..RIPPLE_N.len()).filter(|&g| RIPPLE_MIN_PERIODS * std::f64::consts::TAU / RIPPLE_N[g] <= ctx.q_span[j]).collect()
+    (0..RIPPLE_N.len())
+        .filter(|&g| RIPPLE_MIN_PERIODS * std::f64::consts::TAU / ctx.ripple_h[j][g] <= ctx.q_span[j])
+        .collect()
 }
 
 /// The grid of the effect's shape on joint `j` (one entry for the asymmetric friction).

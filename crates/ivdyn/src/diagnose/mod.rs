@@ -36,6 +36,7 @@ mod refit;
 mod regrid;
 pub mod report;
 mod residual;
+mod ripple_period;
 mod rotor;
 mod rules;
 mod score;

@@ -15,7 +15,7 @@
 //! CAD set 64 -> 65 of 80 parameters; the other sets unchanged.)
 
 use super::EffectKind;
-use super::dictionary::{RIPPLE_N, SMOOTH_VS};
+use super::dictionary::SMOOTH_VS;
 use super::drive_rules::{grid, with_shape};
 use super::model::Model;
 use super::score::Ctx;
@@ -28,11 +28,11 @@ fn shape_of(m: &Model, e: EffectKind, j: usize) -> usize {
     }
 }
 
-/// The shape in words (for the note).
-fn label(e: EffectKind, g: usize) -> String {
+/// The shape in words (for the note), on joint `j`.
+fn label(ctx: &Ctx, e: EffectKind, j: usize, g: usize) -> String {
     match e {
         EffectKind::SmoothCoulomb => format!("vs {:.0} % of the joint's RMS speed", 100.0 * SMOOTH_VS[g]),
-        _ => format!("period {:.3} rad", std::f64::consts::TAU / RIPPLE_N[g]),
+        _ => format!("period {:.3} rad", std::f64::consts::TAU / ctx.ripple_h[j][g]),
     }
 }
 
@@ -58,8 +58,8 @@ pub(super) fn regrid(ctx: &Ctx, m: &Model) -> (Model, Vec<String>) {
                     "{} on joint {}: {} chosen again once the later effects were in ({} when it was added), the held-out residual {:.1} % lower",
                     e.label(),
                     j + 1,
-                    label(e, g),
-                    label(e, now),
+                    label(ctx, e, j, g),
+                    label(ctx, e, j, now),
                     100.0 * (1.0 - h / h_now)
                 ));
                 m = with_shape(&m, e, j, g);

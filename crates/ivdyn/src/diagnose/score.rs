@@ -3,7 +3,7 @@
 //! Method item 4). The look-alike rules and the candidates themselves are in
 //! [`super::rules`] and [`super::drive_rules`], which both build on this.
 
-use super::dictionary::{C_BASE, C_DELAY, C_LOAD, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STUCK, Grams};
+use super::dictionary::{C_BASE, C_DELAY, C_LOAD, C_PAYLOAD, C_Q, C_QD, C_QDD, C_SIGN, C_STUCK, Grams, RIPPLE_N};
 use super::model::{Fit, Model, Param, all_model, effect_rms, fit, joint_index, noise_of_all_model, rss_joint};
 use super::prepare::Prepared;
 use super::{DiagnoseOptions, EffectKind, JointScore};
@@ -85,7 +85,7 @@ pub(super) struct Ctx<'a> {
     /// mass regroups into it.
     pub(super) prev_link_mass: f64,
     /// The search runs on top of the nominal re-fit.
-    refit: bool,
+    pub(super) refit: bool,
     /// Smallest torque gain error `|k - 1|` named (`GAIN_MARGIN`, `GAIN_MARGIN_REFIT`).
     gain_margin: f64,
     pub(super) w: Vec<f64>,
@@ -104,7 +104,9 @@ pub(super) struct Ctx<'a> {
     /// pair on three of the four sets (docs/diagnose.md).
     h_all_basic: Vec<f64>,
     /// Integrated autocorrelation time of the residual per joint (samples).
-    tau: Vec<f64>,
+    pub(super) tau: Vec<f64>,
+    /// The ripple harmonic of each slot per joint (`Dictionary::ripple_h`).
+    pub(super) ripple_h: Vec<[f64; RIPPLE_N.len()]>,
     /// Range of motion per joint over the log (rad or m): a position-periodic torque is told
     /// from a slow position-dependent one only over at least one of its periods.
     pub(super) q_span: Vec<f64>,
@@ -185,6 +187,7 @@ impl<'a> Ctx<'a> {
             h_all,
             h_all_basic,
             tau: rho,
+            ripple_h: d.ripple_h.iter().map(|r| r.map(|x| x.0)).collect(),
             q_span: q_span(&s.q, n),
             dt: s.dt,
             n,
@@ -195,7 +198,7 @@ impl<'a> Ctx<'a> {
     }
 }
 
-impl Ctx<'_> {
+impl<'a> Ctx<'a> {
     fn n_eff(&self, j: usize) -> f64 {
         let rows = (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64;
         (rows / self.tau[j]).max(10.0)
@@ -430,7 +433,14 @@ impl Ctx<'_> {
         })
     }
 
-    /// Noise-weighted RSS reduction of `larger` over `smaller` (all joints, all data).
+    /// The same context on other Gram matrices (a column replaced: `ripple_period`).
+    pub(super) fn on<'b>(&self, gr: &'b Grams) -> Ctx<'b>
+    where
+        'a: 'b,
+    {
+        Ctx { gr, ..self.clone() }
+    }
+
     /// The held-out residual of model `m` on every joint, weighted by the joints' noise
     /// (two-fold cross-validation, as `joint_score`'s held-out share).
     pub(super) fn heldout_rss(&self, m: &Model) -> f64 {
@@ -439,6 +449,7 @@ impl Ctx<'_> {
         (0..self.n).map(|j| self.w[j] * (rss_joint(&f0, self.gr, j, &[1]) + rss_joint(&f1, self.gr, j, &[0]))).sum()
     }
 
+    /// Noise-weighted RSS reduction of `larger` over `smaller` (all joints, all data).
     pub(super) fn gain(&self, smaller: &Model, larger: &Model) -> f64 {
         let (fs, fl) =
             (fit(&smaller.params(), self.gr, &self.w, &[0, 1]), fit(&larger.params(), self.gr, &self.w, &[0, 1]));

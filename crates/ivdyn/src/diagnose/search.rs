@@ -60,6 +60,17 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
         d.details.push(why);
         return Ok(d);
     }
+    // the named ripples' periods between the grid's harmonics: new columns, so a new context
+    let refined = super::ripple_period::refine(&ctx, &p.d, &found.model);
+    let ctx = if refined.is_empty() {
+        ctx
+    } else {
+        let names = &robot.joint_names;
+        found.notes.extend(super::ripple_period::apply(&mut p, refined, opts.blocks_per_fold.max(1), names));
+        let ctx = Ctx::new(robot, &p, opts, nbase)?;
+        backward_with_note(&ctx, names, &mut found, &|_| true, "once the ripple's period is fitted");
+        ctx
+    };
     if found.refit.is_some() {
         with_terminal_cad(&ctx, &robot.joint_names, &mut found);
         add_rotors(&ctx, &p.d, robot, t_len, &mut found)?;
@@ -83,22 +94,35 @@ fn with_terminal_cad(ctx: &Ctx, names: &[String], found: &mut Found) {
     if found.model.payload {
         return;
     }
-    let mut m = found.model.clone();
-    m.terminal_cad = true;
+    let model = found.model.clone();
+    found.model.terminal_cad = true;
     let removable = |e: EffectKind| !super::rules::inertia_like(e) && e != EffectKind::AsymmetricCoulomb;
-    let (m, removed, regridded) = backward(ctx, &m, &removable);
+    let why = "once the terminal link's own CAD error (its inertial parameters, pulled toward the nominal; not a payload) is fitted";
+    if !backward_with_note(ctx, names, found, &removable, why) {
+        found.model = model;
+    }
+}
+
+/// The backward step on the found model, kept (with a note for each effect it removed,
+/// ending `when`) if it removed something; whether it did.
+fn backward_with_note(
+    ctx: &Ctx,
+    names: &[String],
+    found: &mut Found,
+    removable: &dyn Fn(EffectKind) -> bool,
+    when: &str,
+) -> bool {
+    let (m, removed, regridded) = backward(ctx, &found.model, removable);
     if removed.is_empty() {
-        return;
+        return false;
     }
     for (j, e, why) in &removed {
         let on = j.map_or(String::new(), |j| format!(" on {}", names[j]));
-        found.notes.push(format!(
-            "{}{on} not named: {why} once the terminal link's own CAD error (its inertial parameters, pulled toward the nominal; not a payload) is fitted",
-            e.label()
-        ));
+        found.notes.push(format!("{}{on} not named: {why} {when}", e.label()));
     }
     found.notes.extend(regridded);
     found.model = m;
+    true
 }
 
 /// The armatures the re-fit held (`rotor`), each as a step of its own after the search's

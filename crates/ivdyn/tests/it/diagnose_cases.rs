@@ -919,19 +919,12 @@ fn a_wide_sweep_with_cad_inertials_names_no_ripple() {
     assert!(d.nominal_refit.is_some(), "inertials 30 % off: the re-fit is on");
 }
 
-/// A grid shape chosen again once the model has grown (`regrid`, session 29):
-/// `fixtures/diagnose_wide/rarm7_7j/e05_3fx` (the wide-motion random set, inertials 5 % off,
-/// 7 s): direction-dependent friction on joints 3 and 6, smooth friction on joints 1, 4 and 7,
-/// a torque gain on joint 2. The smooth friction of joint 4 is added at `vs` 20 % of the
-/// joint's RMS speed; once the other effects are in, 30 % leaves less held-out residual, and
-/// the viscous friction that had been named beside it for the slope the narrower tanh lacked
-/// goes. Asserted: exactly the true effects on exactly their joints, and the note.
-#[test]
-fn a_smooth_friction_reshaped_once_the_model_has_grown() {
-    let set = "diagnose_wide/rarm7_7j";
+/// Fixture case `name` of `set` diagnosed as the command line does, asserted to name exactly
+/// the true effects on exactly their joints; the case and the diagnosis.
+fn exactly_right(set: &str, name: &str) -> (Value, Diagnosis) {
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e05_3fx").unwrap();
-    let d = run_job(set, case, &m);
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap().clone();
+    let d = run_job(set, &case, &m);
     let mut named: Vec<(String, Vec<String>)> =
         d.json.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
     let mut truth: Vec<(String, Vec<String>)> = case["effects"]
@@ -942,11 +935,51 @@ fn a_smooth_friction_reshaped_once_the_model_has_grown() {
         .collect();
     named.sort();
     truth.sort();
-    assert_eq!(named, truth, "{:?}", d.details);
+    assert_eq!(named, truth, "{set}/{name}: {:?}", d.details);
+    (case, d)
+}
+
+/// A grid shape chosen again once the model has grown (`regrid`, session 29):
+/// `fixtures/diagnose_wide/rarm7_7j/e05_3fx` (the wide-motion random set, inertials 5 % off,
+/// 7 s): direction-dependent friction on joints 3 and 6, smooth friction on joints 1, 4 and 7,
+/// a torque gain on joint 2. The smooth friction of joint 4 is added at `vs` 20 % of the
+/// joint's RMS speed; once the other effects are in, 30 % leaves less held-out residual, and
+/// the viscous friction that had been named beside it for the slope the narrower tanh lacked
+/// goes. Asserted: exactly the true effects on exactly their joints, and the note.
+#[test]
+fn a_smooth_friction_reshaped_once_the_model_has_grown() {
+    let (_, d) = exactly_right("diagnose_wide/rarm7_7j", "e05_3fx");
     assert!(
         d.details
             .iter()
             .any(|l| l.contains("smooth (sigmoid) Coulomb friction on joint 4") && l.contains("chosen again")),
+        "{:?}",
+        d.details
+    );
+}
+
+/// A ripple off the grid's harmonics gets its period fitted (`ripple_period`, session 30):
+/// `fixtures/diagnose_ripple_off/rarm2_6j/e05_2fx` (`make_cad_cases.py --ripple-n
+/// 3,5,7,10,14,20 --motion wide`, inertials 5 % off, 12 s, no velocity in the log): a ripple
+/// of period 2 pi / 14 on joint 3, which sweeps 0.73 rad, between the grid's 12 and 16 (12.5
+/// and 14 % off in period), and viscous friction on joint 4. Asserted: exactly the true
+/// effects on their joints, the period within 5 % and the amplitude vector `(a, b)` within
+/// 10 % (the parameter target; at the grid's 16 they were 12.5 % and 19 % off), and
+/// the note saying the period was fitted.
+#[test]
+fn a_ripple_between_the_grids_harmonics_gets_its_period_fitted() {
+    let (case, d) = exactly_right("diagnose_ripple_off/rarm2_6j", "e05_2fx");
+    let truth = case["effects"].as_array().unwrap().iter().find(|e| e["name"] == "torque_ripple").unwrap();
+    let got = d.json.effects.iter().find(|e| e.name == "torque_ripple").unwrap();
+    let one = |v: &Value, k: &str| f64s(&v[k])[0];
+    let (tp, gp) = (one(&truth["parameters"], "period"), one(&Value::Object(got.parameters.clone()), "period"));
+    assert!((gp - tp).abs() < 0.05 * tp, "period {gp} vs {tp}");
+    let (ta, tb) = (one(&truth["parameters"], "a"), one(&truth["parameters"], "b"));
+    let (ga, gb) = (one(&Value::Object(got.parameters.clone()), "a"), one(&Value::Object(got.parameters.clone()), "b"));
+    let err = ((ga - ta).powi(2) + (gb - tb).powi(2)).sqrt() / (ta * ta + tb * tb).sqrt();
+    assert!(err < 0.1, "(a, b) = ({ga}, {gb}) vs ({ta}, {tb}): {err}");
+    assert!(
+        d.details.iter().any(|l| l.contains("torque ripple on joint_3: period fitted between the grid's harmonics")),
         "{:?}",
         d.details
     );
