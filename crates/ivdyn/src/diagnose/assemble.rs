@@ -168,12 +168,22 @@ fn report_effects(
             continue;
         }
         let mut params = effect_parameters(kind, &joints, f, m, d, n);
-        if kind == EffectKind::SmoothCoulomb {
-            // `vs` between the grid points, `fc` with it (`drive_rules::smooth_shape`)
-            let shapes: Vec<(f64, f64)> =
-                joints.iter().map(|&j| super::drive_rules::smooth_shape(ctx, m, d, j)).collect();
-            params.insert("vs".into(), shapes.iter().map(|s| s.0).collect::<Vec<_>>().into());
-            params.insert("fc".into(), shapes.iter().map(|s| s.1).collect::<Vec<_>>().into());
+        // smooth and Stribeck friction's `vs` fitted between the grid points, the levels with it
+        let scales: Vec<super::shape_scale::Scale> = match kind {
+            EffectKind::SmoothCoulomb | EffectKind::Stribeck => {
+                joints.iter().map(|&j| super::shape_scale::fit_scale(ctx, m, d, j, kind)).collect()
+            }
+            _ => vec![],
+        };
+        if !scales.is_empty() {
+            let list = |g: &dyn Fn(&super::shape_scale::Scale) -> f64| scales.iter().map(g).collect::<Vec<_>>();
+            params.insert("vs".into(), list(&|s| s.vs).into());
+            if kind == EffectKind::Stribeck {
+                params.insert("fs".into(), list(&|s| s.level).into());
+                params.insert("fc".into(), list(&|s| s.fc).into());
+            } else {
+                params.insert("fc".into(), list(&|s| s.level).into());
+            }
         }
         if kind == EffectKind::TimeDelay {
             // the exact shift, not its first order (`drive_rules::delay_exact`)
@@ -216,6 +226,10 @@ fn report_effects(
         }
         if kind == EffectKind::TorqueRipple {
             period_std(&joints, m, d, &mut parameters_std);
+        }
+        if !scales.is_empty() && !parameters_std.is_empty() {
+            let std: Vec<serde_json::Value> = scales.iter().map(|s| s.vs_std.into()).collect();
+            parameters_std.insert("vs".into(), std.into());
         }
         st.joints = joints.clone();
         st.evidence = evidence(st, &params, names, regimes_before, ctx);

@@ -27,7 +27,7 @@ use super::EffectKind;
 use super::JointScore;
 use super::dictionary::Dictionary;
 use super::dictionary::{C_BASE, C_GAIN, C_ONE, C_SIGN, C_SIGN_POS, C_TANH, RIPPLE_N, SMOOTH_VS};
-use super::model::{Fit, Model, Param, effect_rms, fit, rss_joint};
+use super::model::{Fit, Model, Param, effect_rms, fit};
 use super::score::{Ctx, Scored, not_scored};
 
 /// The fitted value of joint `j`'s parameter in column `col` (0 if absent).
@@ -199,39 +199,6 @@ pub(super) fn asymmetric_sign(ctx: &Ctx, l: &Model, j: usize, sc: &mut JointScor
     };
     sc.significant = false;
     sc.rejected_by = Some(why);
-}
-
-/// Smooth friction's `(vs, fc)` on joint `j` of the final model `m`, between the grid points:
-/// `vs` at the vertex of the parabola in `ln vs` through the joint's residual sum of squares at
-/// the chosen grid point and its two neighbours (held within them), `fc` interpolated
-/// linearly in `ln vs` there; the grid point's own at the grid's ends or where the parabola
-/// opens downward. The grid steps by 1.33-1.5x, which alone puts up to ~20 % on `vs`.
-pub(super) fn smooth_shape(ctx: &Ctx, m: &Model, d: &Dictionary, j: usize) -> (f64, f64) {
-    // (ln vs, RSS, fc) with the shape at grid point g
-    let at = |g: usize| {
-        let mut l = m.clone();
-        l.smooth_vs[j] = g;
-        let f = fit(&l.params(), ctx.gr, &ctx.w, &[0, 1]);
-        (d.smooth_vs[j][g].ln(), rss_joint(&f, ctx.gr, j, &[0, 1]), theta_at(&f, j, C_TANH + g))
-    };
-    let g = m.smooth_vs[j];
-    let own = at(g);
-    if g == 0 || g + 1 == SMOOTH_VS.len() {
-        return (own.0.exp(), own.2);
-    }
-    let (lo, hi) = (at(g - 1), at(g + 1));
-    let [(x0, y0, _), (x1, y1, _), (x2, y2, _)] = [lo, own, hi];
-    // y = a x^2 + b x + c through the three points (Lagrange form's coefficients)
-    let den = (x0 - x1) * (x0 - x2) * (x1 - x2);
-    let a = (x2 * (y1 - y0) + x1 * (y0 - y2) + x0 * (y2 - y1)) / den;
-    let b = (x2 * x2 * (y0 - y1) + x1 * x1 * (y2 - y0) + x0 * x0 * (y1 - y2)) / den;
-    if a.is_nan() || a <= 0.0 || b.is_nan() {
-        return (own.0.exp(), own.2);
-    }
-    let xv = (-b / (2.0 * a)).clamp(x0, x2);
-    let (p, q) = if xv <= x1 { (lo, own) } else { (own, hi) };
-    let t = (xv - p.0) / (q.0 - p.0);
-    (xv.exp(), p.2 + t * (q.2 - p.2))
 }
 
 /// Load-dependent friction's `mu` on joint `j` against the load the final fit `f` models:

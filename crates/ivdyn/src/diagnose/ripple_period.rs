@@ -19,10 +19,11 @@
 //! residual sum of squares in `h`).
 
 use super::EffectKind;
-use super::dictionary::{C_Q, C_RIPPLE, C_TARGET, Dictionary, Grams, Rows, regram, regram_over};
+use super::dictionary::{C_Q, C_RIPPLE, Dictionary, Rows, regram};
 use super::drive_rules::RIPPLE_MIN_PERIODS;
-use super::model::{Model, fit, joint_index, rss_joint};
+use super::model::Model;
 use super::prepare::Prepared;
+use super::reshape::{Reshape, gauss_newton_std, golden};
 use super::score::Ctx;
 
 /// The range of the fitted harmonic, as factors of its grid entry: the grid's neighbours are
@@ -48,13 +49,6 @@ const GAIN_CHI2: f64 = 10.83;
 /// 0.2-22 %, a few of them less: at 0.002, 3 of 18 fitted periods that were right stay on
 /// the grid, `ripple_off` tuning part, docs/diagnose.md.)
 const MIN_GAIN_SHARE: f64 = 0.002;
-
-/// Samples the search sums the new columns over (every k-th of the log, the sums scaled by
-/// k): the log's signals are sampled far above their bandwidth (a ripple at 20 per turn on a
-/// joint at 2 rad/s is 6 Hz), so a few thousand samples give the sums to a fraction of the
-/// differences between harmonics; the harmonic found is scored against the grid's on all of
-/// them. (Every sample: 1.0-1.6 s more on 32-56 s logs with two or three ripples.)
-const SEARCH_ROWS: usize = 4000;
 
 /// A ripple's fitted harmonic on one joint: the slot it takes and its new columns.
 pub(super) struct Refined {
@@ -87,46 +81,33 @@ pub(super) fn refine(ctx: &Ctx, d: &Dictionary, m: &Model) -> Vec<Refined> {
         }
         let at = Harmonic::new(ctx, d, m, j);
         let hs: Vec<f64> = (0..=((hi - lo) / step).ceil() as usize).map(|i| (lo + i as f64 * step).min(hi)).collect();
-        let scores = crate::par::map(ctx.threads, &hs, |&h| at.heldout(h, &at.search));
+        let scores = crate::par::map(ctx.threads, &hs, |&h| at.heldout(h, &at.r.search));
         let best = (0..hs.len()).min_by(|&a, &b| scores[a].total_cmp(&scores[b])).unwrap_or(0);
         // to a hundredth of a radian of phase over the sweep
         let h =
-            golden(&|h| at.heldout(h, &at.search), (hs[best] - step).max(lo), (hs[best] + step).min(hi), 0.01 / span);
-        let h_new = at.heldout(h, &at.all);
+            golden(&|h| at.heldout(h, &at.r.search), (hs[best] - step).max(lo), (hs[best] + step).min(hi), 0.01 / span);
+        let h_new = at.heldout(h, &at.r.all);
         // what the ripple explains at the grid's harmonic
         let share = ctx.heldout_rss(&m.without(Some(j), EffectKind::TorqueRipple)) - h_grid;
         if h_grid - h_new > (GAIN_CHI2 * ctx.tau[j]).max(MIN_GAIN_SHARE * share) {
-            let var = ctx.sigma[j].powi(2) * ctx.tau[j];
-            let h_std = gauss_newton_std(&|h| at.rss(h), h, step / 4.0, var);
-            out.push(Refined { j, slot, h, h_std, cols: at.cols(h, &at.all), ratio: h_new / h_grid });
+            let h_std = gauss_newton_std(&|h| at.rss(h), h, step / 4.0, at.r.noise_var());
+            out.push(Refined { j, slot, h, h_std, cols: at.cols(h, &at.r.all), ratio: h_new / h_grid });
         }
     }
     out
 }
 
-/// The model `m` with joint `j`'s ripple at any harmonic: its Gram matrices with the ripple's
-/// columns replaced, over the columns joint `j`'s row of `m` uses (all the fits read).
+/// The model `m` with joint `j`'s ripple at any harmonic (`reshape::Reshape`).
 struct Harmonic<'c, 'a> {
-    ctx: &'c Ctx<'a>,
-    d: &'c Dictionary,
-    m: &'c Model,
-    j: usize,
-    /// Joint `j`'s positions (rad) and the columns its row uses.
+    r: Reshape<'c, 'a>,
+    /// Joint `j`'s positions (rad).
     q: Vec<f64>,
-    used: Vec<usize>,
-    /// The samples the search sums over (`SEARCH_ROWS`), and all of them.
-    search: Rows,
-    all: Rows,
 }
 
 impl<'c, 'a> Harmonic<'c, 'a> {
     fn new(ctx: &'c Ctx<'a>, d: &'c Dictionary, m: &'c Model, j: usize) -> Self {
         let q: Vec<f64> = d.cols[j][C_Q].iter().map(|x| x + d.q_mean[j]).collect();
-        let (t_len, bpf) = (q.len(), ctx.opts.blocks_per_fold.max(1));
-        let mut used: Vec<usize> = joint_index(&m.params(), j).into_iter().map(|(_, c)| c).collect();
-        used.push(C_TARGET);
-        let search = Rows::every(t_len, t_len.div_ceil(SEARCH_ROWS), bpf);
-        Harmonic { ctx, d, m, j, q, used, search, all: Rows::every(t_len, 1, bpf) }
+        Harmonic { r: Reshape::new(ctx, d, m, j), q }
     }
 
     /// `sin(h q), cos(h q)` on the samples `rows`.
@@ -135,26 +116,19 @@ impl<'c, 'a> Harmonic<'c, 'a> {
         [sin, cos]
     }
 
-    /// The Gram matrices with the ripple's columns at harmonic `h`, summed over `rows`.
-    fn grams(&self, h: f64, rows: &Rows) -> Grams {
-        let mut gr = self.ctx.gr.clone();
-        let c = C_RIPPLE + 2 * self.m.ripple_n[self.j];
-        let [sin, cos] = self.cols(h, rows);
-        regram_over(self.d, &mut gr, self.j, &[(c, &sin), (c + 1, &cos)], rows, &self.used);
-        gr
-    }
-
     /// The whole model's held-out residual (`Ctx::heldout_rss`) at harmonic `h`, the new
     /// columns' sums over `rows`.
     fn heldout(&self, h: f64, rows: &Rows) -> f64 {
-        self.ctx.on(&self.grams(h, rows)).heldout_rss(self.m)
+        let c = C_RIPPLE + 2 * self.r.m.ripple_n[self.r.j];
+        let [sin, cos] = self.cols(h, rows);
+        self.r.heldout(&[(c, &sin), (c + 1, &cos)], rows)
     }
 
     /// Joint `j`'s residual sum of squares of the model fitted on the whole log at `h`.
     fn rss(&self, h: f64) -> f64 {
-        let gr = self.grams(h, &self.search);
-        let f = fit(&self.m.params(), &gr, &self.ctx.w, &[0, 1]);
-        rss_joint(&f, &gr, self.j, &[0, 1])
+        let c = C_RIPPLE + 2 * self.r.m.ripple_n[self.r.j];
+        let [sin, cos] = self.cols(h, &self.r.search);
+        self.r.fit(&[(c, &sin), (c + 1, &cos)], &self.r.search).1
     }
 }
 
@@ -181,34 +155,6 @@ pub(super) fn apply(p: &mut Prepared, refined: Vec<Refined>, blocks_per_fold: us
         ));
     }
     notes
-}
-
-/// The minimum of `f` on `[a, b]` by golden-section search, to `tol`.
-fn golden(f: &dyn Fn(f64) -> f64, mut a: f64, mut b: f64, tol: f64) -> f64 {
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
-    let (mut fc, mut fd) = (f(c), f(d));
-    while b - a > tol {
-        if fc < fd {
-            (b, d, fd) = (d, c, fc);
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            (a, c, fc) = (c, d, fd);
-            d = a + g * (b - a);
-            fd = f(d);
-        }
-    }
-    (a + b) / 2.0
-}
-
-/// The Gauss-Newton standard error of the minimiser `h` of the residual sum of squares
-/// `rss` with per-sample variance `var` (noise variance times its autocorrelation time):
-/// `sqrt(2 var / rss''(h))`, the curvature by central differences of step `dh`; `None`
-/// where it is not positive.
-fn gauss_newton_std(rss: &dyn Fn(f64) -> f64, h: f64, dh: f64, var: f64) -> Option<f64> {
-    let curv = (rss(h + dh) - 2.0 * rss(h) + rss(h - dh)) / (dh * dh);
-    (curv > 0.0 && var.is_finite()).then(|| (2.0 * var / curv).sqrt())
 }
 
 #[cfg(test)]

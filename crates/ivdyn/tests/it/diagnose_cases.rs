@@ -864,7 +864,8 @@ fn friction_on_every_joint() {
 /// shape, pulled `fs` to half its value (0.26, 0.20 N m before the stick column, session 28).
 /// Asserted: nothing beyond the truth; Stribeck friction on joints 2 and 3 with `fs` within
 /// 15 % and `fc` within 5 % of truth (joint 7's, 3.4 noise std at its peak beside Coulomb
-/// friction of its own, is the miss left).
+/// friction of its own, is the miss left), and `vs` within the 10 % since it is fitted
+/// between the grid's points (session 31: 1.4 and 1.3 % off; the grid's 20 and 26 %).
 #[test]
 fn stribeck_friction_from_a_sticking_joint() {
     let (case, d, names) = named_in("diagnose_stribeck/rarm1_7j", "e15_3fx");
@@ -878,7 +879,7 @@ fn stribeck_friction_from_a_sticking_joint() {
     let named = d.effects.iter().find(|e| e.name == "stribeck_friction").expect("Stribeck friction named");
     assert_eq!(named.joints, vec!["joint_2", "joint_3"]);
     let truth = effects.iter().find(|e| e["name"] == "stribeck_friction").unwrap();
-    for (key, tol) in [("fs", 0.15), ("fc", 0.05)] {
+    for (key, tol) in [("fs", 0.15), ("fc", 0.05), ("vs", 0.1)] {
         let (got, want) = (f64s(&named.parameters[key]), f64s(&truth["parameters"][key]));
         for k in 0..2 {
             let rel = (got[k] - want[k]).abs() / want[k];

@@ -11,7 +11,8 @@
 //! criterion) for levels and coefficients; for the gain, 10 % of `k - 1` (the part that is the
 //! effect); for the ripple, 10 % of its amplitude on `a` and `b`, and the period exactly (it is
 //! on the grid); for the smooth friction's `vs` 10 % as well (between its grid points since
-//! 2026-12-05, `drive_rules::smooth_shape`; a factor 2.5, the grid's spacing then, before).
+//! 2026-12-05: the parabola through the grid's residuals, then fitted, `shape_scale`; a
+//! factor 2.5, the grid's spacing then, before).
 
 use super::diagnose_cases::{cases_in, f64s, run_with};
 use ivdyn::diagnose::DiagnoseOptions;
