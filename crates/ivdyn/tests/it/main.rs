@@ -13,6 +13,7 @@ mod consistent;
 mod coulomb_shape;
 mod diagnose_cases;
 mod diagnose_drives;
+mod diagnose_exact_log;
 mod diagnose_report;
 mod diagnose_uncertainty;
 mod diagnose_urdf_friction;
