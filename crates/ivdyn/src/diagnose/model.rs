@@ -364,19 +364,22 @@ pub(super) fn effect_torque(f: &Fit, d: &Dictionary, n: usize, t_len: usize) -> 
     out
 }
 
-/// The least noise std the tests compare with, as a fraction of the joint's nominal torque
-/// RMS: the floor of the double-precision pipeline itself. On an exact log (a simulation
-/// without noise) what [`all_model`] leaves is the conditioning's own error, ~1e-7 of the
-/// torque and smooth: read as noise, its autocorrelation time (~300 samples on a 10 s,
+/// The least noise std the tests compare with, as fractions of the joint's measured torque
+/// RMS (`NOISE_FLOOR`) and of the residual of its nominal model (`GAP_FLOOR`): the floor of
+/// the double-precision pipeline itself. On an exact log (a simulation without noise) what
+/// [`all_model`] leaves is the conditioning's own error, 1e-7 to 2e-5 of the torque (500 and
+/// 100 Hz) and smooth: read as noise, its autocorrelation time (~300 samples on a 10 s,
 /// 500 Hz log) left the F tests 17 effective samples, and Coulomb and viscous friction of
-/// half a N m on every joint went unnamed, the final residual above the nominal one. No
-/// sensor resolves a millionth of its range, so at the floor the residual is not noise:
-/// the noise is the floor and white.
+/// half a N m on every joint of the test arm went unnamed, the final residual above the
+/// nominal one. No sensor resolves 1e-5 of its range (a 16-bit converter's step is 1.5e-5 of
+/// full scale), and a residual 1e-4 of what the effects explain is their numerical floor, not
+/// noise: at the floor the noise is the floor, and white.
 const NOISE_FLOOR: f64 = 1e-5;
+const GAP_FLOOR: f64 = 1e-4;
 
 /// Noise std and integrated autocorrelation time per joint from the residual of
 /// [`all_model`] (with the nominal re-fit's `refit` base columns, the drive effects when `drives`), and
-/// that residual; the noise at least `NOISE_FLOOR` of the joint's nominal torque.
+/// that residual; the noise at least the floor (`NOISE_FLOOR`, `GAP_FLOOR`).
 pub(super) fn noise_of_all_model(
     d: &Dictionary,
     gr: &Grams,
@@ -391,10 +394,12 @@ pub(super) fn noise_of_all_model(
     let f_all = fit(&all.params(), gr, &unit, &[0, 1]);
     let e_all = effect_torque(&f_all, d, n, t_len);
     let r_all: Vec<f64> = (0..t_len * n).map(|i| d.r0[i % n][i / n] - e_all[i]).collect();
+    let rms = |x: &mut dyn Iterator<Item = f64>| (x.map(|v| v * v).sum::<f64>() / t_len.max(1) as f64).sqrt();
     let floored = |j: usize| {
         let (sigma, tau) = noise_and_tau(&r_all, n, j);
-        let tau_nom = &d.cols[j][C_GAIN];
-        let floor = NOISE_FLOOR * (tau_nom.iter().map(|x| x * x).sum::<f64>() / t_len.max(1) as f64).sqrt();
+        let (tau_nom, r0) = (&d.cols[j][C_GAIN], &d.r0[j]);
+        let measured = rms(&mut tau_nom.iter().zip(r0).map(|(a, b)| a + b));
+        let floor = (NOISE_FLOOR * measured).max(GAP_FLOOR * rms(&mut r0.iter().copied()));
         if sigma < floor { (floor, 1.0) } else { (sigma, tau) }
     };
     let (sigma, rho): (Vec<f64>, Vec<f64>) = (0..n).map(floored).unzip();
