@@ -377,6 +377,14 @@ pub(super) fn effect_torque(f: &Fit, d: &Dictionary, n: usize, t_len: usize) -> 
 const NOISE_FLOOR: f64 = 1e-5;
 const GAP_FLOOR: f64 = 1e-4;
 
+/// Joint `j`'s noise floor (`NOISE_FLOOR`, `GAP_FLOOR`).
+pub(super) fn noise_floor(d: &Dictionary, j: usize) -> f64 {
+    let (tau_nom, r0) = (&d.cols[j][C_GAIN], &d.r0[j]);
+    let rms = |x: &mut dyn Iterator<Item = f64>| (x.map(|v| v * v).sum::<f64>() / r0.len().max(1) as f64).sqrt();
+    let measured = rms(&mut tau_nom.iter().zip(r0).map(|(a, b)| a + b));
+    (NOISE_FLOOR * measured).max(GAP_FLOOR * rms(&mut r0.iter().copied()))
+}
+
 /// Noise std and integrated autocorrelation time per joint from the residual of
 /// [`all_model`] (with the nominal re-fit's `refit` base columns, the drive effects when `drives`), and
 /// that residual; the noise at least the floor (`NOISE_FLOOR`, `GAP_FLOOR`).
@@ -394,12 +402,9 @@ pub(super) fn noise_of_all_model(
     let f_all = fit(&all.params(), gr, &unit, &[0, 1]);
     let e_all = effect_torque(&f_all, d, n, t_len);
     let r_all: Vec<f64> = (0..t_len * n).map(|i| d.r0[i % n][i / n] - e_all[i]).collect();
-    let rms = |x: &mut dyn Iterator<Item = f64>| (x.map(|v| v * v).sum::<f64>() / t_len.max(1) as f64).sqrt();
     let floored = |j: usize| {
         let (sigma, tau) = noise_and_tau(&r_all, n, j);
-        let (tau_nom, r0) = (&d.cols[j][C_GAIN], &d.r0[j]);
-        let measured = rms(&mut tau_nom.iter().zip(r0).map(|(a, b)| a + b));
-        let floor = (NOISE_FLOOR * measured).max(GAP_FLOOR * rms(&mut r0.iter().copied()));
+        let floor = noise_floor(d, j);
         if sigma < floor { (floor, 1.0) } else { (sigma, tau) }
     };
     let (sigma, rho): (Vec<f64>, Vec<f64>) = (0..n).map(floored).unzip();

@@ -4,7 +4,7 @@
 
 use super::DiagnoseOptions;
 use super::dictionary::{Dictionary, Grams, build_dictionary, grams};
-use super::model::{basic_all_model, fit, noise_of_all_model, rss_joint};
+use super::model::{basic_all_model, fit, noise_floor, noise_of_all_model, rss_joint};
 use super::residual::{difference_lag1, median};
 use super::signals::{Signals, accel_step, condition};
 use crate::Robot;
@@ -150,11 +150,14 @@ fn prepare(
 
 impl Prepared {
     /// Median over joints of the lag-1 autocorrelation of the differences of the basic
-    /// all-candidates residual ([`difference_lag1`]): how white the torque noise is.
+    /// all-candidates residual ([`difference_lag1`]): how white the torque noise is. A joint
+    /// whose noise is at its floor (`model::noise_floor`: an exact log, where the residual is
+    /// the conditioning's own smooth error) counts as white, -0.5, as the tests take it.
     fn noise_lag1(&self) -> f64 {
         let n = self.d.cols.len();
-        let (_, _, r_all) = noise_of_all_model(&self.d, &self.gr, n, self.s.t.len(), 0, false);
-        median((0..n).map(|j| difference_lag1(&r_all, n, j)).collect())
+        let (sigma, _, r_all) = noise_of_all_model(&self.d, &self.gr, n, self.s.t.len(), 0, false);
+        let lag1 = |j: usize| if sigma[j] <= noise_floor(&self.d, j) { -0.5 } else { difference_lag1(&r_all, n, j) };
+        median((0..n).map(lag1).collect())
     }
 
     /// Sum over joints of log(RSS) of the all-candidates model (scale-free across joints).

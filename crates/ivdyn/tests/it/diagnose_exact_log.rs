@@ -13,8 +13,8 @@ use ivdyn::diagnose::{DiagnoseOptions, diagnose};
 const FC: [f64; 5] = [0.5, 0.5, 0.3, 0.5, 0.5];
 const FV: [f64; 5] = [0.2; 5];
 
-/// Expected: the true effects on every joint and nothing else, no re-fit (the URDF is the
-/// simulation's), the levels to 1e-3 (exact data: what is left is the differentiation's error,
+/// Expected: the drive effects searched (the noise at its floor is white), the true effects on
+/// every joint and nothing else, no re-fit (the URDF is the simulation's), the levels to 1e-3 (exact data: what is left is the differentiation's error,
 /// ~1e-6 of them) and the residual down to 1e-3 of the nominal one.
 #[test]
 fn an_exact_log_gets_its_friction_named_on_every_joint() {
@@ -28,7 +28,11 @@ fn an_exact_log_gets_its_friction_named_on_every_joint() {
         ..Default::default()
     };
     let log = simulate(&robot, &Trajectory::Fourier, &opts).unwrap();
-    let d = diagnose(&robot, &log, &DiagnoseOptions::default()).unwrap().json;
+    let diagnosis = diagnose(&robot, &log, &DiagnoseOptions::default()).unwrap();
+    // a 10 s log whose noise is at its floor is white: the drive effects are searched too
+    let why = diagnosis.details.iter().find(|l| l.starts_with("effects of real drives")).unwrap();
+    assert!(why.starts_with("effects of real drives searched"), "{why}");
+    let d = diagnosis.json;
     let named: Vec<(&str, usize)> = d.effects.iter().map(|e| (e.name.as_str(), e.joints.len())).collect();
     assert_eq!(named, [("coulomb_friction", 5), ("viscous_friction", 5)]);
     assert!(d.nominal_refit.is_none(), "the URDF is the simulation's");
