@@ -6,5 +6,6 @@ fn main() {
     let (target, path) = (args.next().expect("target"), args.next().expect("input file"));
     let data = std::fs::read(&path).expect("readable input");
     ivdyn_fuzz::run(&target, &data);
+    ivdyn_fuzz::remove_scratch();
     println!("{target}: {path} ({} bytes) returned", data.len());
 }

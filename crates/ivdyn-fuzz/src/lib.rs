@@ -94,11 +94,13 @@ fn fixture_bag() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures/logs/ur5_db3_bag")
 }
 
+/// The scratch directory of this process, once made.
+static SCRATCH: OnceLock<std::path::PathBuf> = OnceLock::new();
+
 /// A scratch directory of this process (created once): `bag/` holds the fixture bag's
 /// files, where the `bag` target writes its metadata.yaml.
 fn scratch() -> &'static Path {
-    static D: OnceLock<std::path::PathBuf> = OnceLock::new();
-    D.get_or_init(|| {
+    SCRATCH.get_or_init(|| {
         let d = std::env::temp_dir().join(format!("ivdyn-fuzz-{}", std::process::id()));
         std::fs::create_dir_all(d.join("bag")).unwrap();
         for f in ["ur5_db3_bag_0.db3", "ur5_db3_bag_1.db3"] {
@@ -106,6 +108,14 @@ fn scratch() -> &'static Path {
         }
         d
     })
+}
+
+/// Removes this process's scratch directory (statics are not dropped at exit, so a run
+/// that made it removes it when done); the `db3` and `bag` targets read nothing after it.
+pub fn remove_scratch() {
+    if let Some(d) = SCRATCH.get() {
+        let _ = std::fs::remove_dir_all(d);
+    }
 }
 
 /// Streams the log at `path` as `identify --stream` reads it.

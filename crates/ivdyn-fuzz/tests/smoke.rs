@@ -8,7 +8,7 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::time::{Duration, Instant};
 
 use ivdyn_core::rng::Rng;
-use ivdyn_fuzz::{TARGETS, mutate, run, seeds};
+use ivdyn_fuzz::{TARGETS, mutate, remove_scratch, run, seeds};
 
 fn budget() -> Duration {
     let s = std::env::var("IVDYN_FUZZ_SECS").ok().and_then(|v| v.parse::<f64>().ok()).unwrap_or(3.0);
@@ -56,4 +56,5 @@ fn targets_survive_mutated_seeds() {
     for t in TARGETS {
         smoke(t);
     }
+    remove_scratch();
 }

@@ -13,6 +13,7 @@
 //! * `rotor`: an armature the re-fit holds, named by its size (its column is a link's).
 //! * `rules`: scoring a candidate (F test, held-out share, size, physics, look-alikes).
 //! * [`search`]: the add / drop / refit loop ([`diagnose`]).
+//! * `stick`: smooth friction or Coulomb friction through a stick phase, once found.
 //! * `uncertainty`: standard errors of the final fit's parameters (`parameters_std`).
 //! * `assemble`: the [`Diagnosis`] of the model found (parameters, evidence, verdict).
 //!
@@ -44,6 +45,7 @@ mod score;
 pub mod search;
 mod shape_scale;
 mod signals;
+mod stick;
 mod swap;
 mod uncertainty;
 mod urdf_friction;

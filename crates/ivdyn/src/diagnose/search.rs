@@ -76,6 +76,11 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
         add_rotors(&ctx, &p.d, robot, t_len, &mut found)?;
         found.notes.extend(super::constant_view::note(&ctx, nbase, &robot.joint_names));
     }
+    // the friction's shape read on the complete model (`stick`), what it leaves checked again
+    if super::stick::coulomb_through_stick(&ctx, &p.d, &robot.joint_names, &mut found) {
+        let when = "once the smooth friction beside it is read as Coulomb friction's stick phase";
+        backward_with_note(&ctx, &robot.joint_names, &mut found, &|_| true, when);
+    }
     found.notes.extend(refit_off);
     assemble(robot, opts, &p, &ctx, found, baseline_rms, &r_nom)
 }
