@@ -7,8 +7,9 @@ A tanh friction `fc tanh(qd / vs)` (an applied generalized force, make_diagnose_
 is smooth too, but a function of the velocity alone. Random 6-joint arms (random_arm.py), exact
 URDF, 8 s at 500 Hz, the friction on joints 2 and 5 at 10 noise std: the first must be named
 Coulomb friction (before the stick test, 4 of these 6 arms had it named smooth), the second
-smooth friction, each on exactly those joints, its level within 15 % (MuJoCo's constraint
-force and the fitted sign differ near reversals)."""
+smooth friction, each on exactly those joints, its level within 15 % (measured: 0-11 %; a
+Coulomb friction read from a stick phase has its level read above twice the tanh's `vs`,
+where the soft stick is saturated at `fc`, one named Coulomb at once where the joint moves)."""
 import os
 import sys
 

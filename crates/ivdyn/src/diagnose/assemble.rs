@@ -199,7 +199,7 @@ fn report_effects(
             // the levels where the joint moves, not through its stick phases (`levels`)
             let asym = kind == EffectKind::AsymmetricCoulomb;
             let lv: Option<Vec<(f64, f64)>> =
-                joints.iter().map(|&j| super::levels::coulomb_levels(f, d, j, asym)).collect();
+                joints.iter().map(|&j| super::levels::coulomb_levels(f, d, j, asym, m.stick_band[j])).collect();
             if let Some(lv) = lv {
                 let (neg, pos): (Vec<f64>, Vec<f64>) = lv.into_iter().unzip();
                 if asym {

@@ -10,20 +10,22 @@
 //! final fit leaves for them (docs/diagnose.md, "Friction levels where the joint moves").
 
 use super::EffectKind;
-use super::dictionary::{C_SIGN, C_SIGN_POS, Dictionary, moving};
+use super::dictionary::{C_QD, C_SIGN, C_SIGN_POS, Dictionary, moving};
 use super::drive_rules::fitted_torque_and_rest;
 use super::model::Fit;
 
 /// Coulomb friction's `fc` on joint `j`, or direction-dependent friction's `(fc_neg,
 /// fc_pos)` (`asymmetric`), from what the final fit `f` leaves for them on the moving
-/// samples; `None` when too few move to read them.
-pub(super) fn coulomb_levels(f: &Fit, d: &Dictionary, j: usize, asymmetric: bool) -> Option<(f64, f64)> {
+/// samples (and above `band`, the speed below which the friction was read as a soft stick
+/// phase, `stick`); `None` when too few move to read them.
+pub(super) fn coulomb_levels(f: &Fit, d: &Dictionary, j: usize, asymmetric: bool, band: f64) -> Option<(f64, f64)> {
     let kinds = [EffectKind::Coulomb, EffectKind::AsymmetricCoulomb];
     let (_, y, _) = fitted_torque_and_rest(f, d, j, &kinds);
     let (sg, pos) = (&d.cols[j][C_SIGN], &d.cols[j][C_SIGN_POS]);
     // normal equations of y ~ a sign + b [qd > 0] (b = 0 for plain Coulomb friction)
     let (mut s, mut t) = ([[0.0; 2]; 2], [0.0; 2]);
-    for k in moving(d, j).iter().enumerate().filter(|(_, m)| **m).map(|(k, _)| k) {
+    let qd = &d.cols[j][C_QD];
+    for k in moving(d, j).iter().enumerate().filter(|&(k, m)| *m && qd[k].abs() > band).map(|(k, _)| k) {
         let x = [sg[k], if asymmetric { pos[k] } else { 0.0 }];
         for a in 0..2 {
             t[a] += x[a] * y[k];

@@ -59,6 +59,9 @@ pub(super) struct Model {
     /// The terminal link's 10 inertial parameters free on every row, as a correction of the
     /// nominal pulled toward it by the re-fit's ridge, not a payload (`terminal_cad`).
     pub(super) terminal_cad: bool,
+    /// Per joint, the speed below which its Coulomb friction was read as a stick phase
+    /// (`stick`; 0: none): its level is read above it (`levels`).
+    pub(super) stick_band: Vec<f64>,
 }
 
 impl Model {
@@ -76,6 +79,7 @@ impl Model {
             refit_skip: vec![],
             terminal_row: None,
             terminal_cad: false,
+            stick_band: vec![0.0; n],
         }
     }
 

@@ -33,6 +33,11 @@ const STICK_SHARE: f64 = 0.03;
 /// One-sided 5 % normal quantile: the excess must be positive beyond its noise.
 const STICK_Z: f64 = 1.645;
 
+/// The level of Coulomb friction read from a stick phase is read where `|qd|` exceeds this
+/// many of the tanh's `vs` (`levels`): beyond it the soft stick is saturated at `fc` (a tanh
+/// reaches 96 % of its level at 2 `vs`).
+const STICK_LEVEL_BAND: f64 = 2.0;
+
 /// Fewest samples in the band and outside it for the test.
 const MIN_ROWS: usize = 50;
 
@@ -57,6 +62,7 @@ pub(super) fn coulomb_through_stick(ctx: &Ctx, d: &Dictionary, names: &[String],
             continue;
         }
         model = model.without(Some(j), EffectKind::SmoothCoulomb);
+        model.stick_band[j] = STICK_LEVEL_BAND * vs;
         found.notes.push(format!(
             "{}: smooth Coulomb friction named Coulomb friction: where |qd| < vs = {vs:.3} ({:.0} % of the samples) the residual rises with qdd by {:.3} more per unit qdd than at speed (+- {:.3}), {:.0} % of the friction level {fc:.3} N m over the band's qdd: the joint sticks there (a compliant stick phase, e.g. a drive's pre-sliding or a simulator's soft friction constraint), which a friction of the velocity alone does not do",
             names[j],
