@@ -390,6 +390,8 @@ def write_case(cfg, robot, case, nominal, duration):
              "oracle": oracle}
     if mdc.FRICTION_SOLREF != "stiff":
         entry["friction_solref"] = mdc.FRICTION_SOLREF
+    if mdc.STRIBECK != "constraint":
+        entry["stribeck"] = mdc.STRIBECK
     if MOTION != "narrow":
         entry["motion"] = MOTION
     if RIPPLE_N != DEFAULT_RIPPLE_N:
@@ -441,6 +443,9 @@ def main(argv=None):
     ap.add_argument("--friction-solref", choices=["stiff", "mujoco"], default="stiff", help="solref of the "
                     "friction-loss constraints: (2 dt, 1), the stiffest stable one, or MuJoCo's soft default "
                     "(0.02 s, 1), which makes Coulomb friction creep near zero velocity")
+    ap.add_argument("--stribeck", choices=["constraint", "applied"], default="constraint", help="Stribeck "
+                    "friction as the joint's frictionloss set every step (stick phases) or as an applied force "
+                    "-(fc + fs exp(-(qd/vs)^2)) sign(qd) (no stick phase)")
     ap.add_argument("--kinds", default="", help="comma list of the kinds to draw from instead of the default "
                     f"(with {', '.join(EXTRA_KINDS)}, which the default leaves out)")
     ap.add_argument("--everywhere", default="", help="comma list of kinds drawn on every joint instead of 1-3 "
@@ -456,6 +461,7 @@ def main(argv=None):
     if MOTION != "narrow" and args.set != "random":
         ap.error("--motion wide is for --set random (the CAD arms' amplitudes are set within their limits)")
     mdc.FRICTION_SOLREF = args.friction_solref
+    mdc.STRIBECK = args.stribeck
     if args.ripple_n:
         try:
             RIPPLE_N[:] = [float(v) for v in args.ripple_n.split(",")]

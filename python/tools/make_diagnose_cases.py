@@ -35,7 +35,9 @@ the step), or as a sensor model applied to the recorded torque:
 
     stribeck_friction  joint `frictionloss` set before every step to fc + fs exp(-(qd/vs)^2) at
                       the step's velocity (constraint force: stick phases hold up to fc + fs,
-                      the static friction; the level falls to fc as the joint speeds up)
+                      the static friction; the level falls to fc as the joint speeds up); with
+                      `STRIBECK = "applied"` (make_cad_cases.py --stribeck applied) the applied
+                      force -(fc + fs exp(-(qd/vs)^2)) sign(qd) instead
 
 The UR5 and Panda fixtures of this script have no Stribeck friction (their manifests say so);
 make_cad_cases.py draws it with `--kinds`.
@@ -280,6 +282,10 @@ def zero_dynamics(root):
 # torque and a joint creeps at |f| < fc, so on light joints the force reaches fc only above a
 # few tenths of a rad/s (make_cad_cases.py --friction-solref).
 FRICTION_SOLREF = "stiff"
+# how Stribeck friction is injected: "constraint" (the joint's frictionloss set every step, stick
+# phases held up to fc + fs) or "applied" (-(fc + fs exp(-(qd/vs)^2)) sign(qd) as an applied
+# force, no stick phase: the formula a person without MuJoCo's constraint would write)
+STRIBECK = "constraint"
 
 
 def friction_solref(joint, dt):
@@ -312,7 +318,8 @@ def mujoco_model(cfg, effects, joint_names, dt=DT):
             elif e["name"] == "asymmetric_coulomb_friction":
                 j.frictionloss = 0.5 * (p["fc_pos"][i] + p["fc_neg"][i])
                 friction_solref(j, dt)
-            elif e["name"] in ("load_dependent_friction", "stribeck_friction"):
+            elif e["name"] == "load_dependent_friction" or (e["name"] == "stribeck_friction"
+                                                              and STRIBECK == "constraint"):
                 friction_solref(j, dt)   # frictionloss itself is set every step
         if e["name"] == "payload":
             parent = spec.body(cfg["terminal_link"])
@@ -482,6 +489,9 @@ def drive_force(effects, names, q, qd):
                 f[j] -= 0.5 * (p["fc_pos"][i] - p["fc_neg"][i]) * min(1.0, abs(qd[j]) / 1e-3)
             elif e["name"] == "smooth_coulomb_friction":
                 f[j] -= p["fc"][i] * math.tanh(qd[j] / p["vs"][i])
+            elif e["name"] == "stribeck_friction" and STRIBECK == "applied":
+                level = p["fc"][i] + p["fs"][i] * math.exp(-(qd[j] / p["vs"][i]) ** 2)
+                f[j] -= level * float(np.sign(qd[j]))
             elif e["name"] == "torque_ripple":
                 w = 2 * math.pi / p["period"][i]
                 f[j] -= p["a"][i] * math.sin(w * q[j]) + p["b"][i] * math.cos(w * q[j])
@@ -493,7 +503,7 @@ def load_friction(m, d, effects, names):
     torque `mj_rne` at the current state and the previous step's acceleration), and each
     Stribeck joint's to fc + fs exp(-(qd / vs)^2) at the current velocity."""
     for e in effects:
-        if e["name"] == "stribeck_friction":
+        if e["name"] == "stribeck_friction" and STRIBECK == "constraint":
             p = e["parameters"]
             for i, jn in enumerate(e["joints"]):
                 j = names.index(jn)

@@ -199,6 +199,14 @@ impl<'a> Ctx<'a> {
 }
 
 impl<'a> Ctx<'a> {
+    /// The same context under other options (the backward step's exit threshold).
+    pub(super) fn with_opts<'b>(&self, opts: &'b DiagnoseOptions) -> Ctx<'b>
+    where
+        'a: 'b,
+    {
+        Ctx { opts, ..self.clone() }
+    }
+
     fn n_eff(&self, j: usize) -> f64 {
         let rows = (self.gr.rows[j][0] + self.gr.rows[j][1]) as f64;
         (rows / self.tau[j]).max(10.0)

@@ -812,6 +812,23 @@ fn named_in(set: &str, name: &str) -> (Value, DiagnosisJson, Vec<(String, Vec<St
     (case, d, names)
 }
 
+/// The case's true effects and their joints; asserted: every named (effect, joint) among them.
+fn named_within_truth(
+    case: &Value,
+    names: &[(String, Vec<String>)],
+) -> std::collections::BTreeMap<String, Vec<String>> {
+    let truth: std::collections::BTreeMap<String, Vec<String>> = case["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| (e["name"].as_str().unwrap().to_string(), serde_json::from_value(e["joints"].clone()).unwrap()))
+        .collect();
+    for (name, joints) in names {
+        assert!(joints.iter().all(|j| truth.get(name).is_some_and(|t| t.contains(j))), "{name} on {joints:?}");
+    }
+    truth
+}
+
 /// Friction on every joint, as a real arm has it (issue 15: viscous friction on all 7 joints
 /// named on 3): `fixtures/diagnose_every/rarm4_6j/e30_3fx` (`make_cad_cases.py --everywhere`,
 /// inertials 30 % off, 11 s jittered with re-published samples): viscous and smooth friction
@@ -827,15 +844,7 @@ fn named_in(set: &str, name: &str) -> (Value, DiagnosisJson, Vec<(String, Vec<St
 #[test]
 fn friction_on_every_joint() {
     let (case, d, names) = named_in("diagnose_every/rarm4_6j", "e30_3fx");
-    let truth: std::collections::BTreeMap<String, Vec<String>> = case["effects"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|e| (e["name"].as_str().unwrap().to_string(), serde_json::from_value(e["joints"].clone()).unwrap()))
-        .collect();
-    for (name, joints) in &names {
-        assert!(joints.iter().all(|j| truth.get(name).is_some_and(|t| t.contains(j))), "{name} on {joints:?}");
-    }
+    named_within_truth(&case, &names);
     let on = |name: &str| names.iter().find(|(n, _)| n == name).map(|(_, j)| j.clone()).unwrap_or_default();
     let all: Vec<String> = (1..=6).map(|k| format!("joint_{k}")).collect();
     assert_eq!(on("viscous_friction"), all);
@@ -851,6 +860,32 @@ fn friction_on_every_joint() {
     for k in 1..5 {
         assert!((fv[k] - fv_true[k]).abs() <= 0.12 * fv_true[k], "joint {}: fv {} vs {}", k + 1, fv[k], fv_true[k]);
         assert!((fc[k] - fc_true[k]).abs() <= 0.12 * fc_true[k], "joint {}: fc {} vs {}", k + 1, fc[k], fc_true[k]);
+    }
+}
+
+/// Coulomb friction and rotor inertia on every joint through MuJoCo's default (soft)
+/// friction constraint, as in the issue's hidden case "Coulomb + viscous + armature on every
+/// joint" (`fixtures/diagnose_soft_every/rarm5_7j/e15_2fx`: `make_cad_cases.py --set random
+/// --arms 6 --duration 5:12 --friction-solref mujoco --everywhere
+/// coulomb_friction,viscous_friction,armature`, its tuning part; 7 joints, inertials 15 % off,
+/// 7 s jittered with re-published float32 samples, no velocity in the log). With one
+/// held-out share to come in and to stay, Coulomb friction on `joint_1` and `joint_2`, each
+/// just under the share given the other (71 and 72 %), went out together and came back one
+/// by one until the step limit: Coulomb friction named on `joint_6` alone, final RMS up to 3.9
+/// times the oracle's. An effect now stays on 0.8 of the share it came in on once the search
+/// returns to a model it has been at (`search::STAY_SHARE`). Asserted: nothing beyond the truth;
+/// Coulomb friction on all seven joints; every joint's final RMS within 1.5 times what the
+/// true effects leave on the true rigid-body model at the exact states
+/// (`oracle_rms_true_model`: the noise, and the soft stick's departure from `fc sign(qd)`).
+#[test]
+fn coulomb_friction_on_every_joint_through_a_soft_constraint() {
+    let (case, d, names) = named_in("diagnose_soft_every/rarm5_7j", "e15_2fx");
+    let truth = named_within_truth(&case, &names);
+    let coulomb = names.iter().find(|(n, _)| n == "coulomb_friction").map(|(_, j)| j.clone()).unwrap_or_default();
+    assert_eq!(coulomb, truth["coulomb_friction"], "{names:?}");
+    let oracle = f64s(&case["oracle"]["oracle_rms_true_model"]);
+    for (j, (got, floor)) in d.final_rms.iter().zip(&oracle).enumerate() {
+        assert!(*got <= 1.5 * floor, "joint_{}: final RMS {got} vs the oracle's {floor}", j + 1);
     }
 }
 
