@@ -192,6 +192,21 @@ def test_a_payload_the_logs_cannot_weigh_is_said_why(tmp_path):
     assert {e["name"] for e in d["effects"]} <= {"payload"}, d["effects"]
 
 
+def test_a_torque_gain_is_a_ratio_a_spring_n_m_per_rad():
+    """The words give each parameter its effect's unit (docs/diagnose.md): a torque gain's
+    ``k`` is measured / true torque, no unit; a joint spring's ``k`` is N m/rad."""
+    from ivdyn.fleet import diagnosis
+
+    def said(name):
+        e = {"name": name, "joints": ["elbow"], "parameters": {"k": [0.96]}, "parameters_std": {"k": [0.005]}}
+        [w] = diagnosis.effect_words("arm-0", e, {}, {}, "day1")
+        return w
+
+    # 95 % interval: 1.96 x 0.005 = 0.0098, to two significant digits
+    assert said("torque_gain") == "arm-0, elbow: torque gain +0.9600 ± 0.0098 on day1"
+    assert said("joint_spring") == "arm-0, elbow: joint spring +0.9600 N m/rad ± 0.0098 N m/rad on day1"
+
+
 def test_manifest_csv_and_json(tmp_path):
     (tmp_path / "m.csv").write_text("log,robot,model,time,payload\nlogs/a.mcap,arm-1,ur5.urdf,2026-11-02T10:00,box\n")
     (tmp_path / "m.json").write_text('{"logs": [{"log": "/x/b.mcap", "robot": "arm-2", "model": "/m/ur5.urdf",'

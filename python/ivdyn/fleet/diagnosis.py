@@ -50,7 +50,10 @@ DRIFT_EFFECT = {
 #: Units of the diagnosis's parameters (``docs/diagnose.md``), and the reference model's
 #: parameter a change is a percentage of (``<joint>.<suffix>``).
 UNITS = {"fc": "N m", "fv": "N m s/rad", "ia": "kg m^2", "tau0": "N m", "fs": "N m", "vs": "rad/s",
-         "k": "N m/rad", "q0": "rad", "fc_pos": "N m", "fc_neg": "N m", "mu": "", "delay_s": "s"}
+         "k": "N m/rad", "q0": "rad", "fc_pos": "N m", "fc_neg": "N m", "mu": "", "delay_s": "s",
+         "period": "rad", "a": "N m", "b": "N m"}
+#: Keys whose unit depends on the effect: a torque gain's ``k`` is a ratio, a spring's N m/rad.
+UNITS_OF_EFFECT = {("torque_gain", "k"): ""}
 OF_REFERENCE = {"fc": "fc", "fv": "fv", "ia": "ia", "fc_pos": "fc", "fc_neg": "fc"}
 #: How the diagnosis's details start a residual it left above the noise (and why it named
 #: nothing there).
@@ -186,7 +189,7 @@ def effect_words(robot: str, e: Dict[str, Any], params: Dict[str, Any], since: D
         for j, (joint, x) in enumerate(zip(e["joints"], values)):
             if x is None:
                 continue
-            unit = UNITS.get(key, "")
+            unit = UNITS_OF_EFFECT.get((e["name"], key), UNITS.get(key, ""))
             s = sds[j] if j < len(sds) else None
             v, ci = _fmt(x, CI95 * s) if s else (f"{x:+.3g}", None)
             named = f"{label} ({key})" if len(lists) > 1 else label

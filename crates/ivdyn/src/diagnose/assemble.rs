@@ -417,7 +417,6 @@ fn verdict(
             _ => format!("{} on {} joints", st.effect.label(), js.len()),
         }
     };
-    let unit_of = |k: &str| super::report::param_meta(k).0;
     let mut details: Vec<String> = kept
         .iter()
         .map(|st| match effects.iter().find(|e| e.name == st.effect.name()) {
@@ -428,7 +427,7 @@ fn verdict(
             Some(e) if !e.parameters_std.is_empty() => format!(
                 "missing: {}: {} (\u{b1} 2 standard errors)",
                 on(st, true),
-                uncertainty::with_two_std(&e.parameters, &e.parameters_std, &unit_of)
+                uncertainty::with_two_std(&e.parameters, &e.parameters_std, &|k| super::report::param_meta(st.effect, k).0)
             ),
             _ => format!("missing: {}", on(st, true)),
         })

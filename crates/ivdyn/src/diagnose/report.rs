@@ -13,7 +13,7 @@ use std::path::Path;
 
 pub use crate::report::page::{fmt_num, fmt_p, fmt_pct};
 
-use super::Diagnosis;
+use super::{Diagnosis, EffectKind};
 use crate::error::{Error, Result};
 use crate::log::McapWriter;
 use crate::output::OutputSet;
@@ -24,21 +24,34 @@ pub const HTML_FILE: &str = "report.html";
 /// File name of the log written by [`write_mcap`].
 pub const MCAP_FILE: &str = "residuals.mcap";
 
-/// Unit and meaning of an effect parameter of `diagnosis.json` (revolute joints; for a
-/// prismatic joint read N for N m and m for rad).
-pub fn param_meta(key: &str) -> (&'static str, &'static str) {
-    match key {
-        "fc" => ("N m", "Coulomb friction level"),
-        "fs" => ("N m", "Stribeck excess over Coulomb at rest"),
-        "vs" => ("rad/s", "Stribeck velocity"),
-        "fv" => ("N m s/rad", "viscous coefficient"),
-        "ia" => ("kg m\u{b2}", "armature (rotor) inertia"),
-        "tau0" => ("N m", "torque offset"),
-        "k" => ("N m/rad", "spring stiffness"),
-        "q0" => ("rad", "spring rest position"),
-        "mass" => ("kg", "mass"),
-        "com" => ("m", "centre of mass [x, y, z] in the terminal link frame"),
-        "inertia" => ("kg m\u{b2}", "inertia about the COM [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]"),
+/// Unit and meaning of parameter `key` of effect `kind` in `diagnosis.json` (revolute
+/// joints; for a prismatic joint read N for N m and m for rad). A key names one quantity
+/// per effect: `k` is a spring's stiffness but a torque gain's ratio, `fc` and `vs` are
+/// Stribeck's or smooth friction's (docs/diagnose.md, "Units of the parameters").
+pub fn param_meta(kind: EffectKind, key: &str) -> (&'static str, &'static str) {
+    use EffectKind::{SmoothCoulomb, TorqueGain};
+    match (kind, key) {
+        (TorqueGain, "k") => ("", "measured / true torque"),
+        (SmoothCoulomb, "fc") => ("N m", "smooth Coulomb friction level"),
+        (SmoothCoulomb, "vs") => ("rad/s", "velocity scale of tanh(qd / vs)"),
+        (_, "fc") => ("N m", "Coulomb friction level"),
+        (_, "fs") => ("N m", "Stribeck excess over Coulomb at rest"),
+        (_, "vs") => ("rad/s", "Stribeck velocity"),
+        (_, "fv") => ("N m s/rad", "viscous coefficient"),
+        (_, "ia") => ("kg m\u{b2}", "armature (rotor) inertia"),
+        (_, "tau0") => ("N m", "torque offset"),
+        (_, "k") => ("N m/rad", "spring stiffness"),
+        (_, "q0") => ("rad", "spring rest position"),
+        (_, "fc_pos") => ("N m", "Coulomb friction level for qd > 0"),
+        (_, "fc_neg") => ("N m", "Coulomb friction level for qd < 0"),
+        (_, "mu") => ("", "friction per N m of the joint's load torque"),
+        (_, "period") => ("rad", "ripple period in q"),
+        (_, "a") => ("N m", "ripple sine amplitude"),
+        (_, "b") => ("N m", "ripple cosine amplitude"),
+        (_, "delay_s") => ("s", "torque-to-motion delay"),
+        (_, "mass") => ("kg", "mass"),
+        (_, "com") => ("m", "centre of mass [x, y, z] in the terminal link frame"),
+        (_, "inertia") => ("kg m\u{b2}", "inertia about the COM [Ixx, Ixy, Ixz, Iyy, Iyz, Izz]"),
         _ => ("", ""),
     }
 }

@@ -15,18 +15,19 @@
 //! factor 2.5, the grid's spacing then, before).
 
 use super::diagnose_cases::{cases_in, f64s, run_with};
-use ivdyn::diagnose::DiagnoseOptions;
+use ivdyn::diagnose::{DiagnoseOptions, Diagnosis};
 
-fn check(name: &str) {
+fn check(name: &str) -> Diagnosis {
     // the drive vocabulary is searched on request (`--drives`)
-    check_with(name, &DiagnoseOptions { drives: Some(true), ..Default::default() });
+    check_with(name, &DiagnoseOptions { drives: Some(true), ..Default::default() })
 }
 
-fn check_with(name: &str, opts: &DiagnoseOptions) {
+fn check_with(name: &str, opts: &DiagnoseOptions) -> Diagnosis {
     let set = "diagnose_drives";
     let m = cases_in(set);
     let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
-    let d = run_with(set, case, &m, opts).json;
+    let diagnosis = run_with(set, case, &m, opts);
+    let d = &diagnosis.json;
     let truth = &case["effects"].as_array().unwrap()[0];
     let named: Vec<(String, Vec<String>)> = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
     let tj: Vec<String> = truth["joints"].as_array().unwrap().iter().map(|j| j.as_str().unwrap().to_string()).collect();
@@ -54,6 +55,7 @@ fn check_with(name: &str, opts: &DiagnoseOptions) {
     for (j, (f, o)) in d.final_rms.iter().zip(&oracle).enumerate() {
         assert!(*f <= 1.5 * o, "{name}: joint {j} final RMS {f} vs oracle {o}");
     }
+    diagnosis
 }
 
 /// Shoulder (fc_pos 4.0, fc_neg 2.5 N m) and elbow (1.2 / 2.0 N m). Marked a known miss
@@ -85,7 +87,13 @@ fn load_dependent_friction() {
 
 #[test]
 fn torque_gain() {
-    check("torque_gain");
+    let d = check("torque_gain");
+    // the gain's `k` is a ratio (measured / true), not a spring's N m/rad: in the verdict's
+    // details and in the report's parameter table
+    let line = d.details.iter().find(|l| l.contains("torque gain")).expect("the gain's line");
+    assert!(line.contains("k = ") && !line.contains("N m/rad"), "{line}");
+    let page = ivdyn::diagnose::report::html_page(&d, std::path::Path::new("unused")).unwrap();
+    assert!(page.contains("measured / true torque") && !page.contains("spring stiffness"));
 }
 
 #[test]

@@ -179,7 +179,7 @@ fn params_table(o: &mut String, e: &EffectJson, kind: EffectKind) {
     if per_joint {
         o.push_str("<table class=\"params\">\n<tr><th>joint</th>");
         for key in e.parameters.keys() {
-            let (u, what) = param_meta(key);
+            let (u, what) = param_meta(kind, key);
             let _ = write!(o, "<th><code>{}</code> {}{}</th>", esc(key), esc(what), unit(u));
         }
         o.push_str("</tr>\n");
@@ -195,7 +195,7 @@ fn params_table(o: &mut String, e: &EffectJson, kind: EffectKind) {
     } else {
         o.push_str("<table class=\"params\">\n<tr><th>parameter</th><th>value</th></tr>\n");
         for (key, v) in &e.parameters {
-            let (u, what) = param_meta(key);
+            let (u, what) = param_meta(kind, key);
             let _ = writeln!(
                 o,
                 "<tr><td><code>{}</code> {}{}</td><td class=\"n\">{}</td></tr>",
