@@ -158,7 +158,14 @@ impl LogInput {
         };
         // positions in degrees would pass every other check and fit nonsense
         crate::prep::hygiene::degrees_check(&log, &revolute_limits(robot)).map_err(|e| self.context(e))?;
-        Ok(log)
+        // an angle reported modulo 2 pi would be differentiated into spikes of 2 pi / dt
+        let n = log.dof();
+        if crate::prep::hygiene::first_wrap(&log.q, n, None).is_none() {
+            return Ok(log);
+        }
+        let mut log = log.into_owned();
+        crate::prep::hygiene::unwrap_angles(&mut log.q, n, &revolute(robot));
+        Ok(Cow::Owned(log))
     }
 
     /// `e` prefixed with the log file, unless it already names a file.
@@ -190,6 +197,11 @@ pub fn stage_log(set: &mut OutputSet, path: &Path, log: &JointLog) -> Result<()>
     set.write(path, |tmp| {
         if ext == "csv" { crate::log::write_csv(tmp, log) } else { crate::log::write_mcap(tmp, log, &[]).map(|_| ()) }
     })
+}
+
+/// Whether each joint is revolute (its position an angle).
+fn revolute(robot: &Robot) -> Vec<bool> {
+    robot.model.to_chain().joints.iter().map(|j| j.kind == ivdyn_core::JointKind::Revolute).collect()
 }
 
 /// Each joint's position limits in rad when it is revolute and has them.

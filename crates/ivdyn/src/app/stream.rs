@@ -204,6 +204,8 @@ struct Front {
     /// Re-published samples ([`prep::hygiene::repeated_samples`]), and the row compared.
     repeat: prep::hygiene::RepeatWatch,
     row: Vec<f64>,
+    /// The last raw positions received (a wrapped angle is a step from them).
+    q_prev: Vec<f64>,
 }
 
 impl Front {
@@ -239,6 +241,7 @@ impl Front {
             nonzero: vec![false; n],
             repeat: Default::default(),
             row: Vec::with_capacity(2 * n),
+            q_prev: vec![],
         }
     }
 
@@ -258,6 +261,19 @@ impl Front {
                 prep::hygiene::magnitude_in(field, a, &self.joints, self.received)
                     .map_err(|e| self.log_err(e.to_string()))?;
             }
+        }
+        // an angle reported modulo 2 pi: the in-memory path knows which joints are angles
+        // and unwraps them (`prep::hygiene::unwrap_angles`)
+        let prev = (!self.q_prev.is_empty()).then_some(&self.q_prev[..]);
+        if let Some((k, j)) = prep::hygiene::first_wrap(&b.q, self.n, prev) {
+            return Ok(Err(format!(
+                "joint '{}' steps by more than pi at sample {} (an angle wrapped modulo 2 pi), unwrapped in memory",
+                self.joints[j],
+                self.received + k
+            )));
+        }
+        if let Some(last) = b.q.rchunks_exact(self.n).next() {
+            self.q_prev = last.to_vec();
         }
         prep::hygiene::nonzero_joints(tau, self.n, &mut self.nonzero);
         self.received += b.stamps.len();

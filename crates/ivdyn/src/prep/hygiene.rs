@@ -336,6 +336,54 @@ pub fn degrees_check(log: &JointLog, limits: &[Option<(f64, f64)>]) -> Result<()
     Ok(())
 }
 
+/// Revolute joints' positions made continuous where they wrap: a step of more than pi
+/// between consecutive samples (over 3000 rad/s at 1 kHz, which no arm turns) is an angle
+/// reported modulo 2 pi (a continuous joint's driver, a `(-pi, pi]` convention), and is
+/// undone by the multiple of 2 pi that brings the step within pi. A revolute joint's
+/// dynamics are 2 pi-periodic in its angle, so this changes nothing but the differences
+/// the velocity and acceleration come from, which a wrap turns into a spike of 2 pi / dt.
+/// `angle[j]`: joint `j` is revolute (a prismatic joint's positions are left as they are).
+/// Returns the wraps undone per joint.
+pub fn unwrap_angles(q: &mut [f64], n: usize, angle: &[bool]) -> Vec<usize> {
+    use std::f64::consts::{PI, TAU};
+    let mut wraps = vec![0; n];
+    for (j, w) in wraps.iter_mut().enumerate().filter(|(j, _)| angle.get(*j) == Some(&true)) {
+        // the raw previous sample: a wrap is a step between raw samples
+        let (mut prev, mut offset) = (f64::NAN, 0.0);
+        for x in q.iter_mut().skip(j).step_by(n) {
+            let raw = *x;
+            let step = raw - prev;
+            if step.abs() > PI {
+                offset -= TAU * (step / TAU).round();
+                *w += 1;
+            }
+            if raw.is_finite() {
+                prev = raw;
+            }
+            *x = raw + offset;
+        }
+    }
+    wraps
+}
+
+/// The first step of more than pi between consecutive positions of any joint (a wrapped
+/// angle, or a jump), as `(sample, joint)`; the streaming path leaves such a log to the
+/// in-memory one, which knows the joints' kinds ([`unwrap_angles`]). `prev`: the last row
+/// before `q` (`None` at the log's start).
+pub fn first_wrap(q: &[f64], n: usize, prev: Option<&[f64]>) -> Option<(usize, usize)> {
+    let rows = q.chunks_exact(n);
+    let mut last = prev;
+    for (k, row) in rows.enumerate() {
+        if let Some(p) = last
+            && let Some(j) = (0..n).find(|&j| (row[j] - p[j]).abs() > std::f64::consts::PI)
+        {
+            return Some((k, j));
+        }
+        last = Some(row);
+    }
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -382,5 +430,31 @@ mod tests {
         assert_eq!(parse_window("2:").unwrap(), (2.0, f64::INFINITY));
         assert!(parse_window("2-3").unwrap_err().to_string().contains("window must be START:END"));
         assert!(parse_window("a:3").is_err());
+    }
+
+    #[test]
+    fn wrapped_angles_are_unwrapped_prismatic_left() {
+        use std::f64::consts::{PI, TAU};
+        // joint 0 turns at 2 rad/s through pi, reported in (-pi, pi]; joint 1 (prismatic)
+        // jumps by 4 m once, which no wrap explains
+        let true_q: Vec<f64> = (0..400).map(|k| 2.5 + 0.002 * k as f64).collect();
+        let mut q = vec![];
+        for (k, a) in true_q.iter().enumerate() {
+            q.push((a + PI).rem_euclid(TAU) - PI);
+            q.push(if k < 200 { 0.1 } else { 4.1 });
+        }
+        let wraps = unwrap_angles(&mut q, 2, &[true, false]);
+        assert_eq!(wraps, vec![1, 0]);
+        for (k, a) in true_q.iter().enumerate() {
+            // the first sample is kept, so the unwrapped angle is the true one
+            assert!((q[2 * k] - a).abs() < 1e-12, "sample {k}: {} vs {a}", q[2 * k]);
+        }
+        assert_eq!(q[2 * 399 + 1], 4.1);
+        // the streaming check names the first such step, on either kind of joint
+        let wrapped: Vec<f64> = true_q.iter().flat_map(|a| [(a + PI).rem_euclid(TAU) - PI, 0.0]).collect();
+        let k = true_q.iter().position(|a| *a > PI).unwrap();
+        assert_eq!(first_wrap(&wrapped, 2, None), Some((k, 0)));
+        assert_eq!(first_wrap(&wrapped[2 * k..], 2, Some(&wrapped[2 * k - 2..2 * k])), Some((0, 0)));
+        assert_eq!(first_wrap(&true_q.iter().flat_map(|a| [*a, 0.0]).collect::<Vec<_>>(), 2, None), None);
     }
 }

@@ -214,3 +214,35 @@ fn positions_in_degrees_are_refused() {
     assert!(err.contains("degrees") && err.contains("give positions in radians"), "{err}");
     assert!(robot.joint_names.iter().any(|j| err.contains(&format!("'{j}'"))), "{err}");
 }
+
+/// The shoulder pan's angle reported modulo 2π, as a continuous joint's driver may: the
+/// UR5's pan axis is vertical, so a constant added to it changes no torque, and the log
+/// turned to cross ±π and wrapped into (-π, π] is the same motion. Every job's log goes
+/// through `LogInput::load`, which unwraps it: the identification equals the one on the
+/// continuous log to rounding (the wrapped samples sit 2π away, where sin and cos round
+/// differently), where the wraps, differentiated, would be spikes of 2π / dt.
+#[test]
+fn angles_wrapped_modulo_two_pi_are_unwrapped() {
+    use ivdyn::app::{LogInput, LogSource};
+    use std::f64::consts::{PI, TAU};
+    let robot = ur5();
+    let n = robot.dof();
+    let (log, val) = (sim(&robot, 11, 8.0), sim(&robot, 12, 4.0));
+    let mut turned = log.clone();
+    let mean = log.q.iter().step_by(n).sum::<f64>() / log.len() as f64;
+    turned.q.iter_mut().step_by(n).for_each(|q| *q += PI - mean);
+    let mut wrapped = turned.clone();
+    wrapped.q.iter_mut().step_by(n).for_each(|q| *q = (*q + PI).rem_euclid(TAU) - PI);
+    let wraps =
+        wrapped.q.iter().step_by(n).zip(wrapped.q.iter().step_by(n).skip(1)).filter(|(a, b)| (*b - *a).abs() > PI);
+    assert!(wraps.count() >= 2, "the motion crosses ±π");
+    let load = |l: &JointLog| LogInput::Arrays(l.clone()).load(&robot, &LogSource::default()).unwrap().into_owned();
+    let opts = IdentifyOptions { validation_log: Some(val), ..Default::default() };
+    let a = identify_logs(&robot, &[&load(&turned)], &opts).unwrap();
+    let b = identify_logs(&robot, &[&load(&wrapped)], &opts).unwrap();
+    assert_eq!(a.base.len(), b.base.len());
+    for (x, y) in a.base.iter().zip(&b.base).filter(|(x, _)| x.value.is_finite()) {
+        assert!((x.value - y.value).abs() <= 1e-8 * x.value.abs().max(1.0), "{}: {} vs {}", x.name, x.value, y.value);
+    }
+    assert!((mean_rms(&a) - mean_rms(&b)).abs() <= 1e-9 * mean_rms(&a), "{} vs {}", mean_rms(&a), mean_rms(&b));
+}

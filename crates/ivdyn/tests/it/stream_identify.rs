@@ -224,23 +224,25 @@ fn streamed_identify_matches_in_memory_identify() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Logs the stream cannot reproduce are handed back (the CLI then reads them into
-/// memory): uneven stamps (they need resampling), and IDIM-IV.
-#[test]
-fn uneven_stamps_and_idim_are_not_streamed() {
-    let dir = Scratch::new("ivdyn-stream-uneven");
+/// The UR5 and a Fourier-excited log of it, `duration_s` long, 0.05 N m torque noise.
+fn ur5_fourier(duration_s: f64) -> (ivdyn::Robot, ivdyn::log::JointLog) {
     let robot = ivdyn::Robot::from_urdf(
         concat!(env!("CARGO_MANIFEST_DIR"), "/../../fixtures/ur5.urdf"),
         Some("base_link"),
         Some("tool0"),
     )
     .unwrap();
-    let mut log = app::simulate(
-        &robot,
-        &Trajectory::Fourier,
-        &SimulateOptions { duration_s: 30.0, noise_tau: 0.05, ..Default::default() },
-    )
-    .unwrap();
+    let opts = SimulateOptions { duration_s, noise_tau: 0.05, ..Default::default() };
+    let log = app::simulate(&robot, &Trajectory::Fourier, &opts).unwrap();
+    (robot, log)
+}
+
+/// Logs the stream cannot reproduce are handed back (the CLI then reads them into
+/// memory): uneven stamps (they need resampling), and IDIM-IV.
+#[test]
+fn uneven_stamps_and_idim_are_not_streamed() {
+    let dir = Scratch::new("ivdyn-stream-uneven");
+    let (robot, mut log) = ur5_fourier(30.0);
     // one interval 30 % long, after the first 10 000 samples
     for t in log.t.iter_mut().skip(12_000) {
         *t += 0.3 * 2e-3;
@@ -254,5 +256,30 @@ fn uneven_stamps_and_idim_are_not_streamed() {
     }
     let idim = IdentifyOptions { method: app::Method::IdimIv, ..Default::default() };
     assert!(matches!(st::identify_mcap(&robot, &path, None, &read, &idim).unwrap(), Streamed::Unsupported(_)));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A log whose shoulder pan angle wraps modulo 2π (the pan axis is vertical: a constant
+/// added to it changes no torque, `log_hygiene::angles_wrapped_modulo_two_pi_are_unwrapped`)
+/// is handed back by the stream, which cannot tell a revolute joint from a prismatic one,
+/// naming the joint and the sample; read in memory it is unwrapped.
+#[test]
+fn a_wrapped_angle_is_not_streamed() {
+    use std::f64::consts::{PI, TAU};
+    let dir = Scratch::new("ivdyn-stream-wrapped");
+    let (robot, mut log) = ur5_fourier(8.0);
+    let n = robot.dof();
+    let mean = log.q.iter().step_by(n).sum::<f64>() / log.len() as f64;
+    log.q.iter_mut().step_by(n).for_each(|q| *q = (*q + PI - mean + PI).rem_euclid(TAU) - PI);
+    let first = (1..log.len()).find(|&k| (log.q[k * n] - log.q[(k - 1) * n]).abs() > PI).expect("a wrap");
+    let path = dir.join("wrapped.mcap");
+    ivdyn::log::write_mcap(&path, &log, &[]).unwrap();
+    let read = ivdyn::log::ReadOptions::new(&robot.joint_names);
+    match st::identify_mcap(&robot, &path, None, &read, &IdentifyOptions::default()).unwrap() {
+        Streamed::Unsupported(why) => {
+            assert!(why.contains("'shoulder_pan_joint'") && why.contains(&format!("sample {first} ")), "{why}")
+        }
+        Streamed::Done(_) => panic!("a wrapped log was streamed"),
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
