@@ -269,7 +269,7 @@ where
         }
     }
     let mut summary = pass.finish().map_err(|e| if log.files.len() > 1 { in_bag(path, e) } else { e })?;
-    summary.notes = log.notes;
+    summary.notes.splice(0..0, log.notes);
     Ok(summary)
 }
 

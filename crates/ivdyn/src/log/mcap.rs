@@ -179,6 +179,10 @@ struct TopicState {
     q: Vec<f64>,
     qd: Vec<f64>,
     tau: Vec<f64>,
+    /// Messages that name none of the wanted joints (another publisher on the topic, e.g. a
+    /// gripper's beside the arm's), skipped; and the joints the first of them names.
+    foreign: usize,
+    foreign_names: Vec<String>,
 }
 
 impl TopicState {
@@ -195,13 +199,23 @@ impl TopicState {
             q: vec![0.0; n],
             qd: vec![0.0; n],
             tau: vec![0.0; n],
+            foreign: 0,
+            foreign_names: vec![],
         }
     }
 
-    /// Validates `m` and fills `q/qd/tau` in the wanted joint order.
-    fn load(&mut self, m: &JointState, stamp_ns: i64, want: &[String]) -> std::result::Result<(), String> {
+    /// Validates `m` and fills `q/qd/tau` in the wanted joint order; `Ok(false)`: `m` names
+    /// none of the wanted joints (another publisher's message, skipped and counted).
+    fn load(&mut self, m: &JointState, stamp_ns: i64, want: &[String]) -> std::result::Result<bool, String> {
         let k = self.count;
         let topic = &self.topic;
+        if m.name != self.cached_names && !want.is_empty() && !want.iter().any(|w| m.name.contains(w)) {
+            if self.foreign == 0 {
+                self.foreign_names = m.name.clone();
+            }
+            self.foreign += 1;
+            return Ok(false);
+        }
         if m.name != self.cached_names {
             if let Some((name, a, b)) = first_duplicate(&m.name) {
                 return Err(format!("topic {topic}, sample {k}: joint '{name}' is named twice (entries {a} and {b})"));
@@ -277,7 +291,7 @@ impl TopicState {
                 dst[j] = v;
             }
         }
-        Ok(())
+        Ok(true)
     }
 
     fn sample(&self, stamp_ns: i64, m: &JointState) -> Sample<'_> {
@@ -587,7 +601,9 @@ impl<'o> Pass<'o> {
         decode_joint_state_into(data, &mut self.msg).map_err(|e| at(format!("bad message: {e}")))?;
         let m = &self.msg;
         let stamp = if self.opts.use_log_time { i64::try_from(log_time).unwrap_or(i64::MAX) } else { m.stamp_ns() };
-        st.load(m, stamp, &self.opts.joint_names).map_err(|msg| log_err(path, msg))?;
+        if !st.load(m, stamp, &self.opts.joint_names).map_err(|msg| log_err(path, msg))? {
+            return Ok(());
+        }
         f(&st.sample(stamp, m))?;
         st.count += 1;
         Ok(())
@@ -599,10 +615,27 @@ impl<'o> Pass<'o> {
         self.summary.bytes += self.offset;
         self.summary.measured = self.states[0].count;
         self.summary.commands = self.states.iter().find(|s| s.source == Source::Command).map_or(0, |s| s.count);
+        for st in self.states.iter().filter(|st| st.foreign > 0 && st.count > 0) {
+            self.summary.notes.push(format!(
+                "topic {}: {} message(s) naming none of the chain's joints (the first names {}) skipped: another publisher's",
+                st.topic,
+                st.foreign,
+                name_list(&st.foreign_names)
+            ));
+        }
         let summary = &self.summary;
         for st in &self.states {
             if st.count > 0 {
                 continue;
+            }
+            if st.foreign > 0 {
+                return Err(self.err(format!(
+                    "topic {}: none of its {} messages names the chain's joints {}; the first names {}",
+                    st.topic,
+                    st.foreign,
+                    name_list(&self.opts.joint_names),
+                    name_list(&st.foreign_names)
+                )));
             }
             let known = summary.topics.iter().any(|(t, _)| *t == st.topic);
             let listing = if summary.topics.is_empty() {

@@ -375,3 +375,43 @@ fn unfinished_writer_leaves_no_file() {
     assert_eq!(w.finish().unwrap(), p);
     assert!(p.exists());
 }
+
+/// Two publishers on one topic (an arm's driver and a gripper's, as on many robots'
+/// `/joint_states`): the messages naming none of the chain's joints are skipped, counted and
+/// said in the pass's notes, whatever their stamps and fields; a topic of only such messages
+/// is an error naming the joints it has.
+#[test]
+fn another_publishers_messages_on_the_topic_are_skipped() {
+    let names = urdf_joints();
+    let p = tmp("two_publishers.mcap");
+    let mut w = McapWriter::create(&p).unwrap();
+    let topic = w.add_joint_state_topic("/joint_states").unwrap();
+    let (arm, gripper) = (200, 67);
+    for k in 0..arm {
+        let t = k as f64 * 1e-3;
+        let q: Vec<f64> = (0..6).map(|j| q_of(j, t)).collect();
+        let tau: Vec<f64> = (0..6).map(|j| tau_of(j, t)).collect();
+        w.write(topic, T0_NS + k as i64 * 1_000_000, &names, &q, &[], &tau).unwrap();
+        if k % 3 == 0 {
+            // stamped 2.5 ms late, position only: none of the arm's rules apply to it
+            w.write(topic, T0_NS + k as i64 * 1_000_000 + 2_500_000, &["finger_joint"], &[0.01], &[], &[]).unwrap();
+        }
+    }
+    w.finish().unwrap();
+    let log = read_mcap(&p, &ReadOptions::new(&names)).unwrap();
+    assert_eq!(log.len(), arm);
+    for k in [0, 1, 100, arm - 1] {
+        for j in 0..6 {
+            assert_eq!(log.q[k * 6 + j], q_of(j, k as f64 * 1e-3));
+            assert_eq!(log.tau.as_ref().unwrap()[k * 6 + j], tau_of(j, k as f64 * 1e-3));
+        }
+    }
+    let s = for_each_sample(&p, &ReadOptions::new(&names), |_| Ok(())).unwrap();
+    assert_eq!(s.measured, arm);
+    assert!(
+        s.notes.iter().any(|n| n.contains(&format!("{gripper} message(s) naming none")) && n.contains("finger_joint"))
+    );
+    // only the gripper's: an error naming what the topic has
+    let e = log_err(read_mcap(&p, &ReadOptions::new(&["finger_2".to_string()])));
+    assert!(e.contains(&format!("none of its {} messages names the chain's joints [finger_2]", arm + gripper)), "{e}");
+}
