@@ -11,7 +11,7 @@
 //! * `prepare`: the differentiation cutoff and torque alignment chosen on the log.
 //! * `refit`: the nominal model's own error re-fitted when the log calls for it.
 //! * `rotor`: an armature the re-fit holds, named by its size (its column is a link's).
-//! * `effort_sign`: a joint whose logged effort runs opposite to its torque (an error).
+//! * `effort_check`: a joint whose logged effort is not its torque in N m (an error).
 //! * `rules`: scoring a candidate (F test, held-out share, size, physics, look-alikes).
 //! * [`search`]: the add / drop / refit loop ([`diagnose`]).
 //! * `stick`: smooth friction or Coulomb friction through a stick phase, once found.
@@ -30,7 +30,7 @@ mod assemble;
 mod constant_view;
 mod dictionary;
 mod drive_rules;
-mod effort_sign;
+mod effort_check;
 mod levels;
 mod model;
 mod pairs;

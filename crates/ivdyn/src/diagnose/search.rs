@@ -33,7 +33,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     }
     crate::prep::hygiene::torque_check(log)?;
     let mut p = prepare_best(robot, log, opts)?;
-    super::effort_sign::check(&p.s.tau, &p.tau_nom, &robot.joint_names)?;
+    super::effort_check::check(&p.s.tau, &p.tau_nom, &robot.joint_names)?;
     // the re-fit corrections' physical scales (used only when a re-fit is on)
     p.gr.prior = refit::prior_scales(&p.d, &robot.params());
     // the nominal model's own error first: with every candidate in, does a re-fit of it

@@ -957,11 +957,11 @@ fn a_wide_sweep_with_cad_inertials_names_no_ripple() {
 
 /// The same effect-free log with one joint's effort negated (a driver's sign convention
 /// opposite to the URDF axis): the diagnosis stops with an error naming the joint and the
-/// slope of its torque on the model's, near -1 (CAD inertials 30 % off). Before
-/// `effort_sign`, the re-fit took what it could of the reversed torque and the diagnosis
+/// slope of its torque on the model's, near -1 (CAD inertials 30 % off); in mN m, near 1000. Before
+/// `effort_check`, the re-fit took what it could of the reversed torque and the diagnosis
 /// named a gain of 2.8 on joint 1, leaving residual on every joint.
 #[test]
-fn an_effort_of_the_opposite_sign_is_an_error_naming_the_joint() {
+fn an_effort_of_the_opposite_sign_or_in_mn_m_is_an_error_naming_the_joint() {
     let set = "diagnose_wide/rarm6_6j";
     let m = cases_in(set);
     let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e30_0fx").unwrap();
@@ -978,6 +978,15 @@ fn an_effort_of_the_opposite_sign_is_an_error_naming_the_joint() {
     assert!(err.contains("joint 'joint_3': the logged effort runs opposite to the torque"), "{err}");
     let k: f64 = err.split("it is ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
     assert!((-1.5..-0.5).contains(&k), "slope {k}: -1 within the 30 % CAD error");
+    // the same joint's effort in mN m: a thousand times the model's, within the CAD error
+    log.tau.as_mut().unwrap().iter_mut().skip(2).step_by(n).for_each(|t| *t *= -1000.0);
+    let err = match diagnose(&robot, &log, &DiagnoseOptions::default()) {
+        Ok(d) => panic!("diagnosed: {:?}", d.json.effects.iter().map(|e| &e.name).collect::<Vec<_>>()),
+        Err(e) => e.to_string(),
+    };
+    assert!(err.contains("joint 'joint_3': the logged effort is ") && err.contains("it is not in N m"), "{err}");
+    let k: f64 = err.split("the logged effort is ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    assert!((500.0..1500.0).contains(&k), "slope {k}: 1000 within the 30 % CAD error");
 }
 
 /// Fixture case `name` of `set` diagnosed as the command line does, asserted to name exactly
