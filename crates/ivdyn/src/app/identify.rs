@@ -470,6 +470,7 @@ pub(crate) fn finish_identify(
     if d.fit.samples() * n < 2 * b {
         return Err(Error::TooFewSamples { samples: d.fit.samples(), joints: n, params: b });
     }
+    super::effort_sign::check(&d.fit, &robot.joint_names)?;
     let nominal = robot.params();
     let nom_base = base.project(&nominal)?;
     let Fits { fit, weights, iv } = fits(n, &d, base, opts, &nom_base)?;

@@ -10,6 +10,7 @@
 mod coulomb;
 pub mod diagnose;
 pub mod effort;
+mod effort_sign;
 pub mod excite;
 pub mod fleet;
 pub mod fleet_drift;

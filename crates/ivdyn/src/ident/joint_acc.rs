@@ -386,6 +386,51 @@ impl JointAccs {
     }
 }
 
+impl JointAccs {
+    /// The least-squares fits of all joints with one joint's torque negated: row 0 the fit
+    /// of the rows as they are, row `1 + j` that with joint `j`'s torque negated, each row
+    /// holding every joint's residual `rss_i / T` as a fraction of its torque power
+    /// `Σ τ_i² / T`. What tells a joint whose effort sign convention is the other one of
+    /// the model's joint axis (`app::effort_sign`). The negation is exact on the
+    /// statistics: `R_aug` of `[Φ_j | -τ_j]` is that of `[Φ_j | τ_j]` with its last column
+    /// negated. Each joint's rows are weighted by the inverse of its torque power (its
+    /// share does not depend on its size or unit), and every fit carries the same ridge,
+    /// `1e-4 max |R_kk|` per parameter, which keeps the solve regular where a column is
+    /// unexcited. `(n + 1) n` products of `(b + 1)²` factors: nothing is read again.
+    pub fn negated_fits(&self) -> Result<Vec<Vec<f64>>> {
+        let (b, tf) = (self.b, self.samples.max(1) as f64);
+        let power: Vec<f64> = self.sum_yy.iter().map(|s| s / tf).collect();
+        let floor = (1e-12 * power.iter().copied().fold(0.0, f64::max)).max(f64::MIN_POSITIVE);
+        // each joint's weighted factor, buffered rows absorbed once
+        let r_aug = (0..self.n)
+            .map(|i| Ok(self.per[i].ls().scaled(1.0 / power[i].max(floor))?.r_aug()))
+            .collect::<Result<Vec<_>>>()?;
+        let s = 1e-4 * r_aug.iter().flat_map(|r| (0..b).map(move |k| r[(k, k)].abs())).fold(0.0, f64::max);
+        let mut eye = vec![0.0; b * b];
+        (0..b).for_each(|k| eye[k * b + k] = s);
+        let mut ridge = LsAccumulator::new(b);
+        ridge.add_rows(&eye, &vec![0.0; b], None)?;
+        let fit = |flip: Option<usize>| -> Result<Vec<f64>> {
+            let rs: Vec<_> = (0..self.n)
+                .map(|i| {
+                    let mut r = r_aug[i].clone();
+                    if Some(i) == flip {
+                        r.column_mut(b).neg_mut();
+                    }
+                    r
+                })
+                .collect();
+            let mut acc = ridge.clone();
+            for r in &rs {
+                acc.merge(&LsAccumulator::from_r_aug(r.clone(), 0, 0.0)?)?;
+            }
+            let v = DVector::from_vec(acc.solve()?).push(-1.0);
+            Ok(rs.iter().map(|r| (r * &v).norm_squared() / tf).collect())
+        };
+        std::iter::once(None).chain((0..self.n).map(Some)).map(fit).collect()
+    }
+}
+
 /// Lags of [`JointAccs::long_run_factor`] for rows at sample time `dt` after a zero-phase
 /// low-pass at `cutoff_hz`: twice the filter's correlation time `1 / cutoff_hz` in samples
 /// (5 at the automatic decimation, 2.5 samples per cut-off period), between 2 and 12 (the
