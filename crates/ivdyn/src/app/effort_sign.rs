@@ -20,7 +20,10 @@
 //! and no joint of three logs whose fit no negation changes by more than 3x;
 //! `tests/it/identify_effort_sign.rs` measures it). On the real LWR4+ (three runs) and TX40
 //! logs the fit as logged is beaten by at most a factor 1.46 (LWR run 1, joint 5, where
-//! friction carries most of the torque).
+//! friction carries most of the torque). A set generated afterwards and run once
+//! (`make_cad_cases.py --set random --arms 12 --duration 5:12 --motion wide
+//! --friction-solref mujoco`, 144 logs): none refused as logged; of the 115 with a torque
+//! effort, 635 of 742 negated joints named (the terminal joint on 35), never another joint.
 
 use crate::error::{Error, Result};
 use crate::ident::joint_acc::JointAccs;
