@@ -470,9 +470,9 @@ pub(crate) fn finish_identify(
     if d.fit.samples() * n < 2 * b {
         return Err(Error::TooFewSamples { samples: d.fit.samples(), joints: n, params: b });
     }
-    super::effort_sign::check(&d.fit, &robot.joint_names)?;
     let nominal = robot.params();
     let nom_base = base.project(&nominal)?;
+    super::effort_check::check(&d.fit, &nom_base, &robot.joint_names)?;
     let Fits { fit, weights, iv } = fits(n, &d, base, opts, &nom_base)?;
     let theta = fill_nominal(&fit.theta, &nom_base);
     let fit_q = d.fit.quality("fit".into(), &theta);

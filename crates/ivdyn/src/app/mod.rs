@@ -10,7 +10,7 @@
 mod coulomb;
 pub mod diagnose;
 pub mod effort;
-mod effort_sign;
+mod effort_check;
 pub mod excite;
 pub mod fleet;
 pub mod fleet_drift;

@@ -18,6 +18,7 @@
 //! joints, down to -0.88 at -2.25 under a 1.5 kg payload; the real LWR4+ and TX40 logs pass).
 
 use crate::error::{Error, Result};
+use crate::prep;
 
 /// A correlation of the measured with the nominal torque below this, at a slope within
 /// [`SLOPE`], is a reversed effort.
@@ -26,15 +27,6 @@ const MAX_CORRELATION: f64 = -0.8;
 /// Slopes of the measured on the nominal torque read as a reversed effort: -1 with the
 /// nominal inertials up to ~2x off either way.
 const SLOPE: (f64, f64) = (-2.5, -0.4);
-
-/// A correlation above this at a slope outside [`SCALE`] is an effort in another unit.
-const MIN_CORRELATION: f64 = 0.8;
-
-/// Slopes of the measured on the nominal torque within which the effort is read as N m:
-/// on all 984 generated logs, a non-terminal joint's slope at a correlation above 0.8 lies
-/// within 0.51-11.2 (CAD inertials up to 30 % off, payloads up to 2 kg); a factor of ~10
-/// beyond either end is left for real CAD models, and mN m (1000) or kN m (0.001) is outside.
-const SCALE: (f64, f64) = (0.01, 100.0);
 
 /// Joint `j`'s correlation and least-squares slope of `tau` on `tau_nom` (`T x n`, rows).
 fn correlation(tau: &[f64], tau_nom: &[f64], n: usize, j: usize) -> (f64, f64) {
@@ -56,11 +48,11 @@ fn correlation(tau: &[f64], tau_nom: &[f64], n: usize, j: usize) -> (f64, f64) {
 
 /// An error naming the first joint but the terminal one whose measured torque `tau` runs
 /// opposite to the nominal rigid-body torque `tau_nom`, or follows it at a scale outside
-/// [`SCALE`] (module docs).
+/// [`prep::hygiene::EFFORT_SCALE`] (module docs).
 pub(super) fn check(tau: &[f64], tau_nom: &[f64], names: &[String]) -> Result<()> {
     let n = names.len();
-    for (j, name) in names.iter().enumerate().take(n.saturating_sub(1)) {
-        let (r, slope) = correlation(tau, tau_nom, n, j);
+    let agreement: Vec<(f64, f64)> = (0..n).map(|j| correlation(tau, tau_nom, n, j)).collect();
+    for (name, &(r, slope)) in names.iter().zip(&agreement).take(n.saturating_sub(1)) {
         if r < MAX_CORRELATION && (SLOPE.0..=SLOPE.1).contains(&slope) {
             return Err(Error::Signal {
                 msg: format!(
@@ -68,15 +60,8 @@ pub(super) fn check(tau: &[f64], tau_nom: &[f64], names: &[String]) -> Result<()
                 ),
             });
         }
-        if r > MIN_CORRELATION && !(SCALE.0..=SCALE.1).contains(&slope) {
-            return Err(Error::Signal {
-                msg: format!(
-                    "joint '{name}': the logged effort is {slope:.4e} times the torque of the URDF's model (correlation {r:.3}): it is not in N m (mN m? a motor current without its torque constant: --effort current --torque-constant), or the URDF's inertials are not in kg and m"
-                ),
-            });
-        }
     }
-    Ok(())
+    prep::hygiene::effort_units(&agreement, names, "correlation")
 }
 
 #[cfg(test)]

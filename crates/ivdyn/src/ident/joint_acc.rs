@@ -384,14 +384,12 @@ impl JointAccs {
             }
         }
     }
-}
 
-impl JointAccs {
     /// The least-squares fits of all joints with one joint's torque negated: row 0 the fit
     /// of the rows as they are, row `1 + j` that with joint `j`'s torque negated, each row
     /// holding every joint's residual `rss_i / T` as a fraction of its torque power
     /// `Σ τ_i² / T`. What tells a joint whose effort sign convention is the other one of
-    /// the model's joint axis (`app::effort_sign`). The negation is exact on the
+    /// the model's joint axis (`app::effort_check`). The negation is exact on the
     /// statistics: `R_aug` of `[Φ_j | -τ_j]` is that of `[Φ_j | τ_j]` with its last column
     /// negated. Each joint's rows are weighted by the inverse of its torque power (its
     /// share does not depend on its size or unit), and every fit carries the same ridge,
@@ -428,6 +426,25 @@ impl JointAccs {
             Ok(rs.iter().map(|r| (r * &v).norm_squared() / tf).collect())
         };
         std::iter::once(None).chain((0..self.n).map(Some)).map(fit).collect()
+    }
+}
+
+impl JointAccs {
+    /// Per joint, how the measured torque `τ_i` follows the torque `Φ_i θ` of the
+    /// parameters `theta`: the uncentred correlation `⟨Φ_i θ, τ_i⟩ / (‖Φ_i θ‖ ‖τ_i‖)` and
+    /// the slope `⟨Φ_i θ, τ_i⟩ / ‖Φ_i θ‖²`, both from `R_aug` (its Gram matrix is that of
+    /// `[Φ_i | τ_i]`). `(0, 0)` where either torque is zero.
+    pub fn agreement(&self, theta: &[f64]) -> Vec<(f64, f64)> {
+        let mut v = DVector::from_column_slice(theta);
+        v = v.push(0.0);
+        (0..self.n)
+            .map(|i| {
+                let r = self.per[i].ls().r_aug();
+                let (p, q) = (&r * &v, r.column(self.b).into_owned());
+                let (pq, pp, qq) = (p.dot(&q), p.norm_squared(), q.norm_squared());
+                if pp > 0.0 && qq > 0.0 { (pq / (pp * qq).sqrt(), pq / pp) } else { (0.0, 0.0) }
+            })
+            .collect()
     }
 }
 

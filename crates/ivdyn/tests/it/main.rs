@@ -31,7 +31,7 @@ mod ident_accum;
 mod ident_base;
 mod ident_fit;
 mod ident_stats;
-mod identify_effort_sign;
+mod identify_effort_check;
 mod idim_iv;
 mod inertia_order;
 mod io_bag;
