@@ -91,3 +91,20 @@ def test_errors_name_the_option_and_the_joint(ur5, sim):
         ivdyn.identify(ur5, sim, effort="current", torque_constant=K_T)
     with pytest.raises(ValueError, match="effort must be"):
         ivdyn.identify(ur5, sim, effort="amps")
+
+
+def test_a_motor_wired_the_other_way_is_an_error_until_its_torque_constant_is_negative(ur5, sim):
+    """The elbow's current logged with the opposite sign (a motor wired the other way):
+    ``identify`` stops naming the joint (``app::effort_check``; before, it fitted the
+    reversed torque, and its Coulomb-shape choice on the spoiled fit hid the reversal from a
+    check after it); the torque constant given negative, as the error says, identifies as
+    the torque log does."""
+    cur = currents(sim)
+    cur["current"] = cur["current"].copy()
+    cur["current"][:, 2] *= -1
+    with pytest.raises(ValueError, match="joint 'elbow_joint': the logged effort runs opposite"):
+        ivdyn.identify(ur5, cur, torque_constant=K_T)
+    k_t = K_T.copy()
+    k_t[2] = -k_t[2]
+    np.testing.assert_allclose(values(ivdyn.identify(ur5, cur, torque_constant=k_t)), values(ivdyn.identify(ur5, sim)),
+                               rtol=1e-9, atol=1e-12)

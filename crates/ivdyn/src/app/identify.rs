@@ -193,6 +193,13 @@ pub fn identify_logs(robot: &Robot, logs: &[&JointLog], opts: &IdentifyOptions) 
     let mut prep = prepare(robot, cols, logs, opts, "log")?;
     let t = prep.len();
     let (fit_range, val_range) = split_ranges(t, opts);
+    if opts.coulomb == CoulombMode::Auto {
+        // a reversed or mis-scaled effort spoils every joint's Coulomb-shape choice, and the
+        // check on the shaped rows after it: checked first on the rows with sign(qd)
+        let mut acc = JointAccs::new(n, b, false);
+        accumulate(&mut acc, &prep, fit_range.clone(), false)?;
+        super::effort_check::check(&acc, &base.project(&robot.params())?, &robot.joint_names)?;
+    }
     let (shaped, coulomb) = coulomb_shapes(robot, cols, &mut prep, fit_range.clone(), opts, &mut notes)?;
     let robot = &shaped;
     if want_iv {
