@@ -963,12 +963,7 @@ fn a_wide_sweep_with_cad_inertials_names_no_ripple() {
 #[test]
 fn an_effort_of_the_opposite_sign_or_in_mn_m_is_an_error_naming_the_joint() {
     let set = "diagnose_wide/rarm6_6j";
-    let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e30_0fx").unwrap();
-    let robot =
-        Robot::from_urdf(root().join(case["urdf"].as_str().unwrap()), m["base"].as_str(), m["tip"].as_str()).unwrap();
-    let path = root().join("fixtures").join(set).join(case["log"].as_str().unwrap());
-    let mut log = read_mcap(path, &ReadOptions::new(&robot.joint_names)).unwrap();
+    let (robot, mut log) = case_log(set, "e30_0fx");
     let n = robot.dof();
     log.tau.as_mut().unwrap().iter_mut().skip(2).step_by(n).for_each(|t| *t = -*t);
     let err = match diagnose(&robot, &log, &DiagnoseOptions::default()) {
@@ -987,6 +982,44 @@ fn an_effort_of_the_opposite_sign_or_in_mn_m_is_an_error_naming_the_joint() {
     assert!(err.contains("joint 'joint_3': the logged effort is ") && err.contains("it is not in N m"), "{err}");
     let k: f64 = err.split("the logged effort is ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
     assert!((500.0..1500.0).contains(&k), "slope {k}: 1000 within the 30 % CAD error");
+}
+
+/// The same log with the terminal joint's effort negated, which the check on the nominal
+/// torque leaves out (a payload can turn that joint's torque around): the `diagnose` job
+/// (command line, Python) stops with an error naming it, from `identify`'s check on the
+/// log's first 20 s (`app::diagnose::check_log`). Before, the diagnosis named a
+/// 1.07 kg payload on this log.
+#[test]
+fn a_terminal_joint_effort_of_the_opposite_sign_is_an_error_of_the_job() {
+    use ivdyn::app::{self, DiagnoseJob, LogInput};
+    let set = "diagnose_wide/rarm6_6j";
+    let (robot, mut log) = case_log(set, "e30_0fx");
+    let n = robot.dof();
+    log.tau.as_mut().unwrap().iter_mut().skip(n - 1).step_by(n).for_each(|t| *t = -*t);
+    let job = DiagnoseJob {
+        log: LogInput::Arrays(log),
+        source: Default::default(),
+        opts: DiagnoseOptions::default(),
+        out: None,
+        report: false,
+        json: None,
+    };
+    let err = match app::diagnose_job(&robot, &job, &None) {
+        Ok(d) => panic!("diagnosed: {:?}", d.report.json.effects.iter().map(|e| &e.name).collect::<Vec<_>>()),
+        Err(e) => e.to_string(),
+    };
+    assert!(err.contains("joint 'joint_6': the logged effort runs opposite"), "{err}");
+}
+
+/// The robot (the case's URDF) and the log of fixture case `name` of `set`.
+fn case_log(set: &str, name: &str) -> (Robot, ivdyn::log::JointLog) {
+    let m = cases_in(set);
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
+    let robot =
+        Robot::from_urdf(root().join(case["urdf"].as_str().unwrap()), m["base"].as_str(), m["tip"].as_str()).unwrap();
+    let path = root().join("fixtures").join(set).join(case["log"].as_str().unwrap());
+    let log = read_mcap(path, &ReadOptions::new(&robot.joint_names)).unwrap();
+    (robot, log)
 }
 
 /// Fixture case `name` of `set` diagnosed as the command line does, asserted to name exactly
