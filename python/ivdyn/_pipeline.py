@@ -448,7 +448,8 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
     ``effects`` [{name, joints, parameters, parameters_std, rms_before, rms_after}] in the
     order found (empty when nothing is missing; ``parameters_std``: the standard error of
-    each parameter), ``baseline_rms`` and ``final_rms`` (N m per joint), ``joints``,
+    each parameter, noise, folds and the re-fit's ridge; still a lower bound of the error on
+    CAD-error logs, ``docs/diagnose.md`` "Uncertainty"), ``baseline_rms`` and ``final_rms`` (N m per joint), ``joints``,
     ``nominal_refit`` {base_params, rms_before, rms_after, why} when the nominal rigid-body
     model was re-fitted, and ``next_command`` (the ``ivdyn identify`` command to run next)
     when something was found. With ``out`` (a directory) it also writes ``diagnosis.json``,

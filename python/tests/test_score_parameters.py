@@ -1,6 +1,7 @@
 """The scorer's parameter accuracy (`score_diagnose_cases.param_errors`): relative errors of
-the parameters of the (effect, joint) pairs named right, checked on hand-made effects whose
-errors are known by construction; and which true pairs a case must name (`split_truth`)."""
+the parameters of the (effect, joint) pairs named right, and their errors in standard errors
+(`param_z`), checked on hand-made effects whose errors are known by construction; and which
+true pairs a case must name (`split_truth`)."""
 import os
 import sys
 
@@ -8,7 +9,7 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "python", "tools"))
-from score_diagnose_cases import named_right, pairs, param_errors, split_truth  # noqa: E402
+from score_diagnose_cases import named_right, pairs, param_errors, param_z, split_truth  # noqa: E402
 
 TRUTH = [
     {"name": "coulomb_friction", "joints": ["j1", "j3"], "parameters": {"fc": [0.2, 0.4]}},
@@ -38,6 +39,29 @@ def test_relative_errors_of_the_pairs_named_right():
         ("torque_ripple", "(a, b)", 0.1),
         ("payload", "mass", 0.25),
     }
+
+
+def test_errors_in_standard_errors_of_the_pairs_named_right():
+    named = [
+        # j1 0.02 off with std 0.01 (2 std), j3 0.02 off with std 0.04 (half a std)
+        {"name": "coulomb_friction", "joints": ["j3", "j1"], "parameters": {"fc": [0.38, 0.22]},
+         "parameters_std": {"fc": [0.04, 0.01]}},
+        # k 0.01 off with std 0.005
+        {"name": "torque_gain", "joints": ["j2"], "parameters": {"k": [0.96]}, "parameters_std": {"k": [0.005]}},
+        # the COM by component (0.1 off in z, std 0.05), no inertia: not scored; no std for the period
+        {"name": "payload", "joints": [], "parameters": {"mass": 2.5, "com": [0.0, 0.0, 0.2], "inertia": None},
+         "parameters_std": {"mass": 0.25, "com": [0.01, 0.01, 0.05], "inertia": None}},
+        {"name": "torque_ripple", "joints": ["j2"], "parameters": {"period": [0.5], "a": [0.3], "b": [0.45]},
+         "parameters_std": {"period": None, "a": [0.1], "b": [0.1]}},
+    ]
+    got = sorted((e, k, round(x, 9)) for e, k, x in param_z(TRUTH, named))
+    assert got == sorted([
+        ("coulomb_friction", "fc", 2.0), ("coulomb_friction", "fc", 0.5), ("torque_gain", "k", 2.0),
+        ("payload", "mass", 2.0), ("payload", "com", 0.0), ("payload", "com", 0.0), ("payload", "com", 2.0),
+        ("torque_ripple", "a", 0.0), ("torque_ripple", "b", 0.5),
+    ])
+    # a named effect without standard errors is not scored
+    assert param_z(TRUTH, [{k: v for k, v in e.items() if k != "parameters_std"} for e in named]) == []
 
 
 def test_effects_or_joints_not_named_are_not_scored():

@@ -9,7 +9,8 @@ below the noise (`split_truth`) may be named or not. Oracle RMS: `oracle_rms_exa
 nominal, wrong model) and `oracle_rms_true_model` (the true effects on the true rigid-body
 model: what a perfect diagnosis with a perfect re-fit leaves). The parameters of every pair
 named right are compared with the truth (`param_errors`: within 10 %, issue 15's criterion),
-in a table per effect and parameter printed before the summary line.
+in a table per effect and parameter printed before the summary line, and how often the truth
+lies within one and two of their standard errors (`param_z`, `parameters_std`).
 
     python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn] [--drives | --no-drives] [--identifiability]
 
@@ -109,6 +110,30 @@ def param_errors(truth_effects, named_effects):
     return out
 
 
+def param_z(truth_effects, named_effects):
+    """[(effect, parameter, |estimate - truth| / standard error)] of every number of the
+    (effect, joint) pairs named right that has a standard error (`parameters_std`); a vector
+    (the payload's COM) by component, a gain as `k` (its error is that of `k - 1`)."""
+    out = []
+    for t in truth_effects:
+        e = next((x for x in named_effects if x["name"] == t["name"]), None)
+        if e is None or not e.get("parameters_std"):
+            continue
+        for j in (t["joints"] or [""]):
+            if j and j not in e["joints"]:
+                continue
+            for k, tv in t["parameters"].items():
+                ev, sv = e["parameters"].get(k), e["parameters_std"].get(k)
+                if ev is None or sv is None:
+                    continue
+                if j:
+                    tv, ev, sv = tv[t["joints"].index(j)], ev[e["joints"].index(j)], sv[e["joints"].index(j)]
+                tv, ev, sv = ([x] if not isinstance(x, list) else x for x in (tv, ev, sv))
+                out.extend((t["name"], k, abs(a - b) / c) for a, b, c in zip(ev, tv, sv)
+                           if a is not None and b is not None and c)
+    return out
+
+
 def short(p):
     return ", ".join(f"{e}@{j.replace('_joint', '')}" if j else e for e, j in sorted(p)) or "none"
 
@@ -157,7 +182,7 @@ def main(argv=None):
     manifests = {}
     rows, right, ratios, ratios_true, times, false_alarm_clean = [], 0, [], [], [], []
     found = true_pairs = extra = below = below_named = 0
-    perrs = []
+    perrs, zs = [], []
     cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     print("| case | truth | named | missed | extra | refit | final/oracle | final/oracle (true model) | time |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -185,6 +210,7 @@ def main(argv=None):
                     status = "found" if key in named else "optional" if key in optional else "missed"
                     ident_rows.append((key[0], z, status))
             perrs.extend(param_errors(case["effects"], d["effects"]))
+            zs.extend(param_z(case["effects"], d["effects"]))
             right += ok
             found += len(named & required)
             below_named += len(named & optional)
@@ -204,6 +230,7 @@ def main(argv=None):
     cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = cpu1.ru_utime - cpu0.ru_utime + cpu1.ru_stime - cpu0.ru_stime
     print_param_table(perrs)
+    print_coverage_table(zs)
     if li:
         print("\nTrue look-alike pairs found, by the part of their torque the rigid-body columns leave:\n")
         print(li.table(ident_rows))
@@ -217,6 +244,8 @@ def main(argv=None):
               f"({below} true pairs below the noise not required, {below_named} of them named); "
               f"parameters of those within {100 * PARAM_TOL:.0f} % of truth "
               f"{sum(e <= PARAM_TOL for _, _, e in perrs)} of {len(perrs)}; "
+              f"truth within 1 and 2 standard errors {sum(z <= 1 for _, _, z in zs)} and "
+              f"{sum(z <= 2 for _, _, z in zs)} of {len(zs)} numbers (normal: 68 %, 95 %); "
               f"CPU of the diagnoses {cpu / len(ids):.2f} s per case (user + sys)")
     return 0
 
@@ -230,6 +259,19 @@ def print_param_table(perrs):
         errs = [x for e, k, x in perrs if (e, k) == key]
         print(f"| {key[0]} | {key[1]} | {sum(x <= PARAM_TOL for x in errs)} of {len(errs)} | "
               f"{statistics.median(errs):.3f} |")
+
+
+def print_coverage_table(zs):
+    """Per (effect, parameter): how often the truth lies within 1 and 2 standard errors
+    (`parameters_std`) of the estimate, against a normal estimator's 68 % and 95 %."""
+    if not zs:
+        return
+    print("\n| effect | parameter | numbers | truth within 1 std | within 2 std | median error / std |\n"
+          "|---|---|---|---|---|---|")
+    for key in sorted({(e, k) for e, k, _ in zs}):
+        z = [x for e, k, x in zs if (e, k) == key]
+        print(f"| {key[0]} | {key[1]} | {len(z)} | {sum(x <= 1 for x in z)} | {sum(x <= 2 for x in z)} | "
+              f"{statistics.median(z):.2f} |")
 
 
 if __name__ == "__main__":

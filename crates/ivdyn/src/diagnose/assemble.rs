@@ -55,7 +55,7 @@ pub(super) fn assemble(
     let e = effect_torque(&f, d, n, t_len);
     let r_final: Vec<f64> = (0..t_len * n).map(|i| r_nom[i] - e[i]).collect();
     let final_rms = rms_per_joint(&r_final, n);
-    let cov = uncertainty::covariance(&f, ctx.gr, &ctx.w, &r_final);
+    let spread = uncertainty::spread(&f, ctx.gr, &ctx.w, &r_final);
     let nominal_refit = match &refit {
         Some(dec) => {
             // the re-fit's own part of the final fit (its base corrections, no effect)
@@ -74,7 +74,7 @@ pub(super) fn assemble(
     let regimes_after = regimes(s, &r_final, n);
 
     let mut out_steps = merge_repeats(steps);
-    let effects = report_effects(&mut out_steps, (&f, cov.as_ref()), &m, d, names, &regimes_before, ctx);
+    let effects = report_effects(&mut out_steps, (&f, spread.as_ref()), &m, d, names, &regimes_before, ctx);
     let kept: Vec<Step> =
         out_steps.into_iter().filter(|st| effects.iter().any(|e| e.name == st.effect.name())).collect();
     let predicted = step_predictions(&raw, &kept, ctx, d, &p.tau_nom);
@@ -136,12 +136,12 @@ fn carry_scores(first: &mut Step, later: &Step) {
 }
 
 /// The effects in the order found, with the final fit's parameters and their standard
-/// errors (from `cov`, the covariance of the fit's `theta`); an effect whose joints were
+/// errors (from `spread`: the fit's noise, folds and ridge, `uncertainty`); an effect whose joints were
 /// all dropped by a later backward step is not reported. Sets each reported step's joints
 /// (those of the final model) and evidence.
 fn report_effects(
     out_steps: &mut [Step],
-    (f, cov): (&Fit, Option<&nalgebra::DMatrix<f64>>),
+    (f, spread): (&Fit, Option<&uncertainty::Spread>),
     m: &Model,
     d: &Dictionary,
     names: &[String],
@@ -218,8 +218,8 @@ fn report_effects(
                 params.insert("mu".into(), mu.into());
             }
         }
-        let mut parameters_std = cov
-            .map(|c| uncertainty::parameters_std(f, c, &|g| effect_parameters(kind, &joints, g, m, d, n)))
+        let mut parameters_std = spread
+            .map(|s| uncertainty::parameters_std(f, s, &|g| effect_parameters(kind, &joints, g, m, d, n)))
             .unwrap_or_default();
         if kind == EffectKind::Payload && super::score::has_refit(f) {
             payload_on_refit(&mut params, &mut parameters_std, ctx.prev_link_mass);

@@ -58,7 +58,7 @@ use nalgebra::{DMatrix, DVector};
 const RIDGE_GRID: [f64; 7] = [1e-5, 1e-4, 1e-3, 1e-2, 1e-1, 1.0, 10.0];
 
 /// The ratio of neighbouring ridges of `RIDGE_GRID`.
-const RIDGE_STEP: f64 = 10.0;
+pub(super) const RIDGE_STEP: f64 = 10.0;
 
 /// Share of the held-out residual above the noise (decision base in) the re-fit must
 /// remove on a joint to be turned on.

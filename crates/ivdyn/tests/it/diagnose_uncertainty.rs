@@ -133,3 +133,86 @@ fn smooth_friction_scale_within_its_standard_error_at_the_normal_rate() {
     }
     at_normal_rates("smooth friction's vs", &z, 1.0);
 }
+
+/// The committed logs whose nominal inertials are off (5-30 %, the nominal re-fit on) and
+/// whose effort is a torque: CAD arms, random arms, friction everywhere, wide sweeps,
+/// MuJoCo's soft friction, Stribeck friction, a ripple between harmonics.
+const CAD_SETS: [&str; 7] = [
+    "diagnose_cad",
+    "diagnose_random",
+    "diagnose_every",
+    "diagnose_wide",
+    "diagnose_soft_every",
+    "diagnose_stribeck",
+    "diagnose_ripple_off",
+];
+
+/// `(|estimate - truth| / std)` of every parameter of every (effect, joint) named right on
+/// the case (a vector parameter, the payload's COM, by component; none without a std).
+fn z_of_case(set: &str, case: &serde_json::Value, m: &serde_json::Value) -> Vec<f64> {
+    use crate::diagnose_cases::run_with;
+    let d = run_with(set, case, m, &DiagnoseOptions::default());
+    let scalars = |v: &serde_json::Value| -> Vec<Option<f64>> {
+        match v.as_array() {
+            Some(a) => a.iter().map(|x| x.as_f64()).collect(),
+            None => vec![v.as_f64()],
+        }
+    };
+    let mut z = vec![];
+    for t in case["effects"].as_array().unwrap() {
+        let Some(e) = d.json.effects.iter().find(|e| e.name == t["name"].as_str().unwrap()) else { continue };
+        let tj: Vec<&str> = t["joints"].as_array().unwrap().iter().map(|j| j.as_str().unwrap()).collect();
+        for (k, tv) in t["parameters"].as_object().unwrap() {
+            let (Some(ev), Some(sv)) = (e.parameters.get(k), e.parameters_std.get(k)) else { continue };
+            let (tv, ev, sv) = (scalars(tv), scalars(ev), scalars(sv));
+            // per joint for a joint effect (the named list is over the named joints), per
+            // component for the payload's
+            let pairs: Vec<(Option<f64>, Option<f64>, Option<f64>)> = if tj.is_empty() {
+                (0..tv.len()).map(|i| (tv[i], ev.get(i).copied().flatten(), sv.get(i).copied().flatten())).collect()
+            } else {
+                tj.iter()
+                    .enumerate()
+                    .filter_map(|(i, j)| e.joints.iter().position(|x| x == j).map(|p| (tv[i], ev[p], sv[p])))
+                    .collect()
+            };
+            for (t, e, s) in pairs {
+                if let (Some(t), Some(e), Some(s)) = (t, e, s)
+                    && s > 0.0
+                {
+                    z.push((e - t).abs() / s);
+                }
+            }
+        }
+    }
+    z
+}
+
+/// On logs with CAD-error inertials the standard errors cannot hold what they leave out (the
+/// conditioning's bias, the grid's shapes: docs/diagnose.md, "Uncertainty"), but they hold
+/// the folds' spread and the re-fit's ridge: over the committed torque logs of `CAD_SETS`,
+/// the truth lies within two standard errors for 59 of 94 parameters named right (63 %);
+/// with the noise's covariance alone (before 2026-12-06) it was 45 of 94 (48 %). The bound
+/// is half: a drop below it is a regression of what the ± of the report means.
+#[test]
+fn cad_error_parameters_within_two_standard_errors_at_least_half_the_time() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../fixtures");
+    let mut z = vec![];
+    for set in CAD_SETS {
+        let mut robots: Vec<_> = std::fs::read_dir(root.join(set)).unwrap().map(|e| e.unwrap().path()).collect();
+        robots.sort();
+        for dir in robots.iter().filter(|p| p.join("cases.json").exists()) {
+            let sub = format!("{set}/{}", dir.file_name().unwrap().to_str().unwrap());
+            let m = crate::diagnose_cases::cases_in(&sub);
+            for case in m["cases"].as_array().unwrap() {
+                let torque = case["sensor"]["torque_constant"].is_null();
+                if torque && dir.join(case["log"].as_str().unwrap()).exists() {
+                    z.extend(z_of_case(&sub, case, &m));
+                }
+            }
+        }
+    }
+    let within2 = z.iter().filter(|&&z| z <= 2.0).count();
+    eprintln!("CAD-error fixtures: within 2 std {within2} of {}", z.len());
+    assert!(z.len() >= 90, "{} parameters named right", z.len());
+    assert!(2 * within2 >= z.len(), "within 2 std {within2} of {}", z.len());
+}

@@ -209,9 +209,12 @@ fn params_table(o: &mut String, e: &EffectJson, kind: EffectKind) {
     }
     if !e.parameters_std.is_empty() {
         o.push_str(
-            "<p class=\"note\">Values \u{b1} 2 standard errors (about 95 % when the residual is \
-             noise of the estimated level; from the final fit's covariance, docs/diagnose.md \
-             \u{201c}Uncertainty\u{201d}); no \u{b1} where there is none (a shape chosen on a grid).</p>\n",
+            "<p class=\"note\">Values \u{b1} 2 standard errors: the noise's, or the spread between \
+             the log's two halves where larger, and with the nominal re-fit the change between \
+             its neighbouring ridges (about 95 % when the residual is noise of the estimated \
+             level; where the nominal inertials are off, a lower bound: on generated arms the \
+             truth lay within them about 2 times in 3, docs/diagnose.md \u{201c}Uncertainty\u{201d}); \
+             no \u{b1} where there is none (a shape chosen on a grid).</p>\n",
         );
     }
 }
