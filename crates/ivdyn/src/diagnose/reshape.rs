@@ -60,6 +60,14 @@ impl<'c, 'a> Reshape<'c, 'a> {
         (f, rss)
     }
 
+    /// Joint `j`'s residual sum of squares over the folds `folds` alone, the model fitted on
+    /// them with the columns `new` (a fold's own fit, for the two-block jackknife of a shape's
+    /// scale, `uncertainty`).
+    pub(super) fn rss_on(&self, new: &[(usize, &[f64])], rows: &Rows, folds: &[usize]) -> f64 {
+        let gr = self.grams(new, rows);
+        rss_joint(&fit(&self.m.params(), &gr, &self.ctx.w, folds), &gr, self.j, folds)
+    }
+
     /// Joint `j`'s per-sample variance the Gauss-Newton error reads: its noise variance times
     /// the residual's autocorrelation time.
     pub(super) fn noise_var(&self) -> f64 {

@@ -8,9 +8,10 @@
 //! squares under the final model (fitted on the whole log), between the chosen grid point's
 //! neighbours (one grid step beyond the grid's ends); the level is the fit's at that `vs`, and
 //! `vs` gets the Gauss-Newton standard error `vs sqrt(2 sigma^2 tau / RSS''(ln vs))` (noise
-//! variance times the residual's autocorrelation time over half the curvature; the noise
-//! only, not the other effects' misfit). The names, the final fit and the residuals stay the
-//! grid's: the scale is read, not searched again.
+//! variance times the residual's autocorrelation time over half the curvature), or where
+//! larger half the difference of the scales the same search finds on each fold alone (a
+//! two-block jackknife, as the other parameters' errors hold one: `uncertainty`). The names,
+//! the final fit and the residuals stay the grid's: the scale is read, not searched again.
 
 use super::EffectKind;
 use super::dictionary::{C_SIGN, C_STRIBECK, C_STUCK, C_TANH, Dictionary, Rows};
@@ -67,7 +68,13 @@ pub(super) fn fit_scale(ctx: &Ctx, m: &Model, d: &Dictionary, j: usize, kind: Ef
     let xv = if rss(best, &r.search) < rss(x[g], &r.search) { best } else { x[g] };
     let (f, _) = r.fit(&[(col, &column(xv.exp(), &r.all))], &r.all);
     let vs = xv.exp();
-    let x_std = gauss_newton_std(&|x| rss(x, &r.search), xv, LN_STEP, r.noise_var());
+    // the same search on each fold alone: half the difference of the two minimisers is a
+    // two-block jackknife of `ln vs`, kept where larger than the noise's error (`uncertainty`)
+    let on = |folds: &[usize]| {
+        golden(&|x| r.rss_on(&[(col, &column(x.exp(), &r.search))], &r.search, folds), lo, hi, LN_TOL)
+    };
+    let jack = 0.5 * (on(&[0]) - on(&[1])).abs();
+    let x_std = gauss_newton_std(&|x| rss(x, &r.search), xv, LN_STEP, r.noise_var()).map(|s| s.max(jack));
     Scale { vs, vs_std: x_std.map(|s| vs * s), level: theta(&f, j, col), fc: theta(&f, j, C_SIGN) }
 }
 
