@@ -143,8 +143,9 @@ CAD_ROBOTS = {
 }
 
 
-# The random arms (`--set random`): name -> (joints, seed); 6 and 7 joints alternate.
-RANDOM_ARMS = {f"rarm{i}_{6 + i % 2}j": (6 + i % 2, 15000 + i) for i in range(12)}
+# The random arms (`--set random`): name -> (joints, seed); 6 and 7 joints alternate. Every set
+# so far drew from the first 12 (`--first-arm 0`); the next ones are arms nobody has seen.
+RANDOM_ARMS = {f"rarm{i}_{6 + i % 2}j": (6 + i % 2, 15000 + i) for i in range(48)}
 NOISE_SHARE, NOISE_FLOOR = 0.005, 0.01   # torque noise std: 0.5 % of the joint's RMS torque, >= 0.01 N m
 
 
@@ -433,7 +434,9 @@ def main(argv=None):
     ap.add_argument("--set", choices=["cad", "random"], default="cad", help="the four arms of the CAD set, or "
                     "randomly generated arms (random_arm.py) with sensor variants (sensor_variants.py)")
     ap.add_argument("--arms", type=int, default=6, help="--set random: how many arms (6 and 7 joints alternate; "
-                    f"at most {len(RANDOM_ARMS)})")
+                    f"at most {len(RANDOM_ARMS)} with --first-arm)")
+    ap.add_argument("--first-arm", type=int, default=0, help="--set random: the index of the first arm "
+                    "(rarm<index>_...; 12 and beyond: arms no set before 2026-12-06 drew)")
     ap.add_argument("--duration", type=parse_duration, default=2.0, help="seconds per case, or LO:HI to draw "
                     "each case's length (whole seconds) from its seed, e.g. 20:60")
     ap.add_argument("--only", default=None, help="comma list of ids robot/case to write (default: all, "
@@ -482,7 +485,10 @@ def main(argv=None):
     if args.set == "cad":
         arms = [(name, 1500 + 100 * i) for i, name in enumerate(["ur5", "panda", "ur3", "talos_arm"])]
     else:
-        arms = [(name, 5000 + 100 * i) for i, name in enumerate(list(RANDOM_ARMS)[:args.arms])]
+        if args.first_arm < 0 or args.first_arm + args.arms > len(RANDOM_ARMS):
+            ap.error(f"--first-arm {args.first_arm} --arms {args.arms}: the arms are rarm0 to rarm{len(RANDOM_ARMS) - 1}")
+        arms = [(name, 5000 + 100 * i) for i, name in enumerate(RANDOM_ARMS)
+                if args.first_arm <= i < args.first_arm + args.arms]
     ids = []
     only = None if args.only is None else set(args.only.split(","))
     for name, seed0 in arms:
