@@ -221,8 +221,9 @@ fn report_effects(
         let mut parameters_std = spread
             .map(|s| uncertainty::parameters_std(f, s, &|g| effect_parameters(kind, &joints, g, m, d, n)))
             .unwrap_or_default();
-        if kind == EffectKind::Payload && super::score::has_refit(f) {
-            payload_on_refit(&mut params, &mut parameters_std, ctx.prev_link_mass);
+        if kind == EffectKind::Payload {
+            let prev = super::score::has_refit(f).then_some(ctx.prev_link_mass);
+            payload_with_cad_error(&mut params, &mut parameters_std, ctx.terminal_mass, prev);
         }
         if kind == EffectKind::TorqueRipple {
             period_std(&joints, m, d, &mut parameters_std);
@@ -375,17 +376,24 @@ fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
     }
 }
 
-/// A payload on top of the nominal re-fit: its mass regroups into the previous link's
-/// parameters, which the re-fit holds, so the fitted mass is the payload's plus that link's
-/// CAD mass error. Kept, with that error (`LINK_SCALE_MAX` of the link's nominal mass `m_prev`,
-/// taken as 2 standard errors) added to its standard error, when it stays positive beyond 2
-/// standard errors; otherwise mass, centre of mass (`m c / m`) and inertia about it are
-/// not separable and set to null (docs/diagnose.md, "Payload on top of the re-fit").
-fn payload_on_refit(params: &mut Params, std: &mut Params, m_prev: f64) {
+/// A payload is a change of the terminal link, so its fitted mass is the payload's plus that
+/// link's own CAD mass error, and on top of the nominal re-fit (`m_prev`: the previous link's
+/// nominal mass) also that link's: the payload's mass regroups into its parameters, which the
+/// re-fit holds. Each error (`LINK_SCALE_MAX` of the link's nominal mass, taken as 2 standard
+/// errors) goes into the mass's standard error. On the re-fit the payload is kept when it
+/// stays positive beyond 2 standard errors; otherwise mass, centre of mass (`m c / m`) and
+/// inertia about it are not separable and set to null (docs/diagnose.md, "Payload on top of
+/// the re-fit").
+fn payload_with_cad_error(params: &mut Params, std: &mut Params, m_terminal: f64, m_prev: Option<f64>) {
     let mass = params.get("mass").and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
-    let s_fit = std.get("mass").and_then(|v| v.as_f64()).unwrap_or(0.0);
-    let s = s_fit.hypot(0.5 * super::score::LINK_SCALE_MAX * m_prev);
-    if mass - 2.0 * s > 0.0 {
+    let s_fit = std.get("mass").and_then(|v| v.as_f64());
+    if s_fit.is_none() && m_prev.is_none() {
+        return;
+    }
+    let s_fit = s_fit.unwrap_or(0.0);
+    let cad = |m: f64| 0.5 * super::score::LINK_SCALE_MAX * m;
+    let s = s_fit.hypot(cad(m_terminal)).hypot(m_prev.map_or(0.0, cad));
+    if m_prev.is_none() || mass - 2.0 * s > 0.0 {
         std.insert("mass".into(), s.into());
         return;
     }

@@ -92,7 +92,7 @@ pub(super) struct Ctx<'a> {
     /// Mean diagonal of the nominal mass matrix over the log (kg m^2 or kg).
     m_diag: Vec<f64>,
     /// Nominal mass of the terminal link (kg).
-    terminal_mass: f64,
+    pub(super) terminal_mass: f64,
     /// RMS per joint of the torque of the terminal link's nominal inertials (N m).
     terminal_rms: Vec<f64>,
     /// Nominal mass of the link before the terminal one (kg; 0 for one link): a payload's
