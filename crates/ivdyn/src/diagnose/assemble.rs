@@ -223,7 +223,7 @@ fn report_effects(
             .unwrap_or_default();
         if kind == EffectKind::Payload {
             let prev = super::score::has_refit(f).then_some(ctx.prev_link_mass);
-            payload_with_cad_error(&mut params, &mut parameters_std, ctx.terminal_mass, prev);
+            payload_with_cad_error(f, &mut params, &mut parameters_std, &ctx.terminal_p10, prev);
         }
         if kind == EffectKind::TorqueRipple {
             period_std(&joints, m, d, &mut parameters_std);
@@ -346,18 +346,24 @@ fn period_std(joints: &[usize], m: &Model, d: &Dictionary, std: &mut Params) {
     }
 }
 
-/// A payload's mass, centre of mass and inertia from its 10 fitted inertial parameters:
-/// only the mass when it is not positive; the inertia null when it is not that of a body
-/// (pseudo-inertia not positive semi-definite: a negative principal moment, or one above
-/// the sum of the other two), as where the fit trades it against the re-fitted links'.
-fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
-    let list = |v: Vec<f64>| serde_json::Value::from(v);
+/// The payload's 10 fitted inertial parameters (zero where `f` has none).
+fn payload_p10(f: &Fit) -> [f64; 10] {
     let mut p10 = [0.0; 10];
     for (i, p) in f.params.iter().enumerate() {
         if p.kind == Some(EffectKind::Payload) {
             p10[p.col - C_PAYLOAD] = f.theta[i];
         }
     }
+    p10
+}
+
+/// A payload's mass, centre of mass and inertia from its 10 fitted inertial parameters:
+/// only the mass when it is not positive; the inertia null when it is not that of a body
+/// (pseudo-inertia not positive semi-definite: a negative principal moment, or one above
+/// the sum of the other two), as where the fit trades it against the re-fitted links'.
+fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
+    let list = |v: Vec<f64>| serde_json::Value::from(v);
+    let p10 = payload_p10(f);
     let li = ivdyn_core::LinkInertia(p10);
     match li.to_mass_com_inertia(n - 1) {
         Ok((mass, c, ic)) => {
@@ -376,25 +382,22 @@ fn payload_parameters(f: &Fit, n: usize, params: &mut Params) {
     }
 }
 
-/// A payload is a change of the terminal link, so its fitted mass is the payload's plus that
-/// link's own CAD mass error, and on top of the nominal re-fit (`m_prev`: the previous link's
-/// nominal mass) also that link's: the payload's mass regroups into its parameters, which the
-/// re-fit holds. Each error (`LINK_SCALE_MAX` of the link's nominal mass, taken as 2 standard
-/// errors) goes into the mass's standard error. On the re-fit the payload is kept when it
-/// stays positive beyond 2 standard errors; otherwise mass, centre of mass (`m c / m`) and
-/// inertia about it are not separable and set to null (docs/diagnose.md, "Payload on top of
-/// the re-fit").
-fn payload_with_cad_error(params: &mut Params, std: &mut Params, m_terminal: f64, m_prev: Option<f64>) {
-    let mass = params.get("mass").and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
-    let s_fit = std.get("mass").and_then(|v| v.as_f64());
-    if s_fit.is_none() && m_prev.is_none() {
+/// A payload is a change of the terminal link, so its fitted parameters are the payload's
+/// plus that link's own CAD error, and on top of the nominal re-fit (`m_prev`: the previous
+/// link's nominal mass) also that link's mass error: the payload's mass regroups into its
+/// parameters, which the re-fit holds. Those errors go into the standard errors
+/// (`payload_cad`). On the re-fit the payload is kept when its mass stays positive beyond 2
+/// standard errors; otherwise mass, centre of mass (`m c / m`) and inertia about it are not
+/// separable and set to null (docs/diagnose.md, "Payload on top of the re-fit").
+fn payload_with_cad_error(f: &Fit, params: &mut Params, std: &mut Params, terminal: &[f64; 10], m_prev: Option<f64>) {
+    if std.is_empty() && m_prev.is_none() {
         return;
     }
-    let s_fit = s_fit.unwrap_or(0.0);
-    let cad = |m: f64| 0.5 * super::score::LINK_SCALE_MAX * m;
-    let s = s_fit.hypot(cad(m_terminal)).hypot(m_prev.map_or(0.0, cad));
+    let cad = super::payload_cad::cad_std(terminal, m_prev);
+    super::payload_cad::add_to_std(&payload_p10(f), &cad, params, std);
+    let mass = params.get("mass").and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
+    let s = std.get("mass").and_then(|v| v.as_f64()).unwrap_or(f64::NAN);
     if m_prev.is_none() || mass - 2.0 * s > 0.0 {
-        std.insert("mass".into(), s.into());
         return;
     }
     for k in ["mass", "com", "inertia"] {

@@ -47,9 +47,7 @@ const ASYMMETRY_MAX: f64 = 0.85;
 /// moving joint, direction-dependent friction when it is smaller than `ASYMMETRY_MAX` of the
 /// friction level: rejected there as that look-alike (the asymmetric candidate names it).
 pub(super) fn offset_or_asymmetric(ctx: &Ctx, l: &Model, j: usize, sc: &mut JointScore) {
-    let f = fit(&l.params(), ctx.gr, &ctx.w, &[0, 1]);
-    let (fc, tau0) = (theta_at(&f, j, C_SIGN), theta_at(&f, j, C_ONE));
-    if fc > 0.0 && tau0.abs() < ASYMMETRY_MAX * fc {
+    if let Some((fc, tau0)) = offset_reads_as_asymmetric(ctx, l, j) {
         sc.significant = false;
         sc.rejected_by = Some(format!(
             "look-alike: with Coulomb friction fc {fc:.3} N m, an offset of {tau0:.3} N m is direction-dependent friction (fc_pos {:.3}, fc_neg {:.3} N m)",
@@ -57,6 +55,15 @@ pub(super) fn offset_or_asymmetric(ctx: &Ctx, l: &Model, j: usize, sc: &mut Join
             fc - tau0
         ));
     }
+}
+
+/// Coulomb friction `fc` and offset `tau0` fitted on joint `j` of `l` (which has both) when
+/// the offset is smaller than `ASYMMETRY_MAX` of the friction level: on a moving joint,
+/// direction-dependent friction.
+pub(super) fn offset_reads_as_asymmetric(ctx: &Ctx, l: &Model, j: usize) -> Option<(f64, f64)> {
+    let f = fit(&l.params(), ctx.gr, &ctx.w, &[0, 1]);
+    let (fc, tau0) = (theta_at(&f, j, C_SIGN), theta_at(&f, j, C_ONE));
+    (fc > 0.0 && tau0.abs() < ASYMMETRY_MAX * fc).then_some((fc, tau0))
 }
 
 /// Why a refinement of Coulomb friction (Stribeck, smooth, direction-dependent) is not tried

@@ -93,6 +93,8 @@ pub(super) struct Ctx<'a> {
     m_diag: Vec<f64>,
     /// Nominal mass of the terminal link (kg).
     pub(super) terminal_mass: f64,
+    /// Nominal inertial parameters of the terminal link (`m, h, I` about its origin).
+    pub(super) terminal_p10: [f64; 10],
     /// RMS per joint of the torque of the terminal link's nominal inertials (N m).
     terminal_rms: Vec<f64>,
     /// Nominal mass of the link before the terminal one (kg; 0 for one link): a payload's
@@ -167,6 +169,8 @@ impl<'a> Ctx<'a> {
         let w: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
         let m_diag = mean_mass_diag(robot, &s.q, n)?;
         let terminal_mass = robot.params()[10 * (n - 1)];
+        let mut terminal_p10 = [0.0; 10];
+        terminal_p10.copy_from_slice(&robot.params()[10 * (n - 1)..10 * n]);
         let terminal = Fit {
             params: (0..10)
                 .map(|k| Param { kind: Some(EffectKind::Payload), joint: None, col: C_PAYLOAD + k })
@@ -188,6 +192,7 @@ impl<'a> Ctx<'a> {
             gr,
             m_diag,
             terminal_mass,
+            terminal_p10,
             terminal_rms,
             prev_link_mass,
             refit: refit > 0,

@@ -185,8 +185,12 @@ fn search(
             Some(bi) => bi,
             // no single effect passes: two on one joint may (`pairs`); first in the list,
             // so that the step's evidence finds its scores, not its first effect's alone
-            // no pair either: a friction shape in place of another (`swap`)
-            None => match super::pairs::best_pair(ctx, &m).or_else(|| super::swap::best_swap(ctx, &m)) {
+            // no pair either: a friction shape in place of another (`swap`), an offset's
+            // reading as direction-dependent friction (`offset_swap`)
+            None => match super::pairs::best_pair(ctx, &m)
+                .or_else(|| super::swap::best_swap(ctx, &m))
+                .or_else(|| super::offset_swap::best_offset_swap(ctx, &m))
+            {
                 Some((pair, l, _)) => {
                     cands.insert(0, (pair, l));
                     0
