@@ -96,7 +96,7 @@ pub(super) struct Ctx<'a> {
     /// Nominal inertial parameters of the terminal link (`m, h, I` about its origin).
     pub(super) terminal_p10: [f64; 10],
     /// RMS per joint of the torque of the terminal link's nominal inertials (N m).
-    terminal_rms: Vec<f64>,
+    pub(super) terminal_rms: Vec<f64>,
     /// Nominal mass of the link before the terminal one (kg; 0 for one link): a payload's
     /// mass regroups into it.
     pub(super) prev_link_mass: f64,
