@@ -442,3 +442,32 @@ pub(super) fn noise_of_all_model(
     let (sigma, rho): (Vec<f64>, Vec<f64>) = (0..n).map(floored).unzip();
     (sigma, rho, r_all)
 }
+
+/// RMS on joint `j` of the torque the parameters of `which` add beyond what the re-fit's
+/// base columns `refit` can make: that torque less its least-squares projection on those
+/// columns over every joint's rows, `Y_p theta_p - Y_r G_rr^-1 G_rp theta_p` (the part the
+/// re-fitted links would not take over; a payload's mass regroups into them).
+pub(super) fn beyond_refit_rms(f: &Fit, gr: &Grams, refit: &[usize], j: usize, which: &dyn Fn(&Param) -> bool) -> f64 {
+    let own: Vec<(f64, usize)> = f
+        .params
+        .iter()
+        .zip(&f.theta)
+        .filter(|(p, _)| p.joint.is_none() && which(p))
+        .map(|(p, &t)| (t, p.col))
+        .collect();
+    let g = (1..gr.g.len()).fold(sum_folds(&gr.g[0], &[0, 1]), |g, jj| g + sum_folds(&gr.g[jj], &[0, 1]));
+    let nr = refit.len();
+    let grr = DMatrix::from_fn(nr, nr, |a, b| g[(refit[a], refit[b])]);
+    let grp = DVector::from_fn(nr, |a, _| own.iter().map(|&(t, c)| g[(refit[a], c)] * t).sum());
+    // pseudo-inverse: base columns a short log barely excites are left at zero
+    let eps = 1e-12 * grr.norm();
+    let beta = match nr {
+        0 => DVector::zeros(0),
+        _ => grr.svd(true, true).solve(&grp, eps).unwrap_or_else(|_| DVector::zeros(nr)),
+    };
+    let cols: Vec<(f64, usize)> =
+        own.into_iter().chain(refit.iter().zip(beta.iter()).map(|(&c, &b)| (-b, c))).collect();
+    let gj = &sum_folds(&gr.g[j], &[0, 1]);
+    let v: f64 = cols.iter().flat_map(|&(ta, ca)| cols.iter().map(move |&(tb, cb)| ta * tb * gj[(ca, cb)])).sum();
+    (v.max(0.0) / (gr.rows[j][0] + gr.rows[j][1]) as f64).sqrt()
+}
