@@ -50,12 +50,23 @@ const GAIN_CHI2: f64 = 10.83;
 /// the grid, `ripple_off` tuning part, docs/diagnose.md.)
 const MIN_GAIN_SHARE: f64 = 0.002;
 
+/// How close to an end of the scanned range a fitted harmonic is at that end, in radian of
+/// phase over the joint's sweep (twice the golden-section search's tolerance). There the
+/// held-out residual still falls beyond the range (most often below its lower end: a period
+/// longer than twice the sweep, which the sweep cannot tell from a trend), so the harmonic
+/// is a bound, not an estimate: it gets no standard error (on the twelve random arms
+/// rarm24-35, five fitted periods 5-64 % off had Gauss-Newton standard errors of 0.4-2 %,
+/// docs/diagnose.md).
+const AT_END: f64 = 0.02;
+
 /// A ripple's fitted harmonic on one joint: the slot it takes and its new columns.
 pub(super) struct Refined {
     pub(super) j: usize,
     pub(super) slot: usize,
     pub(super) h: f64,
     pub(super) h_std: Option<f64>,
+    /// `h` is at an end of the scanned range (the least held-out residual lies beyond it).
+    at_end: bool,
     cols: [Vec<f64>; 2],
     /// The whole model's held-out residual with it, as a fraction of that with the grid's.
     ratio: f64,
@@ -90,8 +101,10 @@ pub(super) fn refine(ctx: &Ctx, d: &Dictionary, m: &Model) -> Vec<Refined> {
         // what the ripple explains at the grid's harmonic
         let share = ctx.heldout_rss(&m.without(Some(j), EffectKind::TorqueRipple)) - h_grid;
         if h_grid - h_new > (GAIN_CHI2 * ctx.tau[j]).max(MIN_GAIN_SHARE * share) {
-            let h_std = gauss_newton_std(&|h| at.rss(h), h, step / 4.0, at.r.noise_var());
-            out.push(Refined { j, slot, h, h_std, cols: at.cols(h, &at.r.all), ratio: h_new / h_grid });
+            // at an end of the range the residual still falls beyond it: no curvature there
+            let at_end = h - lo <= AT_END / span || hi - h <= AT_END / span;
+            let h_std = if at_end { None } else { gauss_newton_std(&|h| at.rss(h), h, step / 4.0, at.r.noise_var()) };
+            out.push(Refined { j, slot, h, h_std, at_end, cols: at.cols(h, &at.r.all), ratio: h_new / h_grid });
         }
     }
     out
@@ -145,8 +158,12 @@ pub(super) fn apply(p: &mut Prepared, refined: Vec<Refined>, blocks_per_fold: us
         p.d.cols[r.j][c + 1] = cos;
         p.d.ripple_h[r.j][r.slot] = (r.h, r.h_std);
         let tau = std::f64::consts::TAU;
+        let end = match r.at_end {
+            true => "; at the end of the range the sweep can tell, so a bound, without a standard error",
+            false => "",
+        };
         notes.push(format!(
-            "torque ripple on {}: period fitted between the grid's harmonics, {:.4} rad ({:.2} per turn; the grid's nearest {:.4} rad), the whole model's held-out residual {:.1} % lower",
+            "torque ripple on {}: period fitted between the grid's harmonics, {:.4} rad ({:.2} per turn; the grid's nearest {:.4} rad), the whole model's held-out residual {:.1} % lower{end}",
             names[r.j],
             tau / r.h,
             r.h,

@@ -326,6 +326,33 @@ fn a_payload_is_weighed_by_what_the_refitted_links_cannot_make() {
     assert!(why.contains("beyond what the re-fitted links can make"), "{why}");
 }
 
+/// A ripple's period fitted at an end of its scanned range is a bound, not an estimate
+/// (`ripple_period::AT_END`): `diagnose_unseen/rarm24_6j/e15_2fx` (random 6-joint arm, 11 s,
+/// inertials 15 % off; Coulomb friction on joints 1 and 2, ripples of 8, 8 and 4 per turn on
+/// joints 1, 5 and 6). Joints 5 and 6 sweep too little for the grid's lower harmonics, so their
+/// ripples were read at 12 per turn and fitted down to the range's lower end (9.06 and 11.2 per
+/// turn), where they had standard errors of 0.6-0.8 % of periods 12 and 64 % short. Asserted:
+/// the three ripples named, no standard error on those two periods, a detail calling each a
+/// bound, and the true period at least that bound.
+#[test]
+fn a_ripple_period_at_the_end_of_its_range_is_a_bound() {
+    let set = "diagnose_unseen/rarm24_6j";
+    let m = cases_in(set);
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e15_2fx").unwrap();
+    let d = run_full(set, case, &m);
+    let ripple = d.json.effects.iter().find(|e| e.name == "torque_ripple").expect("ripple named");
+    assert_eq!(ripple.joints, ["joint_1", "joint_5", "joint_6"]);
+    let truth = case["effects"].as_array().unwrap().iter().find(|e| e["name"] == "torque_ripple").unwrap();
+    let (period, t) = (f64s(&ripple.parameters["period"]), f64s(&truth["parameters"]["period"]));
+    for (i, joint) in [(1, "joint_5"), (2, "joint_6")] {
+        assert!(ripple.parameters_std["period"][i].is_null(), "{joint}: {:?}", ripple.parameters_std);
+        let note = format!("torque ripple on {joint}: period fitted");
+        let why = d.details.iter().find(|l| l.starts_with(&note)).expect("a detail");
+        assert!(why.contains("a bound, without a standard error"), "{why}");
+        assert!(t[i] >= period[i], "{joint}: true period {} below the bound {}", t[i], period[i]);
+    }
+}
+
 /// Every fixture set names its files by paths inside the repository (a clean checkout has
 /// no generator's scratch directory), and those files are there.
 #[test]
