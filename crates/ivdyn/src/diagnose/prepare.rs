@@ -5,7 +5,7 @@
 use super::DiagnoseOptions;
 use super::dictionary::{Dictionary, Grams, build_dictionary, grams};
 use super::model::{basic_all_model, fit, noise_floor, noise_of_all_model, rss_joint};
-use super::residual::{difference_lag1, median};
+use super::residual::{difference_lag1, median, sample_noise};
 use super::signals::{Signals, accel_step, condition};
 use crate::Robot;
 use crate::batch;
@@ -124,6 +124,9 @@ fn prepare(
 ) -> Result<Prepared> {
     let n = robot.dof();
     let mut s = condition(log, opts, cutoff_hz)?;
+    if s.resampled {
+        s.sample_noise = log.tau.as_ref().map(|tau| sample_noise(&log.t, tau, n));
+    }
     let sub = max_rows.and_then(|m| s.every_kth_block(n, m));
     let subsampled = sub.is_some();
     if let Some(sub) = sub {

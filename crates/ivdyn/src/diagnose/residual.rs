@@ -61,6 +61,31 @@ pub(super) fn noise_and_tau(r: &[f64], n: usize, j: usize) -> (f64, f64) {
     (sigma.max(1e-12), tau)
 }
 
+/// Torque noise std per joint of a log on its own samples and stamps `t`: each sample less
+/// the line through its two neighbours, `tau_k - (h2 tau_(k-1) + h1 tau_(k+1)) / (h1 + h2)`,
+/// divided by its white-noise std factor `sqrt(1 + (h1^2 + h2^2) / (h1 + h2)^2)` (`h1`, `h2`
+/// the intervals before and after), robustly (MAD: re-published stale samples and gaps are a
+/// few %). A torque's slope cancels; its curvature over two sample periods is far below the
+/// noise at logging rates. Samples with a zero interval are skipped.
+pub(super) fn sample_noise(t: &[f64], tau: &[f64], n: usize) -> Vec<f64> {
+    let t_len = t.len().min(tau.len() / n.max(1));
+    (0..n)
+        .map(|j| {
+            let d: Vec<f64> = (1..t_len.saturating_sub(1))
+                .filter_map(|k| {
+                    let (h1, h2) = (t[k] - t[k - 1], t[k + 1] - t[k]);
+                    (h1 > 0.0 && h2 > 0.0).then(|| {
+                        let line = (h2 * tau[(k - 1) * n + j] + h1 * tau[(k + 1) * n + j]) / (h1 + h2);
+                        (tau[k * n + j] - line) / (1.0 + (h1 * h1 + h2 * h2) / ((h1 + h2) * (h1 + h2))).sqrt()
+                    })
+                })
+                .collect();
+            let med = median(d.clone());
+            1.4826 * median(d.iter().map(|x| (x - med).abs()).collect())
+        })
+        .collect()
+}
+
 /// Lag-1 autocorrelation of the sample-to-sample differences of the residual `r` on
 /// joint `j`: -0.5 for white noise (whatever slow structure it rides on), about -0.25 for
 /// noise interpolated onto a resampled grid, about 0 for a torque low-passed before it was
@@ -149,4 +174,36 @@ pub(super) fn regimes(s: &Signals, r: &[f64], n: usize) -> Vec<Regimes> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A smooth torque plus white noise of std 0.01 on jittered stamps (intervals 0.7-1.3 ms,
+    /// 5 % of the samples re-published stale, as `messy_log` makes them): the noise on the
+    /// log's own samples comes out within 10 % of 0.01 (the MAD estimate over ~5000 samples
+    /// has a relative standard error of about 2 %: 10 % is beyond 4 of them).
+    #[test]
+    fn sample_noise_reads_the_sensors_noise_on_jittered_stamps() {
+        let mut state = 987654321u64;
+        let mut u = || {
+            // 64-bit LCG (Knuth's constants)
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let (mut t, mut tau) = (vec![0.0], vec![]);
+        while t.len() < 5000 {
+            let last = t[t.len() - 1];
+            t.push(last + 1e-3 * (0.7 + 0.6 * u()));
+        }
+        for (k, &x) in t.iter().enumerate() {
+            // Box-Muller
+            let e = 0.01 * (-2.0 * u().ln()).sqrt() * (std::f64::consts::TAU * u()).cos();
+            let stale = k > 0 && u() < 0.05;
+            tau.push(if stale { tau[k - 1] } else { 2.0 * (6.0 * x).sin() + 0.5 * x + e });
+        }
+        let s = sample_noise(&t, &tau, 1)[0];
+        assert!((s - 0.01).abs() < 0.001, "noise {s}");
+    }
 }

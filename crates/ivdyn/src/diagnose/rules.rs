@@ -11,7 +11,8 @@
 //!    the structure it leaves on its joint, a look-alike only part of it;
 //! 3. it matters: the torque it adds has an RMS of at least `min_effect` times the
 //!    joint's noise level (estimated from differences two samples apart of the residual
-//!    of a model with every candidate in, which slow structure barely moves);
+//!    of a model with every candidate in, which slow structure barely moves; on a
+//!    resampled log at least the noise on its own samples, `Signals::sample_noise`);
 //! 4. its parameters have their physical sign, and an armature or payload is larger than
 //!    the uncertainty of the nominal (CAD) inertials;
 //! 5. inertia-like effects (payload, armature, offset, spring, gain, ripple) are not imitated

@@ -112,6 +112,13 @@ pub(super) struct Ctx<'a> {
     gain_margin: f64,
     pub(super) w: Vec<f64>,
     pub(super) sigma: Vec<f64>,
+    /// The noise std the size rule measures against: the larger of `sigma` and the noise
+    /// on the log's own samples where its stamps were resampled (`Signals::sample_noise`).
+    /// What matters is judged against the sensor's noise, not the interpolated grid's: on
+    /// jittered logs the grid's residual shows 0.70-0.83 of it, and two of six jittered
+    /// effect-free logs of the arms rarm36-47 named a viscous friction 0.7-1 grid noise std
+    /// large (docs/diagnose.md).
+    sigma_size: Vec<f64>,
     /// Held-out RSS per joint of the all-candidates model (two-fold; with the nominal
     /// re-fit when there is one).
     h_all: Vec<f64>,
@@ -172,6 +179,10 @@ impl<'a> Ctx<'a> {
         let (s, d, gr) = (&p.s, &p.d, &p.gr);
         let t_len = s.t.len();
         let (sigma, rho, _) = noise_of_all_model(d, gr, n, t_len, refit, p.drives);
+        let sigma_size = match &s.sample_noise {
+            Some(raw) => sigma.iter().zip(raw).map(|(a, b)| a.max(*b)).collect(),
+            None => sigma.clone(),
+        };
         let w: Vec<f64> = sigma.iter().map(|s| 1.0 / (s * s)).collect();
         let m_diag = mean_mass_diag(robot, &s.q, n)?;
         let terminal_mass = robot.params()[10 * (n - 1)];
@@ -212,6 +223,7 @@ impl<'a> Ctx<'a> {
             },
             w,
             sigma,
+            sigma_size,
             h_all,
             h_all_basic,
             tau: rho,
@@ -365,19 +377,19 @@ impl<'a> Ctx<'a> {
                 100.0 * sc.heldout_gain,
                 100.0 * min_share
             ))
-        } else if sc.effect_rms < o.min_effect * self.sigma[j] {
+        } else if sc.effect_rms < o.min_effect * self.sigma_size[j] {
             Some(format!(
                 "size: adds {:.3} N m RMS, {:.2} noise std, needs {:.2}",
                 sc.effect_rms,
-                sc.effect_rms / self.sigma[j],
+                sc.effect_rms / self.sigma_size[j],
                 o.min_effect
             ))
-        } else if sc.explained_rms < o.min_effect * self.sigma[j] {
+        } else if sc.explained_rms < o.min_effect * self.sigma_size[j] {
             Some(format!(
                 "size: adds {:.3} N m RMS but removes {:.3} N m RMS of the residual beyond the other effects, {:.2} noise std, needs {:.2}",
                 sc.effect_rms,
                 sc.explained_rms,
-                sc.explained_rms / self.sigma[j],
+                sc.explained_rms / self.sigma_size[j],
                 o.min_effect
             ))
         } else {

@@ -29,6 +29,13 @@ pub(super) struct Signals {
     pub(super) align: f64,
     /// First sample of each segment (the first is 0): differences in time stop at these.
     pub(super) starts: Vec<usize>,
+    /// Whether the log's stamps were resampled onto the uniform grid.
+    pub(super) resampled: bool,
+    /// Torque noise std per joint on the log's own samples and stamps
+    /// (`residual::sample_noise`, set by `prepare`), when they were resampled: the
+    /// interpolation onto the uniform grid averages neighbouring samples' noise, so the
+    /// grid's residual shows less of it than the sensor has.
+    pub(super) sample_noise: Option<Vec<f64>>,
 }
 
 impl Signals {
@@ -65,6 +72,8 @@ impl Signals {
             cutoff_hz: self.cutoff_hz,
             align: self.align,
             starts: vec![],
+            resampled: self.resampled,
+            sample_noise: self.sample_noise.clone(),
         };
         for a in (0..t_len).step_by(k * SUBSAMPLE_BLOCK) {
             let b = (a + SUBSAMPLE_BLOCK).min(t_len);
@@ -129,6 +138,8 @@ pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) 
         cutoff_hz,
         align: 0.0,
         starts: vec![],
+        resampled: parts.iter().any(|c| c.resampled),
+        sample_noise: None,
     };
     let mut first_sample = 0;
     for c in &parts {
@@ -218,6 +229,8 @@ mod tests {
             cutoff_hz: 20.0,
             align: 0.0,
             starts,
+            resampled: false,
+            sample_noise: None,
         }
     }
 

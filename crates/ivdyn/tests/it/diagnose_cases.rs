@@ -353,6 +353,24 @@ fn a_ripple_period_at_the_end_of_its_range_is_a_bound() {
     }
 }
 
+/// On a log whose stamps were resampled the size rule measures against the sensor's noise
+/// (`Signals::sample_noise`): `diagnose_unseen/rarm42_6j/e05_0fx` (random 6-joint arm, 7.6 s,
+/// inertials 5 % off, no effect; stamps 0.7-1.3 ms apart, 350 samples re-published stale, no
+/// velocity, motor currents). The grid's residual shows 0.70-0.79 of the sensor's noise, and
+/// a viscous friction of 0.68 grid noise std was named on joint 1 until 2026-12-06.
+/// Asserted: nothing named, and joint 1's viscous friction rejected by the size rule.
+#[test]
+fn a_jittered_logs_effects_are_sized_against_the_sensors_noise() {
+    let set = "diagnose_unseen/rarm42_6j";
+    let m = cases_in(set);
+    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e05_0fx").unwrap();
+    let d = run_job(set, case, &m);
+    assert!(d.json.effects.is_empty(), "{:?}", d.json.effects);
+    let viscous = d.final_candidates.iter().find(|c| c.effect == EffectKind::Viscous).unwrap();
+    let why = viscous.per_joint[0].rejected_by.as_deref().unwrap_or("significant");
+    assert!(why.starts_with("size:"), "{why}");
+}
+
 /// Every fixture set names its files by paths inside the repository (a clean checkout has
 /// no generator's scratch directory), and those files are there.
 #[test]
