@@ -9,7 +9,7 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "python", "tools"))
-from score_diagnose_cases import named_right, pairs, param_errors, param_z, split_truth  # noqa: E402
+from score_diagnose_cases import identifiable, named_right, pairs, param_errors, param_z, split_truth  # noqa: E402
 
 TRUTH = [
     {"name": "coulomb_friction", "joints": ["j1", "j3"], "parameters": {"fc": [0.2, 0.4]}},
@@ -87,3 +87,21 @@ def test_a_pair_below_the_noise_may_be_named_or_not():
     assert not named_right(required | {("armature", "j2")}, required, optional)
     # without the noise level or the effects' RMS every true pair is required
     assert split_truth({"effects": case["effects"]}, manifest) == (pairs(case["effects"]), set())
+
+
+def test_an_offset_beside_a_spring_is_part_of_the_spring():
+    # k (q - q0) + tau0 = k (q - (q0 - tau0 / k)): on j2 the offset 0.4 moves the spring's
+    # rest position 0.1 by -0.4 / 2 to -0.1; the offset on j3 has no spring beside it
+    truth = [{"name": "joint_spring", "joints": ["j1", "j2"], "parameters": {"k": [5.0, 2.0], "q0": [0.3, 0.1]}},
+             {"name": "torque_offset", "joints": ["j2", "j3"], "parameters": {"tau0": [0.4, -0.2]}}]
+    shown = identifiable(truth)
+    assert shown[0]["parameters"]["q0"] == [0.3, pytest.approx(-0.1)]
+    assert shown[1] == {"name": "torque_offset", "joints": ["j3"], "parameters": {"tau0": [-0.2]}}
+    assert truth[1]["joints"] == ["j2", "j3"]  # the case itself is left as it is
+    manifest = {"joints": ["j1", "j2", "j3"]}
+    required, optional = split_truth({"effects": truth}, manifest)
+    assert required == {("joint_spring", "j1"), ("joint_spring", "j2"), ("torque_offset", "j3")}
+    named = [{"name": "joint_spring", "joints": ["j2"], "parameters": {"k": [2.0], "q0": [-0.1]}}]
+    assert param_errors(shown, named) == [("joint_spring", "k", 0.0), ("joint_spring", "q0", pytest.approx(0.0))]
+    # offsets without springs: nothing to fold
+    assert identifiable(truth[1:]) == truth[1:]

@@ -1,4 +1,4 @@
-//! Two effects on one joint as one candidate.
+//! Two effects on one joint as one candidate, or three.
 //!
 //! Where a joint lacks two effects (Coulomb friction and an offset, a spring and viscous
 //! friction, ...), each alone removes only its part of the held-out structure and fails the
@@ -8,7 +8,9 @@
 //! each joint: a pair is named when it passes every rule on its joint and each member
 //! passes every rule given the other (what the backward step asks of it) and is above the
 //! noise, an inertia-like member also the look-alike rule 5 against the nominal link
-//! inertials.
+//! inertials. Where no pair passes either, three effects on one joint are tried the same way
+//! (`best_triple`): a drive's Coulomb and viscous friction and rotor inertia, or a spring
+//! beside two frictions, leave each one and each two of them short of the share.
 //! Direction-dependent Coulomb friction (Coulomb friction and its `[qd > 0]` column) is
 //! tried the same way: it refines Coulomb friction found on a joint, so without this it
 //! would never be tried where Coulomb friction alone fails the share. So is smooth (tanh)
@@ -21,7 +23,7 @@
 
 use super::dictionary::C_Q;
 use super::drive_rules::{grid, with_shape};
-use super::model::{Model, Param};
+use super::model::{Model, Param, fit, rss_joint};
 use super::rules::model_error_lookalike;
 use super::score::{Ctx, not_scored};
 use super::{CandidateScore, EffectKind, JointScore};
@@ -92,6 +94,59 @@ pub(super) fn best_pair(ctx: &Ctx, m: &Model) -> Option<(CandidateScore, Model, 
     Some((cand, l, b))
 }
 
+/// The best three effects on one joint as one candidate (largest weighted residual
+/// reduction), where no single effect and no pair passes: a drive's Coulomb and viscous
+/// friction and its rotor inertia, or a spring beside two frictions, each remove only a
+/// part of the held-out structure, and so does any two of them. As a candidate of its first
+/// effect on its joint, the model with all three, and the second effect.
+pub(super) fn best_triple(ctx: &Ctx, m: &Model) -> Option<(CandidateScore, Model, EffectKind)> {
+    let kinds = kinds(ctx);
+    let joints = joints_with_room(ctx, m, 3);
+    let scored = crate::par::map(ctx.threads, &joints, |&j| {
+        let mut best: Option<(f64, JointScore, Model, [EffectKind; 3])> = None;
+        for (i, &a) in kinds.iter().enumerate() {
+            for (k, &b) in kinds.iter().enumerate().skip(i + 1) {
+                for &c in &kinds[k + 1..] {
+                    let Some((sc, l)) = score_group(ctx, m, j, &[a, b, c]) else { continue };
+                    let gain = ctx.gain(m, &l);
+                    if best.as_ref().is_none_or(|x| gain > x.0) {
+                        best = Some((gain, sc, l, [a, b, c]));
+                    }
+                }
+            }
+        }
+        best
+    });
+    let (j, (score, sc, l, [a, b, c])) =
+        joints.iter().zip(scored).filter_map(|(&j, x)| x.map(|x| (j, x))).max_by(|x, y| x.1.0.total_cmp(&y.1.0))?;
+    let mut per_joint: Vec<JointScore> = (0..ctx.n).map(|_| not_scored("a triple is scored on one joint")).collect();
+    per_joint[j] = sc;
+    let reason = format!(
+        "with {} and {} on the same joint as one candidate: no one or two of them pass every rule",
+        b.label(),
+        c.label()
+    );
+    let cand = CandidateScore { effect: a, per_joint, joints: vec![j], score, accepted: false, reason };
+    Some((cand, l, b))
+}
+
+/// The joints whose residual on `m` leaves room for `members` effects of at least
+/// `PAIR_MIN_EFFECT` noise std each beside the noise: mean square above `1 + members`
+/// times the noise variance. Only a bound of thumb (the members' torques may partly
+/// cancel), it spares the search most joints: where triples were named on the random arms
+/// (docs/diagnose.md) the joint's mean square was 40-220 noise variances, while most other
+/// joints' are 1-3.
+fn joints_with_room(ctx: &Ctx, m: &Model, members: usize) -> Vec<usize> {
+    let f = fit(&m.params(), ctx.gr, &ctx.w, &[0, 1]);
+    (0..ctx.n)
+        .filter(|&j| {
+            let rows = (ctx.gr.rows[j][0] + ctx.gr.rows[j][1]).max(1) as f64;
+            let room = (1.0 + members as f64 * PAIR_MIN_EFFECT * PAIR_MIN_EFFECT) * ctx.sigma[j] * ctx.sigma[j];
+            rss_joint(&f, ctx.gr, j, &[0, 1]) / rows > room
+        })
+        .collect()
+}
+
 /// A scored candidate with its weighted residual reduction (`Ctx::gain`) and model.
 type Gained = (f64, JointScore, Model);
 
@@ -150,11 +205,18 @@ fn friction_shape(e: EffectKind) -> bool {
 
 /// The pair `(a, b)` on joint `j` with its score, when it can go there and passes.
 fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> Option<(JointScore, Model)> {
+    score_group(ctx, m, j, &[a, b])
+}
+
+/// The effects `group` together on joint `j` with their score, when they can go there and
+/// pass: the group every rule on the joint, each member every rule given the others and
+/// above the noise (`PAIR_MIN_EFFECT`), an inertia-like member also rule 5.
+fn score_group(ctx: &Ctx, m: &Model, j: usize, group: &[EffectKind]) -> Option<(JointScore, Model)> {
     use EffectKind::{AsymmetricCoulomb, Coulomb, JointSpring, SmoothCoulomb, Stribeck, TorqueGain, TorqueOffset};
     // a spring holds an offset's column, direction-dependent friction one too; a gain on the
     // terminal joint is a scale of the terminal link (as `rules::score_joint_effect` says);
     // smooth friction only where the joint has no friction of a shape yet (`score_smooth`)
-    let offset_like = |e: EffectKind| matches!(e, TorqueOffset | JointSpring);
+    let offset_like = |e: &&EffectKind| matches!(e, TorqueOffset | JointSpring);
     let blocked = |e: EffectKind| match e {
         TorqueOffset => m.has(j, JointSpring) || m.has(j, AsymmetricCoulomb),
         TorqueGain if j + 1 == ctx.n => true,
@@ -163,41 +225,39 @@ fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> O
     };
     // with an offset, smooth friction would stand for direction-dependent friction (on a
     // moving joint its level plus a constant), which `score_asymmetric` names
-    let smooth = a == SmoothCoulomb || b == SmoothCoulomb;
-    let pair_blocked = smooth && (friction_shape(a) && friction_shape(b) || a == TorqueOffset || b == TorqueOffset);
-    if offset_like(a) && offset_like(b) || blocked(a) || blocked(b) || pair_blocked {
+    let smooth = group.contains(&SmoothCoulomb);
+    let shapes = group.iter().filter(|&&e| friction_shape(e)).count();
+    let smooth_blocked = smooth && (shapes > 1 || group.contains(&TorqueOffset));
+    if group.iter().filter(offset_like).count() > 1 || group.iter().any(|&e| blocked(e)) || smooth_blocked {
         return None;
     }
     // a spring replaces an offset found on the joint (its constant is the offset's column),
     // as the single spring candidate does
-    let spring = a == JointSpring || b == JointSpring;
-    let start = if spring { m.without(Some(j), TorqueOffset) } else { m.clone() };
-    let (sa, sb) = (of(j, a), of(j, b));
+    let start = if group.contains(&JointSpring) { m.without(Some(j), TorqueOffset) } else { m.clone() };
+    let sel = |p: &Param| group.iter().any(|&e| of(j, e)(p));
     // a ripple's harmonic on its grid, the one removing most of the held-out residual (as
     // `drive_rules::score_grid_effect` chooses it alone); one entry for the other effects
     let mut best: Option<(JointScore, Model)> = None;
-    for ga in grid(ctx, a, j) {
-        for gb in grid(ctx, b, j) {
-            let l = add(&add(&start, a, j, ga), b, j, gb);
-            let sc = ctx.joint_score(m, &l, j, &|p| sa(p) || sb(p));
-            if best.as_ref().is_none_or(|(x, _)| sc.heldout_gain > x.heldout_gain) {
-                best = Some((sc, l));
-            }
+    for entries in grid_product(ctx, group, j) {
+        let l = group.iter().zip(&entries).fold(start.clone(), |l, (&e, &g)| add(&l, e, j, g));
+        let sc = ctx.joint_score(m, &l, j, &sel);
+        if best.as_ref().is_none_or(|(x, _)| sc.heldout_gain > x.heldout_gain) {
+            best = Some((sc, l));
         }
     }
     let (sc, l) = best?;
     if !sc.significant {
         return None;
     }
-    for (x, sel) in [(a, &sa), (b, &sb)] {
+    for &x in group {
         let without = remove(&l, x, j);
         // a spring's position column is tested beside the constant, as a single spring is
-        let base = if x == EffectKind::JointSpring { without.with(Some(j), EffectKind::TorqueOffset) } else { without };
-        let member = ctx.joint_score(&base, &l, j, sel);
+        let base = if x == JointSpring { without.with(Some(j), TorqueOffset) } else { without };
+        let member = ctx.joint_score(&base, &l, j, &of(j, x));
         if !member.significant || member.effect_rms < PAIR_MIN_EFFECT * ctx.sigma[j] {
             return None;
         }
-        if super::rules::inertia_like(x) && model_error_lookalike(ctx, &base, &l, j, x, sel).is_some() {
+        if super::rules::inertia_like(x) && model_error_lookalike(ctx, &base, &l, j, x, &of(j, x)).is_some() {
             return None;
         }
     }
@@ -205,6 +265,14 @@ fn score_pair(ctx: &Ctx, m: &Model, j: usize, a: EffectKind, b: EffectKind) -> O
         return None;
     }
     Some((sc, l))
+}
+
+/// Every combination of the grid entries of `group`'s effects on joint `j`.
+fn grid_product(ctx: &Ctx, group: &[EffectKind], j: usize) -> Vec<Vec<usize>> {
+    group.iter().fold(vec![vec![]], |acc, &e| {
+        let g = grid(ctx, e, j);
+        acc.iter().flat_map(|head| g.iter().map(move |&x| [head.as_slice(), &[x]].concat())).collect()
+    })
 }
 
 /// The tanh of a pair's smooth friction is what the data ask for, not a sharp Coulomb

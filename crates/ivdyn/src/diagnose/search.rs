@@ -4,7 +4,7 @@
 //! Among the candidates with significant joints (`rules`), the one that removes most of
 //! the (noise-weighted) residual is added; all parameters are refit; effects that stopped
 //! being significant are dropped again (backward step); when no single candidate is left,
-//! two effects on one joint are tried as one (`pairs`); repeat until none is left.
+//! two effects on one joint are tried as one, then three (`pairs`); repeat until none is left.
 
 pub use super::DiagnoseOptions;
 use super::assemble::{Found, assemble};
@@ -197,10 +197,12 @@ fn search(
             // no single effect passes: two on one joint may (`pairs`); first in the list,
             // so that the step's evidence finds its scores, not its first effect's alone
             // no pair either: a friction shape in place of another (`swap`), an offset's
-            // reading as direction-dependent friction (`offset_swap`)
+            // reading as direction-dependent friction (`offset_swap`), three effects on one
+            // joint (`pairs::best_triple`)
             None => match super::pairs::best_pair(ctx, &m)
                 .or_else(|| super::swap::best_swap(ctx, &m))
                 .or_else(|| super::offset_swap::best_offset_swap(ctx, &m))
+                .or_else(|| super::pairs::best_triple(ctx, &m))
             {
                 Some((pair, l, _)) => {
                     cands.insert(0, (pair, l));

@@ -92,6 +92,11 @@ pub(crate) fn payload_is_a_body(d: &DiagnosisJson) {
     }
 }
 
+/// The case `name` of a set's manifest (`cases.json`).
+pub(crate) fn case_named<'a>(m: &'a Value, name: &str) -> &'a Value {
+    m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap_or_else(|| panic!("no case {name}"))
+}
+
 pub(crate) fn f64s(v: &Value) -> Vec<f64> {
     v.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect()
 }
@@ -102,7 +107,7 @@ fn check_case(name: &str) {
 
 fn check_case_in(set: &str, name: &str) -> DiagnosisJson {
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
+    let case = case_named(&m, name);
     let d = run_in(set, case, &m);
     let truth = case["effects"].as_array().unwrap();
 
@@ -274,7 +279,7 @@ fn two_effects_on_one_joint() {
 fn payload_on_a_cad_model() {
     let (set, name) = ("diagnose_cad/talos_arm", "e30_2fx");
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
+    let case = case_named(&m, name);
     let d = run_in(set, case, &m);
     assert!(d.nominal_refit.is_some(), "{name}: no nominal_refit");
     let p = d.effects.iter().find(|e| e.name == "payload").unwrap_or_else(|| panic!("{name}: {:?}", d.effects));
@@ -318,7 +323,7 @@ fn cad_error_of_the_terminal_link_is_no_payload() {
 fn a_payload_is_weighed_by_what_the_refitted_links_cannot_make() {
     let set = "diagnose_unseen/rarm27_7j";
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e30_0fx").unwrap();
+    let case = case_named(&m, "e30_0fx");
     let d = run_full(set, case, &m);
     assert!(d.json.effects.is_empty(), "{:?}", d.json.effects);
     let payload = d.final_candidates.iter().find(|c| c.effect == EffectKind::Payload).expect("payload scored");
@@ -338,7 +343,7 @@ fn a_payload_is_weighed_by_what_the_refitted_links_cannot_make() {
 fn a_ripple_period_at_the_end_of_its_range_is_a_bound() {
     let set = "diagnose_unseen/rarm24_6j";
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e15_2fx").unwrap();
+    let case = case_named(&m, "e15_2fx");
     let d = run_full(set, case, &m);
     let ripple = d.json.effects.iter().find(|e| e.name == "torque_ripple").expect("ripple named");
     assert_eq!(ripple.joints, ["joint_1", "joint_5", "joint_6"]);
@@ -363,7 +368,7 @@ fn a_ripple_period_at_the_end_of_its_range_is_a_bound() {
 fn a_jittered_logs_effects_are_sized_against_the_sensors_noise() {
     let set = "diagnose_unseen/rarm42_6j";
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e05_0fx").unwrap();
+    let case = case_named(&m, "e05_0fx");
     let d = run_job(set, case, &m);
     assert!(d.json.effects.is_empty(), "{:?}", d.json.effects);
     let viscous = d.final_candidates.iter().find(|c| c.effect == EffectKind::Viscous).unwrap();
@@ -407,7 +412,7 @@ fn fixture_sets_name_files_inside_the_repository() {
 fn cad_error_of_the_terminal_link_without_the_refit() {
     let (set, name) = ("diagnose_cad/ur3", "e15_2fx");
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
+    let case = case_named(&m, name);
     let d = run_in(set, case, &m);
     let mut named: Vec<(&str, Vec<&str>)> =
         d.effects.iter().map(|e| (e.name.as_str(), e.joints.iter().map(|j| j.as_str()).collect())).collect();
@@ -423,7 +428,7 @@ fn cad_error_of_the_terminal_link_without_the_refit() {
 fn headline_and_rejection_rules() {
     for (set, name) in [("diagnose", "viscous_payload"), ("diagnose_cad/ur5", "e05_2fx")] {
         let m = cases_in(set);
-        let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
+        let case = case_named(&m, name);
         let d = run_full(set, case, &m);
         assert!(d.verdict.chars().count() <= 200, "{}", d.verdict);
         assert!(d.verdict.starts_with("Missing:") && !d.verdict.contains('\n'), "{}", d.verdict);
@@ -485,7 +490,7 @@ fn errors_name_the_problem() {
 #[test]
 fn a_log_with_a_gap_is_diagnosed_on_both_segments() {
     let m = cases_in("diagnose");
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "coulomb").unwrap();
+    let case = case_named(&m, "coulomb");
     let urdf = root().join(case["urdf"].as_str().unwrap());
     let robot = Robot::from_urdf(urdf, m["base"].as_str(), m["tip"].as_str()).unwrap();
     let path = root().join("fixtures/diagnose").join(case["log"].as_str().unwrap());
@@ -696,7 +701,7 @@ fn a_candidate_the_other_effects_hold_is_not_named() {
     assert_eq!(named(&d), vec![], "{:?}", d.details);
 
     let (set, m) = ("diagnose_random/rarm5_7j", cases_in("diagnose_random/rarm5_7j"));
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e30_2fx").unwrap();
+    let case = case_named(&m, "e30_2fx");
     let d = run_job(set, case, &m);
     let mut truth: Vec<(String, Vec<String>)> = case["effects"]
         .as_array()
@@ -779,7 +784,7 @@ fn a_refinement_of_coulomb_friction_at_its_own_share() {
 #[test]
 fn no_effect_pushes_another_through_zero() {
     let (set, m) = ("diagnose_random/rarm9_7j", cases_in("diagnose_random/rarm9_7j"));
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e05_3fx").unwrap();
+    let case = case_named(&m, "e05_3fx");
     let d = run_job(set, case, &m);
     let levels = ["fc", "fc_pos", "fc_neg", "fv", "ia", "k", "mu", "delay_s"];
     for e in &d.json.effects {
@@ -808,7 +813,7 @@ fn no_effect_pushes_another_through_zero() {
 #[test]
 fn coulomb_friction_where_the_joint_moves() {
     let (set, m) = ("diagnose_random/rarm6_6j", cases_in("diagnose_random/rarm6_6j"));
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e05_2fx").unwrap();
+    let case = case_named(&m, "e05_2fx");
     let d = run_job(set, case, &m).json;
     let e = d.effects.iter().find(|e| e.name == "coulomb_friction").unwrap();
     let truth = case["effects"].as_array().unwrap().iter().find(|e| e["name"] == "coulomb_friction").unwrap();
@@ -825,7 +830,7 @@ fn coulomb_friction_where_the_joint_moves() {
 /// the names, when it was not named on `joint`).
 fn found_and_true(set: &str, case: &str, effect: &str, p: &str, joint: &str) -> (f64, f64, Vec<String>) {
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == case).unwrap();
+    let case = case_named(&m, case);
     let d = run_job(set, case, &m).json;
     let names: Vec<_> = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
     let e = d.effects.iter().find(|e| e.name == effect).unwrap_or_else(|| panic!("{names:?}"));
@@ -896,7 +901,7 @@ fn direction_dependent_friction_beside_a_looser_refit() {
 /// the (effect, joints) named.
 fn named_in(set: &str, name: &str) -> (Value, DiagnosisJson, Vec<(String, Vec<String>)>) {
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap().clone();
+    let case = case_named(&m, name).clone();
     let d = run_job(set, &case, &m).json;
     let names = d.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
     (case, d, names)
@@ -1019,7 +1024,7 @@ fn stribeck_friction_from_a_sticking_joint() {
 #[test]
 fn an_exact_model_says_why_it_is_not_refitted() {
     let m = cases_in("diagnose");
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "clean_a").unwrap();
+    let case = case_named(&m, "clean_a");
     let d = run_job("diagnose", case, &m);
     assert!(d.json.effects.is_empty(), "{:?}", d.details);
     assert!(d.json.nominal_refit.is_none());
@@ -1104,7 +1109,7 @@ fn a_terminal_joint_effort_of_the_opposite_sign_is_an_error_of_the_job() {
 /// The robot (the case's URDF) and the log of fixture case `name` of `set`.
 fn case_log(set: &str, name: &str) -> (Robot, ivdyn::log::JointLog) {
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
+    let case = case_named(&m, name);
     let robot =
         Robot::from_urdf(root().join(case["urdf"].as_str().unwrap()), m["base"].as_str(), m["tip"].as_str()).unwrap();
     let path = root().join("fixtures").join(set).join(case["log"].as_str().unwrap());
@@ -1116,7 +1121,7 @@ fn case_log(set: &str, name: &str) -> (Robot, ivdyn::log::JointLog) {
 /// the true effects on exactly their joints; the case and the diagnosis.
 fn exactly_right(set: &str, name: &str) -> (Value, Diagnosis) {
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap().clone();
+    let case = case_named(&m, name).clone();
     let d = run_job(set, &case, &m);
     let mut named: Vec<(String, Vec<String>)> =
         d.json.effects.iter().map(|e| (e.name.clone(), e.joints.clone())).collect();
@@ -1189,7 +1194,7 @@ fn a_ripple_between_the_grids_harmonics_gets_its_period_fitted() {
 #[test]
 fn the_details_say_which_asymmetries_the_log_cannot_show() {
     let (set, m) = ("diagnose_random/rarm9_7j", cases_in("diagnose_random/rarm9_7j"));
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e05_3fx").unwrap();
+    let case = case_named(&m, "e05_3fx");
     let d = run_job(set, case, &m);
     let truth =
         case["effects"].as_array().unwrap().iter().find(|e| e["name"] == "asymmetric_coulomb_friction").unwrap();
@@ -1225,7 +1230,7 @@ fn the_details_say_which_asymmetries_the_log_cannot_show() {
 fn an_offset_before_its_coulomb_friction_is_read_as_direction_dependent_friction() {
     let set = "diagnose_unseen/rarm22_6j";
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e30_3fx").unwrap();
+    let case = case_named(&m, "e30_3fx");
     let d = run_in(set, case, &m);
     assert!(d.effects.iter().all(|e| e.name != "torque_offset"), "{:?}", d.effects);
     let asym = d.effects.iter().find(|e| e.name == "asymmetric_coulomb_friction").expect("named");
@@ -1248,7 +1253,7 @@ fn an_offset_before_its_coulomb_friction_is_read_as_direction_dependent_friction
 fn the_terminal_links_cad_error_takes_no_viscous_friction() {
     let set = "diagnose_wide/rarm9_7j";
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "e30_1fx").unwrap();
+    let case = case_named(&m, "e30_1fx");
     let d = run_job(set, case, &m);
     assert!(d.json.effects.iter().all(|e| e.name != "viscous_friction"), "{:?}", d.details);
     assert!(
@@ -1263,4 +1268,44 @@ fn the_terminal_links_cad_error_takes_no_viscous_friction() {
         let fc = f64s(&coulomb.parameters["fc"])[i];
         assert!((fc - fc_true[k]).abs() <= 0.05 * fc_true[k], "{joint}: fc {fc} vs {}", fc_true[k]);
     }
+}
+
+/// Three effects on one joint (`pairs::best_triple`): a spring, viscous friction and
+/// load-dependent friction on `joint_1` of the random arm `rarm51_7j` (`e05_3fx` of the arms
+/// first run on 2026-12-06, regenerated at 12 s: `make_cad_cases.py --set random --first-arm
+/// 51 --arms 1 --duration 12 --only rarm51_7j/e05_3fx`; inertials 5 % off, jittered stamps,
+/// no velocity). Each of them alone, and each two, leave the joint's held-out residual short
+/// of the share; until 2026-12-06 nothing was named there (0.71 N m left against 0.05 of
+/// noise on the 58 s log). Asserted: exactly the true (effect, joint) pairs, and the three
+/// levels on `joint_1` within 10 % of the truth (issue 15's criterion).
+#[test]
+fn three_effects_on_one_joint_are_tried_as_one() {
+    let set = "diagnose_unseen/rarm51_7j";
+    let m = cases_in(set);
+    let case = case_named(&m, "e05_3fx");
+    let d = run_job(set, case, &m);
+    let named = serde_json::to_value(&d.json.effects).unwrap();
+    assert_eq!(effect_pairs(&named), effect_pairs(&case["effects"]), "{:?}", d.details);
+    for (name, key) in [("joint_spring", "k"), ("viscous_friction", "fv"), ("load_dependent_friction", "mu")] {
+        let (truth, est) = (level_on(&case["effects"], name, key, "joint_1"), level_on(&named, name, key, "joint_1"));
+        assert!((est - truth).abs() <= 0.1 * truth.abs(), "{name} {key} on joint_1: {est} against {truth}");
+    }
+}
+
+/// The (effect, joint) pairs of a list of effects (`diagnosis.json` or `cases.json`).
+fn effect_pairs(effects: &Value) -> std::collections::BTreeSet<(String, String)> {
+    let mut out = std::collections::BTreeSet::new();
+    for e in effects.as_array().unwrap() {
+        for j in e["joints"].as_array().unwrap() {
+            out.insert((e["name"].as_str().unwrap().to_string(), j.as_str().unwrap().to_string()));
+        }
+    }
+    out
+}
+
+/// Parameter `key` of effect `name` on `joint` in a list of effects.
+fn level_on(effects: &Value, name: &str, key: &str, joint: &str) -> f64 {
+    let e = effects.as_array().unwrap().iter().find(|e| e["name"] == name).unwrap();
+    let at = e["joints"].as_array().unwrap().iter().position(|j| j == joint).unwrap();
+    f64s(&e["parameters"][key])[at]
 }

@@ -14,7 +14,7 @@
 //! 2026-12-05: the parabola through the grid's residuals, then fitted, `shape_scale`; a
 //! factor 2.5, the grid's spacing then, before).
 
-use super::diagnose_cases::{cases_in, f64s, run_with};
+use super::diagnose_cases::{case_named, cases_in, f64s, run_with};
 use ivdyn::diagnose::{DiagnoseOptions, Diagnosis};
 
 fn check(name: &str) -> Diagnosis {
@@ -25,7 +25,7 @@ fn check(name: &str) -> Diagnosis {
 fn check_with(name: &str, opts: &DiagnoseOptions) -> Diagnosis {
     let set = "diagnose_drives";
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == name).unwrap();
+    let case = case_named(&m, name);
     let diagnosis = run_with(set, case, &m, opts);
     let d = &diagnosis.json;
     let truth = &case["effects"].as_array().unwrap()[0];
@@ -114,7 +114,7 @@ fn time_delay() {
 fn drive_effects_are_not_searched_by_default_on_a_short_log() {
     let set = "diagnose_drives";
     let m = cases_in(set);
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "smooth_coulomb").unwrap();
+    let case = case_named(&m, "smooth_coulomb");
     let d = run_with(set, case, &m, &DiagnoseOptions::default());
     assert!(d.json.effects.iter().all(|e| e.name != "smooth_coulomb_friction"), "{:?}", d.json.effects);
     let why = d.details.last().unwrap();

@@ -10,13 +10,13 @@ use ivdyn::Robot;
 use ivdyn::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
 use ivdyn::log::{ReadOptions, read_mcap};
 
-use super::diagnose_cases::{cases_in, f64s, run_in};
+use super::diagnose_cases::{case_named, cases_in, f64s, run_in};
 
 /// The case diagnosed from its URDF with `<dynamics friction=fc damping=fv>` on `joint`.
 fn with_urdf_friction(joint: &str, fc: f64, fv: f64) -> Diagnosis {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let m = cases_in("diagnose_panda");
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "coulomb_viscous").unwrap();
+    let case = case_named(&m, "coulomb_viscous");
     let text = std::fs::read_to_string(root.join(case["urdf"].as_str().unwrap())).unwrap();
     // the `<dynamics>` of the joint's element, the first after its opening tag
     let at = text.find(&format!("<joint name=\"{joint}\"")).unwrap();
@@ -60,7 +60,7 @@ fn a_urdf_friction_the_log_has_none_of_is_not_the_nominal() {
     assert_eq!(joints, vec!["panda_joint2", "panda_joint6"], "{:?}", d.details);
     assert!((fv[0] - 0.6).abs() <= 0.06, "fv {} vs truth 0.6", fv[0]);
     let m = cases_in("diagnose_panda");
-    let case = m["cases"].as_array().unwrap().iter().find(|c| c["name"] == "coulomb_viscous").unwrap();
+    let case = case_named(&m, "coulomb_viscous");
     let own = run_in("diagnose_panda", case, &m);
     assert_eq!(serde_json::to_value(&d.json).unwrap(), serde_json::to_value(&own).unwrap());
     assert!(d.details.iter().any(|l| l.contains(CONTRADICTED) && l.contains("panda_joint3")), "{:?}", d.details);
