@@ -33,6 +33,37 @@ def ivdyn_bin():
     return ivdyn_exe()
 
 
+_RAY_DIRS = []
+
+
+def ray_temp_dir():
+    """A short private directory for a Ray runtime's session files, removed when the session
+    (or xdist worker) finishes (`pytest_sessionfinish`)."""
+    import tempfile
+
+    tmp = tempfile.mkdtemp(prefix="ivr", dir="/tmp")
+    _RAY_DIRS.append(tmp)
+    return tmp
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """Shut down the runtime this process started and remove its session files (xdist
+    workers end without running exit hooks, which left them in /tmp)."""
+    if _RAY_DIRS:
+        import ray
+
+        if ray.is_initialized():
+            ray.shutdown()
+        for d in _RAY_DIRS:
+            shutil.rmtree(d, ignore_errors=True)
+
+
+@pytest.fixture(scope="session")
+def ray_dir():
+    """`ray_temp_dir` for tests that start a Ray runtime of their own."""
+    return ray_temp_dir
+
+
 @pytest.fixture(scope="module")
 def ray_runtime():
     """A local Ray runtime of 2 CPUs in a short private directory (Ray's socket paths must
@@ -40,13 +71,10 @@ def ray_runtime():
     none is running and left running for the next module: each xdist worker process starts
     at most one (`make test` gives each file to one worker, --dist loadfile; Ray shuts it
     down at exit). A test that needs a runtime of its own shuts this one down first."""
-    import tempfile
-
     import ray
 
     if not ray.is_initialized():
-        tmp = tempfile.mkdtemp(prefix="ivr", dir="/tmp")
-        ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tmp, log_to_driver=False)
+        ray.init(num_cpus=2, include_dashboard=False, _temp_dir=ray_temp_dir(), log_to_driver=False)
     return ray
 
 

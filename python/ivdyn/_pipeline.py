@@ -451,8 +451,10 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     each parameter, noise, folds and the re-fit's ridge; still a lower bound of the error on
     CAD-error logs, ``docs/diagnose.md`` "Uncertainty"), ``baseline_rms`` and ``final_rms`` (N m per joint), ``joints``,
     ``nominal_refit`` {base_params, rms_before, rms_after, why} when the nominal rigid-body
-    model was re-fitted, and ``next_command`` (the ``ivdyn identify`` command to run next)
-    when something was found. With ``out`` (a directory) it also writes ``diagnosis.json``,
+    model was re-fitted, ``next_command`` (the ``ivdyn identify`` command to run next)
+    when something was found, and ``detectable`` (per joint, the smallest offset, direction
+    dependence of friction, spring, gain error and armature the log can tell from the links'
+    inertials; ``docs/diagnose.md`` "What the log can show"). With ``out`` (a directory) it also writes ``diagnosis.json``,
     ``report.html`` (unless ``report=False``) and ``residuals.mcap`` there.
 
     ``robot``: an :class:`ivdyn.Robot` or a URDF path (``base``/``tip`` links,

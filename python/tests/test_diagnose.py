@@ -31,7 +31,7 @@ def _case(name):
 def test_diagnose_names_the_hidden_coulomb_friction(tmp_path):
     case, m = _case("coulomb")
     d = ivdyn.diagnose(_robot(case, m), os.path.join(CASES, case["log"]), out=tmp_path)
-    assert set(d) == {"effects", "baseline_rms", "final_rms", "joints", "next_command"}
+    assert set(d) == {"effects", "baseline_rms", "final_rms", "joints", "next_command", "detectable"}
     assert d["next_command"].startswith("ivdyn identify --urdf ") and "--friction coulomb" in d["next_command"]
     assert d["joints"] == m["joints"]
     (e,) = d["effects"]

@@ -40,8 +40,9 @@ PARAMETERS = {
     "load_dependent_friction": {"mu"}, "torque_gain": {"k"}, "torque_ripple": {"period", "a", "b"},
     "time_delay": {"delay_s"}, "payload": {"mass", "com", "inertia"},
 }
-TOP = {"effects", "baseline_rms", "final_rms", "joints"}
+TOP = {"effects", "baseline_rms", "final_rms", "joints", "detectable"}
 OPTIONAL_TOP = {"nominal_refit", "next_command"}
+DETECTABLE = ("torque_offset", "asymmetric_coulomb_friction", "joint_spring", "torque_gain", "armature")
 
 
 def make_case(index, out):
@@ -128,6 +129,11 @@ def check_diagnosis(d, joints):
         assert isinstance(r["why"], str) and r["why"]
     if "next_command" in d:
         assert d["next_command"].startswith("ivdyn identify "), d["next_command"]
+    det = d["detectable"]
+    assert det["noise_std"] == 2.0 and set(det) == {"noise_std", "sigma", *DETECTABLE}, sorted(det)
+    finite_list(det["sigma"], n, "detectable.sigma")
+    for kind in DETECTABLE:
+        assert len(det[kind]) == n and all(v is None or (math.isfinite(v) and v > 0) for v in det[kind]), (kind, det[kind])
 
 
 def check_report(path, d):

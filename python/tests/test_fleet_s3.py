@@ -6,7 +6,6 @@ import os
 import socket
 import subprocess
 import sys
-import tempfile
 import time
 import urllib.request
 
@@ -123,15 +122,14 @@ def test_s3_manifest_equals_the_local_run_and_names_a_missing_object(logs, tmp_p
     _assert_identical(res, ref)
 
 
-def test_s3_manifest_on_ray_equals_the_local_run(logs):
+def test_s3_manifest_on_ray_equals_the_local_run(logs, ray_dir):
     """Ray workers read the objects themselves (they inherit the endpoint and credentials
     from the environment the runtime was started in)."""
     import ray
     local, remote = logs
-    tmp = tempfile.mkdtemp(prefix="ivs3", dir="/tmp")
     if ray.is_initialized():  # the shared runtime (conftest) was started without the S3 variables
         ray.shutdown()
-    ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tmp, log_to_driver=False)
+    ray.init(num_cpus=2, include_dashboard=False, _temp_dir=ray_dir(), log_to_driver=False)
     try:
         got = fleet.run(remote, engine="ray")
     finally:

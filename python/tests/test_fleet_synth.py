@@ -22,7 +22,6 @@ either always passes or always fails; it is deterministic).
 import html.parser
 import json
 import re
-import tempfile
 import os
 
 import numpy as np
@@ -51,11 +50,10 @@ def synthetic(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def fleet_run(synthetic):
+def fleet_run(synthetic, ray_dir):
     f, _ = synthetic
     if not ray.is_initialized():  # as conftest's ray_runtime starts it (module-scoped there)
-        ray.init(num_cpus=2, include_dashboard=False, _temp_dir=tempfile.mkdtemp(prefix="ivr", dir="/tmp"),
-                 log_to_driver=False)
+        ray.init(num_cpus=2, include_dashboard=False, _temp_dir=ray_dir(), log_to_driver=False)
     res = fleet.run(f.manifest, engine="ray")
     return res, fleet.drift(res, q=Q)
 

@@ -44,3 +44,52 @@ def test_terminal_offset_whole_and_first_armature_spanned(manifest_case):
 def test_no_lookalike_no_work(manifest_case):
     m, clean = manifest_case
     assert li.identifiable_parts(SET, m, clean) == {}
+
+
+# `detectable` of diagnosis.json (docs/diagnose.md, "What the log can show") against this
+# tool: the same projection, computed by the diagnosis from the log's own (filtered) signals
+# and by the tool from the case's reference motion with numpy's SVD.
+UNIT = {"torque_offset": {"tau0": [1.0]}, "asymmetric_coulomb_friction": {"fc_pos": [2.0], "fc_neg": [0.0]},
+        "joint_spring": {"k": [1.0], "q0": [0.0]}, "armature": {"ia": [1.0]}}
+
+
+def _detectable(sd, m, case):
+    import ivdyn
+    urdf = os.path.join(sd, os.path.basename(case["urdf"]))
+    robot = ivdyn.Robot.from_urdf(urdf, base=m["base"], tip=m["tip"])
+    return ivdyn.diagnose(robot, os.path.join(sd, case["log"]), report=False)["detectable"]
+
+
+@pytest.mark.parametrize("sd", [SET, os.path.join(ROOT, "fixtures", "diagnose_unseen", "rarm27_7j")])
+def test_detectable_is_the_part_beyond_the_links(sd):
+    """Per unit parameter, the RMS a look-alike's torque keeps beyond the links (the
+    diagnosis' `noise_std sigma / detectable`) is the tool's: exactly where the structure says
+    (the terminal joint's offset keeps its whole size, joint 1's armature is a link's axial
+    inertia: none shown), within 25 % where both see at least one noise std (the log's motion
+    is the reference tracked by the simulated arm, differentiated and filtered: the two arms
+    here spread 0.91-1.19)."""
+    with open(os.path.join(sd, "cases.json")) as f:
+        m = json.load(f)
+    m["_dir"] = sd
+    case = next(c for c in m["cases"] if not c["effects"])
+    det = _detectable(sd, m, case)
+    n = len(m["joints"])
+    assert det["noise_std"] == 2.0 and len(det["sigma"]) == n
+    assert det["torque_offset"][n - 1] == pytest.approx(2.0 * det["sigma"][n - 1], rel=1e-6)
+    assert det["armature"][0] is None
+    sig = case["torque_noise_std"]
+    compared = 0
+    for kind, par in UNIT.items():
+        size = 2.0 if kind == "asymmetric_coulomb_friction" else 1.0
+        for j, jn in enumerate(m["joints"]):
+            unit = copy.deepcopy(case)
+            unit["effects"] = [{"name": kind, "joints": [jn], "parameters": par}]
+            tool = li.identifiable_parts(sd, m, unit)[(kind, jn)] * sig[j]   # N m per unit
+            d = det[kind][j]
+            ours = 0.0 if d is None else det["noise_std"] * det["sigma"][j] * size / d
+            if min(tool, ours) >= sig[j]:
+                compared += 1
+                assert ours == pytest.approx(tool, rel=0.25), (kind, jn, ours, tool)
+            elif tool < 1e-9 * size:
+                assert d is None, (kind, jn, d)
+    assert compared >= 2 * n

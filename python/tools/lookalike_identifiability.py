@@ -16,9 +16,11 @@ deviations. No method can name from the log what that part does not show.
 `score_diagnose_cases.py --identifiability` prints, per kind, the true pairs found against that
 part (below 1, 1-2, at least 2 noise std).
 """
+import atexit
 import contextlib
 import io
 import os
+import shutil
 import sys
 import tempfile
 
@@ -42,7 +44,9 @@ def reference_motion(robot_name, case):
     if key not in _CONFIGS:
         mcc.MOTION = motion
         with contextlib.redirect_stdout(io.StringIO()):
-            _CONFIGS[key] = mcc.cad_config(robot_name, tempfile.mkdtemp(prefix="ivdyn_ident_"))
+            tmp = tempfile.mkdtemp(prefix="ivdyn_ident_")
+            atexit.register(shutil.rmtree, tmp, ignore_errors=True)
+            _CONFIGS[key] = mcc.cad_config(robot_name, tmp)
         mcc.MOTION = "narrow"
     cfg = _CONFIGS[key]
     t = np.arange(case["samples"]) * mdc.DT

@@ -2,6 +2,7 @@
 //! parameters, the evidence in words, the predictions after each step, what is left above
 //! the noise, and the verdict.
 
+use super::detectable::detectable;
 use super::dictionary::{
     C_DELAY, C_GAIN, C_LOAD, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_RIPPLE, C_SIGN, C_SIGN_POS, C_STRIBECK, C_TANH,
     Dictionary,
@@ -87,7 +88,15 @@ pub(super) fn assemble(
     let traces =
         Traces { t: s.t.clone(), q: s.q.clone(), qd: s.qd.clone(), qdd: s.qdd.clone(), tau: s.tau.clone(), predicted };
     Ok(Diagnosis {
-        json: DiagnosisJson { effects, baseline_rms, final_rms, joints: names.clone(), nominal_refit, next_command },
+        json: DiagnosisJson {
+            effects,
+            baseline_rms,
+            final_rms,
+            joints: names.clone(),
+            nominal_refit,
+            next_command,
+            detectable: Some(detectable(ctx.gr, d.nbase(), ctx.sigma_size())),
+        },
         steps: kept,
         final_candidates,
         noise_std: ctx.sigma.clone(),

@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 
 mod assemble;
 mod constant_view;
+mod detectable;
 mod dictionary;
 mod drive_rules;
 mod effort_check;
@@ -358,6 +359,33 @@ pub struct DiagnosisJson {
     /// nothing was named and the nominal model was not re-fitted.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub next_command: Option<String>,
+    /// The smallest look-alike per joint the log can tell from the links' inertials
+    /// (`detectable`); absent in files written before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub detectable: Option<DetectableJson>,
+}
+
+/// `detectable` of `diagnosis.json`: per look-alike, per joint (the order of `joints`), the
+/// smallest size whose torque beyond what the links before the terminal one can make (the
+/// nominal re-fit's columns) is `noise_std` noise standard deviations RMS on its joint;
+/// `null` where the log shows none of it. Sizes: `|tau0|` (N m), `|fc_pos - fc_neg|` (N m),
+/// spring `|k|` (N m/rad), gain `|k - 1|`, armature `ia` (kg m^2).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DetectableJson {
+    /// The RMS, in noise standard deviations, an effect's part must reach.
+    pub noise_std: f64,
+    /// The noise standard deviation per joint it is measured in (N m): the size rule's.
+    pub sigma: Vec<f64>,
+    /// Smallest `|tau0|` (N m).
+    pub torque_offset: Vec<Option<f64>>,
+    /// Smallest `|fc_pos - fc_neg|` (N m).
+    pub asymmetric_coulomb_friction: Vec<Option<f64>>,
+    /// Smallest spring `|k|` (N m/rad).
+    pub joint_spring: Vec<Option<f64>>,
+    /// Smallest gain error `|k - 1|`.
+    pub torque_gain: Vec<Option<f64>>,
+    /// Smallest armature `ia` (kg m^2).
+    pub armature: Vec<Option<f64>>,
 }
 
 /// `nominal_refit` of `diagnosis.json`: the rigid-body model the effects were searched on.

@@ -444,30 +444,56 @@ pub(super) fn noise_of_all_model(
 }
 
 /// RMS on joint `j` of the torque the parameters of `which` add beyond what the re-fit's
-/// base columns `refit` can make: that torque less its least-squares projection on those
-/// columns over every joint's rows, `Y_p theta_p - Y_r G_rr^-1 G_rp theta_p` (the part the
-/// re-fitted links would not take over; a payload's mass regroups into them).
+/// base columns `refit` can make ([`rms_beyond`]; the part the re-fitted links would not
+/// take over; a payload's mass regroups into them).
 pub(super) fn beyond_refit_rms(f: &Fit, gr: &Grams, refit: &[usize], j: usize, which: &dyn Fn(&Param) -> bool) -> f64 {
-    let own: Vec<(f64, usize)> = f
+    let own: Vec<(f64, usize, Option<usize>)> = f
         .params
         .iter()
         .zip(&f.theta)
         .filter(|(p, _)| p.joint.is_none() && which(p))
-        .map(|(p, &t)| (t, p.col))
+        .map(|(p, &t)| (t, p.col, None))
         .collect();
-    let g = (1..gr.g.len()).fold(sum_folds(&gr.g[0], &[0, 1]), |g, jj| g + sum_folds(&gr.g[jj], &[0, 1]));
-    let nr = refit.len();
-    let grr = DMatrix::from_fn(nr, nr, |a, b| g[(refit[a], refit[b])]);
-    let grp = DVector::from_fn(nr, |a, _| own.iter().map(|&(t, c)| g[(refit[a], c)] * t).sum());
+    let absorb: Vec<(usize, Option<usize>)> = refit.iter().map(|&c| (c, None)).collect();
+    rms_beyond(gr, &own, &absorb, j)
+}
+
+/// RMS on joint `j` of the torque `sum t x_c` of `own` (`(t, column, joint)`; joint `None`:
+/// on every joint's rows) less its least-squares projection on the columns `absorb` over
+/// every joint's rows: `x_p - X_a G_aa^-1 G_ap` with `G = sum_j X_j^T X_j` (unweighted).
+pub(super) fn rms_beyond(
+    gr: &Grams,
+    own: &[(f64, usize, Option<usize>)],
+    absorb: &[(usize, Option<usize>)],
+    j: usize,
+) -> f64 {
+    let on = |jj: usize, at: Option<usize>| at.is_none_or(|x| x == jj);
+    let g: Vec<DMatrix<f64>> = gr.g.iter().map(|gj| sum_folds(gj, &[0, 1])).collect();
+    let na = absorb.len();
+    let gaa = DMatrix::from_fn(na, na, |a, b| {
+        let ((ca, ja), (cb, jb)) = (absorb[a], absorb[b]);
+        (0..g.len()).filter(|&jj| on(jj, ja) && on(jj, jb)).map(|jj| g[jj][(ca, cb)]).sum::<f64>()
+    });
+    let gap = DVector::from_fn(na, |a, _| {
+        let (ca, ja) = absorb[a];
+        let on_both = |jj: usize, jp: Option<usize>| on(jj, ja) && on(jj, jp);
+        own.iter()
+            .map(|&(t, c, jp)| t * (0..g.len()).filter(|&jj| on_both(jj, jp)).map(|jj| g[jj][(ca, c)]).sum::<f64>())
+            .sum()
+    });
     // pseudo-inverse: base columns a short log barely excites are left at zero
-    let eps = 1e-12 * grr.norm();
-    let beta = match nr {
+    let eps = 1e-12 * gaa.norm();
+    let beta = match na {
         0 => DVector::zeros(0),
-        _ => grr.svd(true, true).solve(&grp, eps).unwrap_or_else(|_| DVector::zeros(nr)),
+        _ => gaa.svd(true, true).solve(&gap, eps).unwrap_or_else(|_| DVector::zeros(na)),
     };
-    let cols: Vec<(f64, usize)> =
-        own.into_iter().chain(refit.iter().zip(beta.iter()).map(|(&c, &b)| (-b, c))).collect();
-    let gj = &sum_folds(&gr.g[j], &[0, 1]);
+    let cols: Vec<(f64, usize)> = own
+        .iter()
+        .filter(|&&(_, _, jp)| on(j, jp))
+        .map(|&(t, c, _)| (t, c))
+        .chain(absorb.iter().zip(beta.iter()).filter(|((_, ja), _)| on(j, *ja)).map(|(&(c, _), &b)| (-b, c)))
+        .collect();
+    let gj = &g[j];
     let v: f64 = cols.iter().flat_map(|&(ta, ca)| cols.iter().map(move |&(tb, cb)| ta * tb * gj[(ca, cb)])).sum();
     (v.max(0.0) / (gr.rows[j][0] + gr.rows[j][1]) as f64).sqrt()
 }

@@ -358,6 +358,11 @@ impl<'a> Ctx<'a> {
         })
     }
 
+    /// The noise standard deviation per joint the size rule measures against (`sigma_size`).
+    pub(super) fn sigma_size(&self) -> &[f64] {
+        &self.sigma_size
+    }
+
     /// The held-out share a refinement of Coulomb friction (smooth, direction-dependent;
     /// Stribeck's is `STRIBECK_SHARE`) must remove on a joint that already has Coulomb
     /// friction (`REFINEMENT_SHARE` of `min_share`).

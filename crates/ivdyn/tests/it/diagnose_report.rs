@@ -11,7 +11,8 @@ use std::io::Cursor;
 use base64::Engine as _;
 use ivdyn::diagnose::report::{self, write_html, write_mcap_stamped};
 use ivdyn::diagnose::{
-    CandidateScore, Diagnosis, DiagnosisJson, EffectJson, EffectKind, JointScore, LogInfo, Regimes, Step, Traces,
+    CandidateScore, DetectableJson, Diagnosis, DiagnosisJson, EffectJson, EffectKind, JointScore, LogInfo, Regimes,
+    Step, Traces,
 };
 use ivdyn::log::mcap::list_topics;
 use ivdyn::log::{ReadOptions, Source, for_each_sample};
@@ -102,6 +103,15 @@ fn synthetic() -> Diagnosis {
             joints: joints.clone(),
             nominal_refit: None,
             next_command: Some("ivdyn identify --urdf 'robots/my arm.urdf' --friction coulomb".into()),
+            detectable: Some(DetectableJson {
+                noise_std: 2.0,
+                sigma: vec![0.015, 0.0478],
+                torque_offset: vec![Some(0.04), None],
+                asymmetric_coulomb_friction: vec![Some(0.08), Some(1.5)],
+                joint_spring: vec![Some(0.2), Some(0.3)],
+                torque_gain: vec![Some(0.01), Some(0.02)],
+                armature: vec![Some(0.001), Some(0.002)],
+            }),
         },
         steps: vec![Step {
             effect: EffectKind::Coulomb,
@@ -249,6 +259,12 @@ fn html_is_self_contained_and_complete() {
     ] {
         assert!(html.contains(s), "missing {s}");
     }
+
+    // What the log can show: per joint, a dash where the motion shows none of it.
+    let det = table_rows(&html, "detectable-table");
+    assert_eq!(det.len(), 1 + N);
+    assert_eq!(det[1], "j_one|0.0400|0.0800|0.200|0.0100|0.00100");
+    assert_eq!(det[2], "wrist&lt;1&gt;|\u{2013}|1.50|0.300|0.0200|0.00200");
 
     // Regimes: NaN shown as a dash, correlations signed.
     let reg = table_rows(&html, "regimes-table");

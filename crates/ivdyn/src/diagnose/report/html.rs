@@ -51,6 +51,7 @@ pub(super) fn document(d: &Diagnosis, figs: &Figures) -> String {
     }
     o.push_str(
         "<nav><a href=\"#rms\">RMS table</a><a href=\"#steps\">Steps</a><a href=\"#final\">Final check</a>\
+<a href=\"#detectable\">What the log can show</a>\
          <a href=\"#regimes\">Where the residual is</a><a href=\"#plots\">Plots per joint</a></nav>\n",
     );
     o.push_str(
@@ -64,6 +65,7 @@ pub(super) fn document(d: &Diagnosis, figs: &Figures) -> String {
     rms_section(&mut o, d, figs);
     steps_section(&mut o, d);
     final_section(&mut o, d);
+    detectable_section(&mut o, d);
     regimes_section(&mut o, d);
     plots_section(&mut o, d, figs, joints);
     page::close(&mut o, "diagnose");
@@ -321,6 +323,39 @@ fn final_section(o: &mut String, d: &Diagnosis) {
         esc(&model_label(d, d.steps.len()))
     );
     candidates_table(o, d, &d.final_candidates);
+}
+
+/// The smallest look-alike per joint the log can tell from the links' inertials
+/// (`diagnosis.json`'s `detectable`).
+fn detectable_section(o: &mut String, d: &Diagnosis) {
+    let Some(det) = &d.json.detectable else { return };
+    o.push_str("<h2 id=\"detectable\">What the log can show</h2>\n");
+    let _ = writeln!(
+        o,
+        "<p>The smallest effect of each kind whose torque beyond what a change of the links' inertials \
+         (before the terminal one) can make is {} noise standard deviations RMS on its joint: a smaller one \
+         cannot be told from a CAD error of the links on this motion, whatever the diagnosis names; a wider \
+         or longer motion lowers it. &ldquo;&ndash;&rdquo;: the motion shows none of it.</p>",
+        fmt_num(det.noise_std)
+    );
+    o.push_str(
+        "<table id=\"detectable-table\"><tr><th>joint</th><th>torque offset |tau0| (N m)</th><th>direction dependence |fc_pos - fc_neg| (N m)</th>\
+         <th>spring |k| (N m/rad)</th><th>gain error |k - 1|</th><th>armature ia (kg m&sup2;)</th></tr>\n",
+    );
+    let cell = |v: &[Option<f64>], j: usize| v.get(j).copied().flatten().map_or("\u{2013}".to_string(), fmt_num);
+    for (j, name) in d.json.joints.iter().enumerate() {
+        let _ = writeln!(
+            o,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            esc(name),
+            cell(&det.torque_offset, j),
+            cell(&det.asymmetric_coulomb_friction, j),
+            cell(&det.joint_spring, j),
+            cell(&det.torque_gain, j),
+            cell(&det.armature, j)
+        );
+    }
+    o.push_str("</table>\n");
 }
 
 fn regimes_section(o: &mut String, d: &Diagnosis) {
