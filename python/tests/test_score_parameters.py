@@ -9,7 +9,7 @@ import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(ROOT, "python", "tools"))
-from score_diagnose_cases import identifiable, named_right, pairs, param_errors, param_z, split_truth  # noqa: E402
+from score_diagnose_cases import identifiable, named_right, pairs, param_errors, param_z, shown_truth, split_truth  # noqa: E402
 
 TRUTH = [
     {"name": "coulomb_friction", "joints": ["j1", "j3"], "parameters": {"fc": [0.2, 0.4]}},
@@ -105,3 +105,19 @@ def test_an_offset_beside_a_spring_is_part_of_the_spring():
     assert param_errors(shown, named) == [("joint_spring", "k", 0.0), ("joint_spring", "q0", pytest.approx(0.0))]
     # offsets without springs: nothing to fold
     assert identifiable(truth[1:]) == truth[1:]
+
+
+def test_a_lookalike_the_log_does_not_show_is_not_required():
+    """A direction-dependent friction whose asymmetry the rigid-body columns hold (0.3 noise
+    std left) may be named as such or as Coulomb friction; an offset that keeps 1.5 noise std
+    is still required; a spring below the noise but not required stays optional only."""
+    asym, off = ("asymmetric_coulomb_friction", "j2"), ("torque_offset", "j3")
+    required, optional = {asym, off, ("viscous_friction", "j1")}, {("joint_spring", "j4")}
+    parts = {asym: 0.3, off: 1.5, ("joint_spring", "j4"): 0.1}
+    req, opt = shown_truth(required, optional, parts)
+    assert req == {off, ("viscous_friction", "j1")}
+    assert opt == {asym, ("coulomb_friction", "j2"), ("joint_spring", "j4")}
+    assert named_right({("coulomb_friction", "j2"), off, ("viscous_friction", "j1")}, req, opt)
+    assert named_right({asym, off, ("viscous_friction", "j1")}, req, opt)
+    assert not named_right({("coulomb_friction", "j2"), ("viscous_friction", "j1")}, req, opt)
+    assert not named_right({("coulomb_friction", "j3"), off, ("viscous_friction", "j1")}, req, opt)
