@@ -2,6 +2,7 @@
 //! parameters, the evidence in words, the predictions after each step, what is left above
 //! the noise, and the verdict.
 
+use super::constant_view;
 use super::detectable::detectable;
 use super::dictionary::{
     C_DELAY, C_GAIN, C_LOAD, C_ONE, C_PAYLOAD, C_Q, C_QD, C_QDD, C_RIPPLE, C_SIGN, C_SIGN_POS, C_STRIBECK, C_TANH,
@@ -82,6 +83,10 @@ pub(super) fn assemble(
     let gaps = remaining_gaps(ctx, &m, &final_rms, &regimes_after, names);
     let next_command = next_command(&kept, nominal_refit.is_some(), opts);
     let (verdict, mut details) = verdict(&kept, &effects, &gaps, nominal_refit.as_ref(), names);
+    let shown = detectable(ctx.gr, d.nbase(), ctx.sigma_size());
+    if nominal_refit.is_some() {
+        details.extend(constant_view::note(&shown, &ctx.q_span, names));
+    }
     details.extend(notes);
     details.extend(robot.inertial_notes().into_iter().map(|n| format!("nominal model: {n}")));
     details.push(format!("effects of real drives {}", p.drives_why));
@@ -95,7 +100,7 @@ pub(super) fn assemble(
             joints: names.clone(),
             nominal_refit,
             next_command,
-            detectable: Some(detectable(ctx.gr, d.nbase(), ctx.sigma_size())),
+            detectable: Some(shown),
         },
         steps: kept,
         final_candidates,

@@ -75,7 +75,6 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     if found.refit.is_some() {
         with_terminal_cad(&ctx, &robot.joint_names, &mut found);
         add_rotors(&ctx, &p.d, robot, t_len, &mut found)?;
-        found.notes.extend(super::constant_view::note(&ctx, nbase, &robot.joint_names));
     }
     // the friction's shape read on the complete model (`stick`), what it leaves checked again
     if super::stick::coulomb_through_stick(&ctx, &p.d, &robot.joint_names, &mut found) {
