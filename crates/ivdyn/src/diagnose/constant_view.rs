@@ -46,7 +46,7 @@ pub(super) fn note(det: &DetectableJson, q_span: &[f64], names: &[String]) -> Op
         .collect();
     (!joints.is_empty()).then(|| {
         format!(
-            "offsets and direction-dependent friction are not told from the re-fitted inertials on these joints (over their sweep a constant torque is mostly a change of the links' base parameters; a candidate needs {} noise std left beside it): {}; a log sweeping them wider tells them apart",
+            "offsets and direction-dependent friction are not told from the re-fitted inertials on these joints (over their sweep a constant torque is mostly a change of the links' base parameters; a candidate needs {} noise std left beside it): {}; a log sweeping them wider tells them apart (`ivdyn excite` designs one within the joint limits)",
             det.noise_std,
             joints.join(", ")
         )
