@@ -13,7 +13,7 @@ use ivdyn::diagnose::{DiagnoseOptions, Diagnosis, DiagnosisJson, EffectKind, dia
 use ivdyn::log::{ReadOptions, read_mcap};
 use serde_json::Value;
 
-fn root() -> PathBuf {
+pub(crate) fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 

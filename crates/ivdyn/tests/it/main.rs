@@ -12,6 +12,7 @@ mod closed_loop;
 mod consistent;
 mod coulomb_shape;
 mod diagnose_cases;
+mod diagnose_constant;
 mod diagnose_drives;
 mod diagnose_exact_log;
 mod diagnose_report;
