@@ -41,6 +41,27 @@ def test_terminal_offset_whole_and_first_armature_spanned(manifest_case):
     assert z[("armature", "joint_1")] < 1e-9      # rounding (ia qdd_1 itself: 19 noise std RMS)
 
 
+def test_a_constant_beside_a_spring_on_its_joint_is_spanned(manifest_case):
+    """On the terminal joint a direction-dependent friction's constant keeps its whole size
+    alone (the links' columns hold none of it); beside a spring on the same joint, whose
+    `k (q - q0)` holds any constant through `q0`, none of it shows. The spring keeps its own
+    part either way."""
+    m, clean = manifest_case
+    case = copy.deepcopy(clean)
+    asym = {"name": "asymmetric_coulomb_friction", "joints": ["joint_6"],
+            "parameters": {"fc_pos": [0.3], "fc_neg": [0.1]}}
+    case["effects"] = [asym]
+    sig = case["torque_noise_std"]
+    alone = li.identifiable_parts(SET, m, case)[("asymmetric_coulomb_friction", "joint_6")]
+    assert alone == pytest.approx(0.1 / sig[5], rel=1e-9)
+    spring = {"name": "joint_spring", "joints": ["joint_6"], "parameters": {"k": [2.0], "q0": [0.1]}}
+    case["effects"] = [asym, spring]
+    z = li.identifiable_parts(SET, m, case)
+    assert z[("asymmetric_coulomb_friction", "joint_6")] < 1e-9
+    case["effects"] = [spring]
+    assert z[("joint_spring", "joint_6")] == pytest.approx(li.identifiable_parts(SET, m, case)[("joint_spring", "joint_6")])
+
+
 def test_no_lookalike_no_work(manifest_case):
     m, clean = manifest_case
     assert li.identifiable_parts(SET, m, clean) == {}

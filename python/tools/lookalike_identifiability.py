@@ -7,7 +7,9 @@ links before the terminal one, docs/diagnose.md "The nominal re-fit") may span i
 short sweep a constant on a gravity-loaded joint is a change of the links' first moments. For
 each true pair of those kinds this gives the part of its torque that the rigid-body columns
 leave (least squares over the case's reference motion, every 10th sample, no ridge; a spring's
-position column beside a constant on its joint), as an RMS in the joint's torque noise standard
+position column beside a constant on its joint, and a constant beside an offset or the constant
+of direction-dependent friction where another true effect on the joint holds one: a spring, an
+offset, direction-dependent friction), as an RMS in the joint's torque noise standard
 deviations. No method can name from the log what that part does not show.
 
     from lookalike_identifiability import identifiable_parts
@@ -72,6 +74,16 @@ def _column(e, i, j, q, qdd, tau):
     return -p["k"][i] * (q[:, j] - q[:, j].mean())       # joint_spring
 
 
+def _constant_beside(case, e, jn):
+    """Whether a constant look-alike `e` (an offset, a direction-dependent friction's
+    constant) shares joint `jn` with another true effect that holds a constant: a spring (its
+    `q0` free: `k q0`), an offset, a direction-dependent friction. Only their sum shows."""
+    if e["name"] not in ("torque_offset", "asymmetric_coulomb_friction"):
+        return False
+    holds = ("joint_spring", "torque_offset", "asymmetric_coulomb_friction")
+    return any(o is not e and o["name"] in holds and jn in o["joints"] for o in case["effects"])
+
+
 def identifiable_parts(root, manifest, case):
     """{(effect, joint): RMS of its torque outside the rigid-body columns, in noise std}."""
     robot_name = os.path.basename(os.path.normpath(manifest.get("_dir", root)))
@@ -93,7 +105,7 @@ def identifiable_parts(root, manifest, case):
         col = np.zeros(y.shape[0])
         col[j::n] = _column(e, i, j, q, qdd, tau)
         basis = rigid
-        if e["name"] == "joint_spring":      # its constant is an offset's column
+        if e["name"] == "joint_spring" or _constant_beside(case, e, jn):
             one = np.zeros(y.shape[0])
             one[j::n] = 1.0
             basis = np.linalg.qr(np.column_stack([rigid, one]))[0]
