@@ -38,6 +38,7 @@ mod offset_swap;
 mod pairs;
 mod payload_cad;
 mod prepare;
+mod realise;
 mod refit;
 mod regrid;
 pub mod report;

@@ -35,7 +35,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     let mut p = prepare_best(robot, log, opts)?;
     super::effort_check::check(&p.s.tau, &p.tau_nom, &robot.joint_names)?;
     // the re-fit corrections' physical scales (used only when a re-fit is on)
-    p.gr.prior = refit::prior_scales(&p.d, &robot.params());
+    p.gr.prior = refit::prior_scales(&p.d.base, &robot.params());
     // the nominal model's own error first: with every candidate in, does a re-fit of it
     // still explain held-out residual? Then every model of the search contains it.
     let (refit, refit_off) = match refit::decide(&Ctx::new(robot, &p, opts, 0)?, &p.d, robot) {
