@@ -21,6 +21,7 @@
 
 use crate::ident::base::BaseParams;
 use crate::ident::consistent::{self, link_from_log_cholesky, log_cholesky_from_link};
+use crate::linalg::marquardt_step;
 use ivdyn_core::params::LINK_PARAMS;
 use nalgebra::{DMatrix, DVector};
 
@@ -141,7 +142,7 @@ impl Problem<'_> {
             }
             let j = self.jacobian(&x);
             let (jtj, jtr) = (j.tr_mul(&j), j.tr_mul(&r));
-            let Some((xn, rn, cn)) = self.damped_step(&x, &jtj, &jtr, &mut mu, cost) else {
+            let Some((xn, rn, cn)) = marquardt_step(&x, &jtj, &jtr, &mut mu, cost, |x| self.resid(x)) else {
                 return false; // no damping lowers the cost: a minimum short of the target
             };
             (x, r, cost) = (xn, rn, cn);
@@ -152,39 +153,6 @@ impl Problem<'_> {
             }
         }
         self.realised(&x)
-    }
-
-    /// The first step of `(J^T J + mu diag(J^T J)) dx = -J^T r` that lowers the cost, with
-    /// growing damping (x10 when not positive definite, x4 when the cost does not fall; up
-    /// to 30 tries; then `mu` shrinks by 3).
-    fn damped_step(
-        &self,
-        x: &[f64],
-        jtj: &DMatrix<f64>,
-        jtr: &DVector<f64>,
-        mu: &mut f64,
-        cost: f64,
-    ) -> Option<(Vec<f64>, DVector<f64>, f64)> {
-        let floor = 1e-12 * jtj.diagonal().max();
-        for _ in 0..30 {
-            let mut m = jtj.clone();
-            for k in 0..x.len() {
-                m[(k, k)] += *mu * jtj[(k, k)].max(floor);
-            }
-            let Some(ch) = m.cholesky() else {
-                *mu *= 10.0;
-                continue;
-            };
-            let dx = ch.solve(&(-jtr));
-            let xn: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, d)| a + d).collect();
-            let (rn, cn) = self.resid(&xn);
-            if cn.is_finite() && cn < cost {
-                *mu = (*mu / 3.0).max(1e-12);
-                return Some((xn, rn, cn));
-            }
-            *mu *= 4.0;
-        }
-        None
     }
 }
 

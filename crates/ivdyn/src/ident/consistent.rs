@@ -53,6 +53,7 @@ use serde::Serialize;
 use super::accum::LsAccumulator;
 use super::base::BaseParams;
 use crate::error::{Error, Result};
+use crate::linalg::marquardt_step;
 use crate::robot::physical::{PhysicalCheck, check_params, from_pseudo_inertia, pseudo_inertia};
 use ivdyn_core::params::{FC, FV, IA, LINK_PARAMS, TAU0, drive_col, link_col};
 
@@ -487,14 +488,6 @@ struct LmEnd {
     converged: bool,
 }
 
-/// An accepted LM step: the new variables, parameters, residual and cost.
-struct LmStep {
-    x: Vec<f64>,
-    theta: Vec<f64>,
-    resid: DVector<f64>,
-    cost: f64,
-}
-
 impl Lm<'_> {
     /// Runs the stages at `weights` in order, each warm-started from the last.
     fn run(&self, mut x: Vec<f64>, weights: &[f64]) -> LmEnd {
@@ -523,11 +516,16 @@ impl Lm<'_> {
         while sit < self.opts.max_iter {
             sit += 1;
             let jr = self.jacobian(&nt, x);
-            let step = self.damped_step(x, &nt, &jr.tr_mul(&jr), &jr.tr_mul(&rv), &mut mu, cost);
+            let step = marquardt_step(x, &jr.tr_mul(&jr), &jr.tr_mul(&rv), &mut mu, cost, |xn| {
+                let thn = theta_of(xn, self.n, self.margins);
+                let rn = self.resid(&nt, &thn);
+                let cn = rn.norm_squared();
+                ((thn, rn), cn)
+            });
             // no decrease possible at any damping: a (local) minimum to rounding
             converged = step.is_none();
-            if let Some(st) = step {
-                (*x, *th, rv, cost) = (st.x, st.theta, st.resid, st.cost);
+            if let Some((xn, (thn, rn), cn)) = step {
+                (*x, *th, rv, cost) = (xn, thn, rn, cn);
             }
             history.push(cost);
             let h = history.len();
@@ -558,41 +556,5 @@ impl Lm<'_> {
         let a = self.a;
         DMatrix::from_fn(b + nt.nrows(), p, |i, j| if i < b { a[(i, j)] } else { nt[(i - b, j)] })
             * jac_theta(x, self.n, self.margins)
-    }
-
-    /// Solves `(J^T J + mu diag(J^T J)) dx = -J^T r` with growing damping `mu` (x10 when
-    /// not positive definite, x4 when the cost does not decrease; up to 30 tries) and
-    /// returns the first step that lowers `cost` (then `mu` shrinks by 3).
-    fn damped_step(
-        &self,
-        x: &[f64],
-        nt: &DMatrix<f64>,
-        jtj: &DMatrix<f64>,
-        jtr: &DVector<f64>,
-        mu: &mut f64,
-        cost: f64,
-    ) -> Option<LmStep> {
-        let p = x.len();
-        for _ in 0..30 {
-            let mut m = jtj.clone();
-            for k in 0..p {
-                m[(k, k)] += *mu * jtj[(k, k)].max(1e-12 * jtj.diagonal().max());
-            }
-            let Some(ch) = m.cholesky() else {
-                *mu *= 10.0;
-                continue;
-            };
-            let dx = ch.solve(&(-jtr));
-            let xn: Vec<f64> = x.iter().zip(dx.iter()).map(|(a, d)| a + d).collect();
-            let thn = theta_of(&xn, self.n, self.margins);
-            let rn = self.resid(nt, &thn);
-            let cn = rn.norm_squared();
-            if cn.is_finite() && cn < cost {
-                *mu = (*mu / 3.0).max(1e-12);
-                return Some(LmStep { x: xn, theta: thn, resid: rn, cost: cn });
-            }
-            *mu *= 4.0;
-        }
-        None
     }
 }
