@@ -159,24 +159,25 @@ fn heldout(ctx: &Ctx, gr: &Grams, m: &Model) -> (f64, Fit) {
 fn choose_ridge(ctx: &Ctx, d: &Dictionary, with: &Model, nominal: &[f64]) -> Option<(f64, bool)> {
     let nom_base = d.base.project(&nominal[..d.base.full_cols]).ok()?;
     let scales = prior_scales(&d.base, nominal);
-    let mut tried = vec![];
-    for &ridge in &RIDGE_GRID {
-        let mut gr = ctx.gr.clone();
-        gr.ridge = ridge;
-        let (h, f) = heldout(ctx, &gr, with);
-        let delta = base_corrections(&f, d.nbase());
-        // the spread realisation first (cheap), else any consistent links (`realise`)
-        let ok = corrected(d, nominal, &delta).is_some_and(|theta| consistent(&theta, nominal, ctx.n - 1)) || {
-            let target: Vec<f64> = nom_base.iter().zip(&delta).map(|(a, b)| a + b).collect();
-            realisable(&d.base, nominal, &target, &scales)
-        };
-        tried.push((ridge, h, ok));
-    }
+    let fits: Vec<(f64, f64, Vec<f64>)> = RIDGE_GRID
+        .iter()
+        .map(|&ridge| {
+            let (h, f) = heldout(ctx, &Grams { ridge, ..ctx.gr.clone() }, with);
+            (ridge, h, base_corrections(&f, d.nbase()))
+        })
+        .collect();
     // consistent links only where they cost the held-out fit less than `CONSISTENCY_MAX_COST`
-    let all_best = tried.iter().map(|x| x.1).fold(f64::INFINITY, f64::min);
-    for x in tried.iter_mut() {
-        x.2 &= x.1 <= CONSISTENCY_MAX_COST * all_best;
-    }
+    // (the others are not checked): the spread realisation first (cheap), else any
+    // consistent links (`realise`)
+    let all_best = fits.iter().map(|x| x.1).fold(f64::INFINITY, f64::min);
+    let realised = |delta: &[f64]| {
+        corrected(d, nominal, delta).is_some_and(|theta| consistent(&theta, nominal, ctx.n - 1)) || {
+            let target: Vec<f64> = nom_base.iter().zip(delta).map(|(a, b)| a + b).collect();
+            realisable(&d.base, nominal, &target, &scales)
+        }
+    };
+    let tried: Vec<(f64, f64, bool)> =
+        fits.iter().map(|(r, h, delta)| (*r, *h, *h <= CONSISTENCY_MAX_COST * all_best && realised(delta))).collect();
     let any_ok = tried.iter().any(|x| x.2);
     let pool: Vec<(f64, f64)> = tried.iter().filter(|x| x.2 || !any_ok).map(|x| (x.0, x.1)).collect();
     let best = pool.iter().map(|x| x.1).fold(f64::INFINITY, f64::min);
