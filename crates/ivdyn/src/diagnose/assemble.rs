@@ -86,6 +86,8 @@ pub(super) fn assemble(
     let shown = detectable(ctx.gr, d.nbase(), ctx.sigma_size());
     if nominal_refit.is_some() {
         details.extend(constant_view::note(&shown, &ctx.q_span, names));
+    } else {
+        details.extend(constant_view::unrefitted_note(&shown, &ctx.q_span, names, &effects));
     }
     details.extend(notes);
     details.extend(robot.inertial_notes().into_iter().map(|n| format!("nominal model: {n}")));
