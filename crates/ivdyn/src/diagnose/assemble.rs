@@ -57,7 +57,7 @@ pub(super) fn assemble(
     let e = effect_torque(&f, d, n, t_len);
     let r_final: Vec<f64> = (0..t_len * n).map(|i| r_nom[i] - e[i]).collect();
     let final_rms = rms_per_joint(&r_final, n);
-    let spread = uncertainty::spread(&f, ctx.gr, &ctx.w, &r_final);
+    let spread = uncertainty::spread(&f, ctx.gr, d, &ctx.w, &r_final, 2 * opts.blocks_per_fold.max(1));
     let nominal_refit = match &refit {
         Some(dec) => {
             // the re-fit's own part of the final fit (its base corrections, no effect)

@@ -330,7 +330,7 @@ pub struct EffectJson {
     pub parameters: serde_json::Map<String, serde_json::Value>,
     /// Standard error of each parameter, same keys and shape as `parameters` (`null` where
     /// there is none: a shape chosen on a grid, a value that is not identifiable); from
-    /// the final fit's covariance, the folds' spread and the re-fit's ridge (docs/diagnose.md,
+    /// the final fit's covariance, its spread over the log's blocks and the re-fit's ridge (docs/diagnose.md,
     /// "Uncertainty"). Not written when empty.
     #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
     pub parameters_std: serde_json::Map<String, serde_json::Value>,

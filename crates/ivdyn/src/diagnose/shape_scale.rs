@@ -10,7 +10,7 @@
 //! `vs` gets the Gauss-Newton standard error `vs sqrt(2 sigma^2 tau / RSS''(ln vs))` (noise
 //! variance times the residual's autocorrelation time over half the curvature), or where
 //! larger half the difference of the scales the same search finds on each fold alone (a
-//! two-block jackknife, as the other parameters' errors hold one: `uncertainty`). The names,
+//! two-block jackknife; the other parameters' errors hold a 16-block one: `uncertainty`). The names,
 //! the final fit and the residuals stay the grid's: the scale is read, not searched again.
 
 use super::EffectKind;
