@@ -320,7 +320,7 @@ mod tests {
             }
             let mean = e.iter().sum::<f64>() / t_len as f64;
             let r: Vec<f64> = e.iter().map(|x| x - mean).collect();
-            let f = Fit { params: vec![param.clone()], theta: vec![mean] };
+            let f = Fit { params: vec![param], theta: vec![mean] };
             let cov = block_covariance(&f, &[vec![vec![1.0; t_len]]], &[w], &r, &h, 16);
             ratios.push(cov[(0, 0)] / expected);
         }
