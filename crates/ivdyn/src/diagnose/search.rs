@@ -82,6 +82,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
         backward_with_note(&ctx, &robot.joint_names, &mut found, &|_, _| true, when);
     }
     found.notes.extend(refit_off);
+    found.notes.extend(p.s.velocity_lag_note());
     assemble(robot, opts, &p, &ctx, found, baseline_rms, &r_nom)
 }
 

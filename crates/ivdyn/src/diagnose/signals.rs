@@ -180,7 +180,41 @@ pub(super) fn condition(log: &JointLog, opts: &DiagnoseOptions, cutoff_hz: f64) 
     Ok(out)
 }
 
+/// Smallest lag of a taken log velocity behind the positions' derivative, in samples, that
+/// the details name (`Signals::velocity_lag_note`).
+const LAG_NOTE_SAMPLES: f64 = 0.25;
+
 impl Signals {
+    /// A detail naming the joints whose log velocity, taken, lags the positions' derivative by
+    /// at least `LAG_NOTE_SAMPLES` (docs/diagnose.md "Uncertainty": such a lag passes the
+    /// velocity check, the torque's alignment cannot take it out on smooth motion, and
+    /// viscous friction takes the inertial torque's shift: on MuJoCo logs at 1 kHz with half a
+    /// sample, 0.5-0.8 % of `fv`, 12.7 % on one joint with little friction).
+    pub(super) fn velocity_lag_note(&self) -> Option<String> {
+        let lagged: Vec<(&str, f64)> = self
+            .velocity
+            .iter()
+            .filter_map(|c| match (c.source.as_str(), c.lag_s) {
+                ("log", Some(lag)) if lag.abs() >= LAG_NOTE_SAMPLES * self.dt => Some((c.joint.as_str(), lag)),
+                _ => None,
+            })
+            .collect();
+        if lagged.is_empty() {
+            return None;
+        }
+        let names: Vec<&str> = lagged.iter().map(|x| x.0).collect();
+        let (lo, hi) = lagged.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x.1), b.max(x.1)));
+        let range = |k: f64| {
+            if (hi - lo) * k < 0.005 { format!("{:.2}", lo * k) } else { format!("{:.2} to {:.2}", lo * k, hi * k) }
+        };
+        Some(format!(
+            "the log's velocity lags the positions' derivative on {} by {} ms ({} sample): the velocity check passes a lag this small, but the torque's alignment to the motion cannot take it out on smooth motion, and viscous friction (and the levels fitted beside it) take part of the inertial torque's shift, by up to a few % of `fv` (13 % on a joint with little friction, docs/diagnose.md \"Uncertainty\"); `--velocity positions` diagnoses from the positions' derivative instead, to compare (noisier at a low sample rate)",
+            names.join(", "),
+            range(1e3),
+            range(1.0 / self.dt)
+        ))
+    }
+
     /// Moves the acceleration `a` samples in time ([`accel_step`]) and records the shift.
     pub(super) fn align_acceleration(&mut self, a: f64, n: usize) {
         let delta = accel_step(&self.qd, n, self.dt, &self.starts);
@@ -232,6 +266,32 @@ mod tests {
             resampled: false,
             sample_noise: None,
         }
+    }
+
+    /// A joint's velocity choice: `source`, lag `lag_s`.
+    fn choice(joint: &str, source: &str, lag_s: Option<f64>) -> prep::VelocityChoice {
+        prep::VelocityChoice {
+            joint: joint.into(),
+            source: source.into(),
+            gain: Some(1.0),
+            lag_s,
+            r2: Some(1.0),
+            why: String::new(),
+        }
+    }
+
+    /// At 1 kHz: half a sample of lag on a taken log velocity is named, with its joints and
+    /// size; a tenth of a sample, or a lag on a joint whose velocity comes from the positions,
+    /// is not.
+    #[test]
+    fn a_taken_log_velocity_lagging_by_half_a_sample_is_named() {
+        let mut s = ramp(10, vec![0]);
+        s.velocity = vec![choice("j1", "log", Some(5e-4)), choice("j2", "positions", Some(5e-4))];
+        let note = s.velocity_lag_note().expect("half a sample is named");
+        assert!(note.contains("on j1 by 0.50 ms (0.50 sample)"), "{note}");
+        assert!(!note.contains("j2"), "{note}");
+        s.velocity = vec![choice("j1", "log", Some(1e-4)), choice("j2", "log", None)];
+        assert_eq!(s.velocity_lag_note(), None);
     }
 
     #[test]
