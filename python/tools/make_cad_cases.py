@@ -146,7 +146,7 @@ CAD_ROBOTS = {
 # The random arms (`--set random`): name -> (joints, seed); 6 and 7 joints alternate. Every set
 # so far drew from the first 12 (`--first-arm 0`); the next ones are arms nobody has seen. Seeds
 # are the index, so widening the range leaves every earlier arm as it was.
-RANDOM_ARMS = {f"rarm{i}_{6 + i % 2}j": (6 + i % 2, 15000 + i) for i in range(96)}
+RANDOM_ARMS = {f"rarm{i}_{6 + i % 2}j": (6 + i % 2, 15000 + i) for i in range(128)}
 NOISE_SHARE, NOISE_FLOOR = 0.005, 0.01   # torque noise std: 0.5 % of the joint's RMS torque, >= 0.01 N m
 
 
