@@ -42,12 +42,13 @@ const STICK_LEVEL_BAND: f64 = 2.0;
 const MIN_ROWS: usize = 50;
 
 /// Smooth friction replaced by Coulomb friction on the joints where the residual shows a
-/// stick phase (module docs), with a note for each; whether it replaced any.
-pub(super) fn coulomb_through_stick(ctx: &Ctx, d: &Dictionary, names: &[String], found: &mut Found) -> bool {
+/// stick phase (module docs), with a note for each; the joints it replaced it on.
+pub(super) fn coulomb_through_stick(ctx: &Ctx, d: &Dictionary, names: &[String], found: &mut Found) -> Vec<usize> {
     let m = &found.model;
     let smooth: Vec<usize> = (0..ctx.n).filter(|&j| m.has(j, EffectKind::SmoothCoulomb)).collect();
+    let mut replaced = vec![];
     if smooth.is_empty() {
-        return false;
+        return replaced;
     }
     let f = fit(&m.params(), ctx.gr, &ctx.w, &[0, 1]);
     let t_len = d.r0[0].len();
@@ -63,6 +64,7 @@ pub(super) fn coulomb_through_stick(ctx: &Ctx, d: &Dictionary, names: &[String],
         }
         model = model.without(Some(j), EffectKind::SmoothCoulomb);
         model.stick_band[j] = STICK_LEVEL_BAND * vs;
+        replaced.push(j);
         found.notes.push(format!(
             "{}: smooth Coulomb friction named Coulomb friction: where |qd| < vs = {vs:.3} ({:.0} % of the samples) the residual rises with qdd by {:.3} more per unit qdd than at speed (+- {:.3}), {:.0} % of the friction level {fc:.3} N m over the band's qdd: the joint sticks there (a compliant stick phase, e.g. a drive's pre-sliding or a simulator's soft friction constraint), which a friction of the velocity alone does not do",
             names[j],
@@ -72,9 +74,8 @@ pub(super) fn coulomb_through_stick(ctx: &Ctx, d: &Dictionary, names: &[String],
             100.0 * s.excess * s.qdd_std / fc.max(f64::MIN_POSITIVE),
         ));
     }
-    let changed = model.per_joint != m.per_joint;
     found.model = model;
-    changed
+    replaced
 }
 
 /// Joint `j`'s fitted parameter in column `col` (0 if absent).

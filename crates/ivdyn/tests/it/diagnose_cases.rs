@@ -1332,3 +1332,59 @@ fn level_on(effects: &Value, name: &str, key: &str, joint: &str) -> f64 {
     let at = e["joints"].as_array().unwrap().iter().position(|j| j == joint).unwrap();
     f64s(&e["parameters"][key])[at]
 }
+
+/// Coulomb friction read through its stick phase stays named: the backward step that checks
+/// the model again once `stick::coulomb_through_stick` has read a smooth friction as Coulomb
+/// friction does not take that Coulomb friction out (`search`). `fixtures/diagnose_soft_stick/
+/// rarm110_6j/e15_1fx` (`make_cad_cases.py --set random --first-arm 110 --arms 1 --duration 10
+/// --ripple-n 5,7,10,14 --friction-solref mujoco --only rarm110_6j/e15_1fx`: 10 s of a case of
+/// the session-45 first run rarm104-111, inertials 15 % off, a jittered log with re-published
+/// samples): Coulomb friction of 0.093 and 0.123 N m on joints 4 and 6 through MuJoCo's soft
+/// friction constraint. On joint 6 (light, its soft stick band about 0.19 rad/s wide) the
+/// friction was named smooth, read as Coulomb friction's stick phase, then taken out again:
+/// its sign shape misfits the band it was read from, and the backward step's held-out share
+/// fell below the one to stay; the joint kept its whole residual, 10 noise std. Asserted:
+/// Coulomb friction on joints 4 and 6 and nothing else, each level within 10 % of truth, and
+/// the stick note on joint 6.
+#[test]
+fn coulomb_friction_read_through_its_stick_phase_stays_named() {
+    let (set, m) = ("diagnose_soft_stick/rarm110_6j", cases_in("diagnose_soft_stick/rarm110_6j"));
+    let case = case_named(&m, "e15_1fx");
+    let d = run_job(set, case, &m);
+    let names: Vec<_> = d.json.effects.iter().map(|e| (e.name.as_str(), e.joints.clone())).collect();
+    let both = vec!["joint_4".to_string(), "joint_6".to_string()];
+    assert_eq!(names, vec![("coulomb_friction", both)], "{:?}", d.details);
+    let truth = &case["effects"][0];
+    assert_eq!(truth["name"], "coulomb_friction");
+    for (fc, fc_true) in f64s(&d.json.effects[0].parameters["fc"]).into_iter().zip(f64s(&truth["parameters"]["fc"])) {
+        assert!((fc - fc_true).abs() <= 0.1 * fc_true, "fc {fc} vs truth {fc_true}");
+    }
+    let note = "joint_6: smooth Coulomb friction named Coulomb friction";
+    assert!(d.details.iter().any(|l| l.starts_with(note)), "{:?}", d.details);
+}
+
+/// A refinement of Coulomb friction is not taken out against a Coulomb friction that would
+/// not stay either (`search::pair_stands`): the backward step removed the smooth friction of
+/// `joint_7` as not significant beside its Coulomb friction, then that Coulomb friction as
+/// not significant beside nothing, and the joint's friction, which the two held together,
+/// went without ever being tested as a whole. `fixtures/diagnose_soft_stick/rarm111_7j/
+/// e05_3fx` (`make_cad_cases.py --set random --first-arm 111 --arms 1 --duration 20
+/// --ripple-n 5,7,10,14 --friction-solref mujoco --only rarm111_7j/e05_3fx`: 20 s of a case
+/// of the session-45 first run rarm104-111, inertials 5 % off, a jittered log with
+/// re-published samples and no velocity, MuJoCo's soft friction constraint): on `joint_7` a
+/// smooth friction (0.101 N m, vs 0.126 rad/s), a direction-dependent one (0.024 / 0.125 N m)
+/// and a Coulomb one (0.066 N m), 13 noise std of residual together; none was named and the
+/// joint kept all of it. Asserted: a friction named on `joint_7`, and its final RMS at most
+/// half the nominal one.
+#[test]
+fn a_friction_is_not_taken_out_piece_by_piece() {
+    let (set, m) = ("diagnose_soft_stick/rarm111_7j", cases_in("diagnose_soft_stick/rarm111_7j"));
+    let case = case_named(&m, "e05_3fx");
+    let d = run_job(set, case, &m);
+    let j7 = d.json.joints.iter().position(|j| j == "joint_7").unwrap();
+    let friction =
+        d.json.effects.iter().any(|e| e.name.contains("friction") && e.joints.iter().any(|j| j == "joint_7"));
+    assert!(friction, "{:?} {:?}", d.json.effects.iter().map(|e| (&e.name, &e.joints)).collect::<Vec<_>>(), d.details);
+    let (before, after) = (d.json.baseline_rms[j7], d.json.final_rms[j7]);
+    assert!(after <= 0.5 * before, "joint_7 RMS {before} -> {after}");
+}
