@@ -259,6 +259,29 @@ def drive_joints(kind, n, sig, tau, rng):
     return sorted(int(j) for j in rng.choice(ok, size=min(len(ok), int(rng.integers(1, 4))), replace=False))
 
 
+def merge_levels(effects):
+    """`effects` with a Coulomb friction drawn on a joint that also has a direction-dependent
+    or Stribeck friction folded into that one's levels (`fc_pos`, `fc_neg` or `fc` + the
+    Coulomb `fc`): the friction-loss levels add up in the simulation (make_diagnose_cases.
+    load_friction), and the sum is that one friction, which no log can split in two. The
+    draws (and every case without such a pair) are unchanged."""
+    coulomb = next((e for e in effects if e["name"] == "coulomb_friction"), None)
+    if coulomb is None:
+        return effects
+    for e in effects:
+        if e["name"] not in ("asymmetric_coulomb_friction", "stribeck_friction"):
+            continue
+        for i, jn in enumerate(e["joints"]):
+            if jn not in coulomb["joints"]:
+                continue
+            k = coulomb["joints"].index(jn)
+            fc = coulomb["parameters"]["fc"].pop(k)
+            coulomb["joints"].pop(k)
+            for key in ("fc_pos", "fc_neg") if e["name"] == "asymmetric_coulomb_friction" else ("fc",):
+                e["parameters"][key][i] += fc
+    return [e for e in effects if e is not coulomb or coulomb["joints"]]
+
+
 def draw_effects(cfg, robot, names, seed, count, rng, kinds=KINDS):
     """`count` effects of distinct kinds on random joints, sized on the reference motion."""
     t = np.arange(int(round(2.0 / mdc.DT))) * mdc.DT
@@ -340,7 +363,7 @@ def robot_cases(name, out, duration, seed0, only=None, kinds=KINDS):
         for count in range(4):
             seed = seed0 + 10 * li + count
             case = {"name": f"e{int(round(100 * level)):02d}_{count}fx", "seed": seed}
-            case["effects"] = draw_effects(cfg, robot, names, seed, count, rng, kinds)
+            case["effects"] = merge_levels(draw_effects(cfg, robot, names, seed, count, rng, kinds))
             nominal = os.path.join(out_r, f"{case['name']}_nominal.urdf")
             factors = nominal_urdf(cfg, nominal, level, rng)
             if only is not None and f"{name}/{case['name']}" not in only:

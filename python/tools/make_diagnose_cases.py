@@ -39,6 +39,11 @@ the step), or as a sensor model applied to the recorded torque:
                       `STRIBECK = "applied"` (make_cad_cases.py --stribeck applied) the applied
                       force -(fc + fs exp(-(qd/vs)^2)) sign(qd) instead
 
+Friction-loss levels of several kinds on one joint add up (`load_friction`: the model's Coulomb
+and direction-dependent levels plus the ones set every step); until 2026-12-07 each kind set the
+level alone, and a Coulomb friction beside a load-dependent, Stribeck or direction-dependent one
+on the same joint was in the case's truth but not in its simulation.
+
 The UR5 and Panda fixtures of this script have no Stribeck friction (their manifests say so);
 make_cad_cases.py draws it with `--kinds`.
 
@@ -305,8 +310,9 @@ def mujoco_model(cfg, effects, joint_names, dt=DT):
         p = e["parameters"]
         for i, jn in enumerate(e["joints"]):
             j = joints[jn]
+            # friction-loss levels of several kinds on one joint add up (the clean model has none)
             if e["name"] == "coulomb_friction":
-                j.frictionloss = p["fc"][i]
+                j.frictionloss += p["fc"][i]
                 friction_solref(j, dt)
             elif e["name"] == "viscous_friction":
                 j.damping = [p["fv"][i], 0.0, 0.0]   # [linear, polynomial terms]
@@ -316,7 +322,7 @@ def mujoco_model(cfg, effects, joint_names, dt=DT):
                 j.stiffness = [p["k"][i], 0.0, 0.0]
                 j.springref = p["q0"][i]
             elif e["name"] == "asymmetric_coulomb_friction":
-                j.frictionloss = 0.5 * (p["fc_pos"][i] + p["fc_neg"][i])
+                j.frictionloss += 0.5 * (p["fc_pos"][i] + p["fc_neg"][i])
                 friction_solref(j, dt)
             elif e["name"] == "load_dependent_friction" or (e["name"] == "stribeck_friction"
                                                               and STRIBECK == "constraint"):
@@ -498,30 +504,36 @@ def drive_force(effects, names, q, qd):
     return f
 
 
-def load_friction(m, d, effects, names):
-    """Sets each load-dependent joint's `frictionloss` to mu |tau_load| (MuJoCo's rigid-body
-    torque `mj_rne` at the current state and the previous step's acceleration), and each
-    Stribeck joint's to fc + fs exp(-(qd / vs)^2) at the current velocity."""
+def load_friction(m, d, effects, names, static):
+    """Sets the `frictionloss` of each joint with a load-dependent or Stribeck friction to its
+    static level `static` (the model's Coulomb and direction-dependent friction there) plus
+    mu |tau_load| (MuJoCo's rigid-body torque `mj_rne` at the current state and the previous
+    step's acceleration) and fc + fs exp(-(qd / vs)^2) at the current velocity: the kinds add
+    up. (Until 2026-12-07 each set the level alone, and the Coulomb or direction-dependent
+    friction of the same joint was left out of the simulation though in the case's truth.)"""
+    level = {}
     for e in effects:
         if e["name"] == "stribeck_friction" and STRIBECK == "constraint":
             p = e["parameters"]
             for i, jn in enumerate(e["joints"]):
                 j = names.index(jn)
-                m.dof_frictionloss[j] = p["fc"][i] + p["fs"][i] * math.exp(-(d.qvel[j] / p["vs"][i]) ** 2)
+                level[j] = level.get(j, 0.0) + p["fc"][i] + p["fs"][i] * math.exp(-(d.qvel[j] / p["vs"][i]) ** 2)
     lf = [(names.index(jn), p_mu) for e in effects if e["name"] == "load_dependent_friction"
           for jn, p_mu in zip(e["joints"], e["parameters"]["mu"])]
-    if not lf:
-        return
-    load = np.zeros(m.nv)
-    mujoco.mj_rne(m, d, 1, load)
-    for j, mu in lf:
-        m.dof_frictionloss[j] = mu * abs(load[j])
+    if lf:
+        load = np.zeros(m.nv)
+        mujoco.mj_rne(m, d, 1, load)
+        for j, mu in lf:
+            level[j] = level.get(j, 0.0) + mu * abs(load[j])
+    for j, v in level.items():
+        m.dof_frictionloss[j] = static[j] + v
 
 
 def simulate(cfg, case, robot_nominal_ctrl, duration, dt=DT):
     names = robot_nominal_ctrl.joint_names
     n = len(names)
     m = mujoco_model(cfg, case["effects"], names, dt)
+    static = m.dof_frictionloss.copy()   # Coulomb and direction-dependent levels (`load_friction`)
     d = mujoco.MjData(m)
     T = int(round(duration / dt))
     t = np.arange(T + 1) * dt
@@ -540,7 +552,7 @@ def simulate(cfg, case, robot_nominal_ctrl, duration, dt=DT):
         e, ed = qr[k] - d.qpos, qdr[k] - d.qvel
         tau[k] = tau_ff[k] + Mr[k] @ (KP * e + KD * ed)
         d.qfrc_applied[:] = tau[k] + drive_force(case["effects"], names, d.qpos, d.qvel)
-        load_friction(m, d, case["effects"], names)
+        load_friction(m, d, case["effects"], names, static)
         mujoco.mj_step(m, d)
         friction[k] = d.qfrc_constraint       # the friction-loss force of this step (no other constraints)
         if not np.all(np.isfinite(d.qpos)):

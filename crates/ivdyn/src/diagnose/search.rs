@@ -449,10 +449,10 @@ fn backward_at(
 /// must stay all the same: Coulomb friction would not stay in its place (not significant
 /// given the others) while the two together are. Removed, the refinement would leave
 /// Coulomb friction to be removed next, and the joint's friction, which the pair holds, would
-/// go without ever being tested as a whole (on `fixtures/diagnose_soft_stick/rarm111_7j/e05_3fx`
-/// a joint's smooth, direction-dependent and Coulomb frictions, 13 noise std together, went so;
-/// with the log velocity moved by its lag, docs/diagnose.md, a smooth friction of 9 noise std
-/// on `fixtures/diagnose_every/rarm4_6j/e30_3fx`, its viscous friction doubling).
+/// go without ever being tested as a whole (on `fixtures/diagnose_soft_stick/rarm115_7j/e05_2fx`
+/// a smooth friction of 4 noise std went so and a viscous friction took its place; with the
+/// log velocity moved by its lag, docs/diagnose.md, a smooth friction of 9 noise std on
+/// `fixtures/diagnose_every/rarm4_6j/e30_3fx`, its viscous friction doubling).
 fn pair_stands(keep: &Ctx, m: &Model, smaller: &Model, j: usize, e: EffectKind) -> bool {
     let refines = matches!(e, EffectKind::SmoothCoulomb | EffectKind::Stribeck | EffectKind::AsymmetricCoulomb);
     if !refines || !smaller.has(j, EffectKind::Coulomb) {
