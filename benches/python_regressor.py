@@ -71,8 +71,9 @@ def rust_timing(q, qd, qdd, repeats):
             "reused_median": float(line[8])}, None
 
 
-def main():
-    args = sys.argv[1:]
+def parse_args(argv):
+    """`[T] [--repeats R] [--no-rust]` -> (T, R, no_rust)."""
+    args = list(argv)
     repeats = 3
     if "--repeats" in args:
         i = args.index("--repeats")
@@ -80,24 +81,22 @@ def main():
         del args[i:i + 2]
     no_rust = "--no-rust" in args
     args = [a for a in args if a != "--no-rust"]
-    t = int(args[0]) if args else 100_000
+    return (int(args[0]) if args else 100_000), repeats, no_rust
 
-    robot = ivdyn.Robot.from_urdf(URDF, base=BASE, tip=TIP)
-    model = pin.buildModelFromUrdf(URDF)
-    data = model.createData()
-    n = robot.dof
-    assert model.nq == model.nv == n == 6, (model.nq, model.nv, n)
-    rng = np.random.default_rng(0)
-    q = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit, size=(t, n))
-    qd = rng.uniform(-1.0, 1.0, size=(t, n))
-    qdd = rng.uniform(-1.0, 1.0, size=(t, n))
 
-    with open("/proc/loadavg") as f:
-        load = " ".join(f.read().split()[:3])
-    print(f"UR5, T = {t} samples, regressor 6 x 60 each; ivdyn {ivdyn.__version__}, "
-          f"pin {pin.__version__}, numpy {np.__version__}, {os.cpu_count()} CPUs, "
-          f"ivdyn threads {ivdyn._ivdyn.batch_threads(t)}, loadavg {load}, R = {repeats}")
+def pin_stack(model, data, q, qd, qdd):
+    """The stacked regressor by a Python loop over Pinocchio, into a preallocated array."""
+    t, n = q.shape
+    y = np.empty((t * n, 10 * n))
+    for k in range(t):
+        y[k * n:(k + 1) * n] = pin.computeJointTorqueRegressor(model, data, q[k], qd[k], qdd[k])
+    return y
 
+
+def regressor_table(robot, model, data, q, qd, qdd, repeats, no_rust):
+    """The regressor timings (ivdyn batched, into a buffer, per sample; Pinocchio; Rust);
+    prints the table, returns (Y_pinocchio, relative difference, why Rust was skipped)."""
+    t, n = q.shape
     # (a) ivdyn batched
     a_min, a_med, y_iv = timed(lambda: robot.regressor(q, qd, qdd, rigid_only=True), repeats)
 
@@ -107,13 +106,7 @@ def main():
     assert y_out is buf and np.array_equal(buf, y_iv)
 
     # (b) Pinocchio loop into a preallocated array
-    def pin_stack():
-        y = np.empty((t * n, 10 * n))
-        for k in range(t):
-            y[k * n:(k + 1) * n] = pin.computeJointTorqueRegressor(model, data, q[k], qd[k], qdd[k])
-        return y
-
-    b_min, b_med, y_pin = timed(pin_stack, repeats)
+    b_min, b_med, y_pin = timed(lambda: pin_stack(model, data, q, qd, qdd), repeats)
     err = np.abs(y_iv.reshape(t * n, 10 * n) - y_pin).max() / max(np.abs(y_pin).max(), 1.0)
 
     # (a1) ivdyn, one Python call per sample (fewer samples, scaled up)
@@ -156,9 +149,23 @@ def main():
               f"{tmin / b_min:6.3f}x | {vs_c:>7} |")
     print()
     print("ratio = min time / min time of the reference row (lower is faster).")
+    return y_pin, err, why
 
-    # inverse dynamics of the same samples: ivdyn batched vs a Python loop over pin.rnea
-    # (Pinocchio's model has no friction or armature, nor has the UR5 URDF: same torques)
+
+def speedup_table(title, ref, ours):
+    """A two-row table: `ref` and `ours` as (name, min, median), speed-up against `ref`."""
+    print()
+    print(title)
+    print(f"| {'method':<48} | {'min s':>8} | {'median s':>8} | {'speed-up':>8} |")
+    print(f"|{'-' * 50}|{'-' * 10}:|{'-' * 10}:|{'-' * 10}:|")
+    print(f"| {ref[0]:<48} | {ref[1]:8.4f} | {ref[2]:8.4f} | {'1.00x':>8} |")
+    print(f"| {ours[0]:<48} | {ours[1]:8.4f} | {ours[2]:8.4f} | {ref[1] / ours[1]:7.2f}x |")
+
+
+def rnea_table(robot, model, data, q, qd, qdd, repeats):
+    """Inverse dynamics of the same samples: ivdyn batched vs a Python loop over pin.rnea
+    (Pinocchio's model has no friction or armature, nor has the UR5 URDF: same torques)."""
+    t, n = q.shape
     tau_buf = np.empty((t, n))
     r_min, r_med, tau_iv = timed(lambda: robot.rnea(q, qd, qdd, out=tau_buf), repeats)
 
@@ -170,22 +177,21 @@ def main():
 
     p_min, p_med, tau_pin = timed(pin_rnea, repeats)
     rnea_err = np.abs(tau_iv - tau_pin).max() / np.abs(tau_pin).max()
-    print()
-    print(f"inverse dynamics, {t} samples (max rel. difference {rnea_err:.1e}):")
-    print(f"| {'method':<48} | {'min s':>8} | {'median s':>8} | {'speed-up':>8} |")
-    print(f"|{'-' * 50}|{'-' * 10}:|{'-' * 10}:|{'-' * 10}:|")
-    print(f"| {'Pinocchio Python loop over pin.rnea':<48} | {p_min:8.4f} | {p_med:8.4f} | {'1.00x':>8} |")
-    print(f"| {'ivdyn robot.rnea(Q, QD, QDD, out=)':<48} | {r_min:8.4f} | {r_med:8.4f} | {p_min / r_min:7.1f}x |")
-    if rust is None:
-        print(f"(c) skipped: {why}")
-    # whole fit: regressor + least squares of the rigid-body parameters
-    # (Pinocchio: the loop above + numpy.linalg.lstsq, as ../shared/anchors/pinocchio/pipeline.py;
-    #  ivdyn: base parameters + the fused multi-threaded fit, regressor never stored)
+    speedup_table(f"inverse dynamics, {t} samples (max rel. difference {rnea_err:.1e}):",
+                  ("Pinocchio Python loop over pin.rnea", p_min, p_med),
+                  ("ivdyn robot.rnea(Q, QD, QDD, out=)", r_min, r_med))
+
+
+def fit_table(robot, model, data, q, qd, qdd, y_pin, rng, repeats):
+    """Whole fit: regressor + least squares of the rigid-body parameters (Pinocchio: the
+    loop above + numpy.linalg.lstsq, as ../shared/anchors/pinocchio/pipeline.py; ivdyn:
+    base parameters + the fused multi-threaded fit, regressor never stored)."""
+    t, n = q.shape
     theta = rng.uniform(-1.0, 1.0, 10 * n)
     tau = (y_pin @ theta).reshape(t, n) + 1e-3 * rng.standard_normal((t, n))
 
     def pin_fit():
-        return np.linalg.lstsq(pin_stack(), tau.reshape(-1), rcond=None)[0]
+        return np.linalg.lstsq(pin_stack(model, data, q, qd, qdd), tau.reshape(-1), rcond=None)[0]
 
     def iv_fit():
         base = ivdyn.base_params(robot, rigid_only=True)
@@ -194,13 +200,34 @@ def main():
     f_min, f_med, th_pin = timed(pin_fit, repeats)
     g_min, g_med, (fit, base) = timed(iv_fit, repeats)
     fit_err = np.abs(fit.theta - base.project(th_pin)).max() / np.abs(base.project(th_pin)).max()
-    print()
-    print(f"whole fit, regressor + least squares ({t} samples, {base.base_count} rigid-body base parameters):")
-    print(f"| {'method':<48} | {'min s':>8} | {'median s':>8} | {'speed-up':>8} |")
-    print(f"|{'-' * 50}|{'-' * 10}:|{'-' * 10}:|{'-' * 10}:|")
-    print(f"| {'Pinocchio loop + numpy.linalg.lstsq':<48} | {f_min:8.4f} | {f_med:8.4f} | {'1.00x':>8} |")
-    print(f"| {'ivdyn.base_params + ivdyn.fit_robot':<48} | {g_min:8.4f} | {g_med:8.4f} | {f_min / g_min:7.2f}x |")
+    speedup_table(f"whole fit, regressor + least squares ({t} samples, {base.base_count} rigid-body base parameters):",
+                  ("Pinocchio loop + numpy.linalg.lstsq", f_min, f_med),
+                  ("ivdyn.base_params + ivdyn.fit_robot", g_min, g_med))
     print(f"base estimates agree to {fit_err:.1e} (relative, max)")
+
+
+def main():
+    t, repeats, no_rust = parse_args(sys.argv[1:])
+    robot = ivdyn.Robot.from_urdf(URDF, base=BASE, tip=TIP)
+    model = pin.buildModelFromUrdf(URDF)
+    data = model.createData()
+    n = robot.dof
+    assert model.nq == model.nv == n == 6, (model.nq, model.nv, n)
+    rng = np.random.default_rng(0)
+    q = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit, size=(t, n))
+    qd = rng.uniform(-1.0, 1.0, size=(t, n))
+    qdd = rng.uniform(-1.0, 1.0, size=(t, n))
+
+    with open("/proc/loadavg") as f:
+        load = " ".join(f.read().split()[:3])
+    print(f"UR5, T = {t} samples, regressor 6 x 60 each; ivdyn {ivdyn.__version__}, "
+          f"pin {pin.__version__}, numpy {np.__version__}, {os.cpu_count()} CPUs, "
+          f"ivdyn threads {ivdyn._ivdyn.batch_threads(t)}, loadavg {load}, R = {repeats}")
+    y_pin, err, why = regressor_table(robot, model, data, q, qd, qdd, repeats, no_rust)
+    rnea_table(robot, model, data, q, qd, qdd, repeats)
+    if why is not None:
+        print(f"(c) skipped: {why}")
+    fit_table(robot, model, data, q, qd, qdd, y_pin, rng, repeats)
     if err > 1e-10:
         print("WARNING: ivdyn and Pinocchio regressors differ")
         return 1

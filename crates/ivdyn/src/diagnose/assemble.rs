@@ -168,72 +168,11 @@ fn report_effects(
     let mut effects = vec![];
     for st in out_steps.iter_mut() {
         let kind = st.effect;
-        let joints: Vec<usize> = match kind {
-            EffectKind::Payload => (0..n).collect(),
-            // Stribeck replaces Coulomb on its joints
-            EffectKind::Coulomb => (0..n)
-                .filter(|&j| m.has(j, kind))
-                .filter(|&j| {
-                    let refined = [EffectKind::Stribeck, EffectKind::SmoothCoulomb, EffectKind::AsymmetricCoulomb];
-                    !refined.iter().any(|&r| m.has(j, r))
-                })
-                .collect(),
-            _ => (0..n).filter(|&j| m.has(j, kind)).collect(),
-        };
+        let joints = reported_joints(kind, m, n);
         if kind != EffectKind::Payload && joints.is_empty() || kind == EffectKind::Payload && !m.payload {
             continue;
         }
-        let mut params = effect_parameters(kind, &joints, f, m, d, n);
-        // smooth and Stribeck friction's `vs` fitted between the grid points, the levels with it
-        let scales: Vec<super::shape_scale::Scale> = match kind {
-            EffectKind::SmoothCoulomb | EffectKind::Stribeck => {
-                joints.iter().map(|&j| super::shape_scale::fit_scale(ctx, m, d, j, kind)).collect()
-            }
-            _ => vec![],
-        };
-        if !scales.is_empty() {
-            let list = |g: &dyn Fn(&super::shape_scale::Scale) -> f64| scales.iter().map(g).collect::<Vec<_>>();
-            params.insert("vs".into(), list(&|s| s.vs).into());
-            if kind == EffectKind::Stribeck {
-                params.insert("fs".into(), list(&|s| s.level).into());
-                params.insert("fc".into(), list(&|s| s.fc).into());
-            } else {
-                params.insert("fc".into(), list(&|s| s.level).into());
-            }
-        }
-        if kind == EffectKind::TimeDelay {
-            // the exact shift, not its first order (`drive_rules::delay_exact`)
-            let first = params["delay_s"].as_array().cloned().unwrap_or_default();
-            let exact: Vec<f64> = joints
-                .iter()
-                .zip(&first)
-                .map(|(&j, d0)| super::drive_rules::delay_exact(f, d, j, d0.as_f64().unwrap_or(f64::NAN)))
-                .collect();
-            params.insert("delay_s".into(), exact.into());
-        }
-        if kind == EffectKind::Coulomb || kind == EffectKind::AsymmetricCoulomb {
-            // the levels where the joint moves, not through its stick phases (`levels`)
-            let asym = kind == EffectKind::AsymmetricCoulomb;
-            let lv: Option<Vec<(f64, f64)>> =
-                joints.iter().map(|&j| super::levels::coulomb_levels(f, d, j, asym, m.stick_band[j])).collect();
-            if let Some(lv) = lv {
-                let (neg, pos): (Vec<f64>, Vec<f64>) = lv.into_iter().unzip();
-                if asym {
-                    params.insert("fc_neg".into(), neg.into());
-                    params.insert("fc_pos".into(), pos.into());
-                } else {
-                    params.insert("fc".into(), neg.into());
-                }
-            }
-        }
-        if kind == EffectKind::LoadDependent {
-            // `mu` against the load the fit models (`drive_rules::load_mu_on_fitted_load`)
-            let mu: Option<Vec<f64>> =
-                joints.iter().map(|&j| super::drive_rules::load_mu_on_fitted_load(f, d, j)).collect();
-            if let Some(mu) = mu {
-                params.insert("mu".into(), mu.into());
-            }
-        }
+        let (mut params, scales) = fitted_parameters(kind, &joints, f, m, d, ctx);
         let mut parameters_std = spread
             .map(|s| uncertainty::parameters_std(f, s, &|g| effect_parameters(kind, &joints, g, m, d, n)))
             .unwrap_or_default();
@@ -264,6 +203,88 @@ fn report_effects(
         });
     }
     effects
+}
+
+/// The joints a named effect is reported on: every joint for a payload; a Coulomb friction
+/// only where no refinement (Stribeck, smooth, direction-dependent) replaces it.
+fn reported_joints(kind: EffectKind, m: &Model, n: usize) -> Vec<usize> {
+    match kind {
+        EffectKind::Payload => (0..n).collect(),
+        // Stribeck replaces Coulomb on its joints
+        EffectKind::Coulomb => (0..n)
+            .filter(|&j| m.has(j, kind))
+            .filter(|&j| {
+                let refined = [EffectKind::Stribeck, EffectKind::SmoothCoulomb, EffectKind::AsymmetricCoulomb];
+                !refined.iter().any(|&r| m.has(j, r))
+            })
+            .collect(),
+        _ => (0..n).filter(|&j| m.has(j, kind)).collect(),
+    }
+}
+
+/// A named effect's parameters from the fit `f`, with those read beyond its columns: the
+/// smooth and Stribeck friction's `vs` between the grid points (and its scales, returned),
+/// a delay's exact shift, Coulomb levels where the joint moves, `mu` on the fitted load.
+fn fitted_parameters(
+    kind: EffectKind,
+    joints: &[usize],
+    f: &Fit,
+    m: &Model,
+    d: &Dictionary,
+    ctx: &Ctx,
+) -> (Params, Vec<super::shape_scale::Scale>) {
+    let mut params = effect_parameters(kind, joints, f, m, d, ctx.n);
+    // smooth and Stribeck friction's `vs` fitted between the grid points, the levels with it
+    let scales: Vec<super::shape_scale::Scale> = match kind {
+        EffectKind::SmoothCoulomb | EffectKind::Stribeck => {
+            joints.iter().map(|&j| super::shape_scale::fit_scale(ctx, m, d, j, kind)).collect()
+        }
+        _ => vec![],
+    };
+    if !scales.is_empty() {
+        let list = |g: &dyn Fn(&super::shape_scale::Scale) -> f64| scales.iter().map(g).collect::<Vec<_>>();
+        params.insert("vs".into(), list(&|s| s.vs).into());
+        if kind == EffectKind::Stribeck {
+            params.insert("fs".into(), list(&|s| s.level).into());
+            params.insert("fc".into(), list(&|s| s.fc).into());
+        } else {
+            params.insert("fc".into(), list(&|s| s.level).into());
+        }
+    }
+    if kind == EffectKind::TimeDelay {
+        // the exact shift, not its first order (`drive_rules::delay_exact`)
+        let first = params["delay_s"].as_array().cloned().unwrap_or_default();
+        let exact: Vec<f64> = joints
+            .iter()
+            .zip(&first)
+            .map(|(&j, d0)| super::drive_rules::delay_exact(f, d, j, d0.as_f64().unwrap_or(f64::NAN)))
+            .collect();
+        params.insert("delay_s".into(), exact.into());
+    }
+    if kind == EffectKind::Coulomb || kind == EffectKind::AsymmetricCoulomb {
+        // the levels where the joint moves, not through its stick phases (`levels`)
+        let asym = kind == EffectKind::AsymmetricCoulomb;
+        let lv: Option<Vec<(f64, f64)>> =
+            joints.iter().map(|&j| super::levels::coulomb_levels(f, d, j, asym, m.stick_band[j])).collect();
+        if let Some(lv) = lv {
+            let (neg, pos): (Vec<f64>, Vec<f64>) = lv.into_iter().unzip();
+            if asym {
+                params.insert("fc_neg".into(), neg.into());
+                params.insert("fc_pos".into(), pos.into());
+            } else {
+                params.insert("fc".into(), neg.into());
+            }
+        }
+    }
+    if kind == EffectKind::LoadDependent {
+        // `mu` against the load the fit models (`drive_rules::load_mu_on_fitted_load`)
+        let mu: Option<Vec<f64>> =
+            joints.iter().map(|&j| super::drive_rules::load_mu_on_fitted_load(f, d, j)).collect();
+        if let Some(mu) = mu {
+            params.insert("mu".into(), mu.into());
+        }
+    }
+    (params, scales)
 }
 
 /// The fitted value of joint `j`'s parameter of `kind` in column `col` (0 if absent).
