@@ -263,6 +263,10 @@ pub(super) struct Grams {
     /// Nominal scale of each re-fit correction (`Dictionary::base` order,
     /// `refit::prior_scales`): with a ridge, the corrections also get a physical prior.
     pub(super) prior: Vec<f64>,
+    /// Nominal scale of each of the terminal link's 10 inertial parameters (`m`, `m L`, `m
+    /// L^2`, `ident::consistent::scales`): with a ridge, its CAD-error correction
+    /// (`Model::terminal_cad`) gets the re-fit's physical prior too.
+    pub(super) terminal_prior: Vec<f64>,
 }
 
 /// The fold of sample `k`: the log cut into `2 blocks_per_fold` blocks, alternately in
@@ -323,7 +327,7 @@ pub(super) fn grams(d: &Dictionary, t_len: usize, blocks_per_fold: usize, thread
         (gj, rows)
     });
     let (g, rows) = per_joint.into_iter().unzip();
-    Grams { g, rows, ridge: 0.0, prior: vec![] }
+    Grams { g, rows, ridge: 0.0, prior: vec![], terminal_prior: vec![] }
 }
 
 /// Joint `j`'s Gram entries of the columns `new` (index, values over the log), which take

@@ -310,6 +310,14 @@ fn scaled_normal(model_params: &[Param], gr: &Grams, a: &DMatrix<f64>) -> (Vec<f
             {
                 an[(i, i)] += (s[i] / (PRIOR_C * sc)).powi(2);
             }
+            // the terminal link's CAD error alike (`Model::terminal_cad`): a CAD error, not
+            // any change of that link
+            if ridge > 0.0
+                && (C_PAYLOAD..C_PAYLOAD + 10).contains(&q.col)
+                && let Some(sc) = gr.terminal_prior.get(q.col - C_PAYLOAD)
+            {
+                an[(i, i)] += (s[i] / (PRIOR_C * sc)).powi(2);
+            }
         }
     }
     (s, an)

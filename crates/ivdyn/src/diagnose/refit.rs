@@ -136,6 +136,12 @@ pub(super) fn prior_scales(base: &BaseParams, nominal: &[f64]) -> Vec<f64> {
     (0..pm.nrows()).map(|r| (0..p).map(|c| pm[(r, c)].powi(2) * s2[c]).sum::<f64>().sqrt()).collect()
 }
 
+/// Nominal scale of each of the terminal link's 10 inertial parameters, in the nominal's
+/// own scales (`S`, as in `corrected`): the prior of its CAD-error correction.
+pub(super) fn terminal_prior_scales(nominal: &[f64], links: usize) -> Vec<f64> {
+    consistent::scales(nominal, links)[10 * (links - 1)..10 * links].to_vec()
+}
+
 /// Whether every re-fitted link of `theta` is physically consistent (positive mass,
 /// inertia about the COM positive definite with the triangle inequalities); a link whose
 /// nominal is not is not held against the re-fit.

@@ -139,7 +139,7 @@ mod tests {
                 [g0, DMatrix::zeros(size, size)]
             })
             .collect();
-        Grams { g, rows: vec![[50, 0]; cols.len()], ridge: 0.0, prior: vec![] }
+        Grams { g, rows: vec![[50, 0]; cols.len()], ridge: 0.0, prior: vec![], terminal_prior: vec![] }
     }
 
     #[test]

@@ -36,6 +36,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     super::effort_check::check(&p.s.tau, &p.tau_nom, &robot.joint_names)?;
     // the re-fit corrections' physical scales (used only when a re-fit is on)
     p.gr.prior = refit::prior_scales(&p.d.base, &robot.params());
+    p.gr.terminal_prior = refit::terminal_prior_scales(&robot.params(), n);
     // the nominal model's own error first: with every candidate in, does a re-fit of it
     // still explain held-out residual? Then every model of the search contains it.
     let (refit, refit_off) = match refit::decide(&Ctx::new(robot, &p, opts, 0)?, &p.d, robot) {
@@ -107,7 +108,9 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
 /// link's nominal torque there (the payload's margin; on the LWR4+ run 1 viscous friction of
 /// 0.40 and 0.76 N m RMS on `lwr_0_joint` and `lwr_2_joint`, where that link makes 0.08 and
 /// 0.28 N m, went when any could, and `lwr_2_joint`'s residual rose from 0.27 to 0.50 N m);
-/// kept when it removes something, with a note for each.
+/// kept when it removes something, with a note for each. (Since 2026-12-07 the search holds
+/// a friction or a delay out beside that link's error too, `Ctx::terminal_cad_in`: this step
+/// adds the link to the F test's model and to the final fit.)
 fn with_terminal_cad(ctx: &Ctx, names: &[String], found: &mut Found) {
     if found.model.payload {
         return;
