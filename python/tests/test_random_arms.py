@@ -120,3 +120,22 @@ def test_ripple_harmonics_off_the_diagnosis_grid(monkeypatch):
     for bad in ("4,x", "4,-2"):
         with pytest.raises(SystemExit):
             mcc.main(["--ripple-n", bad, "--out", "/nonexistent"])
+
+
+def test_load_dependent_friction_stays_below_the_load_it_follows():
+    """A load-dependent friction of 5-15 noise std is drawn only on joints whose rigid-body
+    torque makes `mu` at most 0.5 (a drive's 1 - efficiency): a joint carrying a few noise std
+    of load would need `mu` above 1, a friction larger than its load."""
+    rng = np.random.default_rng(7)
+    sig = np.full(6, 0.01)
+    t = np.linspace(0.0, 10.0, 2001)[:, None]
+    # RMS loads of 2, 10, 29, 31, 100 and 1000 noise std
+    tau = np.sqrt(2.0) * np.sin(t * np.arange(1, 7)) * sig * np.array([2, 10, 29, 31, 100, 1000])
+    picked = set()
+    for _ in range(200):
+        js = mcc.drive_joints("load_dependent_friction", 6, sig, tau, rng)
+        picked.update(js)
+        p = mcc.drive_parameters("load_dependent_friction", js, rng.uniform(5.0, 15.0, len(js)), sig,
+                                 tau, tau, tau, rng)
+        assert all(0.0 < mu <= 0.5 for mu in p["mu"]), (js, p)
+    assert picked == {3, 4, 5}, picked

@@ -245,11 +245,16 @@ def drive_parameters(kind, js, k, sig, q, qd, tau, rng):
 
 def drive_joints(kind, n, sig, tau, rng):
     """The joints a drive effect of 5-15 noise std fits on: a gain within 0.8-1.2 needs a
-    rigid-body torque of at least 75 noise std RMS; a delay of at most 20 ms a torque rate of
-    at least 750 noise std per second."""
+    rigid-body torque of at least 75 noise std RMS; a load-dependent friction with `mu` at most
+    0.5 (a drive's `1 - efficiency`; until 2026-12-07 unbounded: 12 of 95 drawn on rarm76-111
+    had 0.53-2.4, every one on a terminal joint carrying a few noise std of load, a friction
+    above the load it follows) at least 30; a delay of at most 20 ms a torque rate of at least
+    750 noise std per second."""
     rms_of = lambda x: np.sqrt(np.mean(x ** 2, axis=0))  # noqa: E731
     if kind == "torque_gain":
         ok = [j for j in range(n) if rms_of(tau)[j] >= 75 * sig[j]]
+    elif kind == "load_dependent_friction":
+        ok = [j for j in range(n) if rms_of(tau)[j] >= 30 * sig[j]]
     elif kind == "time_delay":
         ok = [j for j in range(n) if rms_of(np.gradient(tau, mdc.DT, axis=0))[j] >= 750 * sig[j]]
     else:
