@@ -8,7 +8,7 @@
 
 pub use super::DiagnoseOptions;
 use super::assemble::{Found, assemble};
-use super::dictionary::{C_STUCK, Dictionary};
+use super::dictionary::{C_STUCK, Dictionary, Grams};
 use super::model::{Fit, Model, Param, effect_rms, effect_torque, fit, rss_joint};
 use super::prepare::prepare_best;
 use super::refit::{self, RefitDecision};
@@ -436,7 +436,10 @@ fn backward_at(
         }
         let why = "no longer significant given the other effects".to_string();
         // (what `removable` keeps stays, whichever rule would take it)
-        match worst.map(|(_, j, e)| (j, e, why)).or_else(|| unphysical_removal(ctx, &m)).filter(|r| removable(r.1, r.0))
+        match worst
+            .map(|(_, j, e)| (j, e, why))
+            .or_else(|| unphysical_removal(ctx.gr, &ctx.w, &m))
+            .filter(|r| removable(r.1, r.0))
         {
             Some((j, e, why)) => {
                 m = m.without(j, e);
@@ -477,20 +480,69 @@ fn pair_stands(keep: &Ctx, m: &Model, smaller: &Model, j: usize, e: EffectKind) 
 /// through zero, e.g. viscous friction beside direction-dependent friction), the effect whose
 /// removal leaves the joint physical with the least residual (the least residual alone when
 /// none does), and why. Coulomb friction goes with its refinement.
-fn unphysical_removal(ctx: &Ctx, m: &Model) -> Option<Removal> {
+/// (`gr`, `w`: the context's Gram matrices and joint weights.)
+fn unphysical_removal(gr: &Grams, w: &[f64], m: &Model) -> Option<Removal> {
     let physical = |f: &Fit, j: usize| signed_levels(f, j).iter().all(|&(_, v)| v > 0.0);
-    let f = fit(&m.params(), ctx.gr, &ctx.w, &[0, 1]);
-    let j = (0..ctx.n).find(|&j| !physical(&f, j))?;
+    let f = fit(&m.params(), gr, w, &[0, 1]);
+    let j = (0..m.per_joint.len()).find(|&j| !physical(&f, j))?;
     let (name, v) = signed_levels(&f, j).into_iter().find(|&(_, v)| v <= 0.0)?;
     let refined = m.has(j, EffectKind::SmoothCoulomb) || m.has(j, EffectKind::AsymmetricCoulomb);
     let removals = m.per_joint[j].iter().filter(|&&e| !(e == EffectKind::Coulomb && refined));
     let score = |&e: &EffectKind| {
-        let fs = fit(&m.without(Some(j), e).params(), ctx.gr, &ctx.w, &[0, 1]);
-        (!physical(&fs, j), rss_joint(&fs, ctx.gr, j, &[0, 1]))
+        let fs = fit(&m.without(Some(j), e).params(), gr, w, &[0, 1]);
+        (!physical(&fs, j), rss_joint(&fs, gr, j, &[0, 1]))
     };
     let e = removals.map(|e| (score(e), *e)).min_by(|a, b| a.0.0.cmp(&b.0.0).then(a.0.1.total_cmp(&b.0.1)))?.1;
     let why = format!(
         "sign: with it the joint's {name} is {v:.4}, not positive; of the effects there, leaving out this one keeps the rest physical with the least residual"
     );
     Some((Some(j), e, why))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diagnose::dictionary::{C_QD, C_SIGN, C_TARGET};
+    use nalgebra::DMatrix;
+
+    /// One joint's Gram matrices (all samples in fold 0) of `(dictionary column, samples)`.
+    fn grams(cols: &[(usize, Vec<f64>)]) -> Grams {
+        let size = C_TARGET + 1;
+        let mut g0 = DMatrix::<f64>::zeros(size, size);
+        for (a, xa) in cols {
+            for (b, xb) in cols {
+                g0[(*a, *b)] = xa.iter().zip(xb).map(|(u, v)| u * v).sum();
+            }
+        }
+        let rows = cols[0].1.len();
+        Grams {
+            g: vec![[g0, DMatrix::zeros(size, size)]],
+            rows: vec![[rows, 0]],
+            ridge: 0.0,
+            prior: vec![],
+            terminal_prior: vec![],
+        }
+    }
+
+    /// A torque `0.5 sign(qd) - 0.2 qd` over whole periods of `qd = sin`: Coulomb and
+    /// viscous friction fit it exactly with `fv = -0.2`, a friction that pushes the joint
+    /// along. Either one alone is physical (viscous alone: `fv = 0.5 <|qd|> / <qd^2> - 0.2 =
+    /// 0.44`), and Coulomb friction alone leaves less: `0.04 (<qd^2> - <|qd|>^2) = 3.8e-3`
+    /// per sample against `<y^2> - <y qd>^2 / <qd^2> = 4.7e-2` for viscous friction alone.
+    /// So the sign rule takes out the viscous friction.
+    #[test]
+    fn the_sign_rule_removes_the_effect_whose_level_went_negative() {
+        let qd: Vec<f64> = (0..4000).map(|k| (2.0 * std::f64::consts::PI * k as f64 / 1000.0).sin()).collect();
+        let sign: Vec<f64> = qd.iter().map(|v| v.signum()).collect();
+        let y: Vec<f64> = qd.iter().zip(&sign).map(|(v, s)| 0.5 * s - 0.2 * v).collect();
+        let gr = grams(&[(C_SIGN, sign.clone()), (C_QD, qd.clone()), (C_TARGET, y)]);
+        let m = Model::new(1).with(Some(0), EffectKind::Coulomb).with(Some(0), EffectKind::Viscous);
+        let (j, e, why) = unphysical_removal(&gr, &[1.0], &m).expect("a negative fv is unphysical");
+        assert_eq!((j, e), (Some(0), EffectKind::Viscous));
+        assert!(why.starts_with("sign: with it the joint's viscous friction fv is -0.2000"), "{why}");
+        // the same friction dragging (fv = +0.2): nothing to remove
+        let y: Vec<f64> = qd.iter().zip(&sign).map(|(v, s)| 0.5 * s + 0.2 * v).collect();
+        let gr = grams(&[(C_SIGN, sign), (C_QD, qd), (C_TARGET, y)]);
+        assert!(unphysical_removal(&gr, &[1.0], &m).is_none());
+    }
 }
