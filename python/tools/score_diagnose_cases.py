@@ -13,7 +13,9 @@ named right are compared with the truth (`param_errors`: within 10 %, issue 15's
 in a table per effect and parameter printed before the summary line, and how often the truth
 lies within one and two of their standard errors (`param_z`, `parameters_std`).
 
-    python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn] [--drives | --no-drives] [--identifiability]
+    python python/tools/score_diagnose_cases.py /tmp/cad_cases --part tune [--bin target/release/ivdyn] [--drives | --no-drives] [--identifiability] [--every N]
+
+`--every N` diagnoses every N-th sample of each log (a slower logger's view, written as CSV).
 
 `--part heldout` runs the held-out third of split.json: run it once, at the end.
 """
@@ -181,13 +183,49 @@ def short(p):
     return ", ".join(f"{e}@{j.replace('_joint', '')}" if j else e for e, j in sorted(p)) or "none"
 
 
-def run_case(binary, manifest, case, tmp, extra=()):
+def every_nth(manifest, case, tmp, every):
+    """The case's log as a driver at 1/`every` of its rate publishes it (every `every`-th
+    fresh message kept, nothing filtered), written as CSV in `tmp`, and the diagnose options
+    it then needs: a motor current read from `/joint_states`' effort (`sensor_variants.py`)
+    becomes the CSV's `.i` column. The re-published messages (the previous one's values under
+    a new stamp) are the fast driver's and go first; kept, as a throttled topic keeps them,
+    each would be a sample stale by a fraction of the new period, no longer an exact repeat
+    the conditioning drops (docs/diagnose.md, "Slower logs")."""
+    import ivdyn
+    import numpy as np
+    args = list(case.get("diagnose_args", []))
+    log = ivdyn.read_joint_states(os.path.join(manifest["_dir"], case["log"]), manifest["joints"])
+    current = "--current-topic" in args
+    if current:
+        i = args.index("--current-topic")
+        del args[i:i + 2]
+    fields = [log[k] for k in ("q", "qd", "tau") if log[k] is not None]
+    fresh = np.concatenate([[True], np.any(np.hstack([np.diff(f, axis=0) != 0 for f in fields]), axis=1)])
+    keep = np.flatnonzero(fresh)[::every]
+    cols = {"t": log["t"][keep]}
+    for k, j in enumerate(manifest["joints"]):
+        cols[f"{j}.q"] = log["q"][keep, k]
+        if log["qd"] is not None:
+            cols[f"{j}.qd"] = log["qd"][keep, k]
+        cols[f"{j}.i" if current else f"{j}.tau"] = log["tau"][keep, k]
+    os.makedirs(tmp, exist_ok=True)
+    path = os.path.join(tmp, f"{case['name']}_every{every}.csv")
+    with open(path, "w") as f:
+        f.write(",".join(cols) + "\n")
+        np.savetxt(f, np.column_stack(list(cols.values())), delimiter=",", fmt="%.17g")
+    return path, args
+
+
+def run_case(binary, manifest, case, tmp, extra=(), every=1):
     """`ivdyn diagnose` on one case, with the options its log needs (`diagnose_args`: the
-    effort as motor current) and `extra`."""
+    effort as motor current) and `extra`; on every `every`-th sample of its log
+    (`every_nth`) when `every` > 1."""
     out = os.path.join(tmp, case["name"])
+    log, args = os.path.join(manifest["_dir"], case["log"]), case.get("diagnose_args", [])
+    if every > 1:
+        log, args = every_nth(manifest, case, tmp, every)
     cmd = [binary, "diagnose", "--urdf", case["urdf"], "--base", manifest["base"], "--tip", manifest["tip"],
-           "--log", os.path.join(manifest["_dir"], case["log"]), "--out", out, "--no-report",
-           *case.get("diagnose_args", []), *extra]
+           "--log", log, "--out", out, "--no-report", *args, *extra]
     t0 = time.time()
     res = subprocess.run(cmd, capture_output=True, text=True)
     secs = time.time() - t0
@@ -215,7 +253,11 @@ def main(argv=None):
     ap.add_argument("--identifiability", action="store_true", help="also print, per rigid-body look-alike kind, "
                     "the true pairs found against the part of their torque the re-fit's columns leave "
                     "(lookalike_identifiability.py)")
+    ap.add_argument("--every", type=int, default=1, metavar="N",
+                    help="diagnose every N-th sample of each log (a logger at 1/N of the rate; written as CSV)")
     args = ap.parse_args(argv)
+    if args.every < 1:
+        ap.error(f"--every must be at least 1, got {args.every}")
     # MuJoCo and the generator are imported only when asked for
     li = __import__("lookalike_identifiability") if args.identifiability else None
     ident_rows = []
@@ -238,7 +280,7 @@ def main(argv=None):
                 manifests[robot]["_dir"] = os.path.join(args.root, robot)
             m = manifests[robot]
             case = next(c for c in m["cases"] if c["name"] == name)
-            d, secs, err = run_case(args.bin, m, case, os.path.join(tmp, robot), vocabulary_args(args))
+            d, secs, err = run_case(args.bin, m, case, os.path.join(tmp, robot), vocabulary_args(args), args.every)
             required, optional = split_truth(case, m)
             truth = required | optional
             true_pairs += len(required)
