@@ -98,6 +98,11 @@ pub struct DiagnoseOptions {
     /// samples, else one ([`DiagnoseOptions::threads_for`]). The results are the same with
     /// any count, bit for bit.
     pub threads: Option<usize>,
+    /// Most bytes the diagnosis' dictionary of candidate columns may take (default
+    /// [`DICTIONARY_MAX_BYTES`]): it holds every column on every sample of every joint,
+    /// ~10 MB per second of a 1 kHz, 7-joint log, so a log too long for it is diagnosed on
+    /// every k-th block of its samples, spread over all of it, with a note saying so.
+    pub max_dictionary_bytes: usize,
     /// Log file name for the report (informational).
     pub log_name: String,
     /// URDF file name for the report (informational).
@@ -129,6 +134,12 @@ pub(crate) const UNDONE: &str = "added, then removed again by the backward step"
 /// a fleet running many diagnoses side by side pays. The 60 s, 1 kHz bench log (60 000
 /// samples) goes from 5.6-6.0 s to 3.7-3.9 s (benches/README.md).
 pub const PARALLEL_MIN_SAMPLES: usize = 20_000;
+
+/// Default [`DiagnoseOptions::max_dictionary_bytes`]: 4 GiB, about 7.5 minutes of a 1 kHz,
+/// 7-joint log (a 600 s log of one took 6.0 GB at its peak without the cap, a 60 s one
+/// 0.64 GB). A longer log is diagnosed on a subsample of blocks spread over it, not refused
+/// and not left to exhaust the machine's memory.
+pub const DICTIONARY_MAX_BYTES: usize = 4 << 30;
 
 /// Largest median (over joints) lag-1 autocorrelation of the residual's sample-to-sample
 /// differences at which the torque noise counts as white at the sample rate: -0.5 for
@@ -163,6 +174,7 @@ impl DiagnoseOptions {
         crate::limits::in_range("min_share", self.min_share, 0.0, 1.0)?;
         crate::limits::count_in("blocks_per_fold", self.blocks_per_fold, 1, 1000)?;
         crate::limits::count_in("max_steps", self.max_steps, 0, 100)?;
+        crate::limits::count_in("max_dictionary_bytes", self.max_dictionary_bytes, 1 << 20, usize::MAX)?;
         self.threads.map_or(Ok(()), |t| crate::limits::count_in("threads", t, 1, 1024))
     }
 }
@@ -181,6 +193,7 @@ impl Default for DiagnoseOptions {
             max_steps: 20,
             drives: None,
             threads: None,
+            max_dictionary_bytes: DICTIONARY_MAX_BYTES,
             log_name: String::new(),
             urdf_name: String::new(),
             next_args: vec![],

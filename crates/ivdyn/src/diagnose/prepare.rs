@@ -3,10 +3,10 @@
 //! cutoff and torque-to-motion alignment that explain the log best.
 
 use super::DiagnoseOptions;
-use super::dictionary::{Dictionary, Grams, build_dictionary, grams};
+use super::dictionary::{C_BASE, Dictionary, Grams, build_dictionary, grams};
 use super::model::{basic_all_model, fit, noise_floor, noise_of_all_model, rss_joint};
 use super::residual::{difference_lag1, median, sample_noise};
-use super::signals::{Signals, accel_step, condition};
+use super::signals::{SUBSAMPLE_BLOCK, Signals, accel_step, condition};
 use crate::Robot;
 use crate::batch;
 use crate::dsp;
@@ -33,6 +33,30 @@ pub(super) struct Prepared {
     pub(super) drives_why: String,
     /// Whether `s` is a subsample of the conditioned log ([`Signals::every_kth_block`]).
     pub(super) subsampled: bool,
+    /// Why the log is diagnosed on a subsample of it, when its dictionary would pass
+    /// [`DiagnoseOptions::max_dictionary_bytes`] (`memory_cap`).
+    pub(super) memory_note: Option<String>,
+}
+
+/// The most samples whose dictionary (`C_BASE` columns, the re-fit's base columns when
+/// `with_base`: at most 10 per link but the terminal one) fits `max_bytes` on `n` joints,
+/// and the note that says so when the log's `t_len` samples are more.
+fn memory_cap(n: usize, with_base: bool, t_len: usize, max_bytes: usize) -> (usize, Option<String>) {
+    let cols = C_BASE + if with_base { 10 * n.saturating_sub(1) } else { 0 };
+    let per_sample = 8 * n * cols;
+    let rows = (max_bytes / per_sample).max(1);
+    let size = |b: usize| match b as f64 / (1u64 << 30) as f64 {
+        g if g >= 1.0 => format!("{g:.1} GiB"),
+        g => format!("{:.0} MiB", 1024.0 * g),
+    };
+    let note = (t_len > rows).then(|| {
+        format!(
+            "all of them would take up to {} of candidate columns, over the {} allowed (DiagnoseOptions::max_dictionary_bytes), so blocks of {SUBSAMPLE_BLOCK} samples spread over the whole log are used; the report and residuals.mcap show those (--window diagnoses one part whole)",
+            size(t_len * per_sample),
+            size(max_bytes)
+        )
+    });
+    (rows, note)
 }
 
 /// The log prepared at the best cutoff, then again with the acceleration aligned to the
@@ -92,7 +116,11 @@ pub(super) fn prepare_best(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions
     // torque-to-motion alignment (a fraction of a sample), then everything again
     let alpha = p.alignment(robot, drives)?;
     let drives_why = drives_why(opts.drives, duration, lag1);
-    Ok(Prepared { drives, drives_why, ..prepare(robot, log, opts, p.s.cutoff_hz, Some(alpha), true, None)? })
+    // this pass's dictionary goes before the final one is built (both at once were the
+    // diagnosis' peak memory)
+    let cutoff_hz = p.s.cutoff_hz;
+    drop(p);
+    Ok(Prepared { drives, drives_why, ..prepare(robot, log, opts, cutoff_hz, Some(alpha), true, None)? })
 }
 
 /// Why the effects of real drives were searched or not ([`DiagnoseOptions::drives_for`]).
@@ -127,11 +155,14 @@ fn prepare(
     if s.resampled {
         s.sample_noise = log.tau.as_ref().map(|tau| sample_noise(&log.t, tau, n));
     }
-    let sub = max_rows.and_then(|m| s.every_kth_block(n, m));
+    let t_log = s.t.len();
+    let (cap, memory_note) = memory_cap(n, with_base, t_log, opts.max_dictionary_bytes);
+    let sub = s.every_kth_block(n, max_rows.map_or(cap, |m| m.min(cap)));
     let subsampled = sub.is_some();
     if let Some(sub) = sub {
         s = sub;
     }
+    let memory_note = memory_note.map(|why| format!("log diagnosed on {} of its {t_log} samples: {why}", s.t.len()));
     if let Some(a) = align {
         s.align_acceleration(a, n);
     }
@@ -148,7 +179,7 @@ fn prepare(
             msg: "the regressor sums overflow (values in the log too large)".into(),
         });
     }
-    Ok(Prepared { s, tau_nom, d, gr, drives: false, drives_why: String::new(), subsampled })
+    Ok(Prepared { s, tau_nom, d, gr, drives: false, drives_why: String::new(), subsampled, memory_note })
 }
 
 impl Prepared {

@@ -92,6 +92,7 @@ pub fn diagnose(robot: &Robot, log: &JointLog, opts: &DiagnoseOptions) -> Result
     }
     found.notes.extend(refit_off);
     found.notes.extend(p.s.velocity_lag_note());
+    found.notes.extend(p.memory_note.clone());
     assemble(robot, opts, &p, &ctx, found, baseline_rms, &r_nom)
 }
 

@@ -672,6 +672,46 @@ fn threads_do_not_change_the_diagnosis() {
     assert!(err.contains("threads"), "{err}");
 }
 
+/// A log whose candidate columns would pass `max_dictionary_bytes` is diagnosed on blocks
+/// spread over it, with a note saying so, not refused and not left to exhaust the memory (a
+/// 600 s, 1 kHz, 7-joint log took 6.0 GB before the cap). The UR5 Coulomb log of
+/// `fixtures/diagnose/` (2000 samples, 6 joints: up to 8 x 6 x (C_BASE + 50) bytes a sample
+/// with the re-fit's columns, 6.1 KB) under an 8 MiB cap keeps every other block of 500
+/// samples, 1000 of the 1974 conditioned, and still names its Coulomb friction on exactly its three joints, each
+/// `fc` within 10 % of the generator's (issue 7's criterion). A cap under 1 MiB is an error
+/// naming the option.
+#[test]
+fn a_log_too_long_for_the_memory_cap_is_diagnosed_on_blocks_spread_over_it() {
+    let m = cases_in("diagnose");
+    let case = case_named(&m, "coulomb");
+    let opts = DiagnoseOptions { max_dictionary_bytes: 8 << 20, ..Default::default() };
+    let d = run_with("diagnose", case, &m, &opts);
+    let note = d.details.iter().find(|x| x.starts_with("log diagnosed on ")).expect("a note on the subsample");
+    // two of the conditioned log's (1974 samples) four blocks, over the 8 MiB allowed
+    assert!(
+        note.starts_with("log diagnosed on 1000 of its 1974 samples: all of them would take up to 11 MiB"),
+        "{note}"
+    );
+    assert!(note.contains("over the 8 MiB allowed"), "{note}");
+    let truth = &case["effects"][0];
+    let e = d.json.effects.iter().find(|e| e.name == "coulomb_friction").expect("Coulomb friction");
+    assert_eq!(d.json.effects.len(), 1, "{:?}", d.json.effects);
+    let joints: Vec<&str> = truth["joints"].as_array().unwrap().iter().map(|j| j.as_str().unwrap()).collect();
+    assert_eq!(e.joints, joints);
+    for (fc, want) in f64s(&e.parameters["fc"]).iter().zip(f64s(&truth["parameters"]["fc"])) {
+        assert!((fc - want).abs() <= 0.1 * want, "fc {fc} vs {want}");
+    }
+    // the whole log under the default cap: no note
+    assert!(
+        run_with("diagnose", case, &m, &DiagnoseOptions::default())
+            .details
+            .iter()
+            .all(|x| !x.starts_with("log diagnosed on "))
+    );
+    let err = DiagnoseOptions { max_dictionary_bytes: 1 << 19, ..Default::default() }.check().unwrap_err().to_string();
+    assert!(err.contains("max_dictionary_bytes"), "{err}");
+}
+
 /// Issue 15: the size rule counts what a candidate removes beyond the other effects (and
 /// the nominal re-fit), not only the torque it adds: a column the re-fit's base columns
 /// nearly span can add 0.3 N m RMS and remove 0.005 N m of the residual. Two logs of the
