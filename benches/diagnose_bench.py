@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -36,16 +35,19 @@ def make_log(out: str, duration: float) -> dict:
     return {"urdf": case["urdf"], "log": os.path.join(out, "panda", case["log"]), "base": m["base"], "tip": m["tip"]}
 
 
-def run(binary: str, c: dict, out: str, report: bool) -> tuple[float, float]:
-    """Wall and CPU seconds of one `ivdyn diagnose`."""
+def run(binary: str, c: dict, out: str, report: bool) -> tuple[float, float, float]:
+    """Wall and CPU seconds and the peak resident memory (GB) of one `ivdyn diagnose`."""
     cmd = [binary, "diagnose", "--urdf", c["urdf"], "--base", c["base"], "--tip", c["tip"], "--log", c["log"],
            "--out", out, "--quiet"] + ([] if report else ["--no-report"])
-    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL)
+    # this child's own resource use (RUSAGE_CHILDREN's peak is over every child so far)
+    _, status, ru = os.wait4(p.pid, 0)
     wall = time.perf_counter() - t0
-    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return wall, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+    p.returncode = os.waitstatus_to_exitcode(status)
+    if p.returncode != 0:
+        raise subprocess.CalledProcessError(p.returncode, cmd)
+    return wall, ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1e6
 
 
 def main(argv=None) -> None:
@@ -56,18 +58,18 @@ def main(argv=None) -> None:
     ap.add_argument("--dir", default=os.path.join(tempfile.gettempdir(), "ivdyn_diagnose_bench"))
     args = ap.parse_args(argv)
     c = make_log(args.dir, args.duration)
-    best = {True: (float("inf"), 0.0), False: (float("inf"), 0.0)}
+    best = {True: (float("inf"), 0.0, 0.0), False: (float("inf"), 0.0, 0.0)}
     with tempfile.TemporaryDirectory() as tmp:
         for i in range(args.repeat):
             for report in ([True, False] if i % 2 == 0 else [False, True]):
-                w, cpu = run(args.bin, c, os.path.join(tmp, f"r{i}{report}"), report)
-                if w < best[report][0]:
-                    best[report] = (w, cpu)
+                r = run(args.bin, c, os.path.join(tmp, f"r{i}{report}"), report)
+                if r[0] < best[report][0]:
+                    best[report] = r
     print(f"ivdyn diagnose, {CASE}, {args.duration:g} s at 1 kHz, 7 joints (fastest of {args.repeat}; "
           f"load average {os.getloadavg()[0]:.1f})")
-    print("| run | wall | CPU |\n|---|---|---|")
+    print("| run | wall | CPU | max RSS |\n|---|---|---|---|")
     for report, name in [(True, "with report.html and residuals.mcap"), (False, "--no-report")]:
-        print(f"| {name} | {best[report][0]:.2f} s | {best[report][1]:.2f} s |")
+        print(f"| {name} | {best[report][0]:.2f} s | {best[report][1]:.2f} s | {best[report][2]:.2f} GB |")
 
 
 if __name__ == "__main__":
