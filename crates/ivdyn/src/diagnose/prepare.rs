@@ -157,7 +157,12 @@ fn prepare(
     }
     let t_log = s.t.len();
     let (cap, memory_note) = memory_cap(n, with_base, t_log, opts.max_dictionary_bytes);
-    let sub = s.every_kth_block(n, max_rows.map_or(cap, |m| m.min(cap)));
+    // the cutoff's passes on every k-th block (as before the cap); the final ones on as many
+    // blocks as the cap holds
+    let sub = match max_rows {
+        Some(m) => s.every_kth_block(n, m.min(cap)),
+        None => s.spread_blocks(n, cap),
+    };
     let subsampled = sub.is_some();
     if let Some(sub) = sub {
         s = sub;

@@ -60,6 +60,29 @@ impl Signals {
             return None;
         }
         let k = t_len.div_ceil(max_rows.max(SUBSAMPLE_BLOCK));
+        let firsts: Vec<usize> = (0..t_len).step_by(k * SUBSAMPLE_BLOCK).collect();
+        Some(self.blocks_at(n, &firsts))
+    }
+
+    /// As many whole blocks of [`SUBSAMPLE_BLOCK`] samples as `max_rows` holds (at least
+    /// one), spread evenly over the log: block `floor(i m / keep)` of its `m` for `i < keep`.
+    /// `None` when all samples fit. Unlike [`Signals::every_kth_block`] it keeps all but a
+    /// block's worth of what fits, not as little as half of it.
+    pub(super) fn spread_blocks(&self, n: usize, max_rows: usize) -> Option<Signals> {
+        let t_len = self.t.len();
+        if t_len <= max_rows {
+            return None;
+        }
+        let m = t_len.div_ceil(SUBSAMPLE_BLOCK);
+        let keep = (max_rows / SUBSAMPLE_BLOCK).clamp(1, m);
+        let firsts: Vec<usize> = (0..keep).map(|i| i * m / keep * SUBSAMPLE_BLOCK).collect();
+        Some(self.blocks_at(n, &firsts))
+    }
+
+    /// The blocks of [`SUBSAMPLE_BLOCK`] samples starting at `firsts` (increasing), each
+    /// starting a segment, with any segment starting inside one.
+    fn blocks_at(&self, n: usize, firsts: &[usize]) -> Signals {
+        let t_len = self.t.len();
         let mut out = Signals {
             t: vec![],
             q: vec![],
@@ -75,9 +98,8 @@ impl Signals {
             resampled: self.resampled,
             sample_noise: self.sample_noise.clone(),
         };
-        for a in (0..t_len).step_by(k * SUBSAMPLE_BLOCK) {
+        for &a in firsts {
             let b = (a + SUBSAMPLE_BLOCK).min(t_len);
-            // a block's own start, and any segment starting inside it
             let base = out.t.len();
             out.starts.push(base);
             out.starts.extend(self.starts.iter().filter(|&&s| s > a && s < b).map(|&s| base + s - a));
@@ -88,11 +110,11 @@ impl Signals {
                 dst.extend_from_slice(&src[a * n..b * n]);
             }
         }
-        Some(out)
+        out
     }
 }
 
-/// Samples of one block of [`Signals::every_kth_block`].
+/// Samples of one block of [`Signals::every_kth_block`] and [`Signals::spread_blocks`].
 pub(super) const SUBSAMPLE_BLOCK: usize = 500;
 
 /// Sample ranges of the segments starting at `starts` in `t_len` samples.
@@ -309,5 +331,27 @@ mod tests {
             assert_eq!(s.tau[2 * (i * b) + 1], (blk * b) as f64);
         }
         assert_eq!(s.q.len(), 2 * s.t.len());
+    }
+
+    #[test]
+    fn spread_blocks_keeps_as_many_blocks_as_fit_evenly_spread() {
+        let b = SUBSAMPLE_BLOCK;
+        assert!(ramp(3 * b, vec![0]).spread_blocks(2, 3 * b).is_none());
+        // 10 blocks, 4.9 blocks' worth allowed: 4 kept, blocks floor(10 i / 4) = 0, 2, 5, 7
+        // (every_kth_block keeps 0, 3, 6, 9 here)
+        let s = ramp(10 * b, vec![0, 5 * b + 3]).spread_blocks(2, 4 * b + 450).unwrap();
+        assert_eq!(s.t.len(), 4 * b);
+        assert_eq!(s.starts, vec![0, b, 2 * b, 2 * b + 3, 3 * b]);
+        for (i, blk) in [0, 2, 5, 7].iter().enumerate() {
+            assert_eq!(s.t[i * b], (blk * b) as f64);
+            assert_eq!(s.tau[2 * (i * b) + 1], (blk * b) as f64);
+        }
+        // 9.5 blocks' worth: 9 kept, where every_kth_block keeps every other one, 5
+        let s = ramp(10 * b, vec![0]).spread_blocks(2, 9 * b + b / 2).unwrap();
+        assert_eq!(s.t.len(), 9 * b);
+        assert_eq!(ramp(10 * b, vec![0]).every_kth_block(2, 9 * b + b / 2).unwrap().t.len(), 5 * b);
+        // less than a block allowed: one block, the first
+        let s = ramp(10 * b, vec![0]).spread_blocks(2, 7).unwrap();
+        assert_eq!((s.t.len(), s.t[0]), (b, 0.0));
     }
 }

@@ -676,10 +676,10 @@ fn threads_do_not_change_the_diagnosis() {
 /// spread over it, with a note saying so, not refused and not left to exhaust the memory (a
 /// 600 s, 1 kHz, 7-joint log took 6.0 GB before the cap). The UR5 Coulomb log of
 /// `fixtures/diagnose/` (2000 samples, 6 joints: up to 8 x 6 x (C_BASE + 50) bytes a sample
-/// with the re-fit's columns, 6.1 KB) under an 8 MiB cap keeps every other block of 500
-/// samples, 1000 of the 1974 conditioned, and still names its Coulomb friction on exactly its three joints, each
-/// `fc` within 10 % of the generator's (issue 7's criterion). A cap under 1 MiB is an error
-/// naming the option.
+/// with the re-fit's columns, 6.1 KB) under an 8 MiB cap keeps two of its four blocks of 500
+/// samples, 1000 of the 1974 conditioned, and still names its Coulomb friction on exactly
+/// its three joints, each `fc` within 10 % of the generator's (issue 7's criterion). A cap
+/// under 1 MiB is an error naming the option.
 #[test]
 fn a_log_too_long_for_the_memory_cap_is_diagnosed_on_blocks_spread_over_it() {
     let m = cases_in("diagnose");
