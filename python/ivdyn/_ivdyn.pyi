@@ -354,7 +354,7 @@ def diagnose(robot: Robot, log: _Log, out: Optional[str] = None, topic: str = "/
              exclude: Optional[List[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto",
              torque_constant: _PerJoint = None, gear_ratio: _PerJoint = None,
              motor_constant: _PerJoint = None, drives: Optional[bool] = None, verdict: bool = False,
-             threads: Optional[int] = None) -> str:
+             threads: Optional[int] = None, max_dictionary_gib: Optional[float] = None) -> str:
     """``ivdyn diagnose`` -> ``diagnosis.json`` (and the output directory's files with ``out``);
     with ``verdict``, plus the report's ``verdict`` and ``details``."""
 def payload(robot: Robot, log: _Log, before: Optional[_Log] = None, topic: str = "/joint_states",

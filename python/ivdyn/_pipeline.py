@@ -443,7 +443,8 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
              velocity: str = "auto", window: Optional[Tuple[float, float]] = None,
              exclude: Optional[Sequence[Tuple[float, float]]] = None, current_topic: Optional[str] = None, effort: str = "auto", torque_constant=None,
              gear_ratio=None, motor_constant=None, drives: Optional[bool] = None, verdict: bool = False,
-             threads: Optional[int] = None, progress: Progress = None) -> Dict[str, Any]:
+             threads: Optional[int] = None, max_dictionary_gib: Optional[float] = None,
+             progress: Progress = None) -> Dict[str, Any]:
     """``ivdyn diagnose`` from Python: what the nominal ``robot`` misses in a log with
     measured torques. Returns the content of ``diagnosis.json`` (``docs/diagnose.md``):
     ``effects`` [{name, joints, parameters, parameters_std, rms_before, rms_after}] in the
@@ -474,7 +475,10 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
     effect, what is left above the noise and why nothing was named on it); ``threads``: most
     threads to use (``1``: the calling thread alone, e.g. in a fleet worker that runs
     diagnoses side by side; default: the machine's cores on logs of 20 000 samples or more,
-    else one). The result is the same with any count.
+    else one). The result is the same with any count. ``max_dictionary_gib``: most memory
+    (GiB, default 4) for the candidate columns the diagnosis fits (about 10 MB per second
+    of a 1 kHz, 7-joint log): a longer log is diagnosed on blocks spread over all of it,
+    and a detail says so.
     """
     native = _robot(robot, base, tip, fuse_beyond_tip)
     cb, close = _callback(progress)
@@ -487,6 +491,7 @@ def diagnose(robot, log, out: Optional[Union[str, "os.PathLike[str]"]] = None, *
                                drives=None if drives is None else bool(drives),
                                verdict=bool(verdict),
                                threads=None if threads is None else operator.index(threads),
+                               max_dictionary_gib=None if max_dictionary_gib is None else float(max_dictionary_gib),
                                **_effort(current_topic, effort, torque_constant, gear_ratio, motor_constant))
     finally:
         close()

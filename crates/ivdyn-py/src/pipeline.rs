@@ -611,7 +611,7 @@ fn simulate<'py>(
                     min_effect=0.5, ignore_log_velocity=false, report=true, params_json=None, json_out=None, progress=None,
                     velocity="auto", window=None, exclude=None,
                     current_topic=None, effort="auto", torque_constant=None, gear_ratio=None, motor_constant=None,
-                    drives=None, verdict=false, threads=None))]
+                    drives=None, verdict=false, threads=None, max_dictionary_gib=None))]
 #[allow(clippy::too_many_arguments)]
 fn diagnose(
     py: Python<'_>,
@@ -639,6 +639,7 @@ fn diagnose(
     drives: Option<bool>,
     verdict: bool,
     threads: Option<i64>,
+    max_dictionary_gib: Option<f64>,
 ) -> PyResult<String> {
     use ivdyn::diagnose::DiagnoseOptions;
     let effort = EffortArgs { current_topic, effort, torque_constant, gear_ratio, motor_constant };
@@ -655,6 +656,10 @@ fn diagnose(
             threads: threads
                 .map(|k| usize::try_from(k).map_err(|_| PyValueError::new_err(format!("threads: {k} is negative"))))
                 .transpose()?,
+            max_dictionary_bytes: match max_dictionary_gib {
+                Some(g) => DiagnoseOptions::dictionary_bytes_of_gib(g).map_err(to_py)?,
+                None => ivdyn::diagnose::DICTIONARY_MAX_BYTES,
+            },
             cutoff_hz: cutoff,
             velocity: if ignore_log_velocity {
                 ivdyn::prep::VelocitySource::Positions

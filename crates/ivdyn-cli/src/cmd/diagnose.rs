@@ -54,6 +54,9 @@ pub struct DiagnoseArgs {
     /// 20 000 samples or more, else one. The diagnosis is the same with any count.
     #[arg(long)]
     threads: Option<usize>,
+    /// Most memory (GiB) for the candidate columns the diagnosis fits (about 10 MB per second of a 1 kHz, 7-joint log): a longer log is diagnosed on blocks spread over all of it, and a detail says so [default: 4]
+    #[arg(long, value_name = "GIB")]
+    max_dictionary_gib: Option<f64>,
 }
 
 pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
@@ -71,6 +74,10 @@ pub fn run(a: DiagnoseArgs, bars: &Bars) -> R<ExitCode> {
             None
         },
         threads: a.threads,
+        max_dictionary_bytes: match a.max_dictionary_gib {
+            Some(g) => DiagnoseOptions::dictionary_bytes_of_gib(g).map_err(msg)?,
+            None => ivdyn::diagnose::DICTIONARY_MAX_BYTES,
+        },
         cutoff_hz: a.cutoff,
         velocity,
         window: cond.window,

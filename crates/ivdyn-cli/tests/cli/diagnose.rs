@@ -36,6 +36,29 @@ fn next_command_runs_as_printed() {
     }
 }
 
+/// `--max-dictionary-gib`: under 8 MiB for the candidate columns the UR5 Coulomb log (1974
+/// conditioned samples, ~6.1 kB of columns each) is diagnosed on two of its four blocks of
+/// 500 samples, which the printed details say; a value under 1 MiB is refused, named.
+#[test]
+fn a_memory_cap_is_printed_with_the_samples_it_kept() {
+    let d = tmpdir("max_dictionary");
+    let log = fixture("diagnose/coulomb.mcap");
+    let out = d.join("diag");
+    let res = run(ur5_cmd(
+        "diagnose",
+        &["--log", &log, "--out", &s(&out), "--no-report", "--max-dictionary-gib", "0.0078125"],
+    ));
+    ok(&res);
+    let text = String::from_utf8_lossy(&res.stdout);
+    assert!(text.contains("log diagnosed on 1000 of its 1974 samples"), "{text}");
+    let dj = json(&out.join("diagnosis.json"));
+    assert_eq!(dj["effects"][0]["name"], "coulomb_friction");
+    let bad = run(ur5_cmd("diagnose", &["--log", &log, "--out", &s(&d.join("bad")), "--max-dictionary-gib", "0"]));
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(err.contains("--max-dictionary-gib must be in [0.0009765625, 1024], got 0"), "{err}");
+}
+
 /// The `friction` attribute of `joint`'s `<dynamics>` in a URDF text.
 fn friction_of(urdf: &str, joint: &str) -> f64 {
     let at = urdf.find(&format!("<joint name=\"{joint}\"")).unwrap_or_else(|| panic!("no joint {joint}"));

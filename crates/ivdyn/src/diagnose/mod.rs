@@ -165,6 +165,14 @@ impl DiagnoseOptions {
         self.threads.unwrap_or(auto)
     }
 
+    /// [`DiagnoseOptions::max_dictionary_bytes`] from GiB, as the command line
+    /// (`--max-dictionary-gib`) and Python (`max_dictionary_gib=`) give it: from 1 MiB
+    /// (1/1024) to 1 TiB (1024), else an error naming the option.
+    pub fn dictionary_bytes_of_gib(gib: f64) -> crate::error::Result<usize> {
+        crate::limits::in_range("max_dictionary_gib", gib, 1.0 / 1024.0, 1024.0)?;
+        Ok((gib * (1u64 << 30) as f64) as usize)
+    }
+
     /// Rejects option values the search cannot use (docs/reliability.md): `alpha` outside
     /// `(0, 0.5]`, `min_effect` outside `[0, 1e3]` noise standard deviations, `min_share`
     /// outside `[0, 1]`, block, step and thread counts outside their bounds.

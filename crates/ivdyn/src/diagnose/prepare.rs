@@ -51,7 +51,7 @@ fn memory_cap(n: usize, with_base: bool, t_len: usize, max_bytes: usize) -> (usi
     };
     let note = (t_len > rows).then(|| {
         format!(
-            "all of them would take up to {} of candidate columns, over the {} allowed (DiagnoseOptions::max_dictionary_bytes), so blocks of {SUBSAMPLE_BLOCK} samples spread over the whole log are used; the report and residuals.mcap show those (--window diagnoses one part whole)",
+            "all of them would take up to {} of candidate columns, over the {} allowed (--max-dictionary-gib, DiagnoseOptions::max_dictionary_bytes), so blocks of {SUBSAMPLE_BLOCK} samples spread over the whole log are used; the report and residuals.mcap show those (--window diagnoses one part whole)",
             size(t_len * per_sample),
             size(max_bytes)
         )
